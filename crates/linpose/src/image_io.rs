@@ -1,0 +1,160 @@
+//! Reading images into feature vectors.
+//!
+//! A gray image gives one feature per pixel, its brightness in [0, 1] (8-bit values / 255,
+//! 16-bit values / 65535). RGB becomes gray with Rec. 601 luma computed exactly as PIL's
+//! `convert("L")` does (so linpose and the numpy peer see the same numbers), or keeps its three
+//! channels as features with [`ColorMode::Rgb`]. Alpha is ignored; palette images are expanded.
+
+use crate::{Error, Result};
+use image::{DynamicImage, ImageReader};
+use serde::{Deserialize, Serialize};
+use std::io::Cursor;
+use std::path::Path;
+
+/// Largest image accepted, in pixels (refused before its pixels are allocated).
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+/// How colour images become features.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ColorMode {
+    /// One feature per pixel: brightness (Rec. 601 luma for colour images).
+    #[default]
+    Gray,
+    /// Three features per pixel: red, green, blue (gray images repeat their value).
+    Rgb,
+}
+
+impl ColorMode {
+    /// Features per pixel.
+    pub fn channels(self) -> usize {
+        match self {
+            ColorMode::Gray => 1,
+            ColorMode::Rgb => 3,
+        }
+    }
+}
+
+/// The size and colour handling of the images a model was trained on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ImageSpec {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Colour handling.
+    pub color: ColorMode,
+}
+
+impl ImageSpec {
+    /// Number of features M of one image.
+    pub fn features(&self) -> usize {
+        self.width as usize * self.height as usize * self.color.channels()
+    }
+}
+
+/// PIL's integer Rec. 601 luma: L = (19595 R + 38470 G + 7471 B + 2^15) >> 16.
+#[inline]
+pub fn luma601(r: u8, g: u8, b: u8) -> u8 {
+    ((r as u32 * 19595 + g as u32 * 38470 + b as u32 * 7471 + 0x8000) >> 16) as u8
+}
+
+/// Decodes the image file at `path`, returning its size and appending its features to `out`.
+/// With `expect`, an image of another size is an [`Error::ImageSizeMismatch`] naming `context`.
+pub fn read_features(
+    path: &Path,
+    color: ColorMode,
+    expect: Option<(u32, u32)>,
+    context: &str,
+    out: &mut Vec<f32>,
+) -> Result<(u32, u32)> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    decode_features(path, &bytes, color, expect, context, out)
+}
+
+/// As [`read_features`], from bytes already in memory (`path` only names them in errors).
+pub fn decode_features(
+    path: &Path,
+    bytes: &[u8],
+    color: ColorMode,
+    expect: Option<(u32, u32)>,
+    context: &str,
+    out: &mut Vec<f32>,
+) -> Result<(u32, u32)> {
+    let img = decode(path, bytes)?;
+    let (w, h) = (img.width(), img.height());
+    if let Some((ew, eh)) = expect {
+        if (w, h) != (ew, eh) {
+            return Err(Error::ImageSizeMismatch {
+                path: path.to_path_buf(),
+                expected_w: ew,
+                expected_h: eh,
+                got_w: w,
+                got_h: h,
+                context: context.to_string(),
+            });
+        }
+    }
+    push_features(&img, color, out);
+    Ok((w, h))
+}
+
+/// Decodes an image, refusing absurd sizes before allocating their pixels.
+pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
+    if bytes.is_empty() {
+        return Err(Error::ImageDecode { path: path.to_path_buf(), reason: "the file is empty".into() });
+    }
+    let reader = ImageReader::new(Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?;
+    if reader.format().is_none() {
+        return Err(Error::ImageDecode {
+            path: path.to_path_buf(),
+            reason: "not a PNG or PNM (PGM/PPM) image".into(),
+        });
+    }
+    let (w, h) = reader.into_dimensions().map_err(|e| Error::ImageDecode {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    if w as u64 * h as u64 > MAX_PIXELS || w == 0 || h == 0 {
+        return Err(Error::ImageTooLarge { path: path.to_path_buf(), width: w, height: h, limit: MAX_PIXELS });
+    }
+    let mut reader = ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| Error::io(path, e))?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    limits.max_alloc = Some(MAX_PIXELS * 8 + (1 << 20));
+    reader.limits(limits);
+    reader.decode().map_err(|e| Error::ImageDecode { path: path.to_path_buf(), reason: e.to_string() })
+}
+
+/// Appends the features of a decoded image.
+pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
+    const S8: f32 = 1.0 / 255.0;
+    const S16: f32 = 1.0 / 65535.0;
+    match (img, color) {
+        (DynamicImage::ImageLuma8(g), ColorMode::Gray) => out.extend(g.as_raw().iter().map(|&v| v as f32 * S8)),
+        (DynamicImage::ImageLumaA8(g), ColorMode::Gray) => out.extend(g.as_raw().chunks_exact(2).map(|p| p[0] as f32 * S8)),
+        (DynamicImage::ImageRgb8(c), ColorMode::Gray) => {
+            out.extend(c.as_raw().chunks_exact(3).map(|p| luma601(p[0], p[1], p[2]) as f32 * S8))
+        }
+        (DynamicImage::ImageRgba8(c), ColorMode::Gray) => {
+            out.extend(c.as_raw().chunks_exact(4).map(|p| luma601(p[0], p[1], p[2]) as f32 * S8))
+        }
+        (DynamicImage::ImageLuma16(g), ColorMode::Gray) => out.extend(g.as_raw().iter().map(|&v| v as f32 * S16)),
+        (DynamicImage::ImageLumaA16(g), ColorMode::Gray) => {
+            out.extend(g.as_raw().chunks_exact(2).map(|p| p[0] as f32 * S16))
+        }
+        (_, ColorMode::Gray) => {
+            // 16-bit or float colour: Rec. 601 weights in floating point.
+            let c = img.to_rgb32f();
+            out.extend(c.as_raw().chunks_exact(3).map(|p| 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2]))
+        }
+        (DynamicImage::ImageRgb8(c), ColorMode::Rgb) => out.extend(c.as_raw().iter().map(|&v| v as f32 * S8)),
+        (_, ColorMode::Rgb) => {
+            let c = img.to_rgb32f();
+            out.extend_from_slice(c.as_raw())
+        }
+    }
+}

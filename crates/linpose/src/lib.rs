@@ -1,0 +1,60 @@
+//! # linpose
+//!
+//! Appearance-based pose estimation. linpose estimates the pose of an object from an image, given
+//! images of the object under known poses (a turntable, a robot arm, a render farm). It implements
+//! Okatani & Deguchi's linear model (MVA 2000) - each pose parameter a linear function of the
+//! pixels, fitted as the minimum-norm exact solution through the N x N Gram matrix - and the
+//! method that paper measures itself against, Murase & Nayar's parametric eigenspace.
+//!
+//! ```
+//! use linpose::{Dataset, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//!
+//! // Four 2x2 "images" of a turntable angle, with their poses.
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let manifest = Manifest::new(".", space, (0..4).map(|i| format!("{i}.png")).collect(), vec![0.0, 90.0, 180.0, 270.0])?;
+//! let spec = ImageSpec { width: 2, height: 2, color: ColorMode::Gray };
+//! let pixels = vec![1.0, 0.5, 0.0, 0.5, 0.5, 1.0, 0.5, 0.0, 0.0, 0.5, 1.0, 0.5, 0.5, 0.0, 0.5, 1.0];
+//! let data = Dataset::from_features(manifest, spec, pixels)?;
+//!
+//! let model = LinearParams::default().fit(&data)?;
+//! let pose = model.predict(data.row(1))?;
+//! assert!((pose[0] - 90.0).abs() < 1e-3);
+//! # Ok::<(), linpose::Error>(())
+//! ```
+#![deny(missing_docs)]
+
+pub mod atomic;
+pub mod dataset;
+pub mod error;
+pub mod eval;
+pub mod image_io;
+pub mod linalg;
+pub mod linear;
+pub mod manifest;
+pub mod model;
+pub mod model_file;
+pub mod pose;
+
+pub use dataset::Dataset;
+pub use error::{Error, Result};
+pub use eval::{evaluate, EvalReport};
+pub use linear::{LinearModel, LinearParams};
+pub use manifest::{Manifest, TrainSelection};
+pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
+pub use pose::{ErrorSummary, Param, PoseSpace};
+
+/// The methods a model can be trained with, by name.
+pub const METHODS: &[&str] = &[linear::METHOD];
+
+#[cfg(test)]
+mod autotraits {
+    fn is_send_sync<T: Send + Sync>() {}
+
+    #[test]
+    fn models_are_send_and_sync() {
+        is_send_sync::<crate::LinearModel>();
+        is_send_sync::<crate::AnyModel>();
+        is_send_sync::<crate::Dataset>();
+    }
+}

@@ -1,0 +1,110 @@
+//! Dense linear-algebra building blocks shared by the estimators (on faer), and the f32 kernels
+//! that serve queries.
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, MatRef, Par};
+
+/// The parallelism faer uses: rayon's global pool.
+pub fn par() -> Par {
+    match rayon::current_num_threads() {
+        0 | 1 => Par::Seq,
+        n => Par::rayon(n),
+    }
+}
+
+/// X^T as an M x N f64 matrix (one image per column, contiguous) from N row-major f32 feature
+/// rows, each optionally minus `mean`.
+pub fn transpose_features(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
+    debug_assert_eq!(features.len(), n * m);
+    let mut xt = Mat::<f64>::zeros(m, n);
+    for j in 0..n {
+        let src = &features[j * m..(j + 1) * m];
+        let col = xt.col_mut(j).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
+        match mean {
+            Some(mu) => col.iter_mut().zip(src.iter().zip(mu)).for_each(|(d, (&s, &u))| *d = s as f64 - u),
+            None => col.iter_mut().zip(src).for_each(|(d, &s)| *d = s as f64),
+        }
+    }
+    xt
+}
+
+/// The mean row of N row-major feature rows.
+pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
+    let mut mu = vec![0f64; m];
+    for row in features.chunks_exact(m) {
+        mu.iter_mut().zip(row).for_each(|(u, &v)| *u += v as f64);
+    }
+    mu.iter_mut().for_each(|u| *u /= n as f64);
+    mu
+}
+
+/// The Gram matrix G = X X^T (N x N) from X^T (M x N).
+pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
+    let n = xt.ncols();
+    let mut g = Mat::<f64>::zeros(n, n);
+    matmul(g.as_mut(), Accum::Replace, xt.transpose(), xt, 1.0, par());
+    // Exact symmetry, whatever the kernel's summation order on each side of the diagonal.
+    for j in 0..n {
+        for i in 0..j {
+            let v = 0.5 * (g[(i, j)] + g[(j, i)]);
+            g[(i, j)] = v;
+            g[(j, i)] = v;
+        }
+    }
+    g
+}
+
+/// A row-major N x K matrix as faer's column-major one.
+pub fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
+    Mat::from_fn(n, k, |i, j| data[i * k + j])
+}
+
+/// Dot product of two f32 vectors with eight independent accumulators (vectorises well and
+/// keeps the rounding error of a 19,200-term sum near that of pairwise summation).
+#[inline]
+pub fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
+    debug_assert_eq!(a.len(), b.len());
+    let mut acc = [0f32; 16];
+    let (ca, cb) = (a.chunks_exact(16), b.chunks_exact(16));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for l in 0..16 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    let mut tail = 0f32;
+    for (x, y) in ra.iter().zip(rb) {
+        tail += x * y;
+    }
+    let mut s = [0f32; 4];
+    for l in 0..4 {
+        s[l] = (acc[l] + acc[l + 4]) + (acc[l + 8] + acc[l + 12]);
+    }
+    ((s[0] + s[1]) + (s[2] + s[3])) + tail
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gram_matches_definition() {
+        let (n, m) = (5, 37);
+        let f: Vec<f32> = (0..n * m).map(|i| ((i * 7919) % 101) as f32 / 101.0).collect();
+        let g = gram(transpose_features(&f, n, m, None).as_ref());
+        for i in 0..n {
+            for j in 0..n {
+                let want: f64 = (0..m).map(|t| f[i * m + t] as f64 * f[j * m + t] as f64).sum();
+                assert!((g[(i, j)] - want).abs() <= 1e-12 * want.abs().max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn dot_matches_f64() {
+        let a: Vec<f32> = (0..1003).map(|i| (i as f32 * 0.37).sin()).collect();
+        let b: Vec<f32> = (0..1003).map(|i| (i as f32 * 0.11).cos()).collect();
+        let want: f64 = a.iter().zip(&b).map(|(&x, &y)| x as f64 * y as f64).sum();
+        assert!((dot_f32(&a, &b) as f64 - want).abs() < 1e-4);
+    }
+}

@@ -1,0 +1,329 @@
+//! Okatani & Deguchi's linear model (MVA 2000): each encoded pose parameter is a linear function
+//! of the pixels, p_j = w_j^T x (Eq. 1), fitted as the minimum-norm exact solution
+//! W = X^T (X X^T)^{-1} P (Eq. 4, images as rows) through the N x N Gram matrix, trained in f64.
+//!
+//! Beyond the paper and off by default: ridge (G + lambda I), and mean-centring (an intercept).
+//! Served in f32: the weights are stored as f32 and a query costs M*K multiply-adds.
+
+use crate::dataset::Dataset;
+use crate::linalg::{dot_f32, gram, mat_from_rows, mean_row, transpose_features};
+use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::{Error, Result};
+use faer::linalg::matmul::matmul;
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::{Accum, Mat, Side};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// The method's name in model files and on the command line.
+pub const METHOD: &str = "linear";
+
+/// Parameters of the linear model. The default is exactly the paper's: no ridge, no centring.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct LinearParams {
+    ridge: f64,
+    center: bool,
+}
+
+impl LinearParams {
+    /// Ridge lambda added to the Gram matrix's diagonal (0 = the paper's exact fit).
+    pub fn ridge(mut self, lambda: f64) -> Self {
+        self.ridge = lambda;
+        self
+    }
+
+    /// Subtract the mean image and mean pose first (equivalent to an intercept).
+    pub fn center(mut self, yes: bool) -> Self {
+        self.center = yes;
+        self
+    }
+
+    /// The ridge lambda.
+    pub fn ridge_lambda(&self) -> f64 {
+        self.ridge
+    }
+
+    /// Whether the model is mean-centred.
+    pub fn is_centered(&self) -> bool {
+        self.center
+    }
+
+    fn validate(&self) -> Result<()> {
+        if !(self.ridge.is_finite() && self.ridge >= 0.0) {
+            return Err(Error::invalid("ridge", self.ridge, "must be a finite number >= 0"));
+        }
+        Ok(())
+    }
+}
+
+/// The training set's encoded poses P (N x K, row-major).
+pub fn encoded_poses(train: &Dataset) -> Vec<f64> {
+    let space = train.space();
+    let k = space.encoded_len();
+    let mut p = vec![0.0; train.len() * k];
+    for i in 0..train.len() {
+        space.encode(train.pose(i), &mut p[i * k..(i + 1) * k]);
+    }
+    p
+}
+
+/// The Gram system of a training set: what every Gram-based fit needs.
+pub(crate) struct GramSystem {
+    /// X^T (M x N), centred when asked.
+    pub xt: Mat<f64>,
+    /// G = X X^T (N x N).
+    pub g: Mat<f64>,
+    /// Encoded poses (N x K), centred when asked.
+    pub p: Mat<f64>,
+    /// Mean image (centring only).
+    pub mean_x: Option<Vec<f64>>,
+    /// Mean encoded pose (centring only).
+    pub mean_p: Option<Vec<f64>>,
+}
+
+impl GramSystem {
+    /// Builds the system after refusing exact duplicate images with different poses.
+    pub fn new(train: &Dataset, center: bool) -> Result<Self> {
+        check_duplicates(train)?;
+        let (n, m) = (train.len(), train.n_features());
+        let k = train.space().encoded_len();
+        let mut p = encoded_poses(train);
+        let (mean_x, mean_p) = if center {
+            let mx = mean_row(train.features(), n, m);
+            let mut mp = vec![0.0; k];
+            for row in p.chunks_exact(k) {
+                mp.iter_mut().zip(row).for_each(|(a, &b)| *a += b / n as f64);
+            }
+            for row in p.chunks_exact_mut(k) {
+                row.iter_mut().zip(&mp).for_each(|(a, &b)| *a -= b);
+            }
+            (Some(mx), Some(mp))
+        } else {
+            (None, None)
+        };
+        let xt = transpose_features(train.features(), n, m, mean_x.as_deref());
+        let g = gram(xt.as_ref());
+        Ok(GramSystem { xt, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
+    }
+
+    /// Solves (G + lambda I) D = P by Cholesky, refusing a numerically singular system.
+    pub fn solve(&self, lambda: f64, train: &Dataset) -> Result<Mat<f64>> {
+        let n = self.g.nrows();
+        let mut a = self.g.clone();
+        for i in 0..n {
+            a[(i, i)] += lambda;
+        }
+        let scale = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max);
+        let llt = a.llt(Side::Lower).map_err(|e| singular(train, &format!("{e:?}"), lambda))?;
+        // A pivot tiny against the largest diagonal entry means G is singular up to rounding:
+        // the solution would be noise amplified by 1/pivot.
+        let l = llt.L();
+        let (imin, dmin) = (0..n).map(|i| (i, l[(i, i)] * l[(i, i)])).min_by(|a, b| a.1.total_cmp(&b.1)).expect("n >= 1");
+        if !(dmin > scale * n as f64 * 1e-13) {
+            return Err(singular(train, &format!("pivot {imin} is {dmin:.3e}, against a largest diagonal of {scale:.3e}"), lambda));
+        }
+        Ok(llt.solve(self.p.as_ref()))
+    }
+
+    /// W^T = D^T X (K x M), row-major: each row is one coefficient image w_j (paper Fig. 2).
+    pub fn weights(&self, d: &Mat<f64>) -> Vec<f64> {
+        let (m, k) = (self.xt.nrows(), d.ncols());
+        // Column-major M x K is row-major K x M.
+        let mut w = Mat::<f64>::zeros(m, k);
+        matmul(w.as_mut(), Accum::Replace, self.xt.as_ref(), d.as_ref(), 1.0, crate::linalg::par());
+        let mut out = vec![0.0; k * m];
+        for j in 0..k {
+            for (o, &v) in out[j * m..(j + 1) * m].iter_mut().zip(w.col(j).iter()) {
+                *o = v;
+            }
+        }
+        out
+    }
+
+    /// Exact leave-one-out residuals of the fit with `lambda` (METHOD.md): for sample i,
+    /// e_i = [(G + lambda I)^{-1} P]_i / [(G + lambda I)^{-1}]_ii, returned as the left-out
+    /// predictions P_i - e_i (N x K, row-major, uncentred).
+    pub fn loo_predictions(&self, lambda: f64, train: &Dataset) -> Result<Vec<f64>> {
+        let n = self.g.nrows();
+        let mut a = self.g.clone();
+        for i in 0..n {
+            a[(i, i)] += lambda;
+        }
+        let llt = a.llt(Side::Lower).map_err(|e| singular(train, &format!("{e:?}"), lambda))?;
+        let inv = llt.inverse();
+        let d = llt.solve(self.p.as_ref());
+        let k = self.p.ncols();
+        let mut out = vec![0.0; n * k];
+        for i in 0..n {
+            for j in 0..k {
+                let e = d[(i, j)] / inv[(i, i)];
+                out[i * k + j] = self.p[(i, j)] - e + self.mean_p.as_ref().map_or(0.0, |mp| mp[j]);
+            }
+        }
+        Ok(out)
+    }
+}
+
+fn singular(train: &Dataset, detail: &str, lambda: f64) -> Error {
+    let hint = if lambda > 0.0 {
+        format!("even with ridge {lambda}; the images may be (near) constant or identical - try a larger --ridge")
+    } else {
+        "the training images are linearly dependent, e.g. the same image under two poses, in which case the pose cannot be told from the image at all; remove duplicates or use ridge regularisation (--ridge, e.g. 1e-6)".to_string()
+    };
+    let _ = train;
+    Error::SingularGram { detail: detail.to_string(), hint }
+}
+
+/// Exact duplicate images under different poses make the problem impossible in principle (the
+/// paper, section 2): name the two images.
+fn check_duplicates(train: &Dataset) -> Result<()> {
+    let mut seen: HashMap<u64, usize> = HashMap::new();
+    for i in 0..train.len() {
+        let row = train.row(i);
+        let h = row.iter().fold(0xcbf29ce484222325u64, |h, v| (h ^ v.to_bits() as u64).wrapping_mul(0x100000001b3));
+        if let Some(&j) = seen.get(&h) {
+            if train.row(j) == row {
+                let names = train.manifest().images();
+                let same = train.space().same_pose(train.pose(i), train.pose(j), 1e-9);
+                return Err(Error::SingularGram {
+                    detail: format!("images '{}' and '{}' are identical", names[j], names[i]),
+                    hint: if same {
+                        "the same view is listed twice; remove one".into()
+                    } else {
+                        format!(
+                            "they carry different poses ({:?} and {:?}), so no method can tell these poses apart from the image; remove one, or use ridge regularisation (--ridge) to fit a compromise",
+                            train.pose(j),
+                            train.pose(i)
+                        )
+                    },
+                });
+            }
+        }
+        seen.insert(h, i);
+    }
+    Ok(())
+}
+
+impl Estimator for LinearParams {
+    type Model = LinearModel;
+
+    fn fit(&self, train: &Dataset) -> Result<LinearModel> {
+        self.validate()?;
+        let sys = GramSystem::new(train, self.center)?;
+        let d = sys.solve(self.ridge, train)?;
+        let w = sys.weights(&d);
+        let k = train.space().encoded_len();
+        // Centred: p = W^T (x - mu_x) + mu_p, so the bias is mu_p - W^T mu_x.
+        let bias = match (&sys.mean_x, &sys.mean_p) {
+            (Some(mx), Some(mp)) => {
+                let m = train.n_features();
+                (0..k).map(|j| mp[j] - w[j * m..(j + 1) * m].iter().zip(mx).map(|(a, b)| a * b).sum::<f64>()).collect()
+            }
+            _ => vec![0.0; k],
+        };
+        let meta = ModelMeta {
+            method: METHOD.into(),
+            spec: train.spec(),
+            space: train.space().clone(),
+            train_poses: train.poses().to_vec(),
+            settings: serde_json::to_value(self).expect("plain struct serialises"),
+        };
+        Ok(LinearModel::new(meta, w, bias))
+    }
+}
+
+/// A fitted linear model: K coefficient images of M features, and a bias (zero unless centred).
+#[derive(Debug, Clone)]
+pub struct LinearModel {
+    meta: ModelMeta,
+    w64: Vec<f64>,
+    w32: Vec<f32>,
+    bias: Vec<f64>,
+}
+
+impl LinearModel {
+    fn new(meta: ModelMeta, w64: Vec<f64>, bias: Vec<f64>) -> Self {
+        let w32 = w64.iter().map(|&v| v as f32).collect();
+        LinearModel { meta, w64, w32, bias }
+    }
+
+    /// The coefficient vectors w_j, one row of M values per encoded parameter (paper Fig. 2), in
+    /// the f64 precision they were trained in.
+    pub fn weights(&self) -> &[f64] {
+        &self.w64
+    }
+
+    /// The bias per encoded parameter (zero for the paper's model).
+    pub fn bias(&self) -> &[f64] {
+        &self.bias
+    }
+
+    /// The encoded estimate W^T x + b in f64 (no decoding): what the identities are tested on.
+    pub fn predict_encoded_f64(&self, x: &[f32]) -> Vec<f64> {
+        let m = self.meta.spec.features();
+        self.w64
+            .chunks_exact(m)
+            .zip(&self.bias)
+            .map(|(w, b)| w.iter().zip(x).map(|(&a, &v)| a * v as f64).sum::<f64>() + b)
+            .collect()
+    }
+
+    /// The f32 serving path for one query into `enc` (K values).
+    #[inline]
+    fn encoded_f32(&self, x: &[f32], enc: &mut [f64]) {
+        let m = x.len();
+        for ((e, w), b) in enc.iter_mut().zip(self.w32.chunks_exact(m)).zip(&self.bias) {
+            *e = dot_f32(w, x) as f64 + b;
+        }
+    }
+
+    pub(crate) fn from_parts(meta: ModelMeta, t: &TensorSet) -> Result<Self> {
+        let (k, m) = (meta.space.encoded_len(), meta.spec.features());
+        let w32 = t.f32("weights", &[k, m])?;
+        let bias = t.f64("bias", &[k])?;
+        if w32.iter().any(|v| !v.is_finite()) || bias.iter().any(|v| !v.is_finite()) {
+            return Err(t.error("the weights hold non-finite values"));
+        }
+        let w64 = w32.iter().map(|&v| v as f64).collect();
+        Ok(LinearModel { meta, w64, w32, bias })
+    }
+}
+
+impl PoseModel for LinearModel {
+    fn meta(&self) -> &ModelMeta {
+        &self.meta
+    }
+
+    fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
+        let m = self.meta.spec.features();
+        check_queries(m, queries.len(), "query batch")?;
+        let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());
+        let n = queries.len() / m;
+        if out.len() != n * p {
+            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
+        }
+        let space = &self.meta.space;
+        let one = |(x, o): (&[f32], &mut [f64])| {
+            let mut enc = [0f64; 16];
+            let enc = if k <= 16 { &mut enc[..k] } else { unreachable!("at most 8 parameters") };
+            self.encoded_f32(x, enc);
+            space.decode(enc, o);
+        };
+        if n >= 16 {
+            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).for_each(one);
+        } else {
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
+        }
+        Ok(())
+    }
+
+    fn model_bytes(&self) -> usize {
+        self.w32.len() * 4 + self.bias.len() * 8
+    }
+
+    fn tensors(&self) -> Vec<Tensor> {
+        let (k, m) = (self.meta.space.encoded_len(), self.meta.spec.features());
+        vec![Tensor::f32("weights", vec![k, m], self.w32.clone()), Tensor::f64("bias", vec![k], self.bias.clone())]
+    }
+}

@@ -1,0 +1,95 @@
+//! Model files: safetensors, so numpy's and PyTorch's safetensors loaders read the arrays as they
+//! are. The arrays are tensors; everything else is JSON in the header's metadata under
+//! `linpose.meta`, with `format = linpose` and `format_version`. Writes are atomic.
+//!
+//! For the linear model, `weights` is K x M (float32) and `bias` has K values (float64): the
+//! encoded estimate of a feature row x is `weights @ x + bias`.
+
+use crate::atomic::write_atomic;
+use crate::model::{AnyModel, ModelMeta, PoseModel, Tensor, TensorData, TensorSet};
+use crate::{Error, Result};
+use safetensors::tensor::{Dtype, TensorView};
+use safetensors::SafeTensors;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// The model file format version this linpose writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Serialises a model to safetensors bytes.
+pub fn to_bytes(model: &dyn PoseModel) -> Result<Vec<u8>> {
+    let tensors = model.tensors();
+    let bytes: Vec<(String, Vec<u8>, Dtype, Vec<usize>)> = tensors
+        .iter()
+        .map(|t| match &t.data {
+            TensorData::F32(v) => (t.name.clone(), bytemuck::cast_slice::<f32, u8>(v).to_vec(), Dtype::F32, t.shape.clone()),
+            TensorData::F64(v) => (t.name.clone(), bytemuck::cast_slice::<f64, u8>(v).to_vec(), Dtype::F64, t.shape.clone()),
+        })
+        .collect();
+    let views = bytes
+        .iter()
+        .map(|(n, b, d, s)| Ok((n.clone(), TensorView::new(*d, s.clone(), b).map_err(|e| Error::Numerical(e.to_string()))?)))
+        .collect::<Result<Vec<_>>>()?;
+    let mut meta = HashMap::new();
+    meta.insert("format".to_string(), "linpose".to_string());
+    meta.insert("format_version".to_string(), FORMAT_VERSION.to_string());
+    meta.insert("method".to_string(), model.meta().method.clone());
+    meta.insert("linpose.meta".to_string(), serde_json::to_string(model.meta()).expect("meta serialises"));
+    safetensors::serialize(views, Some(meta)).map_err(|e| Error::Numerical(e.to_string()))
+}
+
+/// Writes a model file atomically (temporary name, then rename).
+pub fn save(model: &dyn PoseModel, path: &Path) -> Result<u64> {
+    let bytes = to_bytes(model)?;
+    write_atomic(path, &bytes)?;
+    Ok(bytes.len() as u64)
+}
+
+/// Reads a model file written by [`save`].
+pub fn load(path: &Path) -> Result<AnyModel> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    from_bytes(path, &bytes)
+}
+
+/// Parses model file bytes (`path` names them in errors).
+pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
+    let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
+    let st = SafeTensors::deserialize(bytes)
+        .map_err(|e| err(format!("not a linpose model file (not a complete safetensors file: {e})")))?;
+    let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| err(e.to_string()))?;
+    let meta = header.metadata().as_ref().ok_or_else(|| err("not a linpose model file (safetensors without linpose metadata)".into()))?;
+    if meta.get("format").map(String::as_str) != Some("linpose") {
+        return Err(err("not a linpose model file (a safetensors file of another program)".into()));
+    }
+    let version = meta.get("format_version").ok_or_else(|| err("model file has no format_version".into()))?;
+    if version != &FORMAT_VERSION.to_string() {
+        return Err(err(format!(
+            "model file format version {version}, but this linpose reads version {FORMAT_VERSION}; retrain the model with this linpose"
+        )));
+    }
+    let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
+    let meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
+    validate_meta(&meta).map_err(err)?;
+    let mut tensors = Vec::new();
+    for (name, view) in st.tensors() {
+        let data = match view.dtype() {
+            Dtype::F32 => TensorData::F32(view.data().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect()),
+            Dtype::F64 => TensorData::F64(view.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect()),
+            d => return Err(err(format!("tensor '{name}' has dtype {d:?}; linpose writes only F32 and F64"))),
+        };
+        tensors.push(Tensor { name, shape: view.shape().to_vec(), data });
+    }
+    AnyModel::from_parts(meta, &TensorSet { path: path.to_path_buf(), tensors })
+}
+
+fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {
+    crate::pose::PoseSpace::new(meta.space.params().to_vec()).map_err(|e| format!("damaged metadata: {e}"))?;
+    let s = meta.spec;
+    if s.width == 0 || s.height == 0 || s.width as u64 * s.height as u64 > crate::image_io::MAX_PIXELS {
+        return Err(format!("damaged metadata: image size {}x{}", s.width, s.height));
+    }
+    if meta.train_poses.is_empty() || meta.train_poses.len() % meta.space.len() != 0 {
+        return Err(format!("damaged metadata: {} training pose values for {} parameters", meta.train_poses.len(), meta.space.len()));
+    }
+    Ok(())
+}
