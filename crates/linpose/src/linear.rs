@@ -115,6 +115,17 @@ impl GramSystem {
             a[(i, i)] += lambda;
         }
         let scale = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max);
+        if self.mean_x.is_some() {
+            // Centred rows sum to zero, so G always has the ones vector in its null space. P is
+            // centred too (orthogonal to it) and X^T 1 = 0, so adding c 1 1^T changes nothing in
+            // W = X^T D while making the system definite: D = (G + c 1 1^T)^-1 P = G^+ P.
+            let c = scale / n as f64;
+            for j in 0..n {
+                for i in 0..n {
+                    a[(i, j)] += c;
+                }
+            }
+        }
         let llt = a.llt(Side::Lower).map_err(|e| singular(train, &format!("{e:?}"), lambda))?;
         // A pivot tiny against the largest diagonal entry means G is singular up to rounding:
         // the solution would be noise amplified by 1/pivot.
@@ -326,4 +337,23 @@ impl PoseModel for LinearModel {
         let (k, m) = (self.meta.space.encoded_len(), self.meta.spec.features());
         vec![Tensor::f32("weights", vec![k, m], self.w32.clone()), Tensor::f64("bias", vec![k], self.bias.clone())]
     }
+}
+
+/// The exact leave-one-out estimates of the linear model with `params` on its own training set
+/// (METHOD.md, closed form, one factorisation): row i is the pose (degrees) that the model
+/// fitted without sample i gives sample i. At ridge 0 this is the paper's model's LOO error.
+pub fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>> {
+    params.validate()?;
+    if params.center {
+        return Err(Error::invalid("center", true, "the closed-form leave-one-out error is for uncentred models"));
+    }
+    let sys = GramSystem::new(train, params.center)?;
+    let enc = sys.loo_predictions(params.ridge, train)?;
+    let space = train.space();
+    let (p, k) = (space.len(), space.encoded_len());
+    let mut out = vec![0.0; train.len() * p];
+    for (e, o) in enc.chunks_exact(k).zip(out.chunks_exact_mut(p)) {
+        space.decode(e, o);
+    }
+    Ok(out)
 }

@@ -1,0 +1,53 @@
+//! `linpose eval`: estimate every sample of a data set and report the errors.
+
+use crate::common::{check_output_file, load_dataset, write_json, DataArgs};
+use linpose::{ErrorSummary, PoseModel};
+use std::path::PathBuf;
+
+/// Arguments of `linpose eval`.
+#[derive(clap::Args, Debug)]
+pub struct EvalArgs {
+    /// The model file.
+    #[arg(long, value_name = "MODEL")]
+    pub model: PathBuf,
+    #[command(flatten)]
+    pub data: DataArgs,
+    /// Add uniform noise of +-A of full brightness to every query pixel (0.05 = +-5%).
+    #[arg(long, value_name = "A", default_value_t = 0.0, allow_negative_numbers = true)]
+    pub noise: f64,
+    /// Seed of the noise.
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    pub seed: u64,
+    /// Write the full report (summary and every sample) as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+/// Runs `linpose eval`.
+pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
+    if let Some(j) = &a.json {
+        check_output_file(j, "JSON")?;
+    }
+    if !(a.noise.is_finite() && (0.0..=1.0).contains(&a.noise)) {
+        anyhow::bail!("--noise {} is outside [0, 1]: it is a fraction of full brightness (0.05 = +-5%)", a.noise);
+    }
+    let model = linpose::model_file::load(&a.model)?;
+    let manifest = a.data.manifest()?;
+    let data = load_dataset(manifest, model.meta().spec.color)?;
+    let r = linpose::evaluate(&model, &data, a.noise, a.seed)?;
+    println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
+    println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
+    let line = |name: &str, s: &ErrorSummary| {
+        println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg)
+    };
+    line("all", &r.all);
+    match &r.unseen {
+        Some(u) => line("unseen", u),
+        None => println!("unseen   (every sample is a training view)"),
+    }
+    println!("errors in degrees; model {} bytes; estimation {:.4} s", r.model_bytes, r.predict_s);
+    if let Some(j) = &a.json {
+        write_json(j, &r)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,223 @@
+//! End-to-end tests of the `linpose` command on data sets the tests make.
+
+mod util;
+
+use util::{blob_image, write_dataset, Dir};
+
+fn json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn train_then_eval_on_a_turntable_set() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 5, &[], (32, 24));
+    d.ok(&["train", "--data", "data", "--train-step", "10", "--out", "m.safetensors", "--json", "train.json"]);
+    let t = json(&d.path("train.json"));
+    assert_eq!(t["n_train"], 36);
+    assert_eq!(t["method"], "linear");
+    assert!(t["fit_s"].as_f64().unwrap() >= 0.0);
+    assert_eq!(t["model_bytes"].as_u64().unwrap(), 2 * 32 * 24 * 4 + 2 * 8);
+    let out = d.ok(&["eval", "--model", "m.safetensors", "--data", "data", "--json", "eval.json"]);
+    assert!(out.contains("unseen"), "{out}");
+    let e = json(&d.path("eval.json"));
+    assert_eq!(e["n_eval"], 72);
+    assert_eq!(e["n_train"], 36);
+    assert_eq!(e["method"], "linear");
+    for key in ["mean_deg", "median_deg", "p90_deg", "max_deg"] {
+        assert!(e["all"][key].is_f64() && e["unseen"][key].is_f64(), "{key}");
+    }
+    let samples = e["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 72);
+    assert_eq!(samples.iter().filter(|s| s["seen"] == true).count(), 36);
+    // Seen views are reproduced (the exact fit); unseen ones are estimated to a few degrees.
+    for s in samples.iter().filter(|s| s["seen"] == true) {
+        assert!(s["error_deg"].as_f64().unwrap() < 1e-2, "{s}");
+    }
+    assert!(e["unseen"]["mean_deg"].as_f64().unwrap() < 5.0, "{}", e["unseen"]);
+    for key in ["image", "true", "estimated", "error_deg", "seen"] {
+        assert!(samples[0].get(key).is_some(), "{key}");
+    }
+}
+
+#[test]
+fn eval_with_noise_is_reproducible_and_worse() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 5, &[], (32, 24));
+    d.ok(&["train", "--data", "data", "--train-step", "10", "--out", "m.safetensors"]);
+    d.ok(&["eval", "--model", "m.safetensors", "--data", "data", "--json", "clean.json"]);
+    d.ok(&["eval", "--model", "m.safetensors", "--data", "data", "--noise", "0.1", "--seed", "3", "--json", "n1.json"]);
+    d.ok(&["eval", "--model", "m.safetensors", "--data", "data", "--noise", "0.1", "--seed", "3", "--json", "n2.json"]);
+    let (c, n1, n2) = (json(&d.path("clean.json")), json(&d.path("n1.json")), json(&d.path("n2.json")));
+    assert_eq!(n1["samples"], n2["samples"]);
+    assert_eq!(n1["noise"], 0.1);
+    assert!(n1["all"]["mean_deg"].as_f64().unwrap() > c["all"]["mean_deg"].as_f64().unwrap());
+}
+
+#[test]
+fn two_parameter_set_and_predict() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 15, &[20.0, 35.0, 50.0], (40, 30));
+    d.ok(&["train", "--data", "data", "--out", "m.safetensors"]);
+    let out = d.ok(&["predict", "--model", "m.safetensors", "data/e35_a45.png", "data/e50_a300.png"]);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 2, "{out}");
+    assert!(lines[0].starts_with("data/e35_a45.png\televation=35.0") && lines[0].contains("azimuth=45.0"), "{out}");
+    let out = d.ok(&["predict", "--model", "m.safetensors", "--json", "data/e20_a0.png"]);
+    let v: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+    assert!((v["pose"]["elevation"].as_f64().unwrap() - 20.0).abs() < 1e-3);
+    // A folder estimates every image in it.
+    let out = d.ok(&["predict", "--model", "m.safetensors", "data"]);
+    assert_eq!(out.lines().count(), 72);
+}
+
+#[test]
+fn coil_layout_is_read_directly() {
+    let d = Dir::new();
+    let dir = d.path("coil");
+    std::fs::create_dir_all(&dir).unwrap();
+    for k in 0..72u32 {
+        blob_image(24, 24, 30.0, 5.0 * k as f64).save(dir.join(format!("obj3__{k}.png"))).unwrap();
+        blob_image(24, 24, 60.0, 5.0 * k as f64).save(dir.join(format!("obj4__{k}.png"))).unwrap();
+    }
+    std::fs::write(dir.join("README.txt"), "not an image").unwrap();
+    std::fs::write(dir.join("obj3__x.png"), "ignored: not a view number").unwrap();
+    d.ok(&["train", "--data", "coil", "--object", "3", "--train-step", "10", "--out", "m.safetensors"]);
+    d.ok(&["eval", "--model", "m.safetensors", "--data", "coil", "--object", "3", "--json", "e.json"]);
+    let e = json(&d.path("e.json"));
+    assert_eq!(e["n_eval"], 72);
+    assert_eq!(e["samples"][1]["true"][0], 5.0);
+    d.fails(&["train", "--data", "coil", "--object", "9", "--out", "m2"], &["no COIL images of object 9"]);
+}
+
+#[test]
+fn model_loads_in_safetensors_and_reproduces_estimates() {
+    // What numpy's safetensors loader sees: the same bytes, read with the reference crate.
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 10, &[], (16, 12));
+    d.ok(&["train", "--data", "data", "--out", "m.safetensors"]);
+    let bytes = std::fs::read(d.path("m.safetensors")).unwrap();
+    let st = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+    let w = st.tensor("weights").unwrap();
+    assert_eq!(w.shape(), [2, 16 * 12]);
+    assert_eq!(w.dtype(), safetensors::Dtype::F32);
+    let w: Vec<f32> = w.data().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let img = image::open(d.path("data/a070.png")).unwrap().to_luma8();
+    let x: Vec<f64> = img.as_raw().iter().map(|&v| v as f64 / 255.0).collect();
+    let c: f64 = w[..192].iter().zip(&x).map(|(&a, &b)| a as f64 * b).sum();
+    let s: f64 = w[192..].iter().zip(&x).map(|(&a, &b)| a as f64 * b).sum();
+    let az = s.atan2(c).to_degrees().rem_euclid(360.0);
+    let out = d.ok(&["predict", "--model", "m.safetensors", "data/a070.png"]);
+    let printed: f64 = out.trim().split("azimuth=").nth(1).unwrap().parse().unwrap();
+    assert!((az - printed).abs() < 1e-3, "{az} vs {printed}");
+    assert!((az - 70.0).abs() < 1e-3);
+}
+
+mod bad_input {
+    use super::*;
+
+    fn data(d: &Dir) {
+        write_dataset(&d.path("data"), 10, &[], (16, 12));
+    }
+
+    #[test]
+    fn missing_image() {
+        let d = Dir::new();
+        data(&d);
+        std::fs::remove_file(d.path("data/a050.png")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["a050.png", "No such file"]);
+        assert!(!d.path("m").exists());
+    }
+
+    #[test]
+    fn unreadable_image() {
+        let d = Dir::new();
+        data(&d);
+        std::fs::write(d.path("data/a050.png"), b"\x89PNG\r\n\x1a\nthis is not really a png").unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["a050.png", "decode"]);
+        std::fs::write(d.path("data/a050.png"), b"").unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["a050.png", "empty"]);
+    }
+
+    #[test]
+    fn image_of_another_size() {
+        let d = Dir::new();
+        data(&d);
+        blob_image(20, 12, 30.0, 50.0).save(d.path("data/a050.png")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["a050.png", "20x12", "16x12"]);
+    }
+
+    #[test]
+    fn non_numeric_and_missing_pose_values() {
+        let d = Dir::new();
+        data(&d);
+        let csv = std::fs::read_to_string(d.path("data/poses.csv")).unwrap();
+        std::fs::write(d.path("data/poses.csv"), csv.replace("a020.png,20", "a020.png,twenty")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["poses.csv:4", "not a number", "twenty"]);
+        std::fs::write(d.path("data/poses.csv"), csv.replace("a020.png,20", "a020.png,")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["poses.csv:4", "missing value"]);
+    }
+
+    #[test]
+    fn empty_data_set() {
+        let d = Dir::new();
+        std::fs::create_dir_all(d.path("data")).unwrap();
+        std::fs::write(d.path("data/poses.csv"), "image,azimuth\n").unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["empty"]);
+        d.fails(&["train", "--data", "nowhere", "--out", "m"], &["nowhere", "no such folder"]);
+        std::fs::remove_file(d.path("data/poses.csv")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["no poses.csv"]);
+    }
+
+    #[test]
+    fn duplicate_images_with_different_poses() {
+        let d = Dir::new();
+        data(&d);
+        std::fs::copy(d.path("data/a000.png"), d.path("data/a180.png")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "m"], &["a000.png", "a180.png", "identical", "--ridge"]);
+    }
+
+    #[test]
+    fn truncated_model_and_other_format_version() {
+        let d = Dir::new();
+        data(&d);
+        d.ok(&["train", "--data", "data", "--out", "m.safetensors"]);
+        let bytes = std::fs::read(d.path("m.safetensors")).unwrap();
+        std::fs::write(d.path("cut.safetensors"), &bytes[..bytes.len() - 100]).unwrap();
+        d.fails(&["eval", "--model", "cut.safetensors", "--data", "data"], &["cut.safetensors", "not a linpose model file"]);
+        std::fs::write(d.path("tiny.safetensors"), &bytes[..5]).unwrap();
+        d.fails(&["predict", "--model", "tiny.safetensors", "data/a000.png"], &["tiny.safetensors"]);
+        let text = bytes.clone();
+        let pos = text.windows(19).position(|w| w == b"\"format_version\":\"1").expect("version in header");
+        let mut v2 = bytes.clone();
+        v2[pos + 18] = b'7';
+        std::fs::write(d.path("v7.safetensors"), &v2).unwrap();
+        d.fails(&["eval", "--model", "v7.safetensors", "--data", "data"], &["format version 7", "reads version 1"]);
+        d.fails(&["eval", "--model", "data/a000.png", "--data", "data"], &["a000.png", "not a linpose model file"]);
+    }
+
+    #[test]
+    fn query_image_of_the_wrong_size() {
+        let d = Dir::new();
+        data(&d);
+        d.ok(&["train", "--data", "data", "--out", "m.safetensors"]);
+        blob_image(8, 8, 30.0, 0.0).save(d.path("small.png")).unwrap();
+        d.fails(&["predict", "--model", "m.safetensors", "small.png"], &["small.png", "8x8", "16x12"]);
+        let other = d.path("other");
+        write_dataset(&other, 10, &[], (8, 8));
+        d.fails(&["eval", "--model", "m.safetensors", "--data", "other"], &["8x8", "16x12"]);
+    }
+
+    #[test]
+    fn bad_arguments() {
+        let d = Dir::new();
+        data(&d);
+        d.fails(&["train", "--data", "data", "--train-step", "0", "--out", "m"], &["train step"]);
+        d.fails(&["train", "--data", "data", "--train-step", "-5", "--out", "m"], &["train step"]);
+        d.fails(&["train", "--data", "data", "--ridge", "-1", "--out", "m"], &["ridge"]);
+        std::fs::create_dir(d.path("adir")).unwrap();
+        d.fails(&["train", "--data", "data", "--out", "adir"], &["adir", "folder"]);
+        d.ok(&["train", "--data", "data", "--out", "m.safetensors"]);
+        d.fails(&["eval", "--model", "m.safetensors", "--data", "data", "--noise", "1.5"], &["noise", "[0, 1]"]);
+    }
+}
