@@ -14,7 +14,7 @@
 //! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
 //! let manifest = Manifest::new(".", space, (0..4).map(|i| format!("{i}.png")).collect(), vec![0.0, 90.0, 180.0, 270.0])?;
 //! let spec = ImageSpec { width: 2, height: 2, color: ColorMode::Gray };
-//! let pixels = vec![1.0, 0.5, 0.0, 0.5, 0.5, 1.0, 0.5, 0.0, 0.0, 0.5, 1.0, 0.5, 0.5, 0.0, 0.5, 1.0];
+//! let pixels = vec![1.0, 0.6, 0.0, 0.2, 0.2, 1.0, 0.6, 0.0, 0.0, 0.2, 1.0, 0.6, 0.6, 0.0, 0.2, 1.0];
 //! let data = Dataset::from_features(manifest, spec, pixels)?;
 //!
 //! let model = LinearParams::default().fit(&data)?;
