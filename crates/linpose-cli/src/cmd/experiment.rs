@@ -1,0 +1,254 @@
+//! `linpose experiment`: the paper's study, run and reported (the main job).
+
+use crate::common::{load_dataset, progress};
+use crate::report::{self, StudyInfo};
+use anyhow::Context;
+use linpose::experiment::{run_object, ObjectResult, StudyParams};
+use linpose::image_io::{ColorMode, ImageSpec};
+use linpose::render::{objects, Grid, RenderParams, Renderer};
+use linpose::{Dataset, LinearParams, Manifest, MethodSpec, Param, PoseModel, PoseSpace};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `linpose experiment`.
+#[derive(clap::Args, Debug)]
+pub struct ExperimentArgs {
+    /// Run the study on your own data set instead of the built-in objects (repeatable): a
+    /// folder with poses.csv, or a COIL folder with --object.
+    #[arg(long, value_name = "DIR")]
+    pub data: Vec<PathBuf>,
+    /// COIL object number for the --data folders in the COIL layout.
+    #[arg(long, value_name = "O")]
+    pub object: Option<u32>,
+    /// Built-in objects of the main study (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "duck,pot,cap")]
+    pub objects: Vec<String>,
+    /// Built-in objects of the conclusion's open cases (comma-separated; empty for none).
+    #[arg(long, value_delimiter = ',', default_value = "twin,column")]
+    pub open_cases: Vec<String>,
+    /// A smaller grid and images for a quick look (and the tests).
+    #[arg(long)]
+    pub quick: bool,
+    /// Main training step in degrees (default: 9, the paper's; 18 with --quick).
+    #[arg(long, value_name = "S")]
+    pub train_step: Option<f64>,
+    /// Training steps of the training-set-size sweep (default: 6,9,12,18,27; 18,27,36 with --quick).
+    #[arg(long, value_name = "S,...", value_delimiter = ',')]
+    pub size_steps: Option<Vec<f64>>,
+    /// Noise levels of the queries, fractions of full brightness.
+    #[arg(long, value_name = "A,...", value_delimiter = ',', default_value = "0,0.05,0.1")]
+    pub noise: Vec<f64>,
+    /// Seed of the query noise.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Report folder (replaced whole when the study has finished).
+    #[arg(long, value_name = "DIR", default_value = "report")]
+    pub out: PathBuf,
+}
+
+/// The default methods compared.
+pub fn default_methods() -> Vec<MethodSpec> {
+    vec![MethodSpec::Linear(LinearParams::default())]
+}
+
+/// Renders `mesh` over the grid (elevation rows, azimuth columns) into an in-memory data set.
+pub fn render_dataset(name: &str, mesh: &linpose::render::Mesh, az: &Grid, el: &Grid, params: &RenderParams, bar: &indicatif::ProgressBar) -> anyhow::Result<Dataset> {
+    let (azs, els) = (az.values(), el.values());
+    let (w, h) = (params.get_width(), params.get_height());
+    let m = (w * h) as usize;
+    let mut poses = Vec::with_capacity(azs.len() * els.len() * 2);
+    let mut images = Vec::new();
+    for &e in &els {
+        for &a in &azs {
+            poses.extend([e, a]);
+            images.push(format!("{name}/e{e}_a{a}.png"));
+        }
+    }
+    let n = images.len();
+    let mut feats = vec![0f32; n * m];
+    feats
+        .par_chunks_mut(m)
+        .enumerate()
+        .try_for_each_init(
+            || (Renderer::new(params), vec![0u8; m]),
+            |(r, buf), (i, row)| -> linpose::Result<()> {
+                let r = r.as_mut().map_err(|e| linpose::Error::invalid("render parameters", "", e.to_string()))?;
+                r.render_into(mesh, poses[2 * i + 1], poses[2 * i], buf)?;
+                row.iter_mut().zip(buf.iter()).for_each(|(f, &b)| *f = b as f32 / 255.0);
+                bar.inc(1);
+                Ok(())
+            },
+        )?;
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)])?;
+    let manifest = Manifest::new(PathBuf::from("rendered"), space, images, poses)?;
+    Ok(Dataset::from_features(manifest, ImageSpec { width: w, height: h, color: ColorMode::Gray }, feats)?)
+}
+
+/// Replaces `out` by the finished folder `tmp` (the old report is removed only once the new one
+/// is complete).
+fn replace_dir(tmp: &Path, out: &Path) -> anyhow::Result<()> {
+    if out.exists() {
+        if !out.is_dir() {
+            anyhow::bail!("{}: the report output exists and is not a folder", out.display());
+        }
+        let old = out.with_file_name(format!(".{}.old-{}", out.file_name().and_then(|n| n.to_str()).unwrap_or("report"), std::process::id()));
+        std::fs::rename(out, &old).with_context(|| format!("{}: cannot move the old report aside", out.display()))?;
+        std::fs::rename(tmp, out).with_context(|| format!("{}: cannot move the new report into place", out.display()))?;
+        std::fs::remove_dir_all(&old).with_context(|| format!("{}: cannot remove the old report", old.display()))?;
+    } else {
+        std::fs::rename(tmp, out).with_context(|| format!("{}: cannot move the report into place", out.display()))?;
+    }
+    Ok(())
+}
+
+/// Runs `linpose experiment`.
+pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
+    let t0 = Instant::now();
+    if a.out.exists() && !a.out.is_dir() {
+        anyhow::bail!("{}: the report output exists and is not a folder", a.out.display());
+    }
+    for &n in &a.noise {
+        if !(n.is_finite() && (0.0..=1.0).contains(&n)) {
+            anyhow::bail!("--noise {n} is outside [0, 1]: noise is a fraction of full brightness (0.05 = +-5%)");
+        }
+    }
+    let mut params = StudyParams {
+        methods: default_methods(),
+        train_step: a.train_step.unwrap_or(if a.quick { 18.0 } else { 9.0 }),
+        noise: a.noise.clone(),
+        size_steps: a.size_steps.clone().unwrap_or_else(|| if a.quick { vec![18.0, 27.0, 36.0] } else { vec![6.0, 9.0, 12.0, 18.0, 27.0] }),
+        seed: a.seed,
+    };
+    if !params.noise.contains(&0.0) {
+        params.noise.insert(0, 0.0);
+    }
+    let (az, el, size) = if a.quick {
+        (Grid::parse("azimuth", "0:351:9")?, Grid::parse("elevation", "32:77:9")?, (80, 60))
+    } else {
+        (Grid::paper_azimuth(), Grid::paper_elevation(), (160, 120))
+    };
+    let render_params = RenderParams::default().size(size.0, size.1);
+    // The objects: user data sets, or the built-in ones rendered on the grid.
+    enum Source {
+        Builtin(String),
+        Folder(PathBuf),
+    }
+    let sources: Vec<(String, Source)> = if a.data.is_empty() {
+        a.objects.iter().chain(a.open_cases.iter()).filter(|s| !s.is_empty()).map(|s| (s.clone(), Source::Builtin(s.clone()))).collect()
+    } else {
+        a.data
+            .iter()
+            .map(|d| {
+                let base = d.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| d.display().to_string());
+                let name = match a.object {
+                    Some(o) => format!("{base}-obj{o}"),
+                    None => base,
+                };
+                (name, Source::Folder(d.clone()))
+            })
+            .collect()
+    };
+    // Check every built-in name before any work.
+    for (_, s) in &sources {
+        if let Source::Builtin(n) = s {
+            objects::builtin(n)?;
+        }
+    }
+    let open_cases: Vec<String> = if a.data.is_empty() { a.open_cases.iter().filter(|s| !s.is_empty()).cloned().collect() } else { vec![] };
+    let parent = a.out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(parent).with_context(|| format!("{}: cannot create the report's parent folder", parent.display()))?;
+    let tmp = parent.join(format!(".{}.tmp-{}", a.out.file_name().and_then(|n| n.to_str()).unwrap_or("report"), std::process::id()));
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(tmp.join("figures")).and_then(|_| std::fs::create_dir_all(tmp.join("models"))).with_context(|| format!("{}: cannot create the report folder", tmp.display()))?;
+    let result = (|| -> anyhow::Result<(Vec<ObjectResult>, f64)> {
+        let mut results = Vec::new();
+        let mut data_s = 0.0;
+        for (name, src) in &sources {
+            let td = Instant::now();
+            let data = match src {
+                Source::Builtin(n) => {
+                    let bar = progress((az.len() * el.len()) as u64, &format!("rendering {n}"));
+                    let d = render_dataset(n, &objects::builtin(n)?, &az, &el, &render_params, &bar)?;
+                    bar.finish_and_clear();
+                    d
+                }
+                Source::Folder(d) => load_dataset(Manifest::open(d, a.object)?, ColorMode::Gray)?,
+            };
+            data_s += td.elapsed().as_secs_f64();
+            let stages = (params.methods.len() * (params.noise.len() + 1) + params.methods.len() * params.size_steps.len()) as u64;
+            let bar = progress(stages, name);
+            let r = run_object(name, &data, &params, &|stage| {
+                bar.set_message(stage.to_string());
+                bar.inc(1);
+            })
+            .with_context(|| format!("the study on {name}"))?;
+            bar.finish_and_clear();
+            for m in &r.models {
+                linpose::model_file::save(m, &tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
+            }
+            results.push(r);
+        }
+        Ok((results, data_s))
+    })();
+    let (results, data_s) = match result {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            return Err(e);
+        }
+    };
+    let info = StudyInfo {
+        source: if a.data.is_empty() { format!("linpose's built-in turntable objects ({}), rendered", sources.iter().map(|s| s.0.as_str()).collect::<Vec<_>>().join(", ")) } else { "the user's data sets".into() },
+        grid: if a.data.is_empty() {
+            format!("azimuth {} x elevation {} = {} images of {}x{} per object", az.describe(), el.describe(), az.len() * el.len(), size.0, size.1)
+        } else {
+            a.data.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", ")
+        },
+        methods: params.methods.iter().map(|m| m.name().to_string()).collect(),
+        train_step: params.train_step,
+        noise: params.noise.clone(),
+        size_steps: params.size_steps.clone(),
+        seed: params.seed,
+        open_cases,
+        data_s,
+        total_s: t0.elapsed().as_secs_f64(),
+    };
+    let written = (|| -> anyhow::Result<()> {
+        let doc = report::build(&info, &results).map_err(|e| anyhow::anyhow!("drawing the figures: {e}"))?;
+        for (file, bytes) in doc.figure_files() {
+            linpose::atomic::write_atomic(&tmp.join("figures").join(file), &bytes)?;
+        }
+        linpose::atomic::write_atomic(&tmp.join("report.md"), doc.markdown().as_bytes())?;
+        linpose::atomic::write_atomic(&tmp.join("report.html"), doc.html().as_bytes())?;
+        crate::common::write_json(&tmp.join("results.json"), &serde_json::json!({ "study": info, "objects": results }))?;
+        replace_dir(&tmp, &a.out)
+    })();
+    if let Err(e) = written {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
+    }
+    summary(&info, &results, &a.out);
+    Ok(())
+}
+
+fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {
+    println!("linpose experiment: {} objects, methods {}, {:.1} s", results.len(), info.methods.join(", "), info.total_s);
+    let noisy: Vec<f64> = info.noise.iter().copied().filter(|&n| n > 0.0).collect();
+    print!("{:<10} {:<12} {:>6} {:>12}", "object", "method", "N", "unseen mean");
+    for n in &noisy {
+        print!(" {:>12}", format!("+-{}% noise", (n * 100.0).round()));
+    }
+    println!(" {:>12}", "model bytes");
+    for r in results {
+        for run in r.runs.iter().filter(|x| x.noise == 0.0) {
+            print!("{:<10} {:<12} {:>6} {:>12.2}", r.name, run.method, run.n_train, run.unseen.map_or(run.all.mean_deg, |u| u.mean_deg));
+            for n in &noisy {
+                let v = r.runs.iter().find(|x| x.method == run.method && x.noise == *n).map_or(f64::NAN, |x| x.unseen.map_or(x.all.mean_deg, |u| u.mean_deg));
+                print!(" {:>12.2}", v);
+            }
+            println!(" {:>12}", run.model_bytes);
+        }
+    }
+    println!("errors: unseen-view mean, degrees. Report: {}", out.join("report.html").display());
+}

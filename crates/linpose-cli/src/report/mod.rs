@@ -1,0 +1,404 @@
+//! The experiment's report: Markdown and a self-contained HTML page built from one document, the
+//! figures, and `results.json` with every number behind them.
+
+pub mod doc;
+pub mod plots;
+
+use doc::{Block, Doc, FigureData};
+use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
+use linpose::AnyModel;
+use serde::Serialize;
+
+/// What the study was, for the report's opening and the JSON.
+#[derive(Debug, Clone, Serialize)]
+pub struct StudyInfo {
+    /// Where the data came from (rendered built-in objects, or user folders).
+    pub source: String,
+    /// The grid or data description.
+    pub grid: String,
+    /// Method names compared.
+    pub methods: Vec<String>,
+    /// Main training step.
+    pub train_step: f64,
+    /// Noise levels.
+    pub noise: Vec<f64>,
+    /// Sweep steps.
+    pub size_steps: Vec<f64>,
+    /// Noise seed.
+    pub seed: u64,
+    /// Objects that are the conclusion's open cases (reported in their own section).
+    pub open_cases: Vec<String>,
+    /// Seconds spent rendering or loading data.
+    pub data_s: f64,
+    /// Seconds for the whole study.
+    pub total_s: f64,
+}
+
+fn f(v: f64, d: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.d$}")
+    } else {
+        "-".into()
+    }
+}
+
+fn unseen_mean(r: &Run) -> f64 {
+    r.unseen.map_or(r.all.mean_deg, |u| u.mean_deg)
+}
+
+fn run<'a>(o: &'a ObjectResult, method: &str, noise: f64) -> Option<&'a Run> {
+    o.runs.iter().find(|r| r.method == method && (r.noise - noise).abs() < 1e-12)
+}
+
+fn mean_over<'a>(objs: impl Iterator<Item = &'a ObjectResult>, method: &str, noise: f64) -> f64 {
+    let v: Vec<f64> = objs.filter_map(|o| run(o, method, noise)).map(unseen_mean).collect();
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+fn pct(noise: f64) -> String {
+    if noise == 0.0 {
+        "clean".into()
+    } else {
+        format!("+-{}%", (noise * 100.0).round())
+    }
+}
+
+/// Builds the report document. `models[i]` are the models of `objects[i]` (for Fig. 2).
+pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> {
+    let mut b = Vec::new();
+    let main: Vec<&ObjectResult> = objects.iter().filter(|o| !info.open_cases.contains(&o.name)).collect();
+    let open: Vec<&ObjectResult> = objects.iter().filter(|o| info.open_cases.contains(&o.name)).collect();
+    let n_train = main.first().or(open.first()).and_then(|o| o.runs.first()).map_or(0, |r| r.n_train);
+    b.push(Block::Para(format!(
+        "Okatani & Deguchi's linear model (MVA 2000) against Murase & Nayar's parametric eigenspace, the study of the paper's sections 3 and 4 reproduced on {}. Data: {}. Training set: every {} degrees on each axis ({} views per object); every view is estimated, and errors are reported over the unseen views (not in the training set) unless said otherwise. Queries: clean and with uniform pixel noise of {} of full brightness (seed {}). Error: the angle between the true and the estimated viewing directions (degrees). Methods: {}. The study took {:.1} s ({:.1} s making the data).",
+        info.source,
+        info.grid,
+        info.train_step,
+        n_train,
+        info.noise.iter().filter(|&&a| a > 0.0).map(|&a| pct(a)).collect::<Vec<_>>().join(" and "),
+        info.seed,
+        info.methods.join(", "),
+        info.total_s,
+        info.data_s
+    )));
+
+    b.push(Block::Heading(1, "What it found".into()));
+    b.push(Block::List(findings(info, &main, &open)));
+
+    // Accuracy table.
+    b.push(Block::Heading(1, "Accuracy (Fig. 3 and 4 in numbers)".into()));
+    let mut header = vec!["object".to_string(), "method".into(), "N".into()];
+    header.extend(["unseen mean", "median", "p90", "max"].map(String::from));
+    for &a in info.noise.iter().filter(|&&a| a > 0.0) {
+        header.push(format!("{} mean", pct(a)));
+    }
+    let mut rows = Vec::new();
+    for o in objects {
+        for m in &info.methods {
+            let Some(r) = run(o, m, 0.0) else { continue };
+            let u = r.unseen.unwrap_or(r.all);
+            let mut row = vec![o.name.clone(), m.clone(), r.n_train.to_string(), f(u.mean_deg, 2), f(u.median_deg, 2), f(u.p90_deg, 2), f(u.max_deg, 1)];
+            for &a in info.noise.iter().filter(|&&a| a > 0.0) {
+                row.push(run(o, m, a).map_or("-".into(), |r| f(unseen_mean(r), 2)));
+            }
+            rows.push(row);
+        }
+    }
+    b.push(Block::Table(header, rows));
+    b.push(Block::Para("Errors in degrees over the unseen views; N is the number of training views.".into()));
+
+    // Table 1.
+    if let Some(o) = main.first().or(open.first()) {
+        b.push(Block::Heading(1, format!("Table 1, measured on {}", o.name)));
+        let rows = o
+            .table1
+            .iter()
+            .map(|t| {
+                vec![
+                    t.method.clone(),
+                    t.formula.clone(),
+                    t.terms.iter().map(|(k, v)| format!("{k} = {v}")).collect::<Vec<_>>().join(", "),
+                    t.formula_numbers.to_string(),
+                    t.model_bytes.to_string(),
+                    f(t.per_query_us, 1),
+                ]
+            })
+            .collect();
+        b.push(Block::Table(
+            ["method", "paper's formula", "actual terms", "numbers stored (formula)", "model bytes (measured)", "us per query (measured)"].map(String::from).to_vec(),
+            rows,
+        ));
+        b.push(Block::Para("The paper's Table 1 gives storage and cost NL + ML for the eigenspace method (N manifold points of L dimensions, M pixels) and MK for the linear model (K encoded parameters). Bytes count the numbers each model stores to serve a query, as float32; time is the wall time of estimating every view of the object divided by their number, batched, on 2 cores.".into()));
+    }
+
+    // Overtraining.
+    b.push(Block::Heading(1, "Training-set size and the overtraining question (section 4)".into()));
+    let mut rows = Vec::new();
+    for o in objects {
+        for p in &o.sweep {
+            rows.push(vec![o.name.clone(), p.method.clone(), f(p.step, 0), p.n_train.to_string(), f(p.unseen_mean_deg, 2), p.loo_mean_deg.map_or("-".into(), |v| f(v, 2))]);
+        }
+    }
+    b.push(Block::Table(["object", "method", "train step (deg)", "N", "unseen mean", "leave-one-out mean"].map(String::from).to_vec(), rows));
+    let series: Vec<(String, Vec<(f64, f64)>)> = main
+        .iter()
+        .flat_map(|o| {
+            info.methods.iter().map(move |m| {
+                (format!("{} {m}", o.name), o.sweep.iter().filter(|p| &p.method == m).map(|p| (p.n_train as f64, p.unseen_mean_deg)).collect())
+            })
+        })
+        .filter(|(_, v): &(String, Vec<(f64, f64)>)| !v.is_empty())
+        .collect();
+    if !series.is_empty() {
+        b.push(Block::Figure {
+            file: "error-vs-training-size.svg".into(),
+            data: FigureData::Svg(plots::lines("Unseen mean error against training-set size", "training views N", "unseen mean error (degrees, log scale)", &series, true)?),
+            caption: "Error against training-set size: the unseen mean error of each method and object as the training step shrinks from the largest to the smallest in the table above (more views to the right). The leave-one-out column gives the linear model's own closed-form estimate of that error, from the training set alone.".into(),
+        });
+    }
+
+    // Open cases.
+    if !open.is_empty() {
+        b.push(Block::Heading(1, "The conclusion's two open cases".into()));
+        let mut rows = Vec::new();
+        for o in &open {
+            for m in &info.methods {
+                if let Some(r) = run(o, m, 0.0) {
+                    let mut row = vec![o.name.clone(), m.clone(), f(unseen_mean(r), 2)];
+                    for (pname, e) in o.params.iter().zip(&r.param_mean_abs_err_deg) {
+                        row.push(format!("{pname} {}", f(*e, 2)));
+                    }
+                    row.push(format!("{:.1}%", 100.0 * r.gross_frac));
+                    rows.push(row);
+                }
+            }
+        }
+        let mut header = ["object", "method", "unseen mean"].map(String::from).to_vec();
+        header.push("per-parameter mean abs. error".into());
+        if open.first().is_some_and(|o| o.params.len() > 1) {
+            header.push("".into());
+        }
+        header.push(format!("views off by > {GROSS_ERROR_DEG} deg"));
+        b.push(Block::Table(header, rows));
+        b.push(Block::Para("twin: front and back look alike but for a small mark, so an estimate can land on the wrong side (an azimuth error near 180 degrees). column: its appearance changes strongly with azimuth but weakly with elevation, so the elevation signal is small beside the azimuth one.".into()));
+    }
+
+    // Figures.
+    b.push(Block::Heading(1, "Figures".into()));
+    figures(&mut b, info, objects)?;
+    Ok(Doc { title: "linpose: the paper's experiments, reproduced".into(), blocks: b })
+}
+
+fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) -> Vec<String> {
+    let mut out = Vec::new();
+    let names: Vec<&str> = main.iter().map(|o| o.name.as_str()).collect();
+    let has = |m: &str| info.methods.iter().any(|x| x == m);
+    if has("linear") && has("eigenspace") && !main.is_empty() {
+        let (l, e) = (mean_over(main.iter().copied(), "linear", 0.0), mean_over(main.iter().copied(), "eigenspace", 0.0));
+        out.push(format!(
+            "**Accuracy.** The paper's verdict holds: {} the linear model's unseen mean error, averaged over {}, is {} degrees against the eigenspace method's {} degrees ({:.1}x).",
+            if l > e { "the eigenspace method is the more accurate;" } else { "here the linear model is at least as accurate as the eigenspace method (the paper expected the opposite);" },
+            names.join(", "),
+            f(l, 2),
+            f(e, 2),
+            l / e.max(1e-12)
+        ));
+        if let Some(o) = main.first() {
+            let t = |m: &str| o.table1.iter().find(|t| t.method == m);
+            if let (Some(tl), Some(te)) = (t("linear"), t("eigenspace")) {
+                out.push(format!(
+                    "**Storage.** On {}, the linear model stores {} bytes (MK = {}) against {} bytes for the eigenspace method (NL + ML = {}): {:.1}x smaller.",
+                    o.name,
+                    tl.model_bytes,
+                    tl.formula_numbers,
+                    te.model_bytes,
+                    te.formula_numbers,
+                    te.model_bytes as f64 / tl.model_bytes.max(1) as f64
+                ));
+                out.push(format!(
+                    "**Cost.** A query costs {} us with the linear model and {} us with the eigenspace method ({:.1}x), measured on all {} views.",
+                    f(tl.per_query_us, 1),
+                    f(te.per_query_us, 1),
+                    te.per_query_us / tl.per_query_us.max(1e-12),
+                    o.n_samples
+                ));
+            }
+        }
+    }
+    if let Some(&amax) = info.noise.iter().filter(|&&a| a > 0.0).last() {
+        for m in &info.methods {
+            let (c, n) = (mean_over(main.iter().copied(), m, 0.0), mean_over(main.iter().copied(), m, amax));
+            out.push(format!(
+                "**Noise ({m}).** With {} pixel noise its unseen mean error goes from {} to {} degrees ({:.1}x){}.",
+                pct(amax),
+                f(c, 2),
+                f(n, 2),
+                n / c.max(1e-12),
+                if m == "linear" { if n / c.max(1e-12) < 1.5 { ", so noise does not severely affect it, as the paper's Fig. 4 says" } else { ", more than the paper's Fig. 4 suggests" } } else { "" }
+            ));
+        }
+    }
+    if has("linear") {
+        let pts: Vec<(f64, f64, f64)> = main
+            .iter()
+            .flat_map(|o| o.sweep.iter().filter(|p| p.method == "linear").map(|p| (p.n_train as f64, p.unseen_mean_deg, p.loo_mean_deg.unwrap_or(f64::NAN))))
+            .collect();
+        if !pts.is_empty() {
+            let decreasing = main.iter().all(|o| {
+                let mut v: Vec<(usize, f64)> = o.sweep.iter().filter(|p| p.method == "linear").map(|p| (p.n_train, p.unseen_mean_deg)).collect();
+                v.sort_by_key(|x| x.0);
+                v.windows(2).all(|w| w[1].1 <= w[0].1 * 1.05)
+            });
+            let (small, large) = sweep_ends(main, "linear");
+            out.push(format!(
+                "**Overtraining.** {} for the linear model: its unseen mean error goes from {} degrees with the fewest training views to {} with the most (mean over objects), although N stays far below M. The closed-form leave-one-out error tracks the true unseen error (mean ratio {:.2}), so the training set alone tells how well the model generalises.",
+                if decreasing { "No overtraining appears" } else { "The error does not fall steadily with more data" },
+                f(small, 2),
+                f(large, 2),
+                pts.iter().filter(|p| p.2.is_finite() && p.1 > 0.0).map(|p| p.2 / p.1).sum::<f64>() / pts.iter().filter(|p| p.2.is_finite() && p.1 > 0.0).count().max(1) as f64
+            ));
+        }
+    }
+    for o in open {
+        let parts: Vec<String> = info
+            .methods
+            .iter()
+            .filter_map(|m| run(o, m, 0.0).map(|r| (m, r)))
+            .map(|(m, r)| {
+                let pe: Vec<String> = o.params.iter().zip(&r.param_mean_abs_err_deg).map(|(p, e)| format!("{p} {}", f(*e, 1))).collect();
+                format!("{m} {} degrees ({}; {:.0}% of views off by more than {GROSS_ERROR_DEG} degrees)", f(unseen_mean(r), 2), pe.join(", "), 100.0 * r.gross_frac)
+            })
+            .collect();
+        out.push(format!("**Open case {}.** Unseen mean error: {}.", o.name, parts.join("; ")));
+    }
+    out
+}
+
+fn sweep_ends(main: &[&ObjectResult], m: &str) -> (f64, f64) {
+    let mut small = Vec::new();
+    let mut large = Vec::new();
+    for o in main {
+        let v: Vec<_> = o.sweep.iter().filter(|p| p.method == m).collect();
+        if let (Some(a), Some(b)) = (v.iter().min_by_key(|p| p.n_train), v.iter().max_by_key(|p| p.n_train)) {
+            small.push(a.unseen_mean_deg);
+            large.push(b.unseen_mean_deg);
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    (mean(&small), mean(&large))
+}
+
+fn error_map(o: &ObjectResult, r: &Run, title: &str, vmax: f64) -> Result<FigureData, String> {
+    match &o.grid {
+        Some(g) => {
+            let mut values = vec![f64::NAN; g.rows.1.len() * g.cols.1.len()];
+            for (i, &(row, col)) in g.cell.iter().enumerate() {
+                values[row * g.cols.1.len() + col] = r.errors[i];
+            }
+            Ok(FigureData::Svg(plots::heatmap(title, &format!("{} (degrees)", g.cols.0), &format!("{} (degrees)", g.rows.0), &g.cols.1, &g.rows.1, &values, vmax, "pose error (degrees)")?))
+        }
+        None => {
+            let k = o.params.len();
+            let pts: Vec<(f64, f64)> = (0..o.n_samples).map(|i| (o.poses[i * k + k - 1], r.errors[i])).collect();
+            Ok(FigureData::Svg(plots::lines(title, &format!("{} (degrees)", o.params[k - 1]), "pose error (degrees)", &[(r.method.clone(), pts)], false)?))
+        }
+    }
+}
+
+fn figures(b: &mut Vec<Block>, info: &StudyInfo, objects: &[ObjectResult]) -> Result<(), String> {
+    // Fig. 2: the coefficient vectors of the first object's linear model.
+    if let Some((o, AnyModel::Linear(lm))) = objects.iter().find_map(|o| o.models.iter().find(|m| matches!(m, AnyModel::Linear(_))).map(|m| (o, m))) {
+        let spec = lm.meta().spec;
+        if spec.color == linpose::image_io::ColorMode::Gray {
+            let m = spec.features();
+            let imgs: Vec<&[f64]> = lm.weights().chunks_exact(m).collect();
+            let names = encoded_names(lm.meta());
+            b.push(Block::Figure {
+                file: format!("fig2-coefficients-{}.png", o.name),
+                data: FigureData::Png(plots::coefficient_png(&imgs, spec.width, spec.height, 2)?),
+                caption: format!(
+                    "Fig. 2: the coefficient vectors w_j of the linear model of {} shown as {}x{} images, left to right: {}. Blue negative, white zero, red positive, each image on its own scale (largest |w| = {}).",
+                    o.name,
+                    spec.width,
+                    spec.height,
+                    names.join(", "),
+                    imgs.iter().map(|w| format!("{:.2e}", w.iter().fold(0.0f64, |a, &v| a.max(v.abs())))).collect::<Vec<_>>().join(", ")
+                ),
+            });
+        }
+    }
+    // Fig. 3: error maps per object and method, one colour scale per object.
+    for o in objects {
+        let runs: Vec<&Run> = info.methods.iter().filter_map(|m| run(o, m, 0.0)).collect();
+        let vmax = runs.iter().map(|r| r.all.p90_deg).fold(0.0, f64::max) * 1.5;
+        for r in runs {
+            b.push(Block::Figure {
+                file: format!("fig3-{}-{}.svg", o.name, r.method),
+                data: error_map(o, r, &format!("{} - {}: pose error, clean queries", o.name, r.method), vmax)?,
+                caption: format!(
+                    "Fig. 3 ({}, {}): pose error of every view over the (azimuth, elevation) grid, training views included (they sit every {} degrees). Unseen mean {} degrees. Colour scale shared by the methods on this object, clipped at {} degrees.",
+                    o.name,
+                    r.method,
+                    info.train_step,
+                    f(unseen_mean(r), 2),
+                    f(vmax, 1)
+                ),
+            });
+        }
+    }
+    // Fig. 4: the first object under noise.
+    if let Some(o) = objects.first() {
+        for &a in info.noise.iter().filter(|&&a| a > 0.0) {
+            let runs: Vec<&Run> = info.methods.iter().filter_map(|m| run(o, m, a)).collect();
+            let vmax = runs.iter().map(|r| r.all.p90_deg).fold(0.0, f64::max) * 1.5;
+            for r in runs {
+                b.push(Block::Figure {
+                    file: format!("fig4-{}-{}-noise{}.svg", o.name, r.method, (a * 100.0).round()),
+                    data: error_map(o, r, &format!("{} - {}: pose error, {} noise", o.name, r.method, pct(a)), vmax)?,
+                    caption: format!(
+                        "Fig. 4 ({}, {}, {} uniform pixel noise on the queries; the model trained on clean images): unseen mean {} degrees.",
+                        o.name,
+                        r.method,
+                        pct(a),
+                        f(unseen_mean(r), 2)
+                    ),
+                });
+            }
+        }
+    }
+    // CDFs per method over all objects, clean, unseen views.
+    let series: Vec<(String, Vec<f64>)> = info
+        .methods
+        .iter()
+        .map(|m| {
+            let e: Vec<f64> = objects
+                .iter()
+                .filter(|o| !info.open_cases.contains(&o.name))
+                .filter_map(|o| run(o, m, 0.0))
+                .flat_map(|r| r.errors.iter().zip(&r.seen).filter(|(_, &s)| !s).map(|(&e, _)| e))
+                .collect();
+            (m.clone(), e)
+        })
+        .filter(|(_, e)| !e.is_empty())
+        .collect();
+    if !series.is_empty() {
+        let mut all: Vec<f64> = series.iter().flat_map(|s| s.1.iter().copied()).collect();
+        all.sort_by(f64::total_cmp);
+        let xmax = all[(all.len() as f64 * 0.98) as usize % all.len()].max(1.0) * 1.2;
+        b.push(Block::Figure {
+            file: "error-cdf.svg".into(),
+            data: FigureData::Svg(plots::cdf("Distribution of unseen-view errors", "pose error (degrees)", &series, xmax)?),
+            caption: "Error distributions: the fraction of unseen views estimated within a given error, per method, pooled over the objects (open cases excluded), clean queries.".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Names of the encoded parameters: `elevation`, `cos azimuth`, `sin azimuth`, ...
+fn encoded_names(meta: &linpose::ModelMeta) -> Vec<String> {
+    meta.space
+        .params()
+        .iter()
+        .flat_map(|p| if p.period.is_some() { vec![format!("cos {}", p.name), format!("sin {}", p.name)] } else { vec![p.name.clone()] })
+        .collect()
+}

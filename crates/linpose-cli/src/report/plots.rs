@@ -1,0 +1,270 @@
+//! Figures of the report as SVG strings (plotters' SVG backend, text measured with the bundled
+//! DejaVu Sans so layout is identical on every machine, fontconfig or not).
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::sync::Once;
+
+const FONT: &str = "sans-serif";
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let bytes: &'static [u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+        // The bundled font is valid; failing here would be a build defect, not a user error.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, bytes);
+    });
+}
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+fn svg(size: (u32, u32), draw: impl FnOnce(&Area<'_>) -> Result<(), String>) -> Result<String, String> {
+    register_font();
+    let mut buf = String::new();
+    {
+        let root = SVGBackend::with_string(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        draw(&root)?;
+        root.present().map_err(|e| e.to_string())?;
+    }
+    Ok(buf)
+}
+
+/// Viridis, sampled at nine points and interpolated linearly; `t` in [0, 1].
+pub fn viridis(t: f64) -> RGBColor {
+    const V: [(u8, u8, u8); 9] = [
+        (68, 1, 84),
+        (71, 44, 122),
+        (59, 81, 139),
+        (44, 113, 142),
+        (33, 144, 141),
+        (39, 173, 129),
+        (92, 200, 99),
+        (170, 220, 50),
+        (253, 231, 37),
+    ];
+    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 1.0 };
+    let x = t * 8.0;
+    let i = (x.floor() as usize).min(7);
+    let f = x - i as f64;
+    let lerp = |a: u8, b: u8| (a as f64 + (b as f64 - a as f64) * f).round() as u8;
+    RGBColor(lerp(V[i].0, V[i + 1].0), lerp(V[i].1, V[i + 1].1), lerp(V[i].2, V[i + 1].2))
+}
+
+/// A diverging blue-white-red map for signed values; `t` in [-1, 1].
+pub fn diverging(t: f64) -> RGBColor {
+    let t = if t.is_finite() { t.clamp(-1.0, 1.0) } else { 0.0 };
+    let (r, g, b) = if t < 0.0 {
+        let s = -t;
+        (1.0 - 0.8 * s, 1.0 - 0.7 * s, 1.0 - 0.25 * s)
+    } else {
+        (1.0 - 0.25 * t, 1.0 - 0.8 * t, 1.0 - 0.8 * t)
+    };
+    RGBColor((r * 255.0) as u8, (g * 255.0) as u8, (b * 255.0) as u8)
+}
+
+fn colorbar(area: &Area<'_>, vmax: f64, label: &str) -> Result<(), String> {
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(30)
+        .margin_bottom(45)
+        .x_label_area_size(0)
+        .y_label_area_size(45)
+        .build_cartesian_2d(0.0..1.0, 0.0..vmax)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .disable_y_mesh()
+        .disable_x_axis()
+        .y_desc(label)
+        .y_labels(6)
+        .label_style((FONT, 12))
+        .axis_desc_style((FONT, 13))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let steps = 64;
+    chart
+        .draw_series((0..steps).map(|i| {
+            let (a, b) = (i as f64 / steps as f64 * vmax, (i + 1) as f64 / steps as f64 * vmax);
+            Rectangle::new([(0.0, a), (1.0, b)], viridis((i as f64 + 0.5) / steps as f64).filled())
+        }))
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// A heat map of `values` (row-major, `ys.len()` rows of `xs.len()`) over a regular grid, with
+/// a colour bar from 0 to `vmax` labelled `unit`.
+pub fn heatmap(title: &str, x_desc: &str, y_desc: &str, xs: &[f64], ys: &[f64], values: &[f64], vmax: f64, unit: &str) -> Result<String, String> {
+    let half = |v: &[f64]| if v.len() > 1 { (v[1] - v[0]) / 2.0 } else { 0.5 };
+    let (hx, hy) = (half(xs), half(ys));
+    let (x0, x1) = (xs[0] - hx, xs[xs.len() - 1] + hx);
+    let (y0, y1) = (ys[0] - hy, ys[ys.len() - 1] + hy);
+    let vmax = if vmax > 0.0 && vmax.is_finite() { vmax } else { 1.0 };
+    svg((760, 300), |root| {
+        let (main, bar) = root.split_horizontally(670);
+        let mut chart = ChartBuilder::on(&main)
+            .caption(title, (FONT, 16))
+            .margin(8)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        chart
+            .draw_series(ys.iter().enumerate().flat_map(|(r, &y)| {
+                xs.iter().enumerate().map(move |(c, &x)| {
+                    let v = values[r * xs.len() + c];
+                    Rectangle::new([(x - hx, y - hy), (x + hx, y + hy)], viridis(v / vmax).filled())
+                })
+            }))
+            .map_err(|e| e.to_string())?;
+        colorbar(&bar, vmax, unit)
+    })
+}
+
+/// Line plots of several named series of (x, y) points, with markers.
+pub fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f64, f64)>)], log_y: bool) -> Result<String, String> {
+    let pts = series.iter().flat_map(|(_, s)| s.iter());
+    let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for &(x, y) in pts.filter(|(x, y)| x.is_finite() && y.is_finite() && (!log_y || *y > 0.0)) {
+        xmin = xmin.min(x);
+        xmax = xmax.max(x);
+        ymin = ymin.min(y);
+        ymax = ymax.max(y);
+    }
+    if !xmin.is_finite() {
+        (xmin, xmax, ymin, ymax) = (0.0, 1.0, 0.1, 1.0);
+    }
+    let padx = ((xmax - xmin) * 0.05).max(1e-9);
+    svg((640, 380), |root| {
+        let mut b = ChartBuilder::on(root);
+        b.caption(title, (FONT, 16)).margin(10).x_label_area_size(40).y_label_area_size(60);
+        let colors = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14), RGBColor(23, 190, 207)];
+        macro_rules! body {
+            ($chart:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_desc)
+                    .y_desc(y_desc)
+                    .label_style((FONT, 12))
+                    .axis_desc_style((FONT, 13))
+                    .light_line_style(RGBColor(235, 235, 235))
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+                for (i, (name, s)) in series.iter().enumerate() {
+                    let c = colors[i % colors.len()];
+                    let s: Vec<(f64, f64)> = s.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite() && (!log_y || *y > 0.0)).collect();
+                    chart
+                        .draw_series(LineSeries::new(s.clone(), c.stroke_width(2)))
+                        .map_err(|e| e.to_string())?
+                        .label(name.clone())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+                    chart.draw_series(s.iter().map(|&p| Circle::new(p, 3, c.filled()))).map_err(|e| e.to_string())?;
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .label_font((FONT, 12))
+                    .position(SeriesLabelPosition::UpperLeft)
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+            }};
+        }
+        if log_y {
+            let c = b.build_cartesian_2d(xmin - padx..xmax + padx, (ymin * 0.8..ymax * 1.25).log_scale()).map_err(|e| e.to_string())?;
+            body!(c);
+        } else {
+            let pady = ((ymax - ymin) * 0.08).max(1e-9);
+            let c = b.build_cartesian_2d(xmin - padx..xmax + padx, (ymin - pady).min(0.0)..ymax + pady).map_err(|e| e.to_string())?;
+            body!(c);
+        }
+        Ok(())
+    })
+}
+
+/// Empirical cumulative distributions of several named samples of errors.
+pub fn cdf(title: &str, x_desc: &str, series: &[(String, Vec<f64>)], x_max: f64) -> Result<String, String> {
+    let curves: Vec<(String, Vec<(f64, f64)>)> = series
+        .iter()
+        .map(|(n, e)| {
+            let mut s = e.clone();
+            s.sort_by(f64::total_cmp);
+            let k = s.len() as f64;
+            let mut pts = vec![(0.0, 0.0)];
+            pts.extend(s.iter().enumerate().map(|(i, &v)| (v.min(x_max), (i + 1) as f64 / k)));
+            (n.clone(), pts)
+        })
+        .collect();
+    register_font();
+    svg((640, 380), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, (FONT, 16))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..x_max, 0.0..1.02)
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc("fraction of queries")
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let colors = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189)];
+        for (i, (name, pts)) in curves.iter().enumerate() {
+            let c = colors[i % colors.len()];
+            chart
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+                .map_err(|e| e.to_string())?
+                .label(name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 12))
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    })
+}
+
+/// Coefficient images (paper Fig. 2) as one PNG: each of `images` (`w` x `h`, row-major,
+/// signed) side by side, magnified `scale` times, in a diverging map symmetric about zero with
+/// each image on its own scale (blue negative, white zero, red positive).
+pub fn coefficient_png(images: &[&[f64]], w: u32, h: u32, scale: u32) -> Result<Vec<u8>, String> {
+    let gap = 6;
+    let n = images.len() as u32;
+    let (tw, th) = (n * w * scale + (n.saturating_sub(1)) * gap, h * scale);
+    let mut canvas = image::RgbImage::from_pixel(tw.max(1), th.max(1), image::Rgb([255, 255, 255]));
+    for (k, img) in images.iter().enumerate() {
+        let amax = img.iter().fold(0.0f64, |a, &v| a.max(v.abs())).max(1e-300);
+        let ox = k as u32 * (w * scale + gap);
+        for y in 0..th {
+            for x in 0..w * scale {
+                let c = diverging(img[((y / scale) * w + x / scale) as usize] / amax);
+                canvas.put_pixel(ox + x, y, image::Rgb([c.0, c.1, c.2]));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    image::DynamicImage::ImageRgb8(canvas)
+        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
+        .map_err(|e| e.to_string())?;
+    Ok(out)
+}

@@ -1,0 +1,31 @@
+//! Every estimation method by name, behind one enum, so the CLI and the experiment can hold
+//! "a method with its settings" without caring which.
+
+use crate::dataset::Dataset;
+use crate::linear::LinearParams;
+use crate::model::{AnyModel, Estimator};
+use crate::Result;
+
+/// A method with its settings.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum MethodSpec {
+    /// Okatani & Deguchi's linear model.
+    Linear(LinearParams),
+}
+
+impl MethodSpec {
+    /// The method's name, as in model files and on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            MethodSpec::Linear(_) => crate::linear::METHOD,
+        }
+    }
+
+    /// Fits the method on `train`.
+    pub fn fit(&self, train: &Dataset) -> Result<AnyModel> {
+        Ok(match self {
+            MethodSpec::Linear(p) => p.fit(train)?.into(),
+        })
+    }
+}
