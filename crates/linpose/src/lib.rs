@@ -26,6 +26,7 @@
 
 pub mod atomic;
 pub mod dataset;
+pub mod eigenspace;
 pub mod error;
 pub mod eval;
 pub mod experiment;
@@ -39,6 +40,7 @@ pub mod model_file;
 pub mod pose;
 
 pub use dataset::Dataset;
+pub use eigenspace::{EigenspaceModel, EigenspaceParams};
 pub use error::{Error, Result};
 pub use eval::{evaluate, EvalReport};
 pub use linear::{LinearModel, LinearParams};
@@ -48,7 +50,7 @@ pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
 pub use pose::{ErrorSummary, Param, PoseSpace};
 
 /// The methods a model can be trained with, by name.
-pub const METHODS: &[&str] = &[linear::METHOD];
+pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD];
 
 #[cfg(test)]
 mod autotraits {
@@ -57,6 +59,7 @@ mod autotraits {
     #[test]
     fn models_are_send_and_sync() {
         is_send_sync::<crate::LinearModel>();
+        is_send_sync::<crate::EigenspaceModel>();
         is_send_sync::<crate::AnyModel>();
         is_send_sync::<crate::Dataset>();
     }

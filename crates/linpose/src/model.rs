@@ -174,12 +174,15 @@ impl TensorSet {
 pub enum AnyModel {
     /// Okatani & Deguchi's linear model.
     Linear(crate::linear::LinearModel),
+    /// Murase & Nayar's parametric eigenspace.
+    Eigenspace(crate::eigenspace::EigenspaceModel),
 }
 
 impl AnyModel {
     fn inner(&self) -> &dyn PoseModel {
         match self {
             AnyModel::Linear(m) => m,
+            AnyModel::Eigenspace(m) => m,
         }
     }
 
@@ -187,6 +190,7 @@ impl AnyModel {
     pub(crate) fn from_parts(meta: ModelMeta, tensors: &TensorSet) -> Result<Self> {
         match meta.method.as_str() {
             crate::linear::METHOD => Ok(AnyModel::Linear(crate::linear::LinearModel::from_parts(meta, tensors)?)),
+            crate::eigenspace::METHOD => Ok(AnyModel::Eigenspace(crate::eigenspace::EigenspaceModel::from_parts(meta, tensors)?)),
             other => Err(tensors.error(format!("unknown method '{other}' (this linpose knows: {})", crate::METHODS.join(", ")))),
         }
     }
@@ -210,5 +214,11 @@ impl PoseModel for AnyModel {
 impl From<crate::linear::LinearModel> for AnyModel {
     fn from(m: crate::linear::LinearModel) -> Self {
         AnyModel::Linear(m)
+    }
+}
+
+impl From<crate::eigenspace::EigenspaceModel> for AnyModel {
+    fn from(m: crate::eigenspace::EigenspaceModel) -> Self {
+        AnyModel::Eigenspace(m)
     }
 }

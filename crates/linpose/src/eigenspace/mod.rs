@@ -1,0 +1,356 @@
+//! Murase & Nayar's parametric eigenspace (IJCV 14:5-24, 1995), the method Okatani & Deguchi
+//! measure themselves against, written to match the numpy peer (`peer.py`) step by step:
+//!
+//! 1. each training image scaled to unit energy (||x|| = 1) and the mean image subtracted;
+//! 2. the eigenspace: the top L eigenimages, from the N x N Gram matrix ([`pca`]), L fixed
+//!    (default 20, capped at N - 1) or the fewest holding an energy fraction;
+//! 3. the appearance manifold: the training images' coordinates on the training grid, joined by
+//!    cubic splines along each pose axis (periodic along a circular one) and resampled every
+//!    `manifold_step` degrees ([`manifold`], [`spline`]);
+//! 4. a query is scaled to unit energy, projected (L dot products of length M) and given the pose
+//!    of the nearest manifold point ([`search`]).
+//!
+//! Trained in f64, served in f32: the basis (L x M), the mean image (M) and the manifold points
+//! (N_dense x L) are stored as f32, and a query's projection is an f32 product. The f32 rounding
+//! of a projection, about sqrt(M) * eps_f32 relative (1e-5 for M = 19,200), is far below the
+//! distance between manifold points 0.5 degrees apart, so f32 serving returns the same manifold
+//! point as f64 would except on exact near-ties; tests that compare the two therefore check
+//! poses, and identities on the f64 fit (back-projection, knots) use tolerances of a few eps
+//! times the size of the sums involved.
+
+pub mod manifold;
+pub mod pca;
+pub mod search;
+pub mod spline;
+
+use crate::dataset::Dataset;
+use crate::linalg::par;
+use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::{Error, Result};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, MatMut, MatRef};
+use manifold::{pose_of, Grid, Manifold};
+pub use pca::Dimension;
+use rayon::prelude::*;
+pub use search::SearchKind;
+use search::NearestIndex;
+use serde::{Deserialize, Serialize};
+
+/// The method's name in model files and on the command line.
+pub const METHOD: &str = "eigenspace";
+
+/// Parameters of the parametric eigenspace. The default is the peer's: 20 components, a manifold
+/// resampled every 0.5 degrees, the search picked by size.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EigenspaceParams {
+    dimension: Dimension,
+    manifold_step: f64,
+    search: SearchKind,
+}
+
+impl Default for EigenspaceParams {
+    fn default() -> Self {
+        EigenspaceParams { dimension: Dimension::Fixed(20), manifold_step: 0.5, search: SearchKind::Auto }
+    }
+}
+
+impl EigenspaceParams {
+    /// Keep `l` eigenimages (capped at N - 1 and the usable rank). Replaces an energy threshold.
+    pub fn components(mut self, l: usize) -> Self {
+        self.dimension = Dimension::Fixed(l);
+        self
+    }
+
+    /// Keep the fewest eigenimages whose eigenvalues hold at least `fraction` (in (0, 1]) of the
+    /// training set's energy about its mean. Replaces a fixed number.
+    pub fn energy(mut self, fraction: f64) -> Self {
+        self.dimension = Dimension::Energy(fraction);
+        self
+    }
+
+    /// Resample the manifold every `degrees` along each pose axis.
+    pub fn manifold_step(mut self, degrees: f64) -> Self {
+        self.manifold_step = degrees;
+        self
+    }
+
+    /// How the nearest manifold point is found.
+    pub fn search(mut self, kind: SearchKind) -> Self {
+        self.search = kind;
+        self
+    }
+
+    /// How the eigenspace dimension is chosen.
+    pub fn dimension(&self) -> Dimension {
+        self.dimension
+    }
+
+    /// The manifold's resampling step (degrees).
+    pub fn step(&self) -> f64 {
+        self.manifold_step
+    }
+
+    /// The nearest-point search asked for.
+    pub fn search_kind(&self) -> SearchKind {
+        self.search
+    }
+
+    fn validate(&self) -> Result<()> {
+        match self.dimension {
+            Dimension::Fixed(0) => return Err(Error::invalid("components", 0, "at least one eigenimage is needed")),
+            Dimension::Energy(t) if !(t > 0.0 && t <= 1.0) => {
+                return Err(Error::invalid("energy", t, "must be a fraction in (0, 1], e.g. 0.95"));
+            }
+            _ => {}
+        }
+        if !(self.manifold_step.is_finite() && self.manifold_step > 0.0) {
+            return Err(Error::invalid("manifold step", self.manifold_step, "must be a positive number of degrees"));
+        }
+        Ok(())
+    }
+}
+
+/// What a fitted model records in [`ModelMeta::settings`]: the parameters as given and what they
+/// resolved to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EigenspaceSettings {
+    /// The parameters as given.
+    pub params: EigenspaceParams,
+    /// Eigenimages kept, L.
+    pub components: usize,
+    /// Fraction of the training energy (about the mean) they hold.
+    pub energy_kept: f64,
+    /// Manifold samples along each pose parameter.
+    pub manifold_shape: Vec<usize>,
+    /// The search in use.
+    pub search: SearchKind,
+}
+
+impl Estimator for EigenspaceParams {
+    type Model = EigenspaceModel;
+
+    fn fit(&self, train: &Dataset) -> Result<EigenspaceModel> {
+        self.validate()?;
+        let space = train.space();
+        let root = train.manifest().root();
+        // The grid first: a training set that cannot make a manifold fails before any arithmetic.
+        let grid = Grid::new(space, train.poses(), train.manifest().images(), root)?;
+        let counts: Vec<f64> =
+            space.params().iter().zip(&grid.axes).map(|(p, g)| manifold::sample_count(g, p.period, self.manifold_step)).collect();
+        manifold::check_size(&counts, 1, self.manifold_step)?;
+        let pca = pca::fit(train, self.dimension)?;
+        let l = pca.dim();
+        let dense = Manifold::build(space, &grid, &pca.coords, l, self.manifold_step)?;
+        let settings = EigenspaceSettings {
+            params: *self,
+            components: l,
+            energy_kept: pca.energy_kept(),
+            manifold_shape: dense.axes.iter().map(Vec::len).collect(),
+            search: self.search,
+        };
+        let meta = ModelMeta {
+            method: METHOD.into(),
+            spec: train.spec(),
+            space: space.clone(),
+            train_poses: train.poses().to_vec(),
+            settings: serde_json::Value::Null,
+        };
+        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), to32(&dense.points), dense.axes)
+    }
+}
+
+/// A fitted parametric eigenspace: L eigenimages, the mean image and the dense manifold, in f32.
+#[derive(Debug, Clone)]
+pub struct EigenspaceModel {
+    meta: ModelMeta,
+    settings: EigenspaceSettings,
+    /// L x M, row-major.
+    basis: Vec<f32>,
+    /// M.
+    mean: Vec<f32>,
+    /// u_l . mean, subtracted from each projection (summed in f64 from the f32 values, so a model
+    /// read back from a file computes the same numbers).
+    mean_proj: Vec<f32>,
+    /// N_dense x L, row-major.
+    points: Vec<f32>,
+    /// Sample positions per pose parameter.
+    axes: Vec<Vec<f64>>,
+    index: NearestIndex,
+}
+
+impl EigenspaceModel {
+    fn new(
+        mut meta: ModelMeta,
+        mut settings: EigenspaceSettings,
+        basis: Vec<f32>,
+        mean: Vec<f32>,
+        points: Vec<f32>,
+        axes: Vec<Vec<f64>>,
+    ) -> Result<Self> {
+        let (l, m) = (settings.components, mean.len());
+        let index = NearestIndex::new(&points, l, settings.params.search)?;
+        settings.search = index.kind();
+        meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
+        let mean_proj =
+            basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
+        Ok(EigenspaceModel { meta, settings, basis, mean, mean_proj, points, axes, index })
+    }
+
+    /// The settings as given and as resolved.
+    pub fn settings(&self) -> &EigenspaceSettings {
+        &self.settings
+    }
+
+    /// Number of eigenimages L.
+    pub fn components(&self) -> usize {
+        self.settings.components
+    }
+
+    /// The eigenimages, one row of M values each (L x M).
+    pub fn basis(&self) -> &[f32] {
+        &self.basis
+    }
+
+    /// The mean unit-energy training image.
+    pub fn mean(&self) -> &[f32] {
+        &self.mean
+    }
+
+    /// The dense manifold's points (N_dense x L, row-major over the pose grid, last parameter
+    /// fastest).
+    pub fn manifold_points(&self) -> &[f32] {
+        &self.points
+    }
+
+    /// Number of manifold points N_dense.
+    pub fn manifold_len(&self) -> usize {
+        self.points.len() / self.components()
+    }
+
+    /// The pose of manifold point `k` (circular values in [0, period)).
+    pub fn manifold_pose(&self, k: usize) -> Vec<f64> {
+        let mut p = vec![0.0; self.meta.space.len()];
+        pose_of(&self.axes, &self.meta.space, k, &mut p);
+        p
+    }
+
+    /// Eigenspace coordinates of `queries` (rows of M features) into `out` (rows of L): each
+    /// query scaled to unit energy, the mean subtracted, projected on the basis, in f32. A query
+    /// of zero or non-finite energy gives NaN coordinates.
+    pub fn project_into(&self, queries: &[f32], out: &mut [f32]) -> Result<()> {
+        let (l, m) = (self.components(), self.mean.len());
+        check_queries(m, queries.len(), "query batch")?;
+        let n = queries.len() / m;
+        if out.len() != n * l {
+            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * l)));
+        }
+        // Y = Q U^T (n x L), one f32 product for the batch.
+        let q = MatRef::from_row_major_slice(queries, n, m);
+        let ut = MatRef::from_column_major_slice(&self.basis, m, l);
+        matmul(MatMut::from_row_major_slice_mut(out, n, l), Accum::Replace, q, ut, 1.0f32, if n >= 16 { par() } else { faer::Par::Seq });
+        let scale = |(x, y): (&[f32], &mut [f32])| {
+            let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
+            if norm > 0.0 && norm.is_finite() {
+                let inv = (1.0 / norm) as f32;
+                y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
+            } else {
+                y.fill(f32::NAN);
+            }
+        };
+        if n >= 16 {
+            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(l)).for_each(scale);
+        } else {
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(scale);
+        }
+        Ok(())
+    }
+
+    pub(crate) fn from_parts(meta: ModelMeta, t: &TensorSet) -> Result<Self> {
+        let settings: EigenspaceSettings =
+            serde_json::from_value(meta.settings.clone()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
+        settings.params.validate().map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
+        let (l, m, d) = (settings.components, meta.spec.features(), meta.space.len());
+        if l == 0 || settings.manifold_shape.len() != d || settings.manifold_shape.contains(&0) {
+            return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
+        }
+        let counts: Vec<f64> = settings.manifold_shape.iter().map(|&c| c as f64).collect();
+        manifold::check_size(&counts, l, settings.params.step())
+            .map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
+        let n_dense: usize = settings.manifold_shape.iter().product();
+        let basis = t.f32("basis", &[l, m])?;
+        let mean = t.f32("mean", &[m])?;
+        let mut shape = settings.manifold_shape.clone();
+        shape.push(l);
+        let points = t.f32("manifold", &shape)?;
+        let mut axes = Vec::with_capacity(d);
+        for (j, p) in meta.space.params().iter().enumerate() {
+            let a = t.f64(&format!("manifold_axis_{j}"), &[settings.manifold_shape[j]])?;
+            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| !(w[1] > w[0])) {
+                return Err(t.error(format!("manifold positions of '{}' are not finite and increasing", p.name)));
+            }
+            axes.push(a);
+        }
+        if basis.iter().chain(&mean).chain(&points).any(|v| !v.is_finite()) {
+            return Err(t.error("the eigenspace holds non-finite values"));
+        }
+        debug_assert_eq!(points.len(), n_dense * l);
+        EigenspaceModel::new(meta, settings, basis, mean, points, axes).map_err(|e| t.error(e.to_string()))
+    }
+}
+
+impl PoseModel for EigenspaceModel {
+    fn meta(&self) -> &ModelMeta {
+        &self.meta
+    }
+
+    fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
+        let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
+        check_queries(m, queries.len(), "query batch")?;
+        let n = queries.len() / m;
+        if out.len() != n * p {
+            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
+        }
+        let mut y = vec![0f32; n * l];
+        self.project_into(queries, &mut y)?;
+        if let Some(i) = y.chunks_exact(l).position(|c| c[0].is_nan()) {
+            return Err(Error::invalid(
+                "query",
+                format!("#{i} of the batch"),
+                "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
+            ));
+        }
+        let space = &self.meta.space;
+        let one = |(c, o): (&[f32], &mut [f64])| pose_of(&self.axes, space, self.index.nearest(c), o);
+        if n >= 16 {
+            y.par_chunks_exact(l).zip(out.par_chunks_exact_mut(p)).for_each(one);
+        } else {
+            y.chunks_exact(l).zip(out.chunks_exact_mut(p)).for_each(one);
+        }
+        Ok(())
+    }
+
+    /// The peer's count, (manifold points + basis + mean) x 4 bytes, plus the manifold's sample
+    /// positions (8 bytes each), which turn a point's index into its pose.
+    fn model_bytes(&self) -> usize {
+        (self.points.len() + self.basis.len() + self.mean.len()) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
+    }
+
+    fn tensors(&self) -> Vec<Tensor> {
+        let (l, m) = (self.components(), self.mean.len());
+        let mut shape = self.settings.manifold_shape.clone();
+        shape.push(l);
+        let mut v = vec![
+            Tensor::f32("basis", vec![l, m], self.basis.clone()),
+            Tensor::f32("mean", vec![m], self.mean.clone()),
+            Tensor::f32("manifold", shape, self.points.clone()),
+        ];
+        for (j, a) in self.axes.iter().enumerate() {
+            v.push(Tensor::f64(&format!("manifold_axis_{j}"), vec![a.len()], a.clone()));
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,260 @@
+//! The eigenspace: principal components of the unit-energy training images (Murase & Nayar),
+//! computed in f64 from the N x N Gram matrix, which is far smaller than the M x M covariance
+//! when N << M (36 or 222 images against 16,384 or 19,200 pixels).
+//!
+//! With x_i scaled to ||x_i|| = 1, the mean image mu subtracted (Xc = X - 1 mu^T, N x M) and
+//! Xc Xc^T = V Lambda V^T, the eigenimages are u_l = Xc^T v_l / sqrt(lambda_l) (orthonormal) and the
+//! training images' coordinates are g_il = u_l . (x_i - mu) = sqrt(lambda_l) v_il exactly, so the
+//! manifold's knots never go through a rounded basis.
+
+use crate::dataset::Dataset;
+use crate::linalg::{gram, par, transpose_features};
+use crate::{Error, Result};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Side};
+use serde::{Deserialize, Serialize};
+
+/// How many eigenimages to keep.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dimension {
+    /// A fixed number (Murase & Nayar used 8 to 20).
+    Fixed(usize),
+    /// The fewest whose eigenvalues hold at least this fraction of the total (in (0, 1]).
+    Energy(f64),
+}
+
+/// A fitted eigenspace.
+#[derive(Debug, Clone)]
+pub struct Pca {
+    /// The mean unit-energy training image (M).
+    pub mean: Vec<f64>,
+    /// The eigenimages, one row of M values each (L x M, row-major).
+    pub basis: Vec<f64>,
+    /// The training images' coordinates (N x L, row-major), in the training set's order.
+    pub coords: Vec<f64>,
+    /// Every eigenvalue of the centred Gram matrix, largest first (N values; the last is zero up
+    /// to rounding, since centring removes one dimension).
+    pub eigenvalues: Vec<f64>,
+}
+
+impl Pca {
+    /// Number of eigenimages L.
+    pub fn dim(&self) -> usize {
+        self.basis.len() / self.mean.len()
+    }
+
+    /// The fraction of the training set's energy (about its mean) the kept eigenimages hold.
+    pub fn energy_kept(&self) -> f64 {
+        let total: f64 = self.eigenvalues.iter().map(|&l| l.max(0.0)).sum();
+        let kept: f64 = self.eigenvalues[..self.dim()].iter().map(|&l| l.max(0.0)).sum();
+        if total > 0.0 {
+            kept / total
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Fits the eigenspace of `train`'s images.
+///
+/// An image of zero energy (all black) cannot be scaled to unit energy and is refused by name.
+/// L is capped at N - 1 (what centring leaves, as the peer caps it) and at the usable rank. The
+/// Gram route squares the condition number: an eigenimage u_l = Xc^T v_l / sqrt(lambda_l) leaks
+/// about eps * lambda_1 / lambda_l of the others (the rounding of v_l, of order eps * lambda_1,
+/// amplified by 1 / lambda_l in u_l . u_k). A component with lambda_l < lambda_1 * eps / eps_f32
+/// (about 2e-9 lambda_1) would leak more than the f32 rounding it is served in, so it is dropped;
+/// 8-bit images never come near this (their quantisation alone is far above it).
+pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
+    let (n, m) = (train.len(), train.n_features());
+    if n < 2 {
+        return Err(Error::Dataset {
+            path: train.manifest().root().to_path_buf(),
+            message: format!("the eigenspace needs at least 2 training images, got {n}"),
+        });
+    }
+    let mut xt = transpose_features(train.features(), n, m, None);
+    let mut mean = vec![0.0; m];
+    for j in 0..n {
+        let col = xt.col_mut(j).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
+        let norm = col.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(norm > 0.0) {
+            return Err(Error::Dataset {
+                path: train.manifest().image_path(j),
+                message: "the image is all black (zero energy), so it cannot be scaled to unit energy for the eigenspace; remove it from the training set".into(),
+            });
+        }
+        col.iter_mut().for_each(|v| *v /= norm);
+        mean.iter_mut().zip(col.iter()).for_each(|(u, &v)| *u += v);
+    }
+    mean.iter_mut().for_each(|u| *u /= n as f64);
+    for j in 0..n {
+        let col = xt.col_mut(j).try_as_col_major_mut().expect("column-major").as_slice_mut();
+        col.iter_mut().zip(&mean).for_each(|(v, &u)| *v -= u);
+    }
+    let g = gram(xt.as_ref());
+    let evd = g.self_adjoint_eigen(Side::Lower).map_err(|e| Error::Numerical(format!("eigendecomposition of the Gram matrix: {e:?}")))?;
+    // faer sorts eigenvalues in nondecreasing order: reverse to largest first.
+    let order: Vec<usize> = (0..n).rev().collect();
+    let eigenvalues: Vec<f64> = order.iter().map(|&i| evd.S()[i]).collect();
+    let tol = eigenvalues[0] * (f64::EPSILON / f32::EPSILON as f64);
+    let rank = eigenvalues.iter().take_while(|&&l| l > tol).count().min(n - 1);
+    if rank == 0 {
+        return Err(Error::Dataset {
+            path: train.manifest().root().to_path_buf(),
+            message: "the training images are all the same once scaled to unit energy: there is no eigenspace to build".into(),
+        });
+    }
+    let l = match dim {
+        Dimension::Fixed(k) => k.min(rank),
+        Dimension::Energy(t) => {
+            let total: f64 = eigenvalues.iter().map(|&v| v.max(0.0)).sum();
+            let mut acc = 0.0;
+            let mut l = rank;
+            for (i, &v) in eigenvalues[..rank].iter().enumerate() {
+                acc += v;
+                // A relative slack of a few eps so that T = 1 stops at the rank, not past it.
+                if acc >= t * total * (1.0 - 4.0 * n as f64 * f64::EPSILON) {
+                    l = i + 1;
+                    break;
+                }
+            }
+            l
+        }
+    };
+    // V_L scaled by 1/sqrt(lambda) (for the basis) and the coordinates sqrt(lambda) v.
+    let u_evd = evd.U();
+    let mut v_scaled = Mat::<f64>::zeros(n, l);
+    let mut coords = vec![0.0; n * l];
+    for (c, &i) in order[..l].iter().enumerate() {
+        let lam = eigenvalues[c];
+        // A fixed sign (largest entry of v positive) so refits give the same basis.
+        let big = (0..n).max_by(|&a, &b| u_evd[(a, i)].abs().total_cmp(&u_evd[(b, i)].abs())).expect("n >= 2");
+        let sign = if u_evd[(big, i)] < 0.0 { -1.0 } else { 1.0 };
+        for r in 0..n {
+            let v = sign * u_evd[(r, i)];
+            v_scaled[(r, c)] = v / lam.sqrt();
+            coords[r * l + c] = v * lam.sqrt();
+        }
+    }
+    // U = Xc^T V Lambda^{-1/2} (M x L, column-major = L x M row-major).
+    let mut u = Mat::<f64>::zeros(m, l);
+    matmul(u.as_mut(), Accum::Replace, xt.as_ref(), v_scaled.as_ref(), 1.0, par());
+    let mut basis = vec![0.0; l * m];
+    for c in 0..l {
+        basis[c * m..(c + 1) * m].iter_mut().zip(u.col(c).iter()).for_each(|(d, &s)| *d = s);
+    }
+    Ok(Pca { mean, basis, coords, eigenvalues })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image_io::{ColorMode, ImageSpec};
+    use crate::{Manifest, Param, PoseSpace};
+
+    /// N smooth images of M pixels that vary with an angle.
+    fn data(n: usize, m: usize) -> Dataset {
+        let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
+        let poses: Vec<f64> = (0..n).map(|i| i as f64 * 360.0 / n as f64).collect();
+        let images = (0..n).map(|i| format!("{i}.png")).collect();
+        let mut f = Vec::with_capacity(n * m);
+        for &a in &poses {
+            let t = a.to_radians();
+            for p in 0..m {
+                let s = p as f64 / m as f64 * std::f64::consts::TAU;
+                f.push((0.5 + 0.3 * (s + t).sin() + 0.1 * (3.0 * s - 2.0 * t).cos() + 0.05 * (7.0 * s + t).sin()) as f32);
+            }
+        }
+        let spec = ImageSpec { width: m as u32, height: 1, color: ColorMode::Gray };
+        Dataset::from_features(Manifest::new(".", space, images, poses).unwrap(), spec, f).unwrap()
+    }
+
+    fn unit_rows(d: &Dataset) -> Vec<Vec<f64>> {
+        (0..d.len())
+            .map(|i| {
+                let r: Vec<f64> = d.row(i).iter().map(|&v| v as f64).collect();
+                let n = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+                r.iter().map(|v| v / n).collect()
+            })
+            .collect()
+    }
+
+    /// Back-projection mu + sum_l g_il u_l rebuilds each training image up to the energy of the
+    /// discarded components: sum_i ||x_i - x^_i||^2 = sum_{l > L} lambda_l, an identity of the
+    /// eigendecomposition, up to rounding of order M * N * eps (the Gram matrix's sums).
+    #[test]
+    fn back_projection_rebuilds_training_images_within_discarded_energy() {
+        let (n, m) = (24, 300);
+        let d = data(n, m);
+        let x = unit_rows(&d);
+        for l in [2, 3, 5, 8] {
+            let pca = fit(&d, Dimension::Fixed(l)).unwrap();
+            assert!(pca.dim() <= l);
+            let lk = pca.dim();
+            let mut total = 0.0;
+            for i in 0..n {
+                let mut rec = pca.mean.clone();
+                for c in 0..lk {
+                    let g = pca.coords[i * lk + c];
+                    rec.iter_mut().zip(&pca.basis[c * m..(c + 1) * m]).for_each(|(r, &u)| *r += g * u);
+                }
+                total += rec.iter().zip(&x[i]).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            }
+            let discarded: f64 = pca.eigenvalues[lk..].iter().map(|&v| v.max(0.0)).sum();
+            let tol = 64.0 * (m * n) as f64 * f64::EPSILON;
+            assert!((total - discarded).abs() <= tol, "L={l}: residual {total:e}, discarded energy {discarded:e}");
+        }
+    }
+
+    #[test]
+    fn basis_is_orthonormal_and_coords_are_projections() {
+        let (n, m) = (18, 200);
+        let d = data(n, m);
+        let pca = fit(&d, Dimension::Fixed(20)).unwrap();
+        let l = pca.dim();
+        assert!(l <= n - 1);
+        // Leakage between eigenimages is bounded by the f32 epsilon by construction (see `fit`).
+        let tol = 4.0 * f32::EPSILON as f64;
+        for a in 0..l {
+            for b in 0..l {
+                let dot: f64 = pca.basis[a * m..(a + 1) * m].iter().zip(&pca.basis[b * m..(b + 1) * m]).map(|(x, y)| x * y).sum();
+                assert!((dot - if a == b { 1.0 } else { 0.0 }).abs() < tol, "u{a}.u{b} = {dot}");
+            }
+        }
+        let x = unit_rows(&d);
+        for i in 0..n {
+            for c in 0..l {
+                let g: f64 = pca.basis[c * m..(c + 1) * m].iter().zip(x[i].iter().zip(&pca.mean)).map(|(u, (x, mu))| u * (x - mu)).sum();
+                assert!((g - pca.coords[i * l + c]).abs() < tol, "image {i} coordinate {c}");
+            }
+        }
+    }
+
+    #[test]
+    fn energy_threshold_picks_the_fewest_components() {
+        let d = data(24, 300);
+        let all = fit(&d, Dimension::Fixed(23)).unwrap();
+        let total: f64 = all.eigenvalues.iter().map(|v| v.max(0.0)).sum();
+        for t in [0.5, 0.9, 0.99, 1.0] {
+            let p = fit(&d, Dimension::Energy(t)).unwrap();
+            let l = p.dim();
+            let kept: f64 = all.eigenvalues[..l].iter().sum();
+            assert!(kept >= t * total * (1.0 - 1e-12), "T={t}");
+            if l > 1 {
+                let less: f64 = all.eigenvalues[..l - 1].iter().sum();
+                assert!(less < t * total, "T={t}: {} components would do", l - 1);
+            }
+        }
+    }
+
+    #[test]
+    fn all_black_image_is_named() {
+        let d = data(6, 50);
+        let mut f = d.features().to_vec();
+        f[3 * 50..4 * 50].fill(0.0);
+        let d = Dataset::from_features(d.manifest().clone(), d.spec(), f).unwrap();
+        let e = fit(&d, Dimension::Fixed(3)).unwrap_err().to_string();
+        assert!(e.contains("3.png") && e.contains("all black"), "{e}");
+    }
+}

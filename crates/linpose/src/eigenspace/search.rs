@@ -1,0 +1,239 @@
+//! Nearest manifold point: a k-d tree (kiddo's immutable tree) or brute force.
+//!
+//! kiddo fixes a tree's dimension at compile time, so the L coordinates are padded with zeros to
+//! the next of a few sizes (4, 8, ..., 24, 32). A zero added to both the query and every point
+//! leaves every distance unchanged, so results are exact; a tree level that happens to split on a
+//! padded coordinate just does no pruning (it is reached only for small L and very large
+//! manifolds). Brute force uses the same padded rows, whose fixed width lets the distance loop
+//! unroll and vectorise; beyond 32 coordinates only brute force is available.
+
+use crate::{Error, Result};
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
+use kiddo::SquaredEuclidean;
+use serde::{Deserialize, Serialize};
+
+/// Largest eigenspace dimension a k-d tree is built for.
+pub const MAX_TREE_DIM: usize = 32;
+
+/// Bucket size of the k-d tree's leaves.
+const BUCKET: usize = 32;
+
+/// How the nearest manifold point is found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SearchKind {
+    /// The faster of the two for the manifold's size and dimension (see [`auto_kind`]).
+    #[default]
+    Auto,
+    /// A k-d tree (at most [`MAX_TREE_DIM`] dimensions).
+    KdTree,
+    /// Every point, every query.
+    Brute,
+}
+
+impl std::fmt::Display for SearchKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SearchKind::Auto => "auto",
+            SearchKind::KdTree => "kdtree",
+            SearchKind::Brute => "brute",
+        })
+    }
+}
+
+/// What [`SearchKind::Auto`] picks for `points` manifold points of `dim` coordinates: the k-d
+/// tree from a few thousand points on (measured in examples/eigen_search.rs, where the
+/// crossover sits between 1,000 and 3,000 points for L = 8 to 32), brute force below that and
+/// whenever L exceeds [`MAX_TREE_DIM`].
+pub fn auto_kind(points: usize, dim: usize) -> SearchKind {
+    if dim <= MAX_TREE_DIM && points >= AUTO_TREE_FROM {
+        SearchKind::KdTree
+    } else {
+        SearchKind::Brute
+    }
+}
+
+/// Manifold size from which `Auto` uses the k-d tree.
+const AUTO_TREE_FROM: usize = 2048;
+
+/// Points padded to K coordinates, with an optional tree over them.
+#[derive(Debug, Clone)]
+struct Fixed<const K: usize> {
+    points: Vec<[f32; K]>,
+    tree: Option<ImmutableKdTree<f32, u32, K, BUCKET>>,
+}
+
+impl<const K: usize> Fixed<K> {
+    fn new(points: &[f32], dim: usize, tree: bool) -> Self {
+        let points: Vec<[f32; K]> = points
+            .chunks_exact(dim)
+            .map(|p| {
+                let mut a = [0f32; K];
+                a[..dim].copy_from_slice(p);
+                a
+            })
+            .collect();
+        let tree = tree.then(|| ImmutableKdTree::new_from_slice(&points));
+        Fixed { points, tree }
+    }
+
+    #[inline]
+    fn nearest(&self, q: &[f32]) -> usize {
+        let mut a = [0f32; K];
+        a[..q.len()].copy_from_slice(q);
+        match &self.tree {
+            Some(t) => t.nearest_one::<SquaredEuclidean>(&a).item as usize,
+            None => {
+                let mut best = (f32::INFINITY, 0);
+                for (k, p) in self.points.iter().enumerate() {
+                    let mut acc = [0f32; K];
+                    for l in 0..K {
+                        let d = p[l] - a[l];
+                        acc[l] = d * d;
+                    }
+                    let s: f32 = acc.iter().sum();
+                    if s < best.0 {
+                        best = (s, k);
+                    }
+                }
+                best.1
+            }
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Store {
+    K4(Fixed<4>),
+    K8(Fixed<8>),
+    K12(Fixed<12>),
+    K16(Fixed<16>),
+    K20(Fixed<20>),
+    K24(Fixed<24>),
+    K32(Fixed<32>),
+    Dyn(Vec<f32>),
+}
+
+/// A nearest-neighbour index over the manifold's points.
+#[derive(Debug, Clone)]
+pub struct NearestIndex {
+    dim: usize,
+    kind: SearchKind,
+    store: Store,
+}
+
+impl NearestIndex {
+    /// Indexes `points` (rows of `dim` coordinates) for `kind` of search; `Auto` is resolved by
+    /// [`auto_kind`].
+    pub fn new(points: &[f32], dim: usize, kind: SearchKind) -> Result<Self> {
+        if dim == 0 || points.is_empty() || points.len() % dim != 0 {
+            return Err(Error::invalid("manifold points", points.len(), format!("need whole rows of {dim} > 0 coordinates")));
+        }
+        let n = points.len() / dim;
+        if n > u32::MAX as usize {
+            return Err(Error::invalid("manifold points", n, "more than 2^32 points"));
+        }
+        let kind = match kind {
+            SearchKind::Auto => auto_kind(n, dim),
+            SearchKind::KdTree if dim > MAX_TREE_DIM => {
+                return Err(Error::invalid(
+                    "search",
+                    "kdtree",
+                    format!("the k-d tree supports at most {MAX_TREE_DIM} eigenspace dimensions, the model has {dim}; use brute force or auto"),
+                ))
+            }
+            k => k,
+        };
+        let tree = kind == SearchKind::KdTree;
+        let store = match dim {
+            0..=4 => Store::K4(Fixed::new(points, dim, tree)),
+            5..=8 => Store::K8(Fixed::new(points, dim, tree)),
+            9..=12 => Store::K12(Fixed::new(points, dim, tree)),
+            13..=16 => Store::K16(Fixed::new(points, dim, tree)),
+            17..=20 => Store::K20(Fixed::new(points, dim, tree)),
+            21..=24 => Store::K24(Fixed::new(points, dim, tree)),
+            25..=32 => Store::K32(Fixed::new(points, dim, tree)),
+            _ => Store::Dyn(points.to_vec()),
+        };
+        Ok(NearestIndex { dim, kind, store })
+    }
+
+    /// The search in use (never `Auto`).
+    pub fn kind(&self) -> SearchKind {
+        self.kind
+    }
+
+    /// The index of the point nearest to `q` (`dim` coordinates); ties go to the lower index
+    /// under brute force.
+    #[inline]
+    pub fn nearest(&self, q: &[f32]) -> usize {
+        debug_assert_eq!(q.len(), self.dim);
+        match &self.store {
+            Store::K4(f) => f.nearest(q),
+            Store::K8(f) => f.nearest(q),
+            Store::K12(f) => f.nearest(q),
+            Store::K16(f) => f.nearest(q),
+            Store::K20(f) => f.nearest(q),
+            Store::K24(f) => f.nearest(q),
+            Store::K32(f) => f.nearest(q),
+            Store::Dyn(points) => {
+                let mut best = (f32::INFINITY, 0);
+                for (k, p) in points.chunks_exact(self.dim).enumerate() {
+                    let s: f32 = p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+                    if s < best.0 {
+                        best = (s, k);
+                    }
+                }
+                best.1
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn dist(p: &[f32], q: &[f32]) -> f32 {
+        p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum()
+    }
+
+    /// The tree finds a point as near as brute force's, for every padding class (including a
+    /// small L on a large set, where tree levels split on padded zeros) and beyond the tree's
+    /// dimensions.
+    #[test]
+    fn tree_and_brute_agree() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for (dim, n) in [(1, 300), (3, 20_000), (5, 2000), (12, 3000), (20, 5000), (27, 1500), (40, 500)] {
+            // Points on a curve (like a manifold) plus noise.
+            let points: Vec<f32> = (0..n)
+                .flat_map(|k| {
+                    let t = k as f32 * 0.01;
+                    (0..dim).map(move |l| (t * (l as f32 + 1.0)).sin()).collect::<Vec<_>>()
+                })
+                .map(|v| v + rng.random_range(-1e-3..1e-3))
+                .collect();
+            let brute = NearestIndex::new(&points, dim, SearchKind::Brute).unwrap();
+            let tree = NearestIndex::new(&points, dim, if dim <= MAX_TREE_DIM { SearchKind::KdTree } else { SearchKind::Auto }).unwrap();
+            for _ in 0..200 {
+                let q: Vec<f32> = (0..dim).map(|_| rng.random_range(-1.2..1.2)).collect();
+                let (a, b) = (brute.nearest(&q), tree.nearest(&q));
+                let (da, db) = (dist(&points[a * dim..(a + 1) * dim], &q), dist(&points[b * dim..(b + 1) * dim], &q));
+                assert!(da == db || (da - db).abs() <= 4.0 * f32::EPSILON * da, "dim {dim}: brute {a} ({da}) vs tree {b} ({db})");
+            }
+            // Every point finds itself.
+            for k in (0..n).step_by(97) {
+                assert_eq!(tree.nearest(&points[k * dim..(k + 1) * dim]), k);
+            }
+        }
+    }
+
+    #[test]
+    fn tree_beyond_its_dimension_is_refused() {
+        let e = NearestIndex::new(&[0.0; 33], 33, SearchKind::KdTree).unwrap_err();
+        assert!(e.to_string().contains("at most 32"), "{e}");
+        assert_eq!(NearestIndex::new(&[0.0; 33], 33, SearchKind::Auto).unwrap().kind(), SearchKind::Brute);
+    }
+}
