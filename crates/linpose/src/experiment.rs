@@ -34,7 +34,7 @@ pub struct StudyParams {
 impl Default for StudyParams {
     fn default() -> Self {
         StudyParams {
-            methods: vec![MethodSpec::Linear(LinearParams::default())],
+            methods: vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(Default::default())],
             train_step: 9.0,
             noise: vec![0.0, 0.05, 0.10],
             size_steps: vec![6.0, 9.0, 12.0, 18.0, 27.0],
@@ -193,6 +193,10 @@ pub fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
         AnyModel::Linear(_) => {
             let k = meta.space.encoded_len();
             ("MK".to_string(), vec![("M".to_string(), m), ("K".to_string(), k)], m * k)
+        }
+        AnyModel::Eigenspace(e) => {
+            let (n, l) = (e.manifold_len(), e.components());
+            ("NL + ML".to_string(), vec![("N".to_string(), n), ("L".to_string(), l), ("M".to_string(), m)], n * l + m * l)
         }
         #[allow(unreachable_patterns)]
         _ => ("-".to_string(), vec![], model.model_bytes() / 4),

@@ -2,6 +2,7 @@
 //! "a method with its settings" without caring which.
 
 use crate::dataset::Dataset;
+use crate::eigenspace::EigenspaceParams;
 use crate::linear::LinearParams;
 use crate::model::{AnyModel, Estimator};
 use crate::Result;
@@ -12,6 +13,8 @@ use crate::Result;
 pub enum MethodSpec {
     /// Okatani & Deguchi's linear model.
     Linear(LinearParams),
+    /// Murase & Nayar's parametric eigenspace.
+    Eigenspace(EigenspaceParams),
 }
 
 impl MethodSpec {
@@ -19,6 +22,7 @@ impl MethodSpec {
     pub fn name(&self) -> &'static str {
         match self {
             MethodSpec::Linear(_) => crate::linear::METHOD,
+            MethodSpec::Eigenspace(_) => crate::eigenspace::METHOD,
         }
     }
 
@@ -26,6 +30,7 @@ impl MethodSpec {
     pub fn fit(&self, train: &Dataset) -> Result<AnyModel> {
         Ok(match self {
             MethodSpec::Linear(p) => p.fit(train)?.into(),
+            MethodSpec::Eigenspace(p) => p.fit(train)?.into(),
         })
     }
 }

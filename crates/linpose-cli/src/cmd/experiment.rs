@@ -6,7 +6,7 @@ use anyhow::Context;
 use linpose::experiment::{run_object, ObjectResult, StudyParams};
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::render::{objects, Grid, RenderParams, Renderer};
-use linpose::{Dataset, LinearParams, Manifest, MethodSpec, Param, PoseModel, PoseSpace};
+use linpose::{Dataset, EigenspaceParams, LinearParams, Manifest, MethodSpec, Param, PoseModel, PoseSpace};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -49,7 +49,7 @@ pub struct ExperimentArgs {
 
 /// The default methods compared.
 pub fn default_methods() -> Vec<MethodSpec> {
-    vec![MethodSpec::Linear(LinearParams::default())]
+    vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(EigenspaceParams::default())]
 }
 
 /// Renders `mesh` over the grid (elevation rows, azimuth columns) into an in-memory data set.

@@ -2,7 +2,7 @@
 
 use crate::common::{check_output_file, load_dataset, write_json, ColorArg, DataArgs};
 use anyhow::Context;
-use linpose::{AnyModel, Estimator, LinearParams, PoseModel, TrainSelection};
+use linpose::{AnyModel, EigenspaceParams, Estimator, LinearParams, PoseModel, TrainSelection};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -12,6 +12,8 @@ use std::time::Instant;
 pub enum Method {
     /// Okatani & Deguchi's linear model: minimum-norm exact fit through the Gram matrix.
     Linear,
+    /// Murase & Nayar's parametric eigenspace: PCA, spline manifold, nearest neighbour.
+    Eigenspace,
 }
 
 /// Arguments of `linpose train`.
@@ -35,6 +37,16 @@ pub struct TrainArgs {
     /// Subtract the mean image and pose first (an intercept; the paper has none).
     #[arg(long)]
     pub center: bool,
+    /// Eigenspace: number of eigenimages L (capped at N - 1).
+    #[arg(long, value_name = "L", default_value_t = 20, conflicts_with = "energy")]
+    pub components: usize,
+    /// Eigenspace: instead of --components, keep the fewest eigenimages holding this fraction
+    /// of the energy (e.g. 0.95).
+    #[arg(long, value_name = "T")]
+    pub energy: Option<f64>,
+    /// Eigenspace: resample the appearance manifold every D degrees along each pose axis.
+    #[arg(long, value_name = "D", default_value_t = 0.5, allow_negative_numbers = true)]
+    pub manifold_step: f64,
     /// How colour images become features.
     #[arg(long, value_enum, default_value = "gray")]
     pub color: ColorArg,
@@ -78,6 +90,13 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let model: AnyModel = match a.method {
         Method::Linear => LinearParams::default().ridge(a.ridge).center(a.center).fit(&train)?.into(),
+        Method::Eigenspace => {
+            let mut p = EigenspaceParams::default().manifold_step(a.manifold_step).components(a.components);
+            if let Some(t) = a.energy {
+                p = p.energy(t);
+            }
+            p.fit(&train)?.into()
+        }
     };
     let fit_s = t1.elapsed().as_secs_f64();
     let file_bytes = linpose::model_file::save(&model, &a.out).context("writing the model")?;
