@@ -35,6 +35,7 @@ pub mod manifest;
 pub mod model;
 pub mod model_file;
 pub mod pose;
+pub mod render;
 
 pub use dataset::Dataset;
 pub use error::{Error, Result};
