@@ -17,7 +17,7 @@ pub const OBJECTS: &[(&str, &str)] = &[
     ("pot", "a teapot with spout, handle, lid, painted bands and a label (the paper's POT)"),
     ("cap", "a baseball cap: six-panel crown with seams, button, front logo, and a brim (the paper's CAP)"),
     ("twin", "a rounded block whose front and back look the same but for a small mark"),
-    ("column", "a tall cylinder whose markings vary around it: appearance changes much more with azimuth than with elevation"),
+    ("column", "a tall striped cylinder with dark ends: its appearance changes much more with azimuth than with elevation"),
 ];
 
 /// The built-in object `name` (see [`OBJECTS`]).
@@ -287,15 +287,16 @@ fn twin(b: &mut Builder) {
 
 fn column(b: &mut Builder) {
     const R: f64 = 0.34;
-    // Side: markings that vary around the column, constant along it.
+    // Side: sharp stripes of varying width over a slow variation, all constant along the column,
+    // so a turn sweeps edges across the whole side while a change of elevation only moves the
+    // ends. The ends are dark so that their changing shape shows little.
     let side = |phi: f64| {
         let t = phi.to_radians();
-        let mut a = 0.55 + 0.2 * libm::cos(t) + 0.12 * libm::sin(2.0 * t + 0.5);
-        a = mix(a, 0.1, spot((phi - 40.0).abs(), 6.0, 2.0));
-        a = mix(a, 0.95, spot((phi + 100.0).abs(), 10.0, 3.0));
-        mix(a, 0.2, spot((phi.abs() - 160.0).abs(), 3.0, 1.5))
+        let slow = 0.5 + 0.15 * libm::cos(t) + 0.1 * libm::sin(2.0 * t + 0.5);
+        let wave = libm::sin(12.0 * t + 1.5 * libm::sin(t));
+        mix(slow - 0.3, slow + 0.35, smooth(-0.25, 0.25, wave))
     };
-    b.surface(180, 8, true, |u, v| {
+    b.surface(360, 1, true, |u, v| {
         let d = sphere_dir(u, 0.5);
         ([R * d[0], R * d[1], 1.0 - 2.0 * v], side(longitude(d[0], d[1])))
     });
@@ -303,7 +304,7 @@ fn column(b: &mut Builder) {
         b.surface(90, 3, true, |u, v| {
             let d = sphere_dir(u, 0.5);
             let r = R * (v0 + (1.0 - 2.0 * v0) * v);
-            ([r * d[0], r * d[1], z], 0.5)
+            ([r * d[0], r * d[1], z], 0.1)
         });
     }
 }
