@@ -27,7 +27,7 @@ pub struct Camera {
 
 impl Default for Camera {
     fn default() -> Self {
-        Camera { projection: Projection::Orthographic, fill: 0.9 }
+        Camera { projection: Projection::Orthographic, fill: 0.85 }
     }
 }
 
@@ -47,7 +47,7 @@ impl Camera {
     }
 
     /// Sets the fraction of the image's smaller side that the object's bounding sphere spans
-    /// (in (0, 1]; default 0.9). The object lies inside that sphere at every pose, so it is never
+    /// (in (0, 1]; default 0.85). The object lies inside that sphere at every pose, so it is never
     /// clipped.
     pub fn fill(mut self, fill: f64) -> Self {
         self.fill = fill;

@@ -81,27 +81,31 @@ impl Samples {
             let sign = if area > 0.0 { 1.0 } else { -1.0 };
             let inv = 1.0 / area;
             let (d0, d10, d20) = (p0[2], p1[2] - p0[2], p2[2] - p0[2]);
+            // Edge functions, twice the signed areas of the sub-triangles opposite each vertex:
+            // e = a * (py - y) - b * (px - x), with the py term computed once per row.
+            let (a0, b0) = (p2[0] - p1[0], p2[1] - p1[1]);
+            let (a1, b1) = (p0[0] - p2[0], p0[1] - p2[1]);
+            let (a2, b2) = (p1[0] - p0[0], p1[1] - p0[1]);
             for j in j0 as usize..=j1 as usize {
                 let py = j as f64 + 0.5;
+                let (r0, r1, r2) = (a0 * (py - p1[1]), a1 * (py - p2[1]), a2 * (py - p0[1]));
                 let row = j * self.width;
                 for i in i0 as usize..=i1 as usize {
                     let px = i as f64 + 0.5;
-                    // Edge functions: twice the signed areas of the sub-triangles opposite
-                    // each vertex.
-                    let e0 = (p2[0] - p1[0]) * (py - p1[1]) - (p2[1] - p1[1]) * (px - p1[0]);
-                    let e1 = (p0[0] - p2[0]) * (py - p2[1]) - (p0[1] - p2[1]) * (px - p2[0]);
-                    let e2 = (p1[0] - p0[0]) * (py - p0[1]) - (p1[1] - p0[1]) * (px - p0[0]);
+                    let e0 = r0 - b0 * (px - p1[0]);
+                    let e1 = r1 - b1 * (px - p2[0]);
+                    let e2 = r2 - b2 * (px - p0[0]);
                     if e0 * sign < 0.0 || e1 * sign < 0.0 || e2 * sign < 0.0 {
                         continue;
                     }
-                    let (b1, b2) = (e1 * inv, e2 * inv);
-                    let depth = d0 + b1 * d10 + b2 * d20;
+                    let (w1, w2) = (e1 * inv, e2 * inv);
+                    let depth = d0 + w1 * d10 + w2 * d20;
                     let k = row + i;
                     if depth > self.depth[k] {
                         self.depth[k] = depth;
                         self.tri[k] = t as u32;
-                        self.b1[k] = b1;
-                        self.b2[k] = b2;
+                        self.b1[k] = w1;
+                        self.b2[k] = w2;
                     }
                 }
             }
