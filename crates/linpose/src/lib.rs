@@ -38,6 +38,7 @@ pub mod methods;
 pub mod model;
 pub mod model_file;
 pub mod pose;
+pub mod render;
 
 pub use dataset::Dataset;
 pub use eigenspace::{EigenspaceModel, EigenspaceParams};
