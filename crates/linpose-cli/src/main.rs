@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 mod cmd;
 mod common;
+mod report;
 
 /// Pose estimation from appearance: Okatani & Deguchi's linear model and Murase & Nayar's
 /// parametric eigenspace, with a turntable renderer to make data anywhere.
@@ -23,6 +24,10 @@ enum Command {
     Predict(cmd::predict::PredictArgs),
     /// Estimate every sample of a data set and report the errors.
     Eval(cmd::eval::EvalArgs),
+    /// Render a turntable data set of a built-in object or a mesh.
+    Synth(cmd::synth::SynthArgs),
+    /// Run the paper's experiments and write a report (the main job).
+    Experiment(cmd::experiment::ExperimentArgs),
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -30,7 +35,26 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Train(a) => cmd::train::run(&a),
         Command::Predict(a) => cmd::predict::run(&a),
         Command::Eval(a) => cmd::eval::run(&a),
+        Command::Synth(a) => cmd::synth::run(&a),
+        Command::Experiment(a) => cmd::experiment::run(&a),
     }
+}
+
+/// The error and its causes on one line, like anyhow's `{:#}`, but skipping a cause whose text
+/// the message already holds (the library's errors name their source in their own text).
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
 }
 
 fn main() -> ExitCode {
@@ -42,7 +66,7 @@ fn main() -> ExitCode {
             if e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("linpose: error: {e:#}");
+            eprintln!("linpose: error: {}", message(&e));
             ExitCode::FAILURE
         }
     }

@@ -29,7 +29,7 @@ fn every_built_in_object_fills_the_frame_sensibly_at_every_pose() {
     let (w, h) = (160usize, 120usize);
     let grid = grid();
     for (name, _) in objects::OBJECTS {
-        let data = dataset(&objects::builtin(name).unwrap(), &grid, &params, Path::new(name)).unwrap();
+        let data = dataset(&objects::builtin(name).unwrap(), &grid, &params, Path::new(name), &|_| {}).unwrap();
         let mut distinct = HashSet::new();
         let (mut lo_frac, mut hi_frac, mut lo_ext, mut hi_ext) = (1.0f64, 0.0f64, 1.0f64, 0.0f64);
         for i in 0..data.len() {
@@ -55,7 +55,7 @@ fn every_built_in_object_fills_the_frame_sensibly_at_every_pose() {
 fn twin_front_and_back_differ_only_by_a_small_mark() {
     let params = RenderParams::default();
     let grid = PoseGrid::new(Grid::parse("elevation", "32:77:15").unwrap(), Grid::parse("azimuth", "0:315:45").unwrap()).unwrap();
-    let twin = dataset(&objects::builtin("twin").unwrap(), &grid, &params, Path::new("twin")).unwrap();
+    let twin = dataset(&objects::builtin("twin").unwrap(), &grid, &params, Path::new("twin"), &|_| {}).unwrap();
     // Azimuth a and a + 180 (4 grid steps apart) against a and a + 90 (2 steps).
     for e in 0..4 {
         for a in 0..4 {
@@ -71,7 +71,7 @@ fn column_changes_much_more_with_azimuth_than_with_elevation() {
     let params = RenderParams::default();
     let sub = |e: &str, a: &str| PoseGrid::new(Grid::parse("elevation", e).unwrap(), Grid::parse("azimuth", a).unwrap()).unwrap();
     // Neighbouring poses 3 degrees apart along each axis, around the grid's middle.
-    let data = dataset(&objects::builtin("column").unwrap(), &sub("47:53:3", "90:186:3"), &params, Path::new("column")).unwrap();
+    let data = dataset(&objects::builtin("column").unwrap(), &sub("47:53:3", "90:186:3"), &params, Path::new("column"), &|_| {}).unwrap();
     let (mut d_az, mut d_el) = (0.0, 0.0);
     for a in 0..32 {
         d_az += mad(data.row(33 + a), data.row(33 + a + 1));
@@ -100,7 +100,7 @@ fn a_written_data_set_reads_back_as_the_rendered_one() {
     assert!(csv.contains("e038.50_a370.0.png,38.5,370\n"), "{csv}");
     let manifest = Manifest::open(&out, None).unwrap();
     let read = Dataset::load(manifest, ColorMode::Gray, &|_| {}).unwrap();
-    let made = dataset(&mesh, &grid, &params, &out).unwrap();
+    let made = dataset(&mesh, &grid, &params, &out, &|_| {}).unwrap();
     assert_eq!(read.poses(), made.poses());
     assert_eq!(read.features(), made.features());
     assert_eq!(read.space().params()[1].period, Some(360.0));

@@ -12,7 +12,7 @@ use std::path::Path;
 #[test]
 fn linear_model_estimates_the_rendered_duck_within_5_degrees() {
     let duck = objects::builtin("duck").unwrap();
-    let full = dataset(&duck, &PoseGrid::paper(), &RenderParams::default(), Path::new("<duck>")).unwrap();
+    let full = dataset(&duck, &PoseGrid::paper(), &RenderParams::default(), Path::new("<duck>"), &|_| {}).unwrap();
     assert_eq!(full.len(), 1760);
     let mask = full.manifest().training_mask(&TrainSelection::Step(9.0)).unwrap();
     let train = full.subset(&mask).unwrap();

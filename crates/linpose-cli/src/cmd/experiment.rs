@@ -4,10 +4,10 @@ use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
 use anyhow::Context;
 use linpose::experiment::{run_object, ObjectResult, StudyParams};
-use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::render::{objects, Grid, RenderParams, Renderer};
-use linpose::{Dataset, EigenspaceParams, LinearParams, Manifest, MethodSpec, Param, PoseModel, PoseSpace};
-use rayon::prelude::*;
+use linpose::image_io::ColorMode;
+use linpose::render::synth::{self, PoseGrid};
+use linpose::render::{objects, Grid, RenderParams};
+use linpose::{EigenspaceParams, LinearParams, Manifest, MethodSpec, PoseModel};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -50,39 +50,6 @@ pub struct ExperimentArgs {
 /// The default methods compared.
 pub fn default_methods() -> Vec<MethodSpec> {
     vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(EigenspaceParams::default())]
-}
-
-/// Renders `mesh` over the grid (elevation rows, azimuth columns) into an in-memory data set.
-pub fn render_dataset(name: &str, mesh: &linpose::render::Mesh, az: &Grid, el: &Grid, params: &RenderParams, bar: &indicatif::ProgressBar) -> anyhow::Result<Dataset> {
-    let (azs, els) = (az.values(), el.values());
-    let (w, h) = (params.get_width(), params.get_height());
-    let m = (w * h) as usize;
-    let mut poses = Vec::with_capacity(azs.len() * els.len() * 2);
-    let mut images = Vec::new();
-    for &e in &els {
-        for &a in &azs {
-            poses.extend([e, a]);
-            images.push(format!("{name}/e{e}_a{a}.png"));
-        }
-    }
-    let n = images.len();
-    let mut feats = vec![0f32; n * m];
-    feats
-        .par_chunks_mut(m)
-        .enumerate()
-        .try_for_each_init(
-            || (Renderer::new(params), vec![0u8; m]),
-            |(r, buf), (i, row)| -> linpose::Result<()> {
-                let r = r.as_mut().map_err(|e| linpose::Error::invalid("render parameters", "", e.to_string()))?;
-                r.render_into(mesh, poses[2 * i + 1], poses[2 * i], buf)?;
-                row.iter_mut().zip(buf.iter()).for_each(|(f, &b)| *f = b as f32 / 255.0);
-                bar.inc(1);
-                Ok(())
-            },
-        )?;
-    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)])?;
-    let manifest = Manifest::new(PathBuf::from("rendered"), space, images, poses)?;
-    Ok(Dataset::from_features(manifest, ImageSpec { width: w, height: h, color: ColorMode::Gray }, feats)?)
 }
 
 /// Replaces `out` by the finished folder `tmp` (the old report is removed only once the new one
@@ -128,7 +95,8 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     } else {
         (Grid::paper_azimuth(), Grid::paper_elevation(), (160, 120))
     };
-    let render_params = RenderParams::default().size(size.0, size.1);
+    let render_params = RenderParams::default().width(size.0).height(size.1);
+    let grid = PoseGrid::new(el.clone(), az.clone())?;
     // The objects: user data sets, or the built-in ones rendered on the grid.
     enum Source {
         Builtin(String),
@@ -168,8 +136,8 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             let td = Instant::now();
             let data = match src {
                 Source::Builtin(n) => {
-                    let bar = progress((az.len() * el.len()) as u64, &format!("rendering {n}"));
-                    let d = render_dataset(n, &objects::builtin(n)?, &az, &el, &render_params, &bar)?;
+                    let bar = progress(grid.len() as u64, &format!("rendering {n}"));
+                    let d = synth::dataset(&objects::builtin(n)?, &grid, &render_params, Path::new(n), &|k| bar.inc(k))?;
                     bar.finish_and_clear();
                     d
                 }
@@ -201,7 +169,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     let info = StudyInfo {
         source: if a.data.is_empty() { format!("linpose's built-in turntable objects ({}), rendered", sources.iter().map(|s| s.0.as_str()).collect::<Vec<_>>().join(", ")) } else { "the user's data sets".into() },
         grid: if a.data.is_empty() {
-            format!("azimuth {} x elevation {} = {} images of {}x{} per object", az.describe(), el.describe(), az.len() * el.len(), size.0, size.1)
+            format!("azimuth {} x elevation {} = {} images of {}x{} per object", az, el, az.len() * el.len(), size.0, size.1)
         } else {
             a.data.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", ")
         },

@@ -1,5 +1,7 @@
 //! One module per subcommand.
 
 pub mod eval;
+pub mod experiment;
 pub mod predict;
+pub mod synth;
 pub mod train;

@@ -6,7 +6,7 @@ pub mod plots;
 
 use doc::{Block, Doc, FigureData};
 use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
-use linpose::AnyModel;
+use linpose::{AnyModel, PoseModel};
 use serde::Serialize;
 
 /// What the study was, for the report's opening and the JSON.

@@ -98,8 +98,9 @@ impl PoseGrid {
 pub const DATASET_TOML: &str = "azimuth = { period = 360 }\nelevation = { linear = true }\n";
 
 /// Renders every pose of `grid` into memory: a [`Dataset`] whose features are the 8-bit pixels
-/// / 255, exactly as if the images had been written and read back. `root` names the data set.
-pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path) -> Result<Dataset> {
+/// / 255, exactly as if the images had been written and read back. `root` names the data set;
+/// `progress` is called with the number of images rendered since its last call.
+pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<Dataset> {
     let manifest = grid.manifest(root)?;
     let spec = ImageSpec { width: params.get_width(), height: params.get_height(), color: ColorMode::Gray };
     let m = spec.features();
@@ -112,6 +113,7 @@ pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path)
             r.render_into(mesh, a, e, pixels)?;
             // The same f32 the image reader makes of an 8-bit pixel.
             row.iter_mut().zip(pixels.iter()).for_each(|(f, &p)| *f = p as f32 * (1.0 / 255.0));
+            progress(1);
             Ok::<(), Error>(())
         },
     )?;
