@@ -286,7 +286,7 @@ impl EigenspaceModel {
         let mut axes = Vec::with_capacity(d);
         for (j, p) in meta.space.params().iter().enumerate() {
             let a = t.f64(&format!("manifold_axis_{j}"), &[settings.manifold_shape[j]])?;
-            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| !(w[1] > w[0])) {
+            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| w[1] <= w[0]) {
                 return Err(t.error(format!("manifold positions of '{}' are not finite and increasing", p.name)));
             }
             axes.push(a);

@@ -63,7 +63,9 @@ const AUTO_TREE_FROM: usize = 128;
 #[derive(Debug, Clone)]
 struct Fixed<const K: usize> {
     points: Vec<[f32; K]>,
-    tree: Option<ImmutableKdTree<f32, u32, K, BUCKET>>,
+    // Boxed: the tree holds K vectors inline, which would make every model as large as the
+    // largest K.
+    tree: Option<Box<ImmutableKdTree<f32, u32, K, BUCKET>>>,
 }
 
 impl<const K: usize> Fixed<K> {
@@ -76,7 +78,7 @@ impl<const K: usize> Fixed<K> {
                 a
             })
             .collect();
-        let tree = tree.then(|| ImmutableKdTree::new_from_slice(&points));
+        let tree = tree.then(|| Box::new(ImmutableKdTree::new_from_slice(&points)));
         Fixed { points, tree }
     }
 
