@@ -17,6 +17,28 @@
 //! point as f64 would except on exact near-ties; tests that compare the two therefore check
 //! poses, and identities on the f64 fit (back-projection, knots) use tolerances of a few eps
 //! times the size of the sums involved.
+//!
+//! ```
+//! use linpose::{Dataset, EigenspaceParams, Estimator, Manifest, Param, PoseModel, PoseSpace};
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//!
+//! // A turntable seen every 10 degrees: 36 "images" of 64 pixels, a bright lobe turning round.
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let poses: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
+//! let image = |a: f64| (0..64).map(move |p| {
+//!     let u = p as f64 / 64.0 * std::f64::consts::TAU;
+//!     (0.2 + (3.0 * ((u - a.to_radians()).cos() - 1.0)).exp()) as f32
+//! });
+//! let pixels = poses.iter().flat_map(|&a| image(a)).collect();
+//! let manifest = Manifest::new(".", space, (0..36).map(|k| format!("{k}.png")).collect(), poses)?;
+//! let data = Dataset::from_features(manifest, ImageSpec { width: 64, height: 1, color: ColorMode::Gray }, pixels)?;
+//!
+//! let model = EigenspaceParams::default().components(8).manifold_step(0.5).fit(&data)?;
+//! let view: Vec<f32> = image(123.0).collect(); // between two training views
+//! let pose = model.predict(&view)?;
+//! assert!((pose[0] - 123.0).abs() <= 1.0);
+//! # Ok::<(), linpose::Error>(())
+//! ```
 
 pub mod manifold;
 pub mod pca;
