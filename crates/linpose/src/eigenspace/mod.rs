@@ -17,6 +17,28 @@
 //! point as f64 would except on exact near-ties; tests that compare the two therefore check
 //! poses, and identities on the f64 fit (back-projection, knots) use tolerances of a few eps
 //! times the size of the sums involved.
+//!
+//! ```
+//! use linpose::{Dataset, EigenspaceParams, Estimator, Manifest, Param, PoseModel, PoseSpace};
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//!
+//! // A turntable seen every 10 degrees: 36 "images" of 64 pixels, a bright lobe turning round.
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let poses: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
+//! let image = |a: f64| (0..64).map(move |p| {
+//!     let u = p as f64 / 64.0 * std::f64::consts::TAU;
+//!     (0.2 + (3.0 * ((u - a.to_radians()).cos() - 1.0)).exp()) as f32
+//! });
+//! let pixels = poses.iter().flat_map(|&a| image(a)).collect();
+//! let manifest = Manifest::new(".", space, (0..36).map(|k| format!("{k}.png")).collect(), poses)?;
+//! let data = Dataset::from_features(manifest, ImageSpec { width: 64, height: 1, color: ColorMode::Gray }, pixels)?;
+//!
+//! let model = EigenspaceParams::default().components(8).manifold_step(0.5).fit(&data)?;
+//! let view: Vec<f32> = image(123.0).collect(); // between two training views
+//! let pose = model.predict(&view)?;
+//! assert!((pose[0] - 123.0).abs() <= 1.0);
+//! # Ok::<(), linpose::Error>(())
+//! ```
 
 pub mod manifold;
 pub mod pca;
@@ -24,11 +46,10 @@ pub mod search;
 pub mod spline;
 
 use crate::dataset::Dataset;
-use crate::linalg::par;
 use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
-use faer::{Accum, MatMut, MatRef};
+use faer::{Accum, MatMut, MatRef, Par};
 use manifold::{pose_of, Grid, Manifold};
 pub use pca::Dimension;
 use rayon::prelude::*;
@@ -38,6 +59,13 @@ use serde::{Deserialize, Serialize};
 
 /// The method's name in model files and on the command line.
 pub const METHOD: &str = "eigenspace";
+
+/// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
+/// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
+/// every thread a few tasks.
+fn chunk_rows(n: usize) -> usize {
+    n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
+}
 
 /// Parameters of the parametric eigenspace. The default is the peer's: 20 components, a manifold
 /// resampled every 0.5 degrees, the search picked by size.
@@ -245,11 +273,21 @@ impl EigenspaceModel {
         if out.len() != n * l {
             return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * l)));
         }
-        // Y = Q U^T (n x L), one f32 product for the batch.
+        let rows = chunk_rows(n);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each(|(q, y)| self.project_chunk(q, y));
+        Ok(())
+    }
+
+    /// Projects a few queries: Y = Q U^T as one sequential f32 product (rayon splits the batch
+    /// into such chunks, see [`chunk_rows`]), then
+    /// each row scaled by 1 / ||x|| and shifted by u_l . mean.
+    fn project_chunk(&self, queries: &[f32], out: &mut [f32]) {
+        let (l, m) = (self.components(), self.mean.len());
+        let n = queries.len() / m;
         let q = MatRef::from_row_major_slice(queries, n, m);
         let ut = MatRef::from_column_major_slice(&self.basis, m, l);
-        matmul(MatMut::from_row_major_slice_mut(out, n, l), Accum::Replace, q, ut, 1.0f32, if n >= 16 { par() } else { faer::Par::Seq });
-        let scale = |(x, y): (&[f32], &mut [f32])| {
+        matmul(MatMut::from_row_major_slice_mut(out, n, l), Accum::Replace, q, ut, 1.0f32, Par::Seq);
+        for (x, y) in queries.chunks_exact(m).zip(out.chunks_exact_mut(l)) {
             let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
             if norm > 0.0 && norm.is_finite() {
                 let inv = (1.0 / norm) as f32;
@@ -257,13 +295,7 @@ impl EigenspaceModel {
             } else {
                 y.fill(f32::NAN);
             }
-        };
-        if n >= 16 {
-            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(l)).for_each(scale);
-        } else {
-            queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(scale);
         }
-        Ok(())
     }
 
     pub(crate) fn from_parts(meta: ModelMeta, t: &TensorSet) -> Result<Self> {
@@ -286,7 +318,7 @@ impl EigenspaceModel {
         let mut axes = Vec::with_capacity(d);
         for (j, p) in meta.space.params().iter().enumerate() {
             let a = t.f64(&format!("manifold_axis_{j}"), &[settings.manifold_shape[j]])?;
-            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| !(w[1] > w[0])) {
+            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| w[1] <= w[0]) {
                 return Err(t.error(format!("manifold positions of '{}' are not finite and increasing", p.name)));
             }
             axes.push(a);
@@ -311,21 +343,27 @@ impl PoseModel for EigenspaceModel {
         if out.len() != n * p {
             return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
         }
-        let mut y = vec![0f32; n * l];
-        self.project_into(queries, &mut y)?;
-        if let Some(i) = y.chunks_exact(l).position(|c| c[0].is_nan()) {
+        // Project and search chunk by chunk, in parallel; a query that cannot be normalised
+        // leaves NaN poses, found afterwards so the error names the first such query.
+        let space = &self.meta.space;
+        let rows = chunk_rows(n);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
+            let mut y = vec![0f32; q.len() / m * l];
+            self.project_chunk(q, &mut y);
+            for (c, o) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)) {
+                if c[0].is_nan() {
+                    o.fill(f64::NAN);
+                } else {
+                    pose_of(&self.axes, space, self.index.nearest(c), o);
+                }
+            }
+        });
+        if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
             return Err(Error::invalid(
                 "query",
                 format!("#{i} of the batch"),
                 "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
             ));
-        }
-        let space = &self.meta.space;
-        let one = |(c, o): (&[f32], &mut [f64])| pose_of(&self.axes, space, self.index.nearest(c), o);
-        if n >= 16 {
-            y.par_chunks_exact(l).zip(out.par_chunks_exact_mut(p)).for_each(one);
-        } else {
-            y.chunks_exact(l).zip(out.chunks_exact_mut(p)).for_each(one);
         }
         Ok(())
     }

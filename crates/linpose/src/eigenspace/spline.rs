@@ -47,7 +47,7 @@ impl Spline {
         if knots.is_empty() {
             return Err(Error::invalid("spline knots", "[]", "at least one knot is needed"));
         }
-        if let Some(w) = knots.windows(2).find(|w| !(w[1] > w[0]) || !w[0].is_finite() || !w[1].is_finite()) {
+        if let Some(w) = knots.windows(2).find(|w| !w[0].is_finite() || !w[1].is_finite() || w[1] <= w[0]) {
             return Err(Error::invalid("spline knots", format!("{} then {}", w[0], w[1]), "knots must be finite and strictly increasing"));
         }
         let n = knots.len();
