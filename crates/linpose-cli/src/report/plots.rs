@@ -114,6 +114,8 @@ pub fn heatmap(title: &str, x_desc: &str, y_desc: &str, xs: &[f64], ys: &[f64], 
             .disable_mesh()
             .x_desc(x_desc)
             .y_desc(y_desc)
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
             .label_style((FONT, 12))
             .axis_desc_style((FONT, 13))
             .draw()
@@ -175,7 +177,7 @@ pub fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f6
                     .background_style(WHITE.mix(0.85))
                     .border_style(BLACK)
                     .label_font((FONT, 12))
-                    .position(SeriesLabelPosition::UpperLeft)
+                    .position(SeriesLabelPosition::UpperRight)
                     .draw()
                     .map_err(|e| e.to_string())?;
             }};

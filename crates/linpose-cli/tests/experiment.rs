@@ -1,0 +1,66 @@
+//! `linpose experiment --quick`: the report's files, and its numbers against a direct
+//! evaluation of the same data with the same estimators (the report says what they say).
+
+mod util;
+
+use util::Dir;
+
+fn json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn quick_experiment_writes_a_report_that_agrees_with_direct_evaluation() {
+    let d = Dir::new();
+    let out = d.ok(&["experiment", "--quick", "--objects", "duck", "--open-cases", "twin", "--out", "rep"]);
+    assert!(out.contains("Report:") && out.contains("rep/report.html"), "{out}");
+    for f in ["report.md", "report.html", "results.json", "models/duck-linear.safetensors", "models/duck-eigenspace.safetensors", "figures/fig2-coefficients-duck.png", "figures/fig3-duck-linear.svg", "figures/fig3-twin-eigenspace.svg", "figures/fig4-duck-linear-noise10.svg", "figures/error-cdf.svg", "figures/error-vs-training-size.svg"] {
+        assert!(d.path("rep").join(f).is_file(), "missing {f}");
+    }
+    let md = std::fs::read_to_string(d.path("rep/report.md")).unwrap();
+    for s in ["What it found", "**Accuracy.**", "**Storage.**", "**Cost.**", "**Noise (linear).**", "**Overtraining.**", "**Open case twin.**", "Table 1", "NL + ML", "MK"] {
+        assert!(md.contains(s), "report.md lacks {s}");
+    }
+    let html = std::fs::read_to_string(d.path("rep/report.html")).unwrap();
+    assert!(html.contains("<svg") && html.contains("data:image/png;base64,"), "figures are inline");
+    // Only the SVG namespace URI may appear: nothing is fetched (no src/href to a file or host).
+    assert!(!html.contains("src=\"figures/") && !html.contains("src=\"http") && !html.contains("href=\"http") && !html.contains("@import"), "the page needs no other file and no network");
+
+    // The same data, made and evaluated directly through the CLI.
+    d.ok(&["synth", "--object", "duck", "--azimuth", "0:351:9", "--elevation", "32:77:9", "--size", "80x60", "--out", "duck"]);
+    let r = json(&d.path("rep/results.json"));
+    let duck = r["objects"].as_array().unwrap().iter().find(|o| o["name"] == "duck").unwrap();
+    for method in ["linear", "eigenspace"] {
+        d.ok(&["train", "--data", "duck", "--train-step", "18", "--method", method, "--out", &format!("{method}.safetensors")]);
+        for (noise, seed) in [("0", "0"), ("0.1", "0")] {
+            let file = format!("{method}-{noise}.json");
+            d.ok(&["eval", "--model", &format!("{method}.safetensors"), "--data", "duck", "--noise", noise, "--seed", seed, "--json", &file]);
+            let e = json(&d.path(&file));
+            let run = duck["runs"].as_array().unwrap().iter().find(|x| x["method"] == method && x["noise"].as_f64().unwrap() == noise.parse::<f64>().unwrap()).unwrap();
+            assert_eq!(run["n_train"], e["n_train"]);
+            assert_eq!(run["model_bytes"], e["model_bytes"]);
+            for stat in ["mean_deg", "median_deg", "p90_deg", "max_deg"] {
+                let (a, b) = (run["unseen"][stat].as_f64().unwrap(), e["unseen"][stat].as_f64().unwrap());
+                assert!((a - b).abs() <= 1e-9 * a.abs().max(1.0), "{method} noise {noise} {stat}: report {a} vs direct {b}");
+            }
+        }
+        // The model the report saved estimates as the one trained here.
+        d.ok(&["eval", "--model", &format!("rep/models/duck-{method}.safetensors"), "--data", "duck", "--json", "saved.json"]);
+        let (saved, direct) = (json(&d.path("saved.json")), json(&d.path(&format!("{method}-0.json"))));
+        assert_eq!(saved["samples"], direct["samples"]);
+    }
+    // Table 1's bytes are the models' own.
+    let t1 = duck["table1"].as_array().unwrap();
+    let lin = t1.iter().find(|t| t["method"] == "linear").unwrap();
+    assert_eq!(lin["formula_numbers"], 80 * 60 * 3);
+}
+
+#[test]
+fn experiment_refuses_bad_arguments_before_any_work() {
+    let d = Dir::new();
+    d.fails(&["experiment", "--quick", "--objects", "teapot", "--out", "rep"], &["teapot"]);
+    d.fails(&["experiment", "--quick", "--noise", "2", "--out", "rep"], &["noise", "[0, 1]"]);
+    std::fs::write(d.path("file"), "x").unwrap();
+    d.fails(&["experiment", "--quick", "--out", "file"], &["file", "not a folder"]);
+    assert!(!d.path("rep").exists());
+}
