@@ -113,6 +113,40 @@ fn model_loads_in_safetensors_and_reproduces_estimates() {
     assert!((az - 70.0).abs() < 1e-3);
 }
 
+#[test]
+fn explicit_training_list_and_rgb_features() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 10, &[], (16, 12));
+    std::fs::write(d.path("list.txt"), "# every 30 degrees\na000.png\na030.png\na060.png\na090.png\na120.png\na150.png\na180.png\na210.png\na240.png\na270.png\na300.png\na330.png\n").unwrap();
+    d.ok(&["train", "--data", "data", "--train-list", "list.txt", "--out", "m.safetensors", "--json", "t.json"]);
+    assert_eq!(json(&d.path("t.json"))["n_train"], 12);
+    d.ok(&["eval", "--model", "m.safetensors", "--data", "data", "--json", "e.json"]);
+    assert_eq!(json(&d.path("e.json"))["unseen"]["n"], 24);
+    std::fs::write(d.path("bad.txt"), "a000.png\nnot-there.png\n").unwrap();
+    d.fails(&["train", "--data", "data", "--train-list", "bad.txt", "--out", "m2"], &["not-there.png", "not in the data set"]);
+    // Colour images: gray by Rec. 601 luma by default, three features per pixel with --color rgb.
+    let rgb = d.path("rgb");
+    std::fs::create_dir_all(&rgb).unwrap();
+    let mut csv = String::from("image,azimuth\n");
+    for az in (0..360).step_by(10) {
+        let g = util::blob_image(16, 12, 30.0, az as f64);
+        let c = image::RgbImage::from_fn(16, 12, |x, y| {
+            let v = g.get_pixel(x, y).0[0];
+            image::Rgb([v, v / 2, 255 - v])
+        });
+        c.save(rgb.join(format!("c{az}.png"))).unwrap();
+        csv.push_str(&format!("c{az}.png,{az}\n"));
+    }
+    std::fs::write(rgb.join("poses.csv"), csv).unwrap();
+    d.ok(&["train", "--data", "rgb", "--out", "g.safetensors", "--json", "g.json"]);
+    d.ok(&["train", "--data", "rgb", "--color", "rgb", "--out", "c.safetensors", "--json", "c.json"]);
+    assert_eq!(json(&d.path("g.json"))["n_features"], 16 * 12);
+    assert_eq!(json(&d.path("c.json"))["n_features"], 16 * 12 * 3);
+    // The model remembers its colour handling: predict needs no flag.
+    let out = d.ok(&["predict", "--model", "c.safetensors", "rgb/c40.png"]);
+    assert!(out.contains("azimuth=40.0"), "{out}");
+}
+
 mod bad_input {
     use super::*;
 

@@ -158,3 +158,31 @@ pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn luma_is_pils_rec601() {
+        // PIL: Image.new("RGB", (1, 1), c).convert("L").getpixel((0, 0))
+        for (c, want) in [((255, 255, 255), 255), ((0, 0, 0), 0), ((255, 0, 0), 76), ((0, 255, 0), 150), ((0, 0, 255), 29), ((10, 200, 30), 124)] {
+            assert_eq!(luma601(c.0, c.1, c.2), want, "{c:?}");
+        }
+    }
+
+    #[test]
+    fn features_per_colour_mode() {
+        let img = DynamicImage::ImageRgb8(image::RgbImage::from_pixel(2, 1, image::Rgb([255, 0, 0])));
+        let mut g = Vec::new();
+        push_features(&img, ColorMode::Gray, &mut g);
+        assert_eq!(g, vec![76.0 / 255.0; 2]);
+        let mut c = Vec::new();
+        push_features(&img, ColorMode::Rgb, &mut c);
+        assert_eq!(c, vec![1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+        let g16 = DynamicImage::ImageLuma16(image::ImageBuffer::from_pixel(1, 1, image::Luma([65535u16])));
+        let mut v = Vec::new();
+        push_features(&g16, ColorMode::Gray, &mut v);
+        assert_eq!(v, vec![1.0]);
+    }
+}
