@@ -39,6 +39,7 @@ pub mod model;
 pub mod model_file;
 pub mod pose;
 pub mod render;
+pub mod ridge;
 
 pub use dataset::Dataset;
 pub use eigenspace::{EigenspaceModel, EigenspaceParams};
@@ -49,6 +50,7 @@ pub use manifest::{Manifest, TrainSelection};
 pub use methods::MethodSpec;
 pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
 pub use pose::{ErrorSummary, Param, PoseSpace};
+pub use ridge::RidgeRule;
 
 /// The methods a model can be trained with, by name.
 pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD];

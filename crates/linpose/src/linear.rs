@@ -6,6 +6,7 @@
 //! Served in f32: the weights are stored as f32 and a query costs M*K multiply-adds.
 
 use crate::dataset::Dataset;
+use crate::ridge::{estimate_noise_sigma, loo_curve, RidgeRule};
 use crate::linalg::{dot_f32, gram, mat_from_rows, mean_row, transpose_features};
 use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
@@ -24,12 +25,21 @@ pub const METHOD: &str = "linear";
 pub struct LinearParams {
     ridge: f64,
     center: bool,
+    #[serde(default)]
+    rule: RidgeRule,
 }
 
 impl LinearParams {
     /// Ridge lambda added to the Gram matrix's diagonal (0 = the paper's exact fit).
     pub fn ridge(mut self, lambda: f64) -> Self {
         self.ridge = lambda;
+        self
+    }
+
+    /// How lambda is chosen: the fixed [`ridge`](Self::ridge) value (default), exact
+    /// leave-one-out, or the noise-optimal N s^2 (see [`crate::ridge`]).
+    pub fn ridge_rule(mut self, rule: RidgeRule) -> Self {
+        self.rule = rule;
         self
     }
 
@@ -52,6 +62,11 @@ impl LinearParams {
     fn validate(&self) -> Result<()> {
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
             return Err(Error::invalid("ridge", self.ridge, "must be a finite number >= 0"));
+        }
+        if let RidgeRule::Noise(a) = self.rule {
+            if !(a.is_finite() && (0.0..=1.0).contains(&a)) {
+                return Err(Error::invalid("noise level", a, "must be a fraction of full brightness in [0, 1] (0.05 = +-5%)"));
+            }
         }
         Ok(())
     }
@@ -186,6 +201,43 @@ fn singular(train: &Dataset, detail: &str, lambda: f64) -> Error {
     Error::SingularGram { detail: detail.to_string(), hint }
 }
 
+/// The training set plus, for each view, the mean of its noisy versions: uniform noise of +-a
+/// clipped to [0, 1] is not zero-mean near black and white (a black background brightens by
+/// a/4 on average), so a query's expected value is E[clip(x + u)] = (x + a)^2 / 4a for x < a,
+/// x for a <= x <= 1 - a, and 1 - (1 - x + a)^2 / 4a above. Fitting both makes the model answer
+/// the mean noisy view like the clean one; ridge N a^2 / 3 then handles the zero-mean part.
+fn with_expected_noisy_views(train: &Dataset, a: f64) -> Result<Dataset> {
+    let m = train.n_features();
+    let expect = |x: f32| expected_clipped(x as f64, a) as f32;
+    let mut images = train.manifest().images().to_vec();
+    let mut poses = train.poses().to_vec();
+    let mut features = train.features().to_vec();
+    for i in 0..train.len() {
+        let row: Vec<f32> = train.row(i).iter().map(|&x| expect(x)).collect();
+        if row != train.row(i) {
+            images.push(format!("{} (mean noisy view)", train.manifest().images()[i]));
+            poses.extend_from_slice(train.pose(i));
+            features.extend_from_slice(&row);
+        }
+    }
+    let manifest = crate::manifest::Manifest::new(train.manifest().root(), train.space().clone(), images, poses)?;
+    debug_assert_eq!(features.len(), manifest.len() * m);
+    Dataset::from_features(manifest, train.spec(), features)
+}
+
+/// E[clip(x + u, 0, 1)] for u uniform in [-a, a] (0 < a <= 1/2 keeps the two branches apart;
+/// larger a is handled by the same formulas clamped to [0, 1]).
+pub fn expected_clipped(x: f64, a: f64) -> f64 {
+    let v = if x < a {
+        (x + a).powi(2) / (4.0 * a)
+    } else if x > 1.0 - a {
+        1.0 - (1.0 - x + a).powi(2) / (4.0 * a)
+    } else {
+        x
+    };
+    v.clamp(0.0, 1.0)
+}
+
 /// Exact duplicate images under different poses make the problem impossible in principle (the
 /// paper, section 2): name the two images.
 fn check_duplicates(train: &Dataset) -> Result<()> {
@@ -221,8 +273,38 @@ impl Estimator for LinearParams {
 
     fn fit(&self, train: &Dataset) -> Result<LinearModel> {
         self.validate()?;
-        let sys = GramSystem::new(train, self.center)?;
-        let d = sys.solve(self.ridge, train)?;
+        let augmented;
+        let fit_set = match self.rule {
+            RidgeRule::Noise(a) if a > 0.0 => {
+                augmented = with_expected_noisy_views(train, a)?;
+                &augmented
+            }
+            _ => train,
+        };
+        let sys = GramSystem::new(fit_set, self.center)?;
+        let n = train.len() as f64;
+        let (lambda, loo) = match self.rule {
+            RidgeRule::Fixed => (self.ridge, None),
+            RidgeRule::Loo => {
+                let c = loo_curve(&sys, train)?;
+                (c.lambda, Some(c.loo_mean_deg))
+            }
+            RidgeRule::Noise(a) => (n * a * a / 3.0, None),
+            RidgeRule::NoiseAuto => {
+                let spec = train.spec();
+                let (w, h, c) = (spec.width as usize, spec.height as usize, spec.color.channels());
+                // One plane per channel (RGB features are interleaved), averaged.
+                let s2 = (0..c)
+                    .map(|ch| {
+                        let plane: Vec<f32> = train.features().iter().skip(ch).step_by(c).copied().collect();
+                        estimate_noise_sigma(&plane, w, h).powi(2)
+                    })
+                    .sum::<f64>()
+                    / c as f64;
+                (n * s2, None)
+            }
+        };
+        let d = sys.solve(lambda, fit_set)?;
         let w = sys.weights(&d);
         let k = train.space().encoded_len();
         // Centred: p = W^T (x - mu_x) + mu_p, so the bias is mu_p - W^T mu_x.
@@ -238,7 +320,7 @@ impl Estimator for LinearParams {
             spec: train.spec(),
             space: train.space().clone(),
             train_poses: train.poses().to_vec(),
-            settings: serde_json::to_value(self).expect("plain struct serialises"),
+            settings: serde_json::json!({ "params": self, "lambda": lambda, "loo_mean_deg": loo }),
         };
         Ok(LinearModel::new(meta, w, bias))
     }

@@ -2,7 +2,7 @@
 
 use crate::common::{check_output_file, load_dataset, write_json, ColorArg, DataArgs};
 use anyhow::Context;
-use linpose::{AnyModel, EigenspaceParams, Estimator, LinearParams, PoseModel, TrainSelection};
+use linpose::{AnyModel, EigenspaceParams, Estimator, LinearParams, PoseModel, RidgeRule, TrainSelection};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -31,9 +31,14 @@ pub struct TrainArgs {
     /// Estimation method.
     #[arg(long, value_enum, default_value = "linear")]
     pub method: Method,
-    /// Ridge lambda added to the Gram matrix (0 = the paper's exact minimum-norm fit).
-    #[arg(long, value_name = "L", default_value_t = 0.0, allow_negative_numbers = true)]
-    pub ridge: f64,
+    /// Linear: ridge lambda added to the Gram matrix (0 = the paper's exact minimum-norm fit), or
+    /// `auto` for the lambda with the smallest exact leave-one-out error.
+    #[arg(long, value_name = "L|auto", default_value = "0", allow_negative_numbers = true)]
+    pub ridge: String,
+    /// Linear: train for query noise of +-A (fraction of full brightness): ridge lambda = N A^2/3,
+    /// the optimum for independent pixel noise; `auto` estimates the noise of the training images.
+    #[arg(long, value_name = "A|auto", conflicts_with = "ridge", allow_negative_numbers = true)]
+    pub noise_level: Option<String>,
     /// Subtract the mean image and pose first (an intercept; the paper has none).
     #[arg(long)]
     pub center: bool,
@@ -71,6 +76,18 @@ struct TrainSummary {
     settings: serde_json::Value,
 }
 
+/// The linear model's parameters from the arguments.
+fn linear_params(a: &TrainArgs) -> anyhow::Result<LinearParams> {
+    let p = LinearParams::default().center(a.center);
+    let number = |flag: &str, v: &str| v.parse::<f64>().map_err(|_| anyhow::anyhow!("{flag} {v}: expected a number or 'auto'"));
+    Ok(match (a.noise_level.as_deref(), a.ridge.as_str()) {
+        (Some("auto"), _) => p.ridge_rule(RidgeRule::NoiseAuto),
+        (Some(v), _) => p.ridge_rule(RidgeRule::Noise(number("--noise-level", v)?)),
+        (None, "auto") => p.ridge_rule(RidgeRule::Loo),
+        (None, v) => p.ridge(number("--ridge", v)?),
+    })
+}
+
 /// Runs `linpose train`.
 pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     check_output_file(&a.out, "model")?;
@@ -89,7 +106,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let model: AnyModel = match a.method {
-        Method::Linear => LinearParams::default().ridge(a.ridge).center(a.center).fit(&train)?.into(),
+        Method::Linear => linear_params(a)?.fit(&train)?.into(),
         Method::Eigenspace => {
             let mut p = EigenspaceParams::default().manifold_step(a.manifold_step).components(a.components);
             if let Some(t) = a.energy {
