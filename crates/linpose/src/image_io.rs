@@ -107,17 +107,31 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
     let reader = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| Error::io(path, e))?;
-    if reader.format().is_none() {
-        return Err(Error::ImageDecode {
-            path: path.to_path_buf(),
-            reason: "not a PNG or PNM (PGM/PPM) image".into(),
-        });
+    match reader.format() {
+        None => {
+            return Err(Error::ImageDecode {
+                path: path.to_path_buf(),
+                reason: "not a PNG or PNM (PGM/PPM) image".into(),
+            })
+        }
+        // A JPEG or GIF behind a .png name: say what it is.
+        Some(f) if !matches!(f, image::ImageFormat::Png | image::ImageFormat::Pnm) => {
+            let kind = format!("{f:?}").to_ascii_uppercase();
+            return Err(Error::ImageDecode {
+                path: path.to_path_buf(),
+                reason: format!("a {kind} image; linpose reads PNG and PNM (PGM/PPM) images"),
+            });
+        }
+        Some(_) => {}
     }
     let (w, h) = reader.into_dimensions().map_err(|e| Error::ImageDecode {
         path: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    if w as u64 * h as u64 > MAX_PIXELS || w == 0 || h == 0 {
+    if w == 0 || h == 0 {
+        return Err(Error::ImageDecode { path: path.to_path_buf(), reason: format!("the image has no pixels ({w}x{h})") });
+    }
+    if w as u64 * h as u64 > MAX_PIXELS {
         return Err(Error::ImageTooLarge { path: path.to_path_buf(), width: w, height: h, limit: MAX_PIXELS });
     }
     let mut reader = ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| Error::io(path, e))?;

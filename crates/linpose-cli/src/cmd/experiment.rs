@@ -80,6 +80,12 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             anyhow::bail!("--noise {n} is outside [0, 1]: noise is a fraction of full brightness (0.05 = +-5%)");
         }
     }
+    // Checked before any object is rendered or loaded.
+    for (flag, steps) in [("--train-step", a.train_step.as_slice()), ("--size-steps", a.size_steps.as_deref().unwrap_or_default())] {
+        if let Some(s) = steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            anyhow::bail!("{flag} {s} is not a positive number of degrees");
+        }
+    }
     let mut params = StudyParams {
         methods: default_methods(),
         train_step: a.train_step.unwrap_or(if a.quick { 18.0 } else { 9.0 }),
