@@ -133,6 +133,8 @@ const CASES: &[Case] = &[
     image!("palette.png", 0, &["palette.png", "azimuth="]),
     image!("gray1bit.png", 0, &["gray1bit.png", "azimuth="]),
     image!("rgba16.png", 0, &["rgba16.png", "azimuth="]),
+    // Refused from its header, before 512 MB of pixels are allocated for it.
+    case("image/declares_8000x8000_in_a_16x12_set", &[("images/declares_8000x8000.png", "data/a030.png")], TRAIN, 1, &["a030.png", "8000x8000", "16x12"]),
     // Model files.
     model!("zero_bytes", &["bad.safetensors", "not a linpose model file"]),
     model!("header_cut", &["bad.safetensors", "not a linpose model file"]),
@@ -301,6 +303,7 @@ fn binary_corpus() -> Vec<(&'static str, Vec<u8>)> {
         ("images/palette.png", gen::palette(w, h, &gray)),
         ("images/gray1bit.png", gen::gray1(w, h, &gray)),
         ("images/rgba16.png", gen::rgba16(w, h, &gray)),
+        ("images/declares_8000x8000.png", gen::png_raw(8000, 8000, 16, 6, None, &[0u8; 64])),
         ("obj/binary_garbage.obj", (0..=255u8).cycle().take(600).collect()),
     ];
     v.extend(gen::models());
