@@ -1,6 +1,8 @@
 //! Atomic file writes: write to a temporary name beside the target, flush, then rename.
 //!
 //! A reader (or a crash) sees either the old file or the complete new one, never a partial one.
+//! A writer killed mid-write leaves its temporary `.NAME.tmp-PID` behind (a hidden name no reader
+//! takes for the output); the next successful write of NAME removes those whose process is gone.
 
 use crate::{Error, Result};
 use std::fs;
@@ -43,5 +45,33 @@ pub fn write_atomic_with(
         let _ = fs::remove_file(&tmp);
         return Err(Error::io(path, e));
     }
+    remove_stale_temps(path);
     Ok(())
+}
+
+/// Removes what killed writers of `path` left beside it: `.NAME.tmp-PID` (and `.NAME.old-PID`, an
+/// old folder moved aside while being replaced), files or folders, whose process PID is no longer
+/// running. Only where that can be told (Linux's /proc); elsewhere it does nothing. A PID reused
+/// by a live process keeps its leftover, which is harmless.
+pub fn remove_stale_temps(path: &Path) {
+    #[cfg(target_os = "linux")]
+    {
+        let Some(name) = path.file_name().and_then(|n| n.to_str()) else { return };
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let Ok(entries) = fs::read_dir(dir) else { return };
+        let (tmp, old) = (format!(".{name}.tmp-"), format!(".{name}.old-"));
+        for e in entries.flatten() {
+            let file = e.file_name();
+            let Some(file) = file.to_str() else { continue };
+            let Some(pid) = file.strip_prefix(&tmp).or_else(|| file.strip_prefix(&old)).and_then(|p| p.parse::<u32>().ok()) else {
+                continue;
+            };
+            if pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists() {
+                continue;
+            }
+            let _ = if e.file_type().is_ok_and(|t| t.is_dir()) { fs::remove_dir_all(e.path()) } else { fs::remove_file(e.path()) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = path;
 }

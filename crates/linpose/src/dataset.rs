@@ -24,7 +24,15 @@ impl Dataset {
         let spec = ImageSpec { width: w, height: h, color };
         let m = spec.features();
         let n = manifest.len();
-        let mut features = vec![0f32; n * m];
+        // Refused, not aborted, when the whole data set cannot be held in memory.
+        let too_big = || Error::Dataset {
+            path: manifest.root().to_path_buf(),
+            message: format!("{n} images of {w}x{h} ({m} features each) need more memory than can be allocated"),
+        };
+        let total = n.checked_mul(m).ok_or_else(too_big)?;
+        let mut features: Vec<f32> = Vec::new();
+        features.try_reserve_exact(total).map_err(|_| too_big())?;
+        features.resize(total, 0.0);
         features[..m].copy_from_slice(&row0);
         progress(1);
         let context = format!("the size of the data set's first image, {}", manifest.images()[0]);

@@ -81,8 +81,8 @@ pub fn decode_features(
     context: &str,
     out: &mut Vec<f32>,
 ) -> Result<(u32, u32)> {
-    let img = decode(path, bytes)?;
-    let (w, h) = (img.width(), img.height());
+    // The declared size is checked against the expected one before any pixel is allocated.
+    let (w, h) = dimensions(path, bytes)?;
     if let Some((ew, eh)) = expect {
         if (w, h) != (ew, eh) {
             return Err(Error::ImageSizeMismatch {
@@ -95,31 +95,53 @@ pub fn decode_features(
             });
         }
     }
+    let img = decode(path, bytes)?;
     push_features(&img, color, out);
     Ok((w, h))
 }
 
-/// Decodes an image, refusing absurd sizes before allocating their pixels.
-pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
+/// The width and height an image file declares, read from its header; refuses a file that is
+/// not a PNG or PNM image and a size of no pixels or over [`MAX_PIXELS`].
+pub fn dimensions(path: &Path, bytes: &[u8]) -> Result<(u32, u32)> {
     if bytes.is_empty() {
         return Err(Error::ImageDecode { path: path.to_path_buf(), reason: "the file is empty".into() });
     }
     let reader = ImageReader::new(Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| Error::io(path, e))?;
-    if reader.format().is_none() {
-        return Err(Error::ImageDecode {
-            path: path.to_path_buf(),
-            reason: "not a PNG or PNM (PGM/PPM) image".into(),
-        });
+    match reader.format() {
+        None => {
+            return Err(Error::ImageDecode {
+                path: path.to_path_buf(),
+                reason: "not a PNG or PNM (PGM/PPM) image".into(),
+            })
+        }
+        // A JPEG or GIF behind a .png name: say what it is.
+        Some(f) if !matches!(f, image::ImageFormat::Png | image::ImageFormat::Pnm) => {
+            let kind = format!("{f:?}").to_ascii_uppercase();
+            return Err(Error::ImageDecode {
+                path: path.to_path_buf(),
+                reason: format!("a {kind} image; linpose reads PNG and PNM (PGM/PPM) images"),
+            });
+        }
+        Some(_) => {}
     }
     let (w, h) = reader.into_dimensions().map_err(|e| Error::ImageDecode {
         path: path.to_path_buf(),
         reason: e.to_string(),
     })?;
-    if w as u64 * h as u64 > MAX_PIXELS || w == 0 || h == 0 {
+    if w == 0 || h == 0 {
+        return Err(Error::ImageDecode { path: path.to_path_buf(), reason: format!("the image has no pixels ({w}x{h})") });
+    }
+    if w as u64 * h as u64 > MAX_PIXELS {
         return Err(Error::ImageTooLarge { path: path.to_path_buf(), width: w, height: h, limit: MAX_PIXELS });
     }
+    Ok((w, h))
+}
+
+/// Decodes an image, refusing absurd sizes before allocating their pixels.
+pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
+    let (w, h) = dimensions(path, bytes)?;
     let mut reader = ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| Error::io(path, e))?;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(w);

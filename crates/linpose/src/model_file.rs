@@ -8,34 +8,67 @@
 use crate::atomic::write_atomic;
 use crate::model::{AnyModel, ModelMeta, PoseModel, Tensor, TensorData, TensorSet};
 use crate::{Error, Result};
-use safetensors::tensor::{Dtype, TensorView};
+use safetensors::tensor::Dtype;
 use safetensors::SafeTensors;
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The model file format version this linpose writes and reads.
 pub const FORMAT_VERSION: u32 = 1;
 
 /// Serialises a model to safetensors bytes.
+///
+/// The header is written here rather than by `safetensors::serialize`, whose metadata map is a
+/// `HashMap`: its order, and so the file's bytes, would change from run to run. Here the
+/// metadata keys are sorted and the tensors laid out as safetensors does (by decreasing
+/// alignment, then name), so the same model always gives the same bytes.
 pub fn to_bytes(model: &dyn PoseModel) -> Result<Vec<u8>> {
-    let tensors = model.tensors();
-    let bytes: Vec<(String, Vec<u8>, Dtype, Vec<usize>)> = tensors
-        .iter()
-        .map(|t| match &t.data {
-            TensorData::F32(v) => (t.name.clone(), bytemuck::cast_slice::<f32, u8>(v).to_vec(), Dtype::F32, t.shape.clone()),
-            TensorData::F64(v) => (t.name.clone(), bytemuck::cast_slice::<f64, u8>(v).to_vec(), Dtype::F64, t.shape.clone()),
-        })
-        .collect();
-    let views = bytes
-        .iter()
-        .map(|(n, b, d, s)| Ok((n.clone(), TensorView::new(*d, s.clone(), b).map_err(|e| Error::Numerical(e.to_string()))?)))
-        .collect::<Result<Vec<_>>>()?;
-    let mut meta = HashMap::new();
-    meta.insert("format".to_string(), "linpose".to_string());
-    meta.insert("format_version".to_string(), FORMAT_VERSION.to_string());
-    meta.insert("method".to_string(), model.meta().method.clone());
-    meta.insert("linpose.meta".to_string(), serde_json::to_string(model.meta()).expect("meta serialises"));
-    safetensors::serialize(views, Some(meta)).map_err(|e| Error::Numerical(e.to_string()))
+    let mut tensors = model.tensors();
+    let dtype = |t: &Tensor| match t.data {
+        TensorData::F32(_) => Dtype::F32,
+        TensorData::F64(_) => Dtype::F64,
+    };
+    tensors.sort_by(|a, b| dtype(b).cmp(&dtype(a)).then_with(|| a.name.cmp(&b.name)));
+    let mut meta = BTreeMap::new();
+    meta.insert("format", "linpose".to_string());
+    meta.insert("format_version", FORMAT_VERSION.to_string());
+    meta.insert("method", model.meta().method.clone());
+    meta.insert("linpose.meta", serde_json::to_string(model.meta()).expect("meta serialises"));
+    let mut header = format!("{{\"__metadata__\":{}", json(&meta));
+    let mut data = Vec::new();
+    for t in &tensors {
+        let start = data.len();
+        match &t.data {
+            TensorData::F32(v) => data.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+            TensorData::F64(v) => data.extend(v.iter().flat_map(|x| x.to_le_bytes())),
+        }
+        let n: usize = t.shape.iter().product();
+        if n * dtype(t).bitsize() / 8 != data.len() - start {
+            return Err(Error::Numerical(format!("tensor '{}' has shape {:?} but {} bytes", t.name, t.shape, data.len() - start)));
+        }
+        header.push_str(&format!(
+            ",{}:{{\"dtype\":{},\"shape\":{},\"data_offsets\":[{start},{}]}}",
+            json(&t.name),
+            json(&dtype(t)),
+            json(&t.shape),
+            data.len()
+        ));
+    }
+    header.push('}');
+    // safetensors pads the header with spaces to a multiple of 8 bytes (alignment of the data).
+    while header.len() % 8 != 0 {
+        header.push(' ');
+    }
+    let mut out = Vec::with_capacity(8 + header.len() + data.len());
+    out.extend((header.len() as u64).to_le_bytes());
+    out.extend(header.into_bytes());
+    out.extend(data);
+    Ok(out)
+}
+
+/// A plain value as compact JSON.
+fn json<T: serde::Serialize + ?Sized>(v: &T) -> String {
+    serde_json::to_string(v).expect("plain values serialise")
 }
 
 /// Writes a model file atomically (temporary name, then rename).

@@ -45,6 +45,10 @@ pub struct ExperimentArgs {
     /// Report folder (replaced whole when the study has finished).
     #[arg(long, value_name = "DIR", default_value = "report")]
     pub out: PathBuf,
+    /// Write 0 for every time measured (fit, estimation, per query, total), so that the same
+    /// study gives byte-identical reports from run to run and across thread counts.
+    #[arg(long)]
+    pub no_timings: bool,
 }
 
 /// The default methods compared.
@@ -78,6 +82,12 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     for &n in &a.noise {
         if !(n.is_finite() && (0.0..=1.0).contains(&n)) {
             anyhow::bail!("--noise {n} is outside [0, 1]: noise is a fraction of full brightness (0.05 = +-5%)");
+        }
+    }
+    // Checked before any object is rendered or loaded.
+    for (flag, steps) in [("--train-step", a.train_step.as_slice()), ("--size-steps", a.size_steps.as_deref().unwrap_or_default())] {
+        if let Some(s) = steps.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            anyhow::bail!("{flag} {s} is not a positive number of degrees");
         }
     }
     let mut params = StudyParams {
@@ -159,13 +169,20 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         }
         Ok((results, data_s))
     })();
-    let (results, data_s) = match result {
+    let (mut results, mut data_s) = match result {
         Ok(r) => r,
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
             return Err(e);
         }
     };
+    if a.no_timings {
+        data_s = 0.0;
+        for r in &mut results {
+            r.runs.iter_mut().for_each(|x| (x.fit_s, x.predict_s, x.per_query_us) = (0.0, 0.0, 0.0));
+            r.table1.iter_mut().for_each(|t| t.per_query_us = 0.0);
+        }
+    }
     let info = StudyInfo {
         source: if a.data.is_empty() { format!("linpose's built-in turntable objects ({}), rendered", sources.iter().map(|s| s.0.as_str()).collect::<Vec<_>>().join(", ")) } else { "the user's data sets".into() },
         grid: if a.data.is_empty() {
@@ -180,7 +197,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         seed: params.seed,
         open_cases,
         data_s,
-        total_s: t0.elapsed().as_secs_f64(),
+        total_s: if a.no_timings { 0.0 } else { t0.elapsed().as_secs_f64() },
     };
     let written = (|| -> anyhow::Result<()> {
         let doc = report::build(&info, &results).map_err(|e| anyhow::anyhow!("drawing the figures: {e}"))?;
@@ -190,7 +207,9 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         linpose::atomic::write_atomic(&tmp.join("report.md"), doc.markdown().as_bytes())?;
         linpose::atomic::write_atomic(&tmp.join("report.html"), doc.html().as_bytes())?;
         crate::common::write_json(&tmp.join("results.json"), &serde_json::json!({ "study": info, "objects": results }))?;
-        replace_dir(&tmp, &a.out)
+        replace_dir(&tmp, &a.out)?;
+        linpose::atomic::remove_stale_temps(&a.out);
+        Ok(())
     })();
     if let Err(e) = written {
         let _ = std::fs::remove_dir_all(&tmp);

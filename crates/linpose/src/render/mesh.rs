@@ -199,10 +199,7 @@ impl Mesh {
             }
         }
         if triangles.is_empty() {
-            return Err(err(format!(
-                "no faces found ({} vertices); is this a Wavefront OBJ file with 'f' lines?",
-                positions.len()
-            )));
+            return Err(err(format!("no faces found ({nv} vertex lines); is this a Wavefront OBJ file with 'f' lines?")));
         }
         Self::build(path, positions, triangles, albedo, all_normals.then_some(normals))
     }

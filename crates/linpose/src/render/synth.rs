@@ -167,6 +167,8 @@ pub fn write_dataset(
     });
     if result.is_err() {
         let _ = fs::remove_dir_all(&tmp);
+    } else {
+        crate::atomic::remove_stale_temps(out);
     }
     result.map(|()| grid.len() as u64)
 }

@@ -1,0 +1,19 @@
+//! dataset.toml: any text gives periods or an error, never a panic. The first line names the
+//! parameters of the manifest (comma-separated), the rest is the file.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fuzz_target!(|text: &str| {
+    let (head, body) = text.split_once('\n').unwrap_or(("azimuth,elevation", text));
+    let names: Vec<String> = head.split(',').map(String::from).collect();
+    if let Ok(periods) = linpose::manifest::parse_dataset_toml(Path::new("dataset.toml"), body, &names) {
+        for (k, p) in &periods {
+            assert!(names.contains(k));
+            if let Some(p) = p {
+                assert!(p.is_finite() && *p > 0.0);
+            }
+        }
+    }
+});

@@ -1,0 +1,13 @@
+//! poses.csv: any text gives a manifest or an error, never a panic.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fuzz_target!(|text: &str| {
+    if let Ok((names, images, poses)) = linpose::manifest::parse_poses_csv(Path::new("poses.csv"), text) {
+        assert!(!names.is_empty() && !images.is_empty());
+        assert_eq!(poses.len(), names.len() * images.len());
+        assert!(poses.iter().all(|v| v.is_finite()));
+    }
+});

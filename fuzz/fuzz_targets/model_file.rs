@@ -1,0 +1,17 @@
+//! Model files: any bytes give a model or an error, never a panic; a model that loads answers a
+//! query (or refuses it) without panicking.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use linpose::PoseModel;
+use std::path::Path;
+
+fuzz_target!(|bytes: &[u8]| {
+    if let Ok(model) = linpose::model_file::from_bytes(Path::new("fuzz.safetensors"), bytes) {
+        let m = model.meta().spec.features();
+        if m <= 1 << 16 {
+            let q: Vec<f32> = (0..m).map(|i| (i % 7) as f32 / 7.0).collect();
+            let _ = model.predict(&q);
+        }
+    }
+});
