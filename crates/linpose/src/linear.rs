@@ -414,3 +414,39 @@ pub fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>>
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod u8_tests {
+    use super::*;
+    use crate::image_io::{ColorMode, ImageSpec};
+    use crate::{Manifest, Param, PoseSpace};
+
+    /// The 8-bit path (weights / 255, SIMD kernel) agrees with the f32 path on 8-bit images.
+    #[test]
+    fn u8_queries_match_f32_queries() {
+        let (w, h) = (20usize, 9usize);
+        let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
+        let (mut poses, mut q8) = (Vec::new(), Vec::new());
+        for k in 0..30 {
+            let (e, a) = (30.0 + (k % 5) as f64 * 7.0, k as f64 * 12.0);
+            poses.extend([e, a]);
+            for p in 0..w * h {
+                q8.push(((k * 7919 + p * 104_729 + (k * p) % 97) % 251) as u8);
+            }
+        }
+        let names = (0..30).map(|k| format!("{k}.png")).collect();
+        let qf: Vec<f32> = q8.iter().map(|&v| v as f32 / 255.0).collect();
+        let spec = ImageSpec { width: w as u32, height: h as u32, color: ColorMode::Gray };
+        let d = Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, qf.clone()).unwrap();
+        for center in [false, true] {
+            let model = LinearParams::default().center(center).fit(&d).unwrap();
+            let pf = model.predict(&qf).unwrap();
+            let mut p8 = vec![0.0; pf.len()];
+            model.predict_u8_into(&q8, &mut p8).unwrap();
+            for (a, b) in pf.iter().zip(&p8) {
+                let d = (a - b).abs();
+                assert!(d.min(360.0 - d) < 1e-3, "{a} vs {b} (center {center})");
+            }
+        }
+    }
+}
