@@ -31,6 +31,7 @@ pub mod error;
 pub mod eval;
 pub mod experiment;
 pub mod image_io;
+pub mod kernels;
 pub mod linalg;
 pub mod linear;
 pub mod manifest;

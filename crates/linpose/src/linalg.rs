@@ -1,8 +1,7 @@
 //! Dense linear-algebra building blocks shared by the estimators (on faer), and the f32 kernels
 //! that serve queries.
 
-use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, MatRef, Par};
+use faer::{Mat, MatRef, Par};
 
 /// The parallelism faer uses: rayon's global pool.
 pub fn par() -> Par {
@@ -38,20 +37,27 @@ pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
     mu
 }
 
-/// The Gram matrix G = X X^T (N x N) from X^T (M x N).
+/// The Gram matrix G = X X^T (N x N) from X^T (M x N): see [`crate::kernels::syrk`] (exactly
+/// symmetric; the same bits whatever the thread count).
 pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
-    let n = xt.ncols();
-    let mut g = Mat::<f64>::zeros(n, n);
-    matmul(g.as_mut(), Accum::Replace, xt.transpose(), xt, 1.0, par());
-    // Exact symmetry, whatever the kernel's summation order on each side of the diagonal.
-    for j in 0..n {
-        for i in 0..j {
-            let v = 0.5 * (g[(i, j)] + g[(j, i)]);
-            g[(i, j)] = v;
-            g[(j, i)] = v;
+    let (m, n) = (xt.nrows(), xt.ncols());
+    crate::kernels::syrk::gram_rows(n, m, |i, k0, out| {
+        let col = xt.col(i);
+        out.iter_mut().enumerate().for_each(|(k, o)| *o = col[k0 + k]);
+    })
+}
+
+/// The Gram matrix G = X X^T (N x N) of N row-major f32 feature rows, each optionally minus
+/// `mean`, in f64 (every f32 product is exact in f64), without an f64 copy of X.
+pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
+    debug_assert_eq!(features.len(), n * m);
+    crate::kernels::syrk::gram_rows(n, m, |i, k0, out| {
+        let row = &features[i * m + k0..i * m + k0 + out.len()];
+        match mean {
+            Some(mu) => out.iter_mut().zip(row.iter().zip(&mu[k0..])).for_each(|(o, (&v, &u))| *o = v as f64 - u),
+            None => out.iter_mut().zip(row).for_each(|(o, &v)| *o = v as f64),
         }
-    }
-    g
+    })
 }
 
 /// A row-major N x K matrix as faer's column-major one.

@@ -6,13 +6,13 @@
 //! Served in f32: the weights are stored as f32 and a query costs M*K multiply-adds.
 
 use crate::dataset::Dataset;
+use crate::kernels::{dot_u8::dots, Level};
+use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
 use crate::ridge::{estimate_noise_sigma, loo_curve, RidgeRule};
-use crate::linalg::{dot_f32, gram, mat_from_rows, mean_row, transpose_features};
 use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
-use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::{DenseSolveCore, Solve};
-use faer::{Accum, Mat, Side};
+use faer::{Mat, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -84,9 +84,11 @@ pub fn encoded_poses(train: &Dataset) -> Vec<f64> {
 }
 
 /// The Gram system of a training set: what every Gram-based fit needs.
-pub(crate) struct GramSystem {
-    /// X^T (M x N), centred when asked.
-    pub xt: Mat<f64>,
+pub(crate) struct GramSystem<'a> {
+    /// X (N x M, row-major f32): the training features, borrowed (no f64 copy is made).
+    pub x: &'a [f32],
+    /// Features per image M.
+    pub m: usize,
     /// G = X X^T (N x N).
     pub g: Mat<f64>,
     /// Encoded poses (N x K), centred when asked.
@@ -97,9 +99,9 @@ pub(crate) struct GramSystem {
     pub mean_p: Option<Vec<f64>>,
 }
 
-impl GramSystem {
+impl<'a> GramSystem<'a> {
     /// Builds the system after refusing exact duplicate images with different poses.
-    pub fn new(train: &Dataset, center: bool) -> Result<Self> {
+    pub fn new(train: &'a Dataset, center: bool) -> Result<Self> {
         check_duplicates(train)?;
         let (n, m) = (train.len(), train.n_features());
         let k = train.space().encoded_len();
@@ -117,9 +119,8 @@ impl GramSystem {
         } else {
             (None, None)
         };
-        let xt = transpose_features(train.features(), n, m, mean_x.as_deref());
-        let g = gram(xt.as_ref());
-        Ok(GramSystem { xt, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
+        let g = gram_f32(train.features(), n, m, mean_x.as_deref());
+        Ok(GramSystem { x: train.features(), m, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
     }
 
     /// Solves (G + lambda I) D = P by Cholesky, refusing a numerically singular system.
@@ -153,15 +154,37 @@ impl GramSystem {
     }
 
     /// W^T = D^T X (K x M), row-major: each row is one coefficient image w_j (paper Fig. 2).
+    /// Computed from the f32 features in pixel chunks (in parallel), each summed over the
+    /// images in order, so the result does not depend on the thread count.
     pub fn weights(&self, d: &Mat<f64>) -> Vec<f64> {
-        let (m, k) = (self.xt.nrows(), d.ncols());
-        // Column-major M x K is row-major K x M.
-        let mut w = Mat::<f64>::zeros(m, k);
-        matmul(w.as_mut(), Accum::Replace, self.xt.as_ref(), d.as_ref(), 1.0, crate::linalg::par());
+        const CHUNK: usize = 2048;
+        let (n, m, k) = (self.g.nrows(), self.m, d.ncols());
+        let parts: Vec<Vec<f64>> = (0..m.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let (p0, p1) = (c * CHUNK, ((c + 1) * CHUNK).min(m));
+                let len = p1 - p0;
+                let mut w = vec![0.0; k * len];
+                let mut row = vec![0.0; len];
+                for i in 0..n {
+                    let x = &self.x[i * m + p0..i * m + p1];
+                    match &self.mean_x {
+                        Some(mu) => row.iter_mut().zip(x.iter().zip(&mu[p0..p1])).for_each(|(r, (&v, &u))| *r = v as f64 - u),
+                        None => row.iter_mut().zip(x).for_each(|(r, &v)| *r = v as f64),
+                    }
+                    for j in 0..k {
+                        let dij = d[(i, j)];
+                        w[j * len..(j + 1) * len].iter_mut().zip(&row).for_each(|(w, &v)| *w += dij * v);
+                    }
+                }
+                w
+            })
+            .collect();
         let mut out = vec![0.0; k * m];
-        for j in 0..k {
-            for (o, &v) in out[j * m..(j + 1) * m].iter_mut().zip(w.col(j).iter()) {
-                *o = v;
+        for (c, w) in parts.iter().enumerate() {
+            let (p0, len) = (c * CHUNK, w.len() / k);
+            for j in 0..k {
+                out[j * m + p0..j * m + p0 + len].copy_from_slice(&w[j * len..(j + 1) * len]);
             }
         }
         out
@@ -332,13 +355,20 @@ pub struct LinearModel {
     meta: ModelMeta,
     w64: Vec<f64>,
     w32: Vec<f32>,
+    /// The f32 weights / 255, for 8-bit queries.
+    w8: Vec<f32>,
     bias: Vec<f64>,
 }
 
 impl LinearModel {
     fn new(meta: ModelMeta, w64: Vec<f64>, bias: Vec<f64>) -> Self {
         let w32 = w64.iter().map(|&v| v as f32).collect();
-        LinearModel { meta, w64, w32, bias }
+        Self::with_u8(meta, w64, w32, bias)
+    }
+
+    fn with_u8(meta: ModelMeta, w64: Vec<f64>, w32: Vec<f32>, bias: Vec<f64>) -> Self {
+        let w8 = w64.iter().map(|&v| (v / 255.0) as f32).collect();
+        LinearModel { meta, w64, w32, w8, bias }
     }
 
     /// The coefficient vectors w_j, one row of M values per encoded parameter (paper Fig. 2), in
@@ -379,7 +409,7 @@ impl LinearModel {
             return Err(t.error("the weights hold non-finite values"));
         }
         let w64 = w32.iter().map(|&v| v as f64).collect();
-        Ok(LinearModel { meta, w64, w32, bias })
+        Ok(Self::with_u8(meta, w64, w32, bias))
     }
 }
 
@@ -405,6 +435,33 @@ impl PoseModel for LinearModel {
         };
         if n >= 16 {
             queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).for_each(one);
+        } else {
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
+        }
+        Ok(())
+    }
+
+    /// 8-bit queries: K products of the pixels with the weights / 255 by the SIMD kernel of
+    /// [`crate::kernels::dot_u8`].
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        let m = self.meta.spec.features();
+        check_queries(m, queries.len(), "query batch")?;
+        let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());
+        let n = queries.len() / m;
+        if out.len() != n * p {
+            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
+        }
+        let (space, level) = (&self.meta.space, Level::detect());
+        let one = |(x, o): (&[u8], &mut [f64])| {
+            let (mut e32, mut enc) = ([0f32; 16], [0f64; 16]);
+            dots(level, x, &self.w8, &mut e32[..k]);
+            for j in 0..k {
+                enc[j] = e32[j] as f64 + self.bias[j];
+            }
+            space.decode(&enc[..k], o);
+        };
+        if n >= 16 {
+            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).with_min_len(8).for_each(one);
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
         }
@@ -438,4 +495,40 @@ pub fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>>
         space.decode(e, o);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod u8_tests {
+    use super::*;
+    use crate::image_io::{ColorMode, ImageSpec};
+    use crate::{Manifest, Param, PoseSpace};
+
+    /// The 8-bit path (weights / 255, SIMD kernel) agrees with the f32 path on 8-bit images.
+    #[test]
+    fn u8_queries_match_f32_queries() {
+        let (w, h) = (20usize, 9usize);
+        let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
+        let (mut poses, mut q8) = (Vec::new(), Vec::new());
+        for k in 0..30 {
+            let (e, a) = (30.0 + (k % 5) as f64 * 7.0, k as f64 * 12.0);
+            poses.extend([e, a]);
+            for p in 0..w * h {
+                q8.push(((k * 7919 + p * 104_729 + (k * p) % 97) % 251) as u8);
+            }
+        }
+        let names = (0..30).map(|k| format!("{k}.png")).collect();
+        let qf: Vec<f32> = q8.iter().map(|&v| v as f32 / 255.0).collect();
+        let spec = ImageSpec { width: w as u32, height: h as u32, color: ColorMode::Gray };
+        let d = Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, qf.clone()).unwrap();
+        for center in [false, true] {
+            let model = LinearParams::default().center(center).fit(&d).unwrap();
+            let pf = model.predict(&qf).unwrap();
+            let mut p8 = vec![0.0; pf.len()];
+            model.predict_u8_into(&q8, &mut p8).unwrap();
+            for (a, b) in pf.iter().zip(&p8) {
+                let d = (a - b).abs();
+                assert!(d.min(360.0 - d) < 1e-3, "{a} vs {b} (center {center})");
+            }
+        }
+    }
 }

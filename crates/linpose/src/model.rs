@@ -35,6 +35,15 @@ pub trait PoseModel: Send + Sync {
     /// The named arrays written to a model file.
     fn tensors(&self) -> Vec<Tensor>;
 
+    /// As [`PoseModel::predict_into`] for 8-bit gray images given as their raw pixel values
+    /// (value v means the feature v / 255): the fast path for decoded 8-bit images, with the
+    /// 1 / 255 folded into the model. It agrees with `predict_into` on the same image to f32
+    /// rounding. The default converts to features and calls `predict_into`.
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        let f: Vec<f32> = queries.iter().map(|&v| v as f32 * (1.0 / 255.0)).collect();
+        self.predict_into(&f, out)
+    }
+
     /// Estimates the poses of `queries`, returning them row-major.
     fn predict(&self, queries: &[f32]) -> Result<Vec<f64>> {
         let m = self.meta().spec.features();
@@ -202,6 +211,9 @@ impl PoseModel for AnyModel {
     }
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         self.inner().predict_into(queries, out)
+    }
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        self.inner().predict_u8_into(queries, out)
     }
     fn model_bytes(&self) -> usize {
         self.inner().model_bytes()

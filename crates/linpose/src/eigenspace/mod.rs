@@ -46,6 +46,7 @@ pub mod search;
 pub mod spline;
 
 use crate::dataset::Dataset;
+use crate::kernels::{dot_u8, Level};
 use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -278,6 +279,38 @@ impl EigenspaceModel {
         Ok(())
     }
 
+    /// As [`EigenspaceModel::project_into`] for 8-bit images given as raw pixel values: the
+    /// L products by the SIMD kernel of [`crate::kernels::dot_u8`], the energy summed exactly in
+    /// integers (the 1 / 255 of the features cancels in the unit-energy scaling).
+    pub fn project_u8_into(&self, queries: &[u8], out: &mut [f32]) -> Result<()> {
+        let (l, m) = (self.components(), self.mean.len());
+        check_queries(m, queries.len(), "query batch")?;
+        let n = queries.len() / m;
+        if out.len() != n * l {
+            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * l)));
+        }
+        let level = Level::detect();
+        let one = |(x, y): (&[u8], &mut [f32])| self.project_one_u8(level, x, y);
+        if n >= 8 {
+            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(l)).with_min_len(4).for_each(one);
+        } else {
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(one);
+        }
+        Ok(())
+    }
+
+    #[inline]
+    fn project_one_u8(&self, level: Level, x: &[u8], y: &mut [f32]) {
+        dot_u8::dots(level, x, &self.basis, y);
+        let ss = dot_u8::sum_squares(x);
+        if ss > 0 {
+            let inv = (1.0 / (ss as f64).sqrt()) as f32;
+            y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
+        } else {
+            y.fill(f32::NAN);
+        }
+    }
+
     /// Projects a few queries: Y = Q U^T as one sequential f32 product (rayon splits the batch
     /// into such chunks, see [`chunk_rows`]), then
     /// each row scaled by 1 / ||x|| and shifted by u_l . mean.
@@ -295,6 +328,17 @@ impl EigenspaceModel {
             } else {
                 y.fill(f32::NAN);
             }
+        }
+    }
+
+    /// One 8-bit query with more than 64 coordinates (heap scratch).
+    fn predict_one_u8_dyn(&self, level: Level, x: &[u8], o: &mut [f64]) {
+        let mut y = vec![0f32; self.components()];
+        self.project_one_u8(level, x, &mut y);
+        if y[0].is_nan() {
+            o.fill(f64::NAN);
+        } else {
+            pose_of(&self.axes, &self.meta.space, self.index.nearest(&y), o);
         }
     }
 
@@ -363,6 +407,40 @@ impl PoseModel for EigenspaceModel {
                 "query",
                 format!("#{i} of the batch"),
                 "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
+            ));
+        }
+        Ok(())
+    }
+
+    /// 8-bit queries: [`EigenspaceModel::project_u8_into`]'s projection, then the search.
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
+        check_queries(m, queries.len(), "query batch")?;
+        let n = queries.len() / m;
+        if out.len() != n * p {
+            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
+        }
+        let (space, level) = (&self.meta.space, Level::detect());
+        let one = |(x, o): (&[u8], &mut [f64])| {
+            let mut y = [0f32; 64];
+            let y = if l <= 64 { &mut y[..l] } else { return self.predict_one_u8_dyn(level, x, o) };
+            self.project_one_u8(level, x, y);
+            if y[0].is_nan() {
+                o.fill(f64::NAN);
+            } else {
+                pose_of(&self.axes, space, self.index.nearest(y), o);
+            }
+        };
+        if n >= 8 {
+            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).with_min_len(4).for_each(one);
+        } else {
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
+        }
+        if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
+            return Err(Error::invalid(
+                "query",
+                format!("#{i} of the batch"),
+                "the image is all black (zero energy), so it cannot be scaled to unit energy",
             ));
         }
         Ok(())

@@ -215,3 +215,27 @@ fn incomplete_grid_and_black_images_are_named() {
     assert!(e.contains("#17") && e.contains("all black"), "{e}");
     assert!(model.predict(&q[..W * H - 1]).is_err());
 }
+
+/// The 8-bit path (SIMD products, integer energy) finds the same manifold point as the f32 path
+/// for 8-bit images, and its coordinates agree to f32 rounding.
+#[test]
+fn u8_queries_match_f32_queries() {
+    let d = turntable();
+    let q8: Vec<u8> = d.features().iter().map(|&v| (v * 255.0).round().clamp(0.0, 255.0) as u8).collect();
+    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 / 255.0).collect();
+    let (train, _) = split(&d, 10.0);
+    let model = EigenspaceParams::default().components(8).fit(&train).unwrap();
+    let (n, l) = (d.len(), model.components());
+    let (mut yf, mut y8) = (vec![0f32; n * l], vec![0f32; n * l]);
+    model.project_into(&qf, &mut yf).unwrap();
+    model.project_u8_into(&q8, &mut y8).unwrap();
+    for (a, b) in yf.iter().zip(&y8) {
+        assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+    }
+    let mut p8 = vec![0.0; n];
+    model.predict_u8_into(&q8, &mut p8).unwrap();
+    let pf = model.predict(&qf).unwrap();
+    let same = pf.iter().zip(&p8).filter(|(a, b)| a == b).count();
+    assert!(same >= n - 1, "{same} of {n} estimates identical");
+    assert!(model.predict_u8_into(&vec![0u8; W * H], &mut [0.0]).is_err(), "a black image is refused");
+}

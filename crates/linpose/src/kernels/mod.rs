@@ -1,0 +1,55 @@
+//! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
+//! ([`syrk`]) and the 8-bit query products ([`dot_u8`]).
+//!
+//! Each kernel has one portable body written so that it computes exactly the same operations in
+//! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
+//! every path gives bit-identical results; the paths are tested against each other and against a
+//! plain reference. The instruction set is detected once at run time ([`Level::detect`]).
+
+pub mod dot_u8;
+pub mod peak;
+pub mod syrk;
+
+/// The SIMD instruction set a kernel runs with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    /// Plain Rust, whatever the target's baseline gives.
+    Portable,
+    /// AVX2 with FMA (the portable body compiled for it).
+    Avx2,
+    /// AVX-512 F/BW intrinsics.
+    Avx512,
+}
+
+impl Level {
+    /// The best level this CPU supports (cached after the first call). The environment variable
+    /// `LINPOSE_SIMD=portable|avx2|avx512` caps it, for testing and benchmarking the other paths.
+    pub fn detect() -> Level {
+        use std::sync::OnceLock;
+        static LEVEL: OnceLock<Level> = OnceLock::new();
+        *LEVEL.get_or_init(|| {
+            let cap = match std::env::var("LINPOSE_SIMD").as_deref() {
+                Ok("portable") => Level::Portable,
+                Ok("avx2") => Level::Avx2,
+                _ => Level::Avx512,
+            };
+            Self::supported().into_iter().filter(|&l| l <= cap).max().unwrap_or(Level::Portable)
+        })
+    }
+
+    /// Every level this CPU can run (always includes [`Level::Portable`]).
+    pub fn supported() -> Vec<Level> {
+        #[allow(unused_mut)]
+        let mut v = vec![Level::Portable];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                v.push(Level::Avx2);
+            }
+            if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512bw") {
+                v.push(Level::Avx512);
+            }
+        }
+        v
+    }
+}

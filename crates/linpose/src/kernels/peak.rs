@@ -1,0 +1,92 @@
+//! The machine's measured peak, for benchmarks to report kernels against: fused multiply-add
+//! throughput on registers (no memory traffic) and memory bandwidth (a large copy).
+
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// f64 FLOP/s (2 per fused multiply-add) of a register-only FMA loop run on every rayon thread
+/// for about `seconds`, using the widest vectors available.
+pub fn fma_flops_f64(seconds: f64) -> f64 {
+    let threads = rayon::current_num_threads();
+    let iters = calibrate(seconds);
+    let t = Instant::now();
+    let s: f64 = (0..threads).into_par_iter().map(|i| fma_loop(iters, 1.0 + i as f64 * 1e-9)).sum();
+    let dt = t.elapsed().as_secs_f64();
+    std::hint::black_box(s);
+    (threads as u64 * iters * FMAS_PER_ITER) as f64 * 2.0 / dt
+}
+
+/// Fused multiply-adds of f64 lanes per loop iteration (16 independent 8-lane chains).
+const FMAS_PER_ITER: u64 = 16 * 8;
+
+fn calibrate(seconds: f64) -> u64 {
+    let mut n = 1u64 << 16;
+    loop {
+        let t = Instant::now();
+        std::hint::black_box(fma_loop(n, 1.0));
+        let dt = t.elapsed().as_secs_f64();
+        if dt > 0.02 {
+            return ((n as f64) * seconds / dt).max(1.0) as u64;
+        }
+        n *= 4;
+    }
+}
+
+fn fma_loop(iters: u64, seed: f64) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if is_x86_feature_detected!("avx512f") {
+        // SAFETY: avx512f was detected just above; the kernel touches registers only.
+        return unsafe { x86::fma_loop_avx512(iters, seed) };
+    }
+    let mut acc = [seed; 128];
+    for _ in 0..iters {
+        for a in acc.iter_mut() {
+            *a = a.mul_add(0.999_999_999, 1e-9);
+        }
+    }
+    acc.iter().sum()
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use std::arch::x86_64::*;
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn fma_loop_avx512(iters: u64, seed: f64) -> f64 {
+        let mul = _mm512_set1_pd(0.999_999_999);
+        let add = _mm512_set1_pd(1e-9);
+        let mut acc = [_mm512_set1_pd(seed); 16];
+        for _ in 0..iters {
+            for a in acc.iter_mut() {
+                *a = _mm512_fmadd_pd(*a, mul, add);
+            }
+        }
+        let mut s = _mm512_setzero_pd();
+        for a in acc {
+            s = _mm512_add_pd(s, a);
+        }
+        _mm512_reduce_add_pd(s)
+    }
+}
+
+/// Bytes per second of copying a buffer of `bytes` into another, on every rayon thread (each
+/// copies its share), median of `reps` repetitions after one warm-up; counts the bytes read (the
+/// bytes written are as many again).
+pub fn copy_bandwidth(bytes: usize, reps: usize) -> f64 {
+    let src = vec![1u8; bytes];
+    let mut dst = vec![0u8; bytes];
+    let chunk = bytes.div_ceil(rayon::current_num_threads()).max(4096);
+    let mut times = Vec::with_capacity(reps);
+    for r in 0..=reps {
+        let t = Instant::now();
+        dst.par_chunks_mut(chunk).zip(src.par_chunks(chunk)).for_each(|(d, s)| d.copy_from_slice(s));
+        std::hint::black_box(&dst);
+        if r > 0 {
+            times.push(t.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    bytes as f64 / times[times.len() / 2]
+}
