@@ -110,9 +110,9 @@ const CASES: &[Case] = &[
     toml!("neither", &["dataset.toml:1", "needs period = <degrees> or linear = true"]),
     // OBJ meshes (`linpose synth --mesh`).
     obj!("no_faces", 1, &["mesh.obj", "no faces", "3 vertex lines"]),
-    obj!("index_out_of_range", 1, &["mesh.obj", "index out of bounds"]),
-    obj!("index_zero", 1, &["mesh.obj", "index out of bounds"]),
-    obj!("negative_index_out_of_range", 1, &["mesh.obj", "index out of bounds"]),
+    obj!("index_out_of_range", 1, &["mesh.obj", "line 4", "refers to vertex 7", "3 vertices are defined"]),
+    obj!("index_zero", 1, &["mesh.obj", "line 4", "refers to vertex 0"]),
+    obj!("negative_index_out_of_range", 1, &["mesh.obj", "line 4", "refers to vertex -9", "before it"]),
     obj!("nan_vertex", 1, &["mesh.obj", "vertex 2", "non-finite"]),
     obj!("overflowing_vertex", 1, &["mesh.obj", "vertex 2", "non-finite"]),
     obj!("short_vertex", 1, &["mesh.obj", "not a valid Wavefront OBJ"]),

@@ -39,10 +39,13 @@ fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
 }
 
+/// Fits a model and returns its file's bytes.
+type Fit<'a> = &'a (dyn Fn(&Dataset) -> Vec<u8> + Sync);
+
 #[test]
 fn models_are_byte_identical_across_thread_counts() {
     let data = paper_sized();
-    let fits: [(&str, &(dyn Fn(&Dataset) -> Vec<u8> + Sync)); 3] = [
+    let fits: [(&str, Fit); 3] = [
         ("linear", &|d| linpose::model_file::to_bytes(&LinearParams::default().fit(d).unwrap()).unwrap()),
         ("linear, ridge and centred", &|d| linpose::model_file::to_bytes(&LinearParams::default().ridge(1e-3).center(true).fit(d).unwrap()).unwrap()),
         ("eigenspace", &|d| linpose::model_file::to_bytes(&EigenspaceParams::default().manifold_step(1.0).fit(d).unwrap()).unwrap()),

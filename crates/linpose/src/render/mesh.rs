@@ -164,6 +164,7 @@ impl Mesh {
                 "the file declares {nv} vertices and {nt} triangles; the limits are {MAX_VERTICES} and {MAX_TRIANGLES}"
             )));
         }
+        check_face_indices(bytes).map_err(err)?;
         let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
         // Materials are not read: a missing .mtl must not fail the mesh, so the loader declines.
         let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &options, |_| Err(tobj::LoadError::OpenFileFailed))
@@ -219,6 +220,55 @@ fn count_obj(bytes: &[u8]) -> (usize, usize) {
         }
     }
     (nv, nt)
+}
+
+/// Refuses a face corner whose vertex, texture or normal index refers to nothing: tobj 4.0.5
+/// computes `index * 3 + 2` unchecked for texture and normal indices, which overflows (a panic in
+/// debug builds) for an index far out of range, e.g. `f 1/-2 ...` with no texture coordinates.
+/// Indices are 1-based; negative ones count back from the last element defined before the face.
+fn check_face_indices(bytes: &[u8]) -> std::result::Result<(), String> {
+    const KINDS: [(&str, &str); 3] = [("vertex", "vertices"), ("texture coordinate", "texture coordinates"), ("normal", "normals")];
+    let kind_of = |line: &[u8]| match line.split(|b| b.is_ascii_whitespace()).next() {
+        Some(b"v") => Some(0),
+        Some(b"vt") => Some(1),
+        Some(b"vn") => Some(2),
+        _ => None,
+    };
+    let mut total = [0i64; 3];
+    for line in bytes.split(|&b| b == b'\n') {
+        if let Some(k) = kind_of(line.trim_ascii_start()) {
+            total[k] += 1;
+        }
+    }
+    let mut so_far = [0i64; 3];
+    for (n, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = line.trim_ascii_start();
+        if let Some(k) = kind_of(line) {
+            so_far[k] += 1;
+            continue;
+        }
+        if !(line.starts_with(b"f ") || line.starts_with(b"f\t")) {
+            continue;
+        }
+        for corner in line[1..].split(|b| b.is_ascii_whitespace()).filter(|w| !w.is_empty()) {
+            for (k, index) in corner.split(|&b| b == b'/').enumerate().take(3) {
+                // What tobj cannot parse it refuses itself.
+                let Some(i) = std::str::from_utf8(index).ok().and_then(|t| t.parse::<i64>().ok()) else { continue };
+                let ok = if i < 0 { i >= -so_far[k] } else { i >= 1 && i <= total[k] };
+                if !ok {
+                    let have = if i < 0 { so_far[k] } else { total[k] };
+                    return Err(format!(
+                        "line {}: a face refers to {} {i}, but {have} {} are defined{}",
+                        n + 1,
+                        KINDS[k].0,
+                        KINDS[k].1,
+                        if i < 0 { " before it" } else { "" }
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The normalisation centre and the largest vertex distance from it. The centre's x and y are
@@ -317,13 +367,26 @@ mod tests {
     fn bad_obj_inputs_name_the_problem() {
         assert!(obj_err("").contains("empty"), "{}", obj_err(""));
         assert!(obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\n").contains("no faces"));
-        assert!(obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").contains("out of bounds"), "{}", obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n"));
+        assert!(obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").contains("refers to vertex 7"), "{}", obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n"));
         let nan = obj_err("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
         assert!(nan.contains("non-finite") || nan.contains("parse"), "{nan}");
         assert!(obj_err("v 0 0 x\nf 1 1 1\n").contains("not a valid Wavefront OBJ"));
         assert!(obj_err("v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n").contains("no extent"));
         let missing = Mesh::from_obj(Path::new("/nonexistent/duck.obj")).unwrap_err().to_string();
         assert!(missing.contains("/nonexistent/duck.obj"), "{missing}");
+    }
+
+    #[test]
+    fn face_indices_out_of_range_are_refused_by_line() {
+        // Found by fuzzing: a relative texture index before any texture coordinate overflowed
+        // inside tobj.
+        let e = obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1/-2 1 2\n");
+        assert!(e.contains("line 4") && e.contains("texture coordinate -2"), "{e}");
+        let e = obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//9223372036854775807\n");
+        assert!(e.contains("normal 9223372036854775807"), "{e}");
+        let e = obj_err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n");
+        assert!(e.contains("vertex 0"), "{e}");
+        assert!(Mesh::from_obj_bytes(Path::new("t.obj"), b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf -3/-1 -2/1 -1/1\n").is_ok());
     }
 
     #[test]
