@@ -152,7 +152,7 @@ fn obj_files_render_and_bad_ones_are_named() {
         ("missing.obj", None, "No such file"),
         ("empty.obj", Some(""), "empty"),
         ("nofaces.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\n"), "no faces"),
-        ("range.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "out of bounds"),
+        ("range.obj", Some("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "refers to vertex 9"),
         ("garbage.obj", Some("v zero one two\nf 1 2 3\n"), "not a valid Wavefront OBJ"),
     ];
     for (name, text, expect) in cases {

@@ -235,8 +235,16 @@ fn check_face_indices(bytes: &[u8]) -> std::result::Result<(), String> {
         _ => None,
     };
     let mut total = [0i64; 3];
-    for line in bytes.split(|&b| b == b'\n') {
-        if let Some(k) = kind_of(line.trim_ascii_start()) {
+    for (n, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = line.trim_ascii_start();
+        if let Some(k) = kind_of(line) {
+            // A vertex line whose numbers do not parse is named here, before any face that
+            // counts on it.
+            let values: Vec<&[u8]> = line.split(|b| b.is_ascii_whitespace()).skip(1).filter(|w| !w.is_empty()).collect();
+            let numeric = values.iter().all(|w| std::str::from_utf8(w).ok().and_then(|t| t.parse::<f64>().ok()).is_some());
+            if !numeric || values.len() < if k == 1 { 1 } else { 3 } {
+                return Err(format!("line {}: not a valid Wavefront OBJ {} line: '{}'", n + 1, KINDS[k].0, String::from_utf8_lossy(line).trim_end()));
+            }
             total[k] += 1;
         }
     }
