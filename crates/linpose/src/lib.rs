@@ -38,6 +38,7 @@ pub mod methods;
 pub mod model;
 pub mod model_file;
 pub mod pose;
+pub mod refine;
 pub mod render;
 
 pub use dataset::Dataset;
@@ -49,9 +50,10 @@ pub use manifest::{Manifest, TrainSelection};
 pub use methods::MethodSpec;
 pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
 pub use pose::{ErrorSummary, Param, PoseSpace};
+pub use refine::{RefinedModel, RefinedParams};
 
 /// The methods a model can be trained with, by name.
-pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD];
+pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD, refine::METHOD];
 
 #[cfg(test)]
 mod autotraits {
@@ -61,6 +63,7 @@ mod autotraits {
     fn models_are_send_and_sync() {
         is_send_sync::<crate::LinearModel>();
         is_send_sync::<crate::EigenspaceModel>();
+        is_send_sync::<crate::RefinedModel>();
         is_send_sync::<crate::AnyModel>();
         is_send_sync::<crate::Dataset>();
     }
