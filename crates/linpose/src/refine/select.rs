@@ -75,9 +75,10 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
             for &i in &sub_grid.sample_at {
                 knots.extend(pca.coords[i * l_max..i * l_max + l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
             }
-            let settings = RefinedSettings { params: *params, components: l, energy_kept: 0.0, knot_shape: sub_grid.shape(), selection: vec![],
+            let settings = RefinedSettings { params: *params, components: l, search_components: l, energy_kept: 0.0, knot_shape: sub_grid.shape(), selection: vec![],
                 interpolation_variance: sig.unwrap_or_default(),
                 residual_energy: pca.eigenvalues[l..].iter().map(|&v| v.max(0.0)).sum::<f64>() / fit.len() as f64,
+                noise_threshold: 0.0,
             };
             let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
             let mean = pca.mean.iter().map(|&v| v as f32).collect();

@@ -110,3 +110,52 @@ fn bad_parameters_are_errors() {
     assert!(RefinedParams::default().starts(0).fit(&d).is_err());
     assert!(RefinedParams::default().resolution(f64::NAN).fit(&d).is_err());
 }
+
+#[test]
+fn pixel_noise_ignores_planes_and_measures_white_noise() {
+    // Immerkaer's mask cancels any plane exactly, and for white noise of variance s^2 its mean
+    // absolute response is 6 s sqrt(2 / pi) (the mask's squared weights sum to 36).
+    let (w, h) = (64, 48);
+    let plane: Vec<f32> = (0..w * h).map(|i| 0.2 + 0.003 * (i % w) as f32 + 0.002 * (i / w) as f32).collect();
+    assert!(super::pixel_noise(&plane, w, h, 1) < 1e-9);
+    // Uniform noise of +-a (variance a^2 / 3) on a constant 0.5 image, from a fixed LCG.
+    let (a, mut state) = (0.05f32, 12345u64);
+    let noisy: Vec<f32> = (0..w * h)
+        .map(|_| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            0.5 + a * (2.0 * (state >> 40) as f32 / (1u64 << 24) as f32 - 1.0)
+        })
+        .collect();
+    let ms = noisy.iter().map(|&v| v as f64 * v as f64).sum::<f64>() / (w * h) as f64;
+    let want = (a as f64).powi(2) / 3.0 / ms;
+    let got = super::pixel_noise(&noisy, w, h, 1);
+    assert!((got / want - 1.0).abs() < 0.25, "estimate {got}, expected {want}");
+}
+
+#[test]
+fn noisy_queries_fall_back_to_the_plain_distance_and_stay_close() {
+    let d = train_set();
+    let model = RefinedParams::default().fit(&d).unwrap();
+    let thr = model.settings().noise_threshold;
+    assert!(thr > 0.0, "the threshold is measured on the training images");
+    let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
+    let mut state = 7u64;
+    let q: Vec<f32> = test
+        .features()
+        .iter()
+        .map(|&v| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (v + 0.05 * (2.0 * (state >> 40) as f32 / (1u64 << 24) as f32 - 1.0)).clamp(0.0, 1.0)
+        })
+        .collect();
+    let spec = test.spec();
+    let m = spec.features();
+    for x in q.chunks_exact(m) {
+        assert!(super::pixel_noise(x, spec.width as usize, spec.height as usize, 1) > thr);
+    }
+    let est = model.predict(&q).unwrap();
+    for i in 0..test.len() {
+        let e = test.space().error_deg(test.pose(i), &est[2 * i..2 * i + 2]);
+        assert!(e < 5.0, "view {i}: error {e}");
+    }
+}
