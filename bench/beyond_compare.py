@@ -95,7 +95,9 @@ for (name, n, pe, res) in rows:
     flag = "".join(x for x, ok in (("E", ok_err), ("B", ok_b), ("T", ok_t)) if not ok) or "yes"
     if flag != "yes":
         fails.append(f"{name}@{n}:{flag}")
-    L = r["settings"].get("components", "") if isinstance(r["settings"], dict) else ""
+    st = r["settings"] if isinstance(r["settings"], dict) else {}
+    # The L of the search: the weighted search's, or 'p20' when the plain metric was chosen.
+    L = ("p" if st.get("plain_error") is not None and not st.get("interpolation_variance") else "") + str(st.get("search_components") or st.get("components", ""))
     line = f"{name:<8} {n:>5} | {r['err']:>9.3f} {g['err'] if g else float('nan'):>8.3f} {pe:>8.3f}"
     if lin:
         line += f" {lin['err']:>8.3f}"

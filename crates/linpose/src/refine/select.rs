@@ -49,10 +49,18 @@ pub fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
 /// Chooses L for `params` on `train` (laid out on `grid`): the chosen L and every candidate's
 /// mean held-out error (degrees).
 pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Vec<(usize, f64)>)> {
+    choose(train, grid, params).map(|(l, scored, _)| (l, scored))
+}
+
+/// As [`choose_components`], and when `params` weights the coordinates, also the mean held-out
+/// error of the plain (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates: the
+/// eigenspace's own metric, which the model falls back to when it scores better.
+pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Vec<(usize, f64)>, Option<f64>)> {
     let folds = folds(train, grid);
     if folds.is_empty() {
-        return Ok((FALLBACK_COMPONENTS, Vec::new()));
+        return Ok((FALLBACK_COMPONENTS, Vec::new(), None));
     }
+    let (mut plain_sum, mut plain_n, mut plain_folds) = (0.0, 0usize, 0usize);
     let space = train.space();
     let m = train.n_features();
     let mut sums: Vec<(usize, f64, usize, usize)> = Vec::new();
@@ -64,8 +72,15 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
         let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max)? } else { None };
-        for (c, &l) in CANDIDATES.iter().filter(|&&l| l <= l_max).enumerate() {
-            let sig = sigma2.as_ref().map(|s| s[..l].to_vec());
+        let plain_l = super::NOISE_COMPONENTS.min(l_max);
+        let cands: Vec<(usize, bool)> = CANDIDATES
+            .iter()
+            .filter(|&&l| l <= l_max)
+            .map(|&l| (l, false))
+            .chain(params.weighted.then_some((plain_l, true)))
+            .collect();
+        for (c, &(l, plain)) in cands.iter().enumerate() {
+            let sig = if plain { None } else { sigma2.as_ref().map(|s| s[..l].to_vec()) };
             let scale = super::weights(sig.as_deref(), l);
             let mut basis = Vec::with_capacity(l * m);
             for r in 0..l {
@@ -75,7 +90,7 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
             for &i in &sub_grid.sample_at {
                 knots.extend(pca.coords[i * l_max..i * l_max + l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
             }
-            let settings = RefinedSettings { params: *params, components: l, search_components: l, energy_kept: 0.0, knot_shape: sub_grid.shape(), selection: vec![],
+            let settings = RefinedSettings { params: *params, components: l, search_components: l, energy_kept: 0.0, knot_shape: sub_grid.shape(), selection: vec![], plain_error: None,
                 interpolation_variance: sig.unwrap_or_default(),
                 residual_energy: pca.eigenvalues[l..].iter().map(|&v| v.max(0.0)).sum::<f64>() / fit.len() as f64,
                 noise_threshold: 0.0,
@@ -86,6 +101,10 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
             let est = model.predict(test.features())?;
             let d = space.len();
             let err: f64 = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d])).sum();
+            if plain {
+                (plain_sum, plain_n, plain_folds) = (plain_sum + err, plain_n + test.len(), plain_folds + 1);
+                continue;
+            }
             if c >= sums.len() {
                 sums.push((l, 0.0, 0, 0));
             }
@@ -97,7 +116,8 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
     // Only candidates every fold could score.
     let scored: Vec<(usize, f64)> = sums.iter().filter(|s| s.3 == folds.len()).map(|&(l, e, n, _)| (l, e / n.max(1) as f64)).collect();
     let best = scored.iter().fold((FALLBACK_COMPONENTS, f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
-    Ok((best.0, scored))
+    let plain = (plain_folds == folds.len()).then(|| plain_sum / plain_n.max(1) as f64);
+    Ok((best.0, scored, plain))
 }
 
 /// The mean squared interpolation error of each of the `dim` coordinates (`coords`, N x dim, in

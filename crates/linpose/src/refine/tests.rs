@@ -97,10 +97,15 @@ fn unseen_views_are_close_and_the_file_round_trips() {
 fn selection_picks_the_least_held_out_error() {
     let d = train_set();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
-    let (l, scored) = select::choose_components(&d, &g, &RefinedParams::default()).unwrap();
+    let (l, scored, plain) = select::choose(&d, &g, &RefinedParams::default()).unwrap();
     let best = scored.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
     let first = scored.iter().find(|s| s.1 == best).unwrap().0;
     assert_eq!(l, first);
+    // The plain metric is scored too, and the fitted model uses it exactly when it wins.
+    let plain = plain.expect("the weighted default scores the plain metric");
+    let model = RefinedParams::default().fit(&d).unwrap();
+    assert_eq!(model.settings().plain_error, Some(plain));
+    assert_eq!(model.settings().interpolation_variance.is_empty(), plain < best);
 }
 
 #[test]
@@ -135,7 +140,8 @@ fn pixel_noise_ignores_planes_and_measures_white_noise() {
 #[test]
 fn noisy_queries_fall_back_to_the_plain_distance_and_stay_close() {
     let d = train_set();
-    let model = RefinedParams::default().fit(&d).unwrap();
+    // L fixed: no selection, so the weighted metric is kept and the threshold measured.
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
     let thr = model.settings().noise_threshold;
     assert!(thr > 0.0, "the threshold is measured on the training images");
     let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
