@@ -198,6 +198,15 @@ pub fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
             let (n, l) = (e.manifold_len(), e.components());
             ("NL + ML".to_string(), vec![("N".to_string(), n), ("L".to_string(), l), ("M".to_string(), m)], n * l + m * l)
         }
+        AnyModel::Refined(r) => {
+            let (n, l, s, d) = (r.knots_len(), r.components(), r.start_len(), r.meta().space.len());
+            let c = 1usize << d;
+            (
+                "2^D NL + SL + ML".to_string(),
+                vec![("D".to_string(), d), ("N".to_string(), n), ("S".to_string(), s), ("L".to_string(), l), ("M".to_string(), m)],
+                c * n * l + s * l + m * l,
+            )
+        }
         #[allow(unreachable_patterns)]
         _ => ("-".to_string(), vec![], model.model_bytes() / 4),
     };

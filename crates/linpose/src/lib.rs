@@ -39,6 +39,7 @@ pub mod methods;
 pub mod model;
 pub mod model_file;
 pub mod pose;
+pub mod refine;
 pub mod render;
 pub mod ridge;
 
@@ -51,10 +52,11 @@ pub use manifest::{Manifest, TrainSelection};
 pub use methods::MethodSpec;
 pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
 pub use pose::{ErrorSummary, Param, PoseSpace};
+pub use refine::{RefinedModel, RefinedParams};
 pub use ridge::RidgeRule;
 
 /// The methods a model can be trained with, by name.
-pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD];
+pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD, refine::METHOD];
 
 #[cfg(test)]
 mod autotraits {
@@ -64,6 +66,7 @@ mod autotraits {
     fn models_are_send_and_sync() {
         is_send_sync::<crate::LinearModel>();
         is_send_sync::<crate::EigenspaceModel>();
+        is_send_sync::<crate::RefinedModel>();
         is_send_sync::<crate::AnyModel>();
         is_send_sync::<crate::Dataset>();
     }

@@ -5,6 +5,7 @@ use crate::dataset::Dataset;
 use crate::eigenspace::EigenspaceParams;
 use crate::linear::LinearParams;
 use crate::model::{AnyModel, Estimator};
+use crate::refine::RefinedParams;
 use crate::Result;
 
 /// A method with its settings.
@@ -15,6 +16,8 @@ pub enum MethodSpec {
     Linear(LinearParams),
     /// Murase & Nayar's parametric eigenspace.
     Eigenspace(EigenspaceParams),
+    /// The eigenspace searched continuously on its spline manifold (beyond the paper).
+    Refined(RefinedParams),
 }
 
 impl MethodSpec {
@@ -23,6 +26,7 @@ impl MethodSpec {
         match self {
             MethodSpec::Linear(_) => crate::linear::METHOD,
             MethodSpec::Eigenspace(_) => crate::eigenspace::METHOD,
+            MethodSpec::Refined(_) => crate::refine::METHOD,
         }
     }
 
@@ -31,6 +35,7 @@ impl MethodSpec {
         Ok(match self {
             MethodSpec::Linear(p) => p.fit(train)?.into(),
             MethodSpec::Eigenspace(p) => p.fit(train)?.into(),
+            MethodSpec::Refined(p) => p.fit(train)?.into(),
         })
     }
 }

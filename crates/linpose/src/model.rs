@@ -185,6 +185,8 @@ pub enum AnyModel {
     Linear(crate::linear::LinearModel),
     /// Murase & Nayar's parametric eigenspace.
     Eigenspace(crate::eigenspace::EigenspaceModel),
+    /// The eigenspace searched continuously on its spline manifold (beyond the paper).
+    Refined(crate::refine::RefinedModel),
 }
 
 impl AnyModel {
@@ -192,6 +194,7 @@ impl AnyModel {
         match self {
             AnyModel::Linear(m) => m,
             AnyModel::Eigenspace(m) => m,
+            AnyModel::Refined(m) => m,
         }
     }
 
@@ -200,6 +203,7 @@ impl AnyModel {
         match meta.method.as_str() {
             crate::linear::METHOD => Ok(AnyModel::Linear(crate::linear::LinearModel::from_parts(meta, tensors)?)),
             crate::eigenspace::METHOD => Ok(AnyModel::Eigenspace(crate::eigenspace::EigenspaceModel::from_parts(meta, tensors)?)),
+            crate::refine::METHOD => Ok(AnyModel::Refined(crate::refine::RefinedModel::from_parts(meta, tensors)?)),
             other => Err(tensors.error(format!("unknown method '{other}' (this linpose knows: {})", crate::METHODS.join(", ")))),
         }
     }
@@ -232,5 +236,11 @@ impl From<crate::linear::LinearModel> for AnyModel {
 impl From<crate::eigenspace::EigenspaceModel> for AnyModel {
     fn from(m: crate::eigenspace::EigenspaceModel) -> Self {
         AnyModel::Eigenspace(m)
+    }
+}
+
+impl From<crate::refine::RefinedModel> for AnyModel {
+    fn from(m: crate::refine::RefinedModel) -> Self {
+        AnyModel::Refined(m)
     }
 }

@@ -7,7 +7,7 @@ use linpose::experiment::{run_object, ObjectResult, StudyParams};
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{self, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
-use linpose::{EigenspaceParams, LinearParams, Manifest, MethodSpec, PoseModel};
+use linpose::{EigenspaceParams, LinearParams, Manifest, MethodSpec, PoseModel, RefinedParams};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -53,7 +53,11 @@ pub struct ExperimentArgs {
 
 /// The default methods compared.
 pub fn default_methods() -> Vec<MethodSpec> {
-    vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(EigenspaceParams::default())]
+    vec![
+        MethodSpec::Linear(LinearParams::default()),
+        MethodSpec::Eigenspace(EigenspaceParams::default()),
+        MethodSpec::Refined(RefinedParams::default()),
+    ]
 }
 
 /// Replaces `out` by the finished folder `tmp` (the old report is removed only once the new one

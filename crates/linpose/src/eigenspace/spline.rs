@@ -107,6 +107,32 @@ impl Spline {
         (w, i, (i + 1) % self.n)
     }
 
+    /// [`Spline::weights`] with their derivatives in `t`: (weights, d weights / dt, i, j), so
+    /// that value' = dw_y0 y_i + dw_s0 s_i + dw_y1 y_j + dw_s1 s_j.
+    pub fn weights_d(&self, t: f64) -> ([f64; 4], [f64; 4], usize, usize) {
+        let nx = self.x.len();
+        if nx == 1 {
+            return ([1.0, 0.0, 0.0, 0.0], [0.0; 4], 0, 0);
+        }
+        let i = self.x[1..nx - 1].partition_point(|&k| k <= t);
+        let h = self.x[i + 1] - self.x[i];
+        let u = (t - self.x[i]) / h;
+        let (u2, u3) = (u * u, u * u * u);
+        let w = [2.0 * u3 - 3.0 * u2 + 1.0, h * (u3 - 2.0 * u2 + u), -2.0 * u3 + 3.0 * u2, h * (u3 - u2)];
+        let dw = [(6.0 * u2 - 6.0 * u) / h, 3.0 * u2 - 4.0 * u + 1.0, (6.0 * u - 6.0 * u2) / h, 3.0 * u2 - 2.0 * u];
+        (w, dw, i, (i + 1) % self.n)
+    }
+
+    /// The knots, strictly increasing; for a periodic spline the closing knot x_0 + period is last.
+    pub fn knots(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// The knots' span: the first knot and the last (for a periodic spline, the closing knot).
+    pub fn span(&self) -> (f64, f64) {
+        (self.x[0], self.x[self.x.len() - 1])
+    }
+
     /// Evaluates one curve (its n values and n slopes) at `t`.
     pub fn eval(&self, y: &[f64], s: &[f64], t: f64) -> f64 {
         let (w, i, j) = self.weights(t);

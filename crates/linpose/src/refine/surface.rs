@@ -1,0 +1,292 @@
+//! The appearance manifold as a continuous surface: the tensor-product cubic spline through the
+//! training views' eigenspace coordinates (the same spline the eigenspace resamples densely), kept
+//! in Hermite form and evaluated with its derivatives at any pose, so a query's pose is found by
+//! Levenberg-Marquardt on the distance to the surface instead of the nearest of a fixed grid of
+//! resampled points.
+//!
+//! On each grid cell the spline is the tensor product of the per-axis cubic Hermite pieces, fixed
+//! by the values and the mixed slopes at the cell's 2^D corners: for a derivative mask d (which
+//! axes are differentiated) the slopes are S_d Y, the per-axis slope operators of
+//! [`Spline::slopes`] applied along the axes in d. A point's value is a sum of 4^D products of
+//! per-axis Hermite weights with those corner vectors, and its derivative in t_k the same sum with
+//! axis k's weights differentiated. Resampling this at the eigenspace's dense positions gives the
+//! eigenspace's manifold points (tested).
+
+use crate::eigenspace::spline::{Boundary, Spline};
+use crate::pose::{wrap_positive, PoseSpace};
+use crate::Result;
+
+/// Most Levenberg-Marquardt iterations per start.
+const MAX_ITER: usize = 12;
+/// A step below this many degrees ends the iteration.
+const STEP_TOL: f64 = 2e-3;
+
+/// The continuous manifold of one fitted model.
+#[derive(Debug, Clone)]
+pub struct Surface {
+    splines: Vec<Spline>,
+    periods: Vec<Option<f64>>,
+    /// Knots per axis.
+    shape: Vec<usize>,
+    /// Flat-index stride of each axis (row-major, the last fastest).
+    stride: Vec<usize>,
+    /// Coordinates per point, L.
+    dim: usize,
+    /// For each derivative mask (2^D), each knot's L values: [mask][knot][L].
+    coef: Vec<f32>,
+}
+
+impl Surface {
+    /// The surface through `knots` (the training views' coordinates, `dim` each, row-major over
+    /// the grid `axes`, last parameter fastest).
+    pub fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f64], dim: usize) -> Result<Self> {
+        let d = axes.len();
+        let shape: Vec<usize> = axes.iter().map(Vec::len).collect();
+        let n: usize = shape.iter().product();
+        debug_assert_eq!(knots.len(), n * dim);
+        let mut splines = Vec::with_capacity(d);
+        let periods: Vec<Option<f64>> = space.params().iter().map(|p| p.period).collect();
+        for (ax, p) in axes.iter().zip(&periods) {
+            let b = match p {
+                Some(t) => Boundary::Periodic(*t),
+                None => Boundary::NotAKnot,
+            };
+            splines.push(Spline::new(ax, b)?);
+        }
+        let mut stride = vec![1; d];
+        for j in (0..d.saturating_sub(1)).rev() {
+            stride[j] = stride[j + 1] * shape[j + 1];
+        }
+        let mut coef = Vec::with_capacity((1 << d) * n * dim);
+        for mask in 0..1usize << d {
+            let mut cube = knots.to_vec();
+            for j in (0..d).filter(|j| mask >> j & 1 == 1) {
+                let inner = stride[j] * dim;
+                let block = shape[j] * inner;
+                let mut next = Vec::with_capacity(cube.len());
+                for o in 0..cube.len() / block {
+                    next.extend(splines[j].slopes(&cube[o * block..(o + 1) * block], inner));
+                }
+                cube = next;
+            }
+            coef.extend(cube.iter().map(|&v| v as f32));
+        }
+        Ok(Surface { splines, periods, shape, stride, dim, coef })
+    }
+
+    /// Number of pose parameters D.
+    pub fn params(&self) -> usize {
+        self.shape.len()
+    }
+
+    /// Numbers held: 2^D x N x L.
+    pub fn len(&self) -> usize {
+        self.coef.len()
+    }
+
+    /// Whether the surface holds nothing (never, once built).
+    pub fn is_empty(&self) -> bool {
+        self.coef.is_empty()
+    }
+
+    /// The surface point at `t` into `f` (L values), and when `jac` is given its derivatives
+    /// (D rows of L, row-major) too. `t` must lie in the domain ([`Surface::clamp`]).
+    pub fn eval(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>) {
+        let d = self.params();
+        let (l, n) = (self.dim, self.shape.iter().product::<usize>());
+        let mut w = [[0f64; 4]; 8];
+        let mut dw = [[0f64; 4]; 8];
+        let mut idx = [[0usize; 2]; 8];
+        for j in 0..d {
+            let (a, b, i0, i1) = self.splines[j].weights_d(t[j]);
+            (w[j], dw[j], idx[j]) = (a, b, [i0, i1]);
+        }
+        f.fill(0.0);
+        if let Some(g) = jac.as_deref_mut() {
+            g.fill(0.0);
+        }
+        let mut gw = [0f64; 8];
+        for combo in 0..1usize << (2 * d) {
+            let (mut weight, mut knot, mut mask) = (1.0, 0, 0);
+            for j in 0..d {
+                let a = combo >> (2 * j) & 3;
+                weight *= w[j][a];
+                knot += idx[j][a >> 1] * self.stride[j];
+                mask |= (a & 1) << j;
+            }
+            let c = &self.coef[(mask * n + knot) * l..(mask * n + knot + 1) * l];
+            f.iter_mut().zip(c).for_each(|(v, &x)| *v += weight * x as f64);
+            if let Some(g) = jac.as_deref_mut() {
+                for k in 0..d {
+                    gw[k] = (0..d).map(|j| if j == k { dw[j][combo >> (2 * j) & 3] } else { w[j][combo >> (2 * j) & 3] }).product();
+                    let row = &mut g[k * l..(k + 1) * l];
+                    row.iter_mut().zip(c).for_each(|(v, &x)| *v += gw[k] * x as f64);
+                }
+            }
+        }
+    }
+
+    /// Brings `t` into the domain: a circular parameter wrapped into [first knot, first knot +
+    /// period), a linear one clamped to its knots' range.
+    pub fn clamp(&self, t: &mut [f64]) {
+        for (j, v) in t.iter_mut().enumerate() {
+            let (lo, hi) = self.splines[j].span();
+            *v = match self.periods[j] {
+                Some(p) => lo + wrap_positive(*v - lo, p),
+                None => v.clamp(lo, hi),
+            };
+        }
+    }
+
+    /// The poses of a regular grid over the domain with `per_cell` points per knot interval
+    /// along each axis (the knots included), row-major.
+    pub fn grid_poses(&self, per_cell: usize) -> Vec<f64> {
+        let per_cell = per_cell.max(1);
+        let axes: Vec<Vec<f64>> = self
+            .splines
+            .iter()
+            .zip(&self.periods)
+            .zip(&self.shape)
+            .map(|((s, p), &n)| {
+                let knots = s.knots();
+                let pieces = if p.is_some() { n } else { n - 1 };
+                let mut v = Vec::new();
+                for i in 0..pieces {
+                    for k in 0..per_cell {
+                        v.push(knots[i] + (knots[i + 1] - knots[i]) * k as f64 / per_cell as f64);
+                    }
+                }
+                if p.is_none() {
+                    v.push(knots[n - 1]);
+                }
+                v
+            })
+            .collect();
+        let total: usize = axes.iter().map(Vec::len).product();
+        let d = axes.len();
+        let mut out = Vec::with_capacity(total * d);
+        for mut k in 0..total {
+            let start = out.len();
+            out.resize(start + d, 0.0);
+            for j in (0..d).rev() {
+                out[start + j] = axes[j][k % axes[j].len()];
+                k /= axes[j].len();
+            }
+        }
+        out
+    }
+
+    /// Levenberg-Marquardt from `t` (in the domain) on sum_l wt_l (y_l - f_l(t))^2; returns the squared
+    /// distance reached, with `t` moved to where it is reached. `buf` holds at least (D + 2) L
+    /// values of scratch.
+    pub fn refine(&self, y: &[f32], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> f64 {
+        let (d, l) = (self.params(), self.dim);
+        let (f, rest) = buf.split_at_mut(l);
+        let (jac, rest) = rest.split_at_mut(d * l);
+        let ftry = &mut rest[..l];
+        let dist = |f: &[f64]| y.iter().zip(f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum::<f64>();
+        self.eval(t, f, Some(jac));
+        let mut cost = dist(f);
+        let mut mu = -1.0;
+        let mut cand = [0f64; 8];
+        for _ in 0..MAX_ITER {
+            // Normal equations H = J^T J, g = J^T (y - f).
+            let mut h = [[0f64; 8]; 8];
+            let mut g = [0f64; 8];
+            for a in 0..d {
+                let ja = &jac[a * l..(a + 1) * l];
+                g[a] = ja.iter().zip(y.iter().zip(f.iter())).zip(wt).map(|((&j, (&yv, &fv)), &w)| w * j * (yv as f64 - fv)).sum();
+                for b in 0..=a {
+                    let v: f64 = ja.iter().zip(&jac[b * l..(b + 1) * l]).zip(wt).map(|((p, q), w)| w * p * q).sum();
+                    (h[a][b], h[b][a]) = (v, v);
+                }
+            }
+            if mu < 0.0 {
+                mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+            }
+            let mut moved = false;
+            let mut step = 0.0;
+            for _ in 0..12 {
+                let mut a = h;
+                for (k, row) in a.iter_mut().enumerate().take(d) {
+                    row[k] += mu;
+                }
+                let Some(delta) = solve(&mut a, &g, d) else { break };
+                for k in 0..d {
+                    cand[k] = t[k] + delta[k];
+                }
+                self.clamp(&mut cand[..d]);
+                self.eval(&cand[..d], ftry, None);
+                let c = dist(ftry);
+                if c < cost {
+                    step = (0..d).map(|k| (cand[k] - t[k]).abs()).fold(0.0, f64::max);
+                    t.copy_from_slice(&cand[..d]);
+                    cost = c;
+                    mu = (mu / 3.0).max(1e-12);
+                    moved = true;
+                    break;
+                }
+                mu *= 4.0;
+            }
+            if !moved || step < STEP_TOL {
+                break;
+            }
+            self.eval(t, f, Some(jac));
+        }
+        cost
+    }
+}
+
+impl Surface {
+    /// Moves `t` to the closest to `y` (distances weighted by `wt`) of the 2^D points around it on the lattice of `step`
+    /// degrees anchored at the first knot of each axis (kept in the domain); returns its squared
+    /// distance. `f` holds L values of scratch.
+    pub fn snap(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
+        let d = self.params();
+        let mut base = [0f64; 8];
+        for j in 0..d {
+            let lo = self.splines[j].span().0;
+            base[j] = lo + ((t[j] - lo) / step).floor() * step;
+        }
+        let (mut best, mut cand, mut out) = (f64::INFINITY, [0f64; 8], [0f64; 8]);
+        for corner in 0..1usize << d {
+            for j in 0..d {
+                cand[j] = base[j] + step * (corner >> j & 1) as f64;
+            }
+            self.clamp(&mut cand[..d]);
+            self.eval(&cand[..d], f, None);
+            let c: f64 = y.iter().zip(f.iter()).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum();
+            if c < best {
+                (best, out) = (c, cand);
+            }
+        }
+        t.copy_from_slice(&out[..d]);
+        best
+    }
+}
+
+/// Solves the small symmetric positive system `a x = b` (D <= 8) by Gaussian elimination; None
+/// when it is singular.
+fn solve(a: &mut [[f64; 8]; 8], b: &[f64; 8], d: usize) -> Option<[f64; 8]> {
+    let mut x = *b;
+    for c in 0..d {
+        let p = (c..d).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
+        if !(a[p][c].abs() > 0.0) {
+            return None;
+        }
+        a.swap(c, p);
+        x.swap(c, p);
+        for r in c + 1..d {
+            let k = a[r][c] / a[c][c];
+            for q in c..d {
+                a[r][q] -= k * a[c][q];
+            }
+            x[r] -= k * x[c];
+        }
+    }
+    for c in (0..d).rev() {
+        let s: f64 = (c + 1..d).map(|q| a[c][q] * x[q]).sum();
+        x[c] = (x[c] - s) / a[c][c];
+    }
+    x[..d].iter().all(|v| v.is_finite()).then_some(x)
+}

@@ -1,0 +1,167 @@
+//! Tests of the refined eigenspace on synthetic images made here (never /work/shared).
+
+use super::*;
+use crate::image_io::{ColorMode, ImageSpec};
+use crate::{Manifest, Param, PoseSpace};
+
+const W: usize = 32;
+const H: usize = 12;
+
+/// A smooth image of (elevation, azimuth): a lobe turning with the azimuth, rising with the
+/// elevation.
+fn image(elev: f64, azim: f64) -> Vec<f32> {
+    let (a, e) = (azim.to_radians(), (elev - 30.0) / 60.0);
+    let mut f = Vec::with_capacity(W * H);
+    for j in 0..H {
+        for i in 0..W {
+            let u = i as f64 / W as f64 * std::f64::consts::TAU;
+            let v = j as f64 / H as f64;
+            let lobe = (4.0 * ((u - a).cos() - 1.0)).exp() * (-(v - e).powi(2) / 0.08).exp();
+            f.push((0.15 + 0.6 * lobe + 0.1 * (u + 2.0 * a).cos() * v + 0.05 * (3.0 * u - a).sin()) as f32);
+        }
+    }
+    f
+}
+
+fn grid(elev: &[f64], azim: &[f64]) -> Dataset {
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
+    let (mut poses, mut names, mut f) = (Vec::new(), Vec::new(), Vec::new());
+    for &e in elev {
+        for &a in azim {
+            poses.extend([e, a]);
+            names.push(format!("{e}_{a}.png"));
+            f.extend(image(e, a));
+        }
+    }
+    let spec = ImageSpec { width: W as u32, height: H as u32, color: ColorMode::Gray };
+    Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap()
+}
+
+fn train_set() -> Dataset {
+    grid(&[30.0, 40.0, 50.0, 60.0, 70.0], &(0..24).map(|k| 15.0 * k as f64).collect::<Vec<_>>())
+}
+
+#[test]
+fn training_poses_are_recovered() {
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let est = model.predict(d.features()).unwrap();
+    for i in 0..d.len() {
+        let e = d.space().error_deg(d.pose(i), &est[2 * i..2 * i + 2]);
+        assert!(e < 1e-6, "sample {i}: {:?} for {:?}", &est[2 * i..2 * i + 2], d.pose(i));
+    }
+}
+
+#[test]
+fn surface_resamples_to_the_eigenspace_manifold() {
+    // The surface at the eigenspace's dense positions gives its manifold points (same spline).
+    let d = train_set();
+    let pca = crate::eigenspace::pca::fit(&d, Dimension::Fixed(6)).unwrap();
+    let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
+    let dense = crate::eigenspace::manifold::Manifold::build(d.space(), &g, &pca.coords, 6, 5.0).unwrap();
+    let knots: Vec<f64> = g.sample_at.iter().flat_map(|&i| pca.coords[i * 6..(i + 1) * 6].iter().copied()).collect();
+    let s = surface::Surface::new(d.space(), &g.axes, &knots, 6).unwrap();
+    let (mut pose, mut f) = ([0.0; 2], [0.0; 6]);
+    let scale = knots.iter().fold(0f64, |a, v| a.max(v.abs()));
+    for k in (0..dense.len()).step_by(7) {
+        dense.pose(d.space(), k, &mut pose);
+        s.clamp(&mut pose);
+        s.eval(&pose, &mut f, None);
+        for c in 0..6 {
+            assert!((f[c] - dense.points[k * 6 + c]).abs() < 1e-5 * scale, "point {k} coordinate {c}");
+        }
+    }
+}
+
+#[test]
+fn unseen_views_are_close_and_the_file_round_trips() {
+    let d = train_set();
+    let model = RefinedParams::default().fit(&d).unwrap();
+    assert!(!model.settings().selection.is_empty(), "L is chosen from held-out views");
+    let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
+    let est = model.predict(test.features()).unwrap();
+    for i in 0..test.len() {
+        let e = test.space().error_deg(test.pose(i), &est[2 * i..2 * i + 2]);
+        assert!(e < 2.0, "view {i}: error {e}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.safetensors");
+    let any: crate::AnyModel = model.clone().into();
+    crate::model_file::save(&any, &path).unwrap();
+    let back = crate::model_file::load(&path).unwrap();
+    assert!(matches!(back, crate::AnyModel::Refined(_)));
+    assert_eq!(back.predict(test.features()).unwrap(), est);
+}
+
+#[test]
+fn selection_picks_the_least_held_out_error() {
+    let d = train_set();
+    let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
+    let (l, scored, plain) = select::choose(&d, &g, &RefinedParams::default()).unwrap();
+    let best = scored.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    let first = scored.iter().find(|s| s.1 == best).unwrap().0;
+    assert_eq!(l, first);
+    // The plain metric is scored too, and the fitted model uses it exactly when it wins.
+    let plain = plain.expect("the weighted default scores the plain metric");
+    let model = RefinedParams::default().fit(&d).unwrap();
+    assert_eq!(model.settings().plain_error, Some(plain));
+    assert_eq!(model.settings().interpolation_variance.is_empty(), plain < best);
+}
+
+#[test]
+fn bad_parameters_are_errors() {
+    let d = train_set();
+    assert!(RefinedParams::default().components(0).fit(&d).is_err());
+    assert!(RefinedParams::default().starts(0).fit(&d).is_err());
+    assert!(RefinedParams::default().resolution(f64::NAN).fit(&d).is_err());
+}
+
+#[test]
+fn pixel_noise_ignores_planes_and_measures_white_noise() {
+    // Immerkaer's mask cancels any plane exactly, and for white noise of variance s^2 its mean
+    // absolute response is 6 s sqrt(2 / pi) (the mask's squared weights sum to 36).
+    let (w, h) = (64, 48);
+    let plane: Vec<f32> = (0..w * h).map(|i| 0.2 + 0.003 * (i % w) as f32 + 0.002 * (i / w) as f32).collect();
+    assert!(super::pixel_noise(&plane, w, h, 1) < 1e-9);
+    // Uniform noise of +-a (variance a^2 / 3) on a constant 0.5 image, from a fixed LCG.
+    let (a, mut state) = (0.05f32, 12345u64);
+    let noisy: Vec<f32> = (0..w * h)
+        .map(|_| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            0.5 + a * (2.0 * (state >> 40) as f32 / (1u64 << 24) as f32 - 1.0)
+        })
+        .collect();
+    let ms = noisy.iter().map(|&v| v as f64 * v as f64).sum::<f64>() / (w * h) as f64;
+    let want = (a as f64).powi(2) / 3.0 / ms;
+    let got = super::pixel_noise(&noisy, w, h, 1);
+    assert!((got / want - 1.0).abs() < 0.25, "estimate {got}, expected {want}");
+}
+
+#[test]
+fn noisy_queries_fall_back_to_the_plain_distance_and_stay_close() {
+    let d = train_set();
+    // L fixed: no selection, so the weighted metric is kept and the threshold measured.
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let thr = model.settings().noise_threshold;
+    assert!(thr > 0.0, "the threshold is measured on the training images");
+    let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
+    let mut state = 7u64;
+    let q: Vec<f32> = test
+        .features()
+        .iter()
+        .map(|&v| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (v + 0.05 * (2.0 * (state >> 40) as f32 / (1u64 << 24) as f32 - 1.0)).clamp(0.0, 1.0)
+        })
+        .collect();
+    let spec = test.spec();
+    let m = spec.features();
+    for x in q.chunks_exact(m) {
+        assert!(super::pixel_noise(x, spec.width as usize, spec.height as usize, 1) > thr);
+    }
+    let est = model.predict(&q).unwrap();
+    for i in 0..test.len() {
+        let e = test.space().error_deg(test.pose(i), &est[2 * i..2 * i + 2]);
+        assert!(e < 5.0, "view {i}: error {e}");
+    }
+}
