@@ -40,6 +40,7 @@ pub mod model;
 pub mod model_file;
 pub mod pose;
 pub mod render;
+pub mod stream;
 
 pub use dataset::Dataset;
 pub use eigenspace::{EigenspaceModel, EigenspaceParams};
