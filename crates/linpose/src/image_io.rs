@@ -181,6 +181,23 @@ pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
     }
 }
 
+/// Appends an 8-bit image's gray features as their raw values (feature = value / 255) and
+/// returns true; returns false, appending nothing, for an image that is not 8-bit or a colour
+/// mode that is not gray. The values are exactly those [`push_features`] divides by 255.
+pub fn push_u8_gray(img: &DynamicImage, color: ColorMode, out: &mut Vec<u8>) -> bool {
+    if color != ColorMode::Gray {
+        return false;
+    }
+    match img {
+        DynamicImage::ImageLuma8(g) => out.extend_from_slice(g.as_raw()),
+        DynamicImage::ImageLumaA8(g) => out.extend(g.as_raw().chunks_exact(2).map(|p| p[0])),
+        DynamicImage::ImageRgb8(c) => out.extend(c.as_raw().chunks_exact(3).map(|p| luma601(p[0], p[1], p[2]))),
+        DynamicImage::ImageRgba8(c) => out.extend(c.as_raw().chunks_exact(4).map(|p| luma601(p[0], p[1], p[2]))),
+        _ => return false,
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

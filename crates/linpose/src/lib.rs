@@ -42,6 +42,7 @@ pub mod pose;
 pub mod refine;
 pub mod render;
 pub mod ridge;
+pub mod stream;
 
 pub use dataset::Dataset;
 pub use eigenspace::{EigenspaceModel, EigenspaceParams};

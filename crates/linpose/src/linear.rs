@@ -361,7 +361,7 @@ pub struct LinearModel {
 }
 
 impl LinearModel {
-    fn new(meta: ModelMeta, w64: Vec<f64>, bias: Vec<f64>) -> Self {
+    pub(crate) fn new(meta: ModelMeta, w64: Vec<f64>, bias: Vec<f64>) -> Self {
         let w32 = w64.iter().map(|&v| v as f32).collect();
         Self::with_u8(meta, w64, w32, bias)
     }

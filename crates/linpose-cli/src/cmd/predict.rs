@@ -2,7 +2,7 @@
 
 use crate::common::progress;
 use anyhow::Context;
-use linpose::image_io::read_features;
+use linpose::image_io::{decode, push_features, push_u8_gray};
 use linpose::PoseModel;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -20,8 +20,12 @@ pub struct PredictArgs {
     #[arg(long, value_name = "MODEL")]
     pub model: PathBuf,
     /// Images (PNG, PGM, PPM), or folders whose images are all estimated (sorted by name).
-    #[arg(value_name = "IMAGE", required = true)]
+    #[arg(value_name = "IMAGE", required_unless_present = "list")]
     pub images: Vec<PathBuf>,
+    /// Also estimate the images listed in FILE, one path per line (for more paths than a
+    /// command line holds).
+    #[arg(long, value_name = "FILE")]
+    pub list: Option<PathBuf>,
     /// Print one JSON object per image instead of text.
     #[arg(long)]
     pub json: bool,
@@ -65,27 +69,43 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
     let meta = model.meta();
     let (spec, space) = (meta.spec, &meta.space);
     let m = spec.features();
-    let files = expand(&a.images)?;
+    let mut paths = a.images.clone();
+    if let Some(list) = &a.list {
+        let text = std::fs::read_to_string(list).with_context(|| format!("{}: cannot read the list", list.display()))?;
+        paths.extend(text.lines().map(str::trim).filter(|l| !l.is_empty()).map(PathBuf::from));
+    }
+    let files = expand(&paths)?;
     let bar = progress(files.len() as u64, "estimating");
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let mut features = vec![0f32; BATCH.min(files.len()) * m];
+    let mut pixels = vec![0u8; BATCH.min(files.len()) * m];
     let mut poses = vec![0f64; BATCH * space.len()];
     let context = format!("the size of the model's training images ({})", a.model.display());
     for chunk in files.chunks(BATCH) {
+        // Decoded in parallel; 8-bit gray (or RGB made gray) images stay 8-bit for the model's
+        // 8-bit path, any other image becomes f32 features.
         let feats = &mut features[..chunk.len() * m];
-        feats
+        let pix = &mut pixels[..chunk.len() * m];
+        let all_u8 = feats
             .par_chunks_mut(m)
+            .zip(pix.par_chunks_mut(m))
             .zip(chunk.par_iter())
-            .map(|(slot, path)| {
-                let mut row = Vec::with_capacity(m);
-                read_features(path, spec.color, Some((spec.width, spec.height)), &context, &mut row)?;
-                slot.copy_from_slice(&row);
-                Ok(())
-            })
-            .collect::<linpose::Result<Vec<()>>>()?;
+            .map(|((slot, slot8), path)| read_one(path, spec, &context, slot, slot8))
+            .collect::<linpose::Result<Vec<bool>>>()?
+            .into_iter()
+            .all(|b| b);
         let est = &mut poses[..chunk.len() * space.len()];
-        model.predict_into(feats, est)?;
+        if all_u8 {
+            model.predict_u8_into(pix, est)?;
+        } else {
+            for (f, p) in feats.chunks_exact_mut(m).zip(pix.chunks_exact(m)) {
+                if f[0].is_nan() {
+                    f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
+                }
+            }
+            model.predict_into(feats, est)?;
+        }
         for (path, pose) in chunk.iter().zip(est.chunks_exact(space.len())) {
             let name = path.display().to_string();
             if a.json {
@@ -105,4 +125,31 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     out.flush()?;
     Ok(())
+}
+
+/// Decodes one image into `pixels` (8-bit gray, returning true) or else `features` (returning
+/// false; `features[0]` is NaN after an 8-bit image, marking the row to convert if needed).
+fn read_one(path: &Path, spec: linpose::image_io::ImageSpec, context: &str, features: &mut [f32], pixels: &mut [u8]) -> linpose::Result<bool> {
+    let bytes = std::fs::read(path).map_err(|e| linpose::Error::io(path, e))?;
+    let img = decode(path, &bytes)?;
+    if (img.width(), img.height()) != (spec.width, spec.height) {
+        return Err(linpose::Error::ImageSizeMismatch {
+            path: path.to_path_buf(),
+            expected_w: spec.width,
+            expected_h: spec.height,
+            got_w: img.width(),
+            got_h: img.height(),
+            context: context.to_string(),
+        });
+    }
+    let mut v8 = Vec::with_capacity(pixels.len());
+    if push_u8_gray(&img, spec.color, &mut v8) {
+        pixels.copy_from_slice(&v8);
+        features[0] = f32::NAN;
+        return Ok(true);
+    }
+    let mut v = Vec::with_capacity(features.len());
+    push_features(&img, spec.color, &mut v);
+    features.copy_from_slice(&v);
+    Ok(false)
 }

@@ -62,6 +62,12 @@ pub struct TrainArgs {
     /// step; 0 = the continuous estimate).
     #[arg(long, value_name = "D")]
     pub resolution: Option<f64>,
+    /// Linear model: read the images from disk in blocks instead of all at once, for training
+    /// sets larger than memory. With N <= M images this is the usual minimum-norm fit; with
+    /// N > M it is least squares / ridge through X^T X (M x M), which needs --ridge when some
+    /// pixels never vary. Says which path it took.
+    #[arg(long, conflicts_with = "center")]
+    pub stream: bool,
     /// How colour images become features.
     #[arg(long, value_enum, default_value = "gray")]
     pub color: ColorArg,
@@ -112,6 +118,9 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         (None, None) => TrainSelection::All,
     };
     let mask = manifest.training_mask(&selection)?;
+    if a.stream {
+        return run_streaming(a, manifest.subset(&mask)?, t0);
+    }
     let train = load_dataset(manifest.subset(&mask)?, a.color.into())?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -161,6 +170,47 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         a.out.display()
     );
     if let Some(j) = &a.json {
+        write_json(j, &summary)?;
+    }
+    Ok(())
+}
+
+/// `linpose train --stream`: the linear model, images read in blocks (linpose::stream).
+fn run_streaming(a: &TrainArgs, manifest: linpose::Manifest, t0: Instant) -> anyhow::Result<()> {
+    if a.method != Method::Linear {
+        anyhow::bail!("--stream trains the linear model only");
+    }
+    let n = manifest.len();
+    let bar = crate::common::progress(n as u64, "reading");
+    if a.noise_level.is_some() || a.ridge == "auto" {
+        anyhow::bail!("--stream takes a numeric --ridge (0 for the exact fit); --ridge auto and --noise-level need the training set in memory");
+    }
+    let params = linear_params(a)?;
+    let (model, path) = linpose::stream::fit_linear(&manifest, a.color.into(), &params, &|k| bar.inc(k))?;
+    bar.finish_and_clear();
+    let fit_s = t0.elapsed().as_secs_f64();
+    let model: AnyModel = model.into();
+    let file_bytes = linpose::model_file::save(&model, &a.out).context("writing the model")?;
+    let meta = model.meta();
+    eprintln!(
+        "trained linear (streamed; {path}) on {n} images of {}x{} in {fit_s:.3} s (reading included); model {} bytes -> {}",
+        meta.spec.width,
+        meta.spec.height,
+        model.model_bytes(),
+        a.out.display()
+    );
+    if let Some(j) = &a.json {
+        let summary = TrainSummary {
+            method: meta.method.clone(),
+            data: a.data.data.display().to_string(),
+            n_train: meta.n_train(),
+            n_features: meta.spec.features(),
+            load_s: 0.0,
+            fit_s,
+            model_bytes: model.model_bytes(),
+            file_bytes,
+            settings: meta.settings.clone(),
+        };
         write_json(j, &summary)?;
     }
     Ok(())

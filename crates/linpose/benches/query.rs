@@ -1,0 +1,61 @@
+//! Query throughput of the 8-bit paths against the memory-bandwidth bound measured in the same
+//! run (a parallel copy of as many bytes): the linear model (K = 3 products) and the eigenspace
+//! (L = 20 products, then the search), one query and batches of 1024.
+//!
+//! cargo bench -p linpose --bench query
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use linpose::{EigenspaceParams, Estimator, LinearParams, PoseModel};
+use rayon::prelude::*;
+use std::hint::black_box;
+
+mod common;
+use common::*;
+
+fn copy(c: &mut Criterion, name: &str, bytes: usize) {
+    let src = vec![1u8; bytes];
+    let mut dst = vec![0u8; bytes];
+    let mut g = c.benchmark_group("copy");
+    g.throughput(Throughput::Bytes(bytes as u64));
+    g.bench_function(name, |b| {
+        b.iter(|| {
+            if bytes >= 1 << 20 {
+                dst.par_chunks_mut(1 << 20).zip(src.par_chunks(1 << 20)).for_each(|(d, s)| d.copy_from_slice(s));
+            } else {
+                dst.copy_from_slice(&src);
+            }
+            black_box(&dst);
+        })
+    });
+    g.finish();
+}
+
+fn queries(c: &mut Criterion) {
+    let train = training_set();
+    let lin = LinearParams::default().ridge(1e-6).fit(&train).unwrap();
+    let eig = EigenspaceParams::default().components(20).fit(&train).unwrap();
+    let batch = 1024;
+    let q = images_u8(batch, 7);
+    let qf: Vec<f32> = q[..M].iter().map(|&v| v as f32 / 255.0).collect();
+    let mut out = vec![0.0; batch * 2];
+    // Bounds: one image plus the weights it is multiplied with (cache-resident), and a batch.
+    copy(c, "one image + linear weights", M + lin.weights().len() * 4);
+    copy(c, "one image + eigenspace basis", M + eig.basis().len() * 4);
+    copy(c, "batch of 1024 images", batch * M);
+    let mut g = c.benchmark_group("linear");
+    g.throughput(Throughput::Bytes(M as u64));
+    g.bench_function("u8 single", |b| b.iter(|| lin.predict_u8_into(black_box(&q[..M]), &mut out[..2]).unwrap()));
+    g.bench_function("f32 single", |b| b.iter(|| lin.predict_into(black_box(&qf), &mut out[..2]).unwrap()));
+    g.throughput(Throughput::Bytes((batch * M) as u64));
+    g.bench_function("u8 batch 1024", |b| b.iter(|| lin.predict_u8_into(black_box(&q), &mut out).unwrap()));
+    g.finish();
+    let mut g = c.benchmark_group("eigenspace");
+    g.throughput(Throughput::Bytes(M as u64));
+    g.bench_function("u8 single", |b| b.iter(|| eig.predict_u8_into(black_box(&q[..M]), &mut out[..2]).unwrap()));
+    g.bench_function("f32 single", |b| b.iter(|| eig.predict_into(black_box(&qf), &mut out[..2]).unwrap()));
+    g.throughput(Throughput::Bytes((batch * M) as u64));
+    g.bench_function("u8 batch 1024", |b| b.iter(|| eig.predict_u8_into(black_box(&q), &mut out).unwrap()));
+    g.finish();
+}
+
+criterion_group! { name = benches; config = Criterion::default().sample_size(20); targets = queries }
+criterion_main!(benches);

@@ -1,0 +1,95 @@
+//! 8-bit query throughput against bounds measured in the same run, alternating, medians of REPS:
+//! the memory bound (a parallel copy of the same bytes: a batch of images, or one image plus the
+//! weights it meets) and, for the eigenspace, the f32 FMA bound (2 x the f64 FMA loop's rate).
+//!
+//! cargo run --release --example query_timing [-- REPS]
+use linpose::image_io::{ColorMode, ImageSpec};
+use linpose::kernels::peak::fma_flops_f64;
+use linpose::{Dataset, EigenspaceParams, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
+use rayon::prelude::*;
+use std::time::Instant;
+
+const M: usize = 160 * 120;
+
+fn images(n: usize, seed: usize) -> Vec<u8> {
+    (0..n * M)
+        .map(|i| {
+            let mut x = (i as u64) ^ ((seed as u64) << 40);
+            x = (x ^ (x >> 33)).wrapping_mul(0xff51afd7ed558ccd);
+            (x ^ (x >> 29)) as u8
+        })
+        .collect()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn time(reps: usize, mut f: impl FnMut()) -> f64 {
+    f();
+    let t = Instant::now();
+    for _ in 0..reps {
+        f();
+    }
+    t.elapsed().as_secs_f64() / reps as f64
+}
+
+fn copy(src: &[u8], dst: &mut [u8]) {
+    if src.len() >= 1 << 20 {
+        dst.par_chunks_mut(1 << 20).zip(src.par_chunks(1 << 20)).for_each(|(d, s)| d.copy_from_slice(s));
+    } else {
+        dst.copy_from_slice(src);
+    }
+}
+
+fn main() {
+    let reps: usize = std::env::args().nth(1).map_or(7, |s| s.parse().expect("REPS"));
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
+    let (mut poses, mut names) = (Vec::new(), Vec::new());
+    for e in (32..=77).step_by(9) {
+        for a in (0..=324).step_by(9) {
+            poses.extend([e as f64, a as f64]);
+            names.push(format!("{e}_{a}.png"));
+        }
+    }
+    let f = images(names.len(), 1).iter().map(|&v| v as f32 / 255.0).collect();
+    let spec = ImageSpec { width: 160, height: 120, color: ColorMode::Gray };
+    let train = Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap();
+    let lin = LinearParams::default().ridge(1e-6).fit(&train).unwrap();
+    let eig = EigenspaceParams::default().components(20).fit(&train).unwrap();
+    let batch = 4096;
+    let q = images(batch, 7);
+    let mut out = vec![0.0; batch * 2];
+    let (mut d_batch, mut d_lin, mut d_eig) = (vec![0u8; batch * M], vec![0u8; M + lin.weights().len() * 4], vec![0u8; M + eig.basis().len() * 4]);
+    let (s_lin, s_eig) = (vec![1u8; d_lin.len()], vec![1u8; d_eig.len()]);
+    let mut r: Vec<Vec<f64>> = vec![vec![]; 10];
+    let mut y = vec![0f32; batch * 20];
+    for _ in 0..reps {
+        r[0].push(time(3, || copy(&q, &mut d_batch)));
+        r[1].push(time(2000, || copy(&s_lin, &mut d_lin)));
+        r[2].push(time(300, || copy(&s_eig, &mut d_eig)));
+        r[3].push(time(3, || lin.predict_u8_into(&q, &mut out).unwrap()));
+        r[4].push(time(2000, || lin.predict_u8_into(&q[..M], &mut out[..2]).unwrap()));
+        r[5].push(time(3, || eig.predict_u8_into(&q, &mut out).unwrap()));
+        r[6].push(time(300, || eig.predict_u8_into(&q[..M], &mut out[..2]).unwrap()));
+        r[7].push(fma_flops_f64(0.2) * 2.0);
+        r[9].push(time(3, || eig.project_u8_into(&q, &mut y).unwrap()));
+        r[8].push(time(1, || lin.predict_into(&q.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(), &mut out).unwrap()));
+    }
+    let m: Vec<f64> = r.into_iter().map(median).collect();
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("threads {}, load average {}, medians of {reps}", rayon::current_num_threads(), load.split_whitespace().take(3).collect::<Vec<_>>().join(" "));
+    let gb = |bytes: usize, t: f64| bytes as f64 / t / 1e9;
+    println!("copy bound: batch {:.1} GB/s; one image + linear weights (cached) {:.1} GB/s; + eigenspace basis {:.1} GB/s", gb(batch * M, m[0]), gb(d_lin.len(), m[1]), gb(d_eig.len(), m[2]));
+    println!("linear u8 batch {batch}: {:.3} us/query, {:.1} GB/s of images = {:.0}% of the copy bound", m[3] / batch as f64 * 1e6, gb(batch * M, m[3]), 100.0 * m[0] / m[3]);
+    println!("linear u8 single: {:.2} us, bytes touched {:.1} GB/s = {:.0}% of the cached copy of the same bytes", m[4] * 1e6, gb(d_lin.len(), m[4]), 100.0 * m[1] / m[4]);
+    let flops = (2 * 20 * M) as f64;
+    println!("f32 FMA bound {:.0} GFLOP/s: eigenspace {:.2} us/query at best when batched", m[7] / 1e9, flops / m[7] * 1e6);
+    let bound_b = (m[0] / batch as f64).max(flops / m[7]);
+    println!("eigenspace u8 batch {batch}: {:.3} us/query = {:.0}% of its bound (max of copy and FMA bounds)", m[5] / batch as f64 * 1e6, 100.0 * bound_b / (m[5] / batch as f64));
+    let bound_s = m[2].max(flops / (m[7] / rayon::current_num_threads() as f64));
+    println!("eigenspace u8 single: {:.2} us = {:.0}% of its bound (max of the cached copy and one core's FMA bound)", m[6] * 1e6, 100.0 * bound_s / m[6]);
+    println!("eigenspace u8 projection alone, batch {batch}: {:.3} us/query = {:.0}% of its bound (search excluded: on these random images the k-d tree degenerates)", m[9] / batch as f64 * 1e6, 100.0 * bound_b / (m[9] / batch as f64));
+    println!("(linear f32 batch incl. conversion: {:.3} us/query)", m[8] / batch as f64 * 1e6);
+}
