@@ -9,7 +9,7 @@ use crate::dataset::Dataset;
 use crate::kernels::{dot_u8::dots, Level};
 use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
 use crate::ridge::{estimate_noise_sigma, loo_curve, RidgeRule};
-use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
@@ -420,12 +420,8 @@ impl PoseModel for LinearModel {
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         let m = self.meta.spec.features();
-        check_queries(m, queries.len(), "query batch")?;
         let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());
-        let n = queries.len() / m;
-        if out.len() != n * p {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), p)?;
         let space = &self.meta.space;
         let one = |(x, o): (&[f32], &mut [f64])| {
             let mut enc = [0f64; 16];
@@ -445,12 +441,8 @@ impl PoseModel for LinearModel {
     /// [`crate::kernels::dot_u8`].
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let m = self.meta.spec.features();
-        check_queries(m, queries.len(), "query batch")?;
         let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());
-        let n = queries.len() / m;
-        if out.len() != n * p {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), p)?;
         let (space, level) = (&self.meta.space, Level::detect());
         let one = |(x, o): (&[u8], &mut [f64])| {
             let (mut e32, mut enc) = ([0f32; 16], [0f64; 16]);

@@ -62,6 +62,17 @@ pub fn check_queries(m: usize, len: usize, context: &str) -> Result<()> {
     Ok(())
 }
 
+/// The number of queries in a batch of `len` values of `m` features, checking that the output
+/// holds `per_query` values for each; errors name the mismatch.
+pub fn batch_len(m: usize, len: usize, out_len: usize, per_query: usize) -> Result<usize> {
+    check_queries(m, len, "query batch")?;
+    let n = len / m;
+    if out_len != n * per_query {
+        return Err(Error::invalid("output length", out_len, format!("{n} queries need {}", n * per_query)));
+    }
+    Ok(n)
+}
+
 /// What a model records about its training, enough to be used on its own.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelMeta {

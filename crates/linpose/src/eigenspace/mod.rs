@@ -47,7 +47,7 @@ pub mod spline;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_u8, Level};
-use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
@@ -269,11 +269,7 @@ impl EigenspaceModel {
     /// of zero or non-finite energy gives NaN coordinates.
     pub fn project_into(&self, queries: &[f32], out: &mut [f32]) -> Result<()> {
         let (l, m) = (self.components(), self.mean.len());
-        check_queries(m, queries.len(), "query batch")?;
-        let n = queries.len() / m;
-        if out.len() != n * l {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * l)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), l)?;
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each(|(q, y)| self.project_chunk(q, y));
         Ok(())
@@ -284,11 +280,7 @@ impl EigenspaceModel {
     /// integers (the 1 / 255 of the features cancels in the unit-energy scaling).
     pub fn project_u8_into(&self, queries: &[u8], out: &mut [f32]) -> Result<()> {
         let (l, m) = (self.components(), self.mean.len());
-        check_queries(m, queries.len(), "query batch")?;
-        let n = queries.len() / m;
-        if out.len() != n * l {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * l)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
         let one = |(x, y): (&[u8], &mut [f32])| self.project_one_u8(level, x, y);
         if n >= 8 {
@@ -382,11 +374,7 @@ impl PoseModel for EigenspaceModel {
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
-        check_queries(m, queries.len(), "query batch")?;
-        let n = queries.len() / m;
-        if out.len() != n * p {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), p)?;
         // Project and search chunk by chunk, in parallel; a query that cannot be normalised
         // leaves NaN poses, found afterwards so the error names the first such query.
         let space = &self.meta.space;
@@ -415,11 +403,7 @@ impl PoseModel for EigenspaceModel {
     /// 8-bit queries: [`EigenspaceModel::project_u8_into`]'s projection, then the search.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
-        check_queries(m, queries.len(), "query batch")?;
-        let n = queries.len() / m;
-        if out.len() != n * p {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), p)?;
         let (space, level) = (&self.meta.space, Level::detect());
         let one = |(x, o): (&[u8], &mut [f64])| {
             let mut y = [0f32; 64];

@@ -54,7 +54,7 @@ pub mod surface;
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
-use crate::model::{check_queries, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -517,11 +517,7 @@ impl PoseModel for RefinedModel {
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
-        check_queries(m, queries.len(), "query batch")?;
-        let n = queries.len() / m;
-        if out.len() != n * p {
-            return Err(Error::invalid("output length", out.len(), format!("{n} queries need {}", n * p)));
-        }
+        let n = batch_len(m, queries.len(), out.len(), p)?;
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
