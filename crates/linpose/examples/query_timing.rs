@@ -3,23 +3,15 @@
 //! weights it meets) and, for the eigenspace, the f32 FMA bound (2 x the f64 FMA loop's rate).
 //!
 //! cargo run --release --example query_timing [-- REPS]
-use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::kernels::peak::fma_flops_f64;
-use linpose::{Dataset, EigenspaceParams, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
+use linpose::{EigenspaceParams, Estimator, LinearParams, PoseModel};
 use rayon::prelude::*;
 use std::time::Instant;
 
-const M: usize = 160 * 120;
-
-fn images(n: usize, seed: usize) -> Vec<u8> {
-    (0..n * M)
-        .map(|i| {
-            let mut x = (i as u64) ^ ((seed as u64) << 40);
-            x = (x ^ (x >> 33)).wrapping_mul(0xff51afd7ed558ccd);
-            (x ^ (x >> 29)) as u8
-        })
-        .collect()
-}
+// The benchmarks' fixtures: 160 x 120 pseudo-random 8-bit images on the paper's training grid.
+#[path = "../benches/common/mod.rs"]
+mod common;
+use common::{images_u8 as images, training_set, M};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -45,17 +37,7 @@ fn copy(src: &[u8], dst: &mut [u8]) {
 
 fn main() {
     let reps: usize = std::env::args().nth(1).map_or(7, |s| s.parse().expect("REPS"));
-    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
-    let (mut poses, mut names) = (Vec::new(), Vec::new());
-    for e in (32..=77).step_by(9) {
-        for a in (0..=324).step_by(9) {
-            poses.extend([e as f64, a as f64]);
-            names.push(format!("{e}_{a}.png"));
-        }
-    }
-    let f = images(names.len(), 1).iter().map(|&v| v as f32 / 255.0).collect();
-    let spec = ImageSpec { width: 160, height: 120, color: ColorMode::Gray };
-    let train = Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap();
+    let train = training_set();
     let lin = LinearParams::default().ridge(1e-6).fit(&train).unwrap();
     let eig = EigenspaceParams::default().components(20).fit(&train).unwrap();
     let batch = 4096;

@@ -453,4 +453,4 @@ impl PoseModel for EigenspaceModel {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -5,12 +5,13 @@ use super::*;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::{Manifest, Param, PoseSpace, TrainSelection};
 
-const W: usize = 32;
-const H: usize = 12;
+pub(crate) const W: usize = 32;
+pub(crate) const H: usize = 12;
 
 /// A W x H image of a pose: a bright lobe that turns with the azimuth and rises with the
-/// elevation, over a background with its own azimuth dependence. Smooth in both angles.
-fn image(elev: f64, azim: f64) -> Vec<f32> {
+/// elevation, over a background with its own azimuth dependence. Smooth in both angles. Shared
+/// with the refined method's tests.
+pub(crate) fn image(elev: f64, azim: f64) -> Vec<f32> {
     let (a, e) = (azim.to_radians(), (elev - 30.0) / 60.0);
     let mut f = Vec::with_capacity(W * H);
     for j in 0..H {

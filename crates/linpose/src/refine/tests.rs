@@ -4,24 +4,8 @@ use super::*;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::{Manifest, Param, PoseSpace};
 
-const W: usize = 32;
-const H: usize = 12;
-
-/// A smooth image of (elevation, azimuth): a lobe turning with the azimuth, rising with the
-/// elevation.
-fn image(elev: f64, azim: f64) -> Vec<f32> {
-    let (a, e) = (azim.to_radians(), (elev - 30.0) / 60.0);
-    let mut f = Vec::with_capacity(W * H);
-    for j in 0..H {
-        for i in 0..W {
-            let u = i as f64 / W as f64 * std::f64::consts::TAU;
-            let v = j as f64 / H as f64;
-            let lobe = (4.0 * ((u - a).cos() - 1.0)).exp() * (-(v - e).powi(2) / 0.08).exp();
-            f.push((0.15 + 0.6 * lobe + 0.1 * (u + 2.0 * a).cos() * v + 0.05 * (3.0 * u - a).sin()) as f32);
-        }
-    }
-    f
-}
+// The eigenspace tests' synthetic turntable images.
+use crate::eigenspace::tests::{image, H, W};
 
 fn grid(elev: &[f64], azim: &[f64]) -> Dataset {
     let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
