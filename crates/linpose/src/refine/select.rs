@@ -90,14 +90,15 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(u
             for &i in &sub_grid.sample_at {
                 knots.extend(pca.coords[i * l_max..i * l_max + l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
             }
-            let settings = RefinedSettings { params: *params, components: l, search_components: l, energy_kept: 0.0, knot_shape: sub_grid.shape(), selection: vec![], plain_error: None,
+            let settings = RefinedSettings {
                 interpolation_variance: sig.unwrap_or_default(),
                 residual_energy: pca.eigenvalues[l..].iter().map(|&v| v.max(0.0)).sum::<f64>() / fit.len() as f64,
-                noise_threshold: 0.0,
+                ..fold_settings(params, l, sub_grid.shape())
             };
             let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
             let mean = pca.mean.iter().map(|&v| v as f32).collect();
-            let model = RefinedModel::new(meta, settings, basis, mean, knots, sub_grid.axes.clone())?;
+            let background = vec![0.0; knots.len()];
+            let model = RefinedModel::new(meta, settings, basis, mean, knots, background, sub_grid.axes.clone())?;
             let est = model.predict(test.features())?;
             let d = space.len();
             let err: f64 = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d])).sum();
@@ -118,6 +119,105 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(u
     let best = scored.iter().fold((FALLBACK_COMPONENTS, f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
     let plain = (plain_folds == folds.len()).then(|| plain_sum / plain_n.max(1) as f64);
     Ok((best.0, scored, plain))
+}
+
+/// The settings of a model fitted on one fold: `l` components, all searched, nothing chosen.
+fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> RefinedSettings {
+    RefinedSettings {
+        params: *params,
+        components: l,
+        search_components: l,
+        energy_kept: 0.0,
+        knot_shape,
+        selection: vec![],
+        plain_error: None,
+        interpolation_variance: vec![],
+        residual_energy: 0.0,
+        noise_threshold: 0.0,
+        noise_components: l,
+        noise_weighted: false,
+        coord_variance: vec![],
+        noise_selection: vec![],
+    }
+}
+
+/// The noise amplitudes (fractions of full brightness, uniform noise clipped to [0, 1]) under
+/// which the noisy match is chosen: the paper's +-5% and +-10% (Fig. 4).
+pub const NOISE_LEVELS: &[f64] = &[0.05, 0.1];
+
+/// Seed of the simulated noise on held-out training views.
+pub const NOISE_SEED: u64 = 0x5e1ec7;
+
+/// Chooses the match of noisy queries ([`RefinedModel`]'s affine match) from the training views
+/// alone: on the folds of [`choose`], the held-out views get simulated uniform noise at each of
+/// [`NOISE_LEVELS`] (clipped, fixed seed) and are estimated with every candidate, L among
+/// [`CANDIDATES`] up to `l_cap`, weighted or plain; the least mean pose error wins (a tie goes
+/// to the smaller L, then to the plain metric). None when no fold is possible.
+pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<(usize, bool, Vec<(usize, bool, f64)>)>> {
+    let folds = folds(train, grid);
+    if folds.is_empty() {
+        return Ok(None);
+    }
+    let space = train.space();
+    let (m, d) = (train.n_features(), space.len());
+    let l_fit = super::NOISE_COMPONENTS.max(CANDIDATES.iter().copied().filter(|&c| c <= l_cap).max().unwrap_or(l_cap)).min(l_cap);
+    let mut scores: Vec<(usize, bool, f64, usize)> = Vec::new();
+    let cap = error_cap(grid);
+    for keep in &folds {
+        let fit = train.subset(keep)?;
+        let held: Vec<bool> = keep.iter().map(|k| !k).collect();
+        let test = train.subset(&held)?;
+        let sub_grid = Grid::new(space, fit.poses(), fit.manifest().images(), fit.manifest().root())?;
+        let pca = pca::fit(&fit, Dimension::Fixed(l_fit))?;
+        let l = pca.dim();
+        let coord_variance = interpolation_variance(&fit, &sub_grid, &pca.coords, l)?;
+        let knots: Vec<f32> = sub_grid.sample_at.iter().flat_map(|&i| pca.coords[i * l..(i + 1) * l].iter().map(|&v| v as f32)).collect();
+        let background = super::background_knots(&fit, &sub_grid.sample_at, &pca.basis, l);
+        let settings = RefinedSettings { coord_variance: coord_variance.clone().unwrap_or_default(), ..fold_settings(params, l, sub_grid.shape()) };
+        let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
+        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+        let mut model = RefinedModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), knots, background, sub_grid.axes.clone())?;
+        let mut cands: Vec<(usize, bool)> = CANDIDATES.iter().filter(|&&c| c <= l).map(|&c| (c, false)).collect();
+        if cands.is_empty() {
+            cands.push((l, false));
+        }
+        if coord_variance.is_some() {
+            cands.extend(cands.clone().into_iter().map(|(c, _)| (c, true)));
+        }
+        for &level in NOISE_LEVELS {
+            let mut q = test.features().to_vec();
+            crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED)?;
+            for &(c, w) in &cands {
+                model.settings.noise_components = c;
+                model.settings.noise_weighted = w;
+                let est = model.predict_noisy(&q)?;
+                // Capped: a gross failure (wrong knot interval) weighs as much as half an
+                // interval, so the rare ones of the sparse fold do not decide the choice.
+                let err: f64 = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d]).min(cap)).sum();
+                match scores.iter_mut().find(|s| (s.0, s.1) == (c, w)) {
+                    Some(s) => (s.2, s.3) = (s.2 + err, s.3 + test.len()),
+                    None => scores.push((c, w, err, test.len())),
+                }
+            }
+        }
+    }
+    let scored: Vec<(usize, bool, f64)> = scores.iter().map(|&(c, w, e, n)| (c, w, e / n.max(1) as f64)).collect();
+    let best = scored.iter().fold(None::<(usize, bool, f64)>, |b, &s| match b {
+        Some(b) if b.2 <= s.2 => Some(b),
+        _ => Some(s),
+    });
+    Ok(best.map(|(c, w, _)| (c, w, scored.clone())))
+}
+
+/// The cap on a held-out view's error when scoring the noisy match: half the smallest spacing of
+/// the training grid's knots (degrees), beyond which an estimate is in the wrong knot interval.
+pub fn error_cap(grid: &Grid) -> f64 {
+    let h = grid.axes.iter().flat_map(|a| a.windows(2).map(|w| w[1] - w[0])).fold(f64::INFINITY, f64::min);
+    if h.is_finite() {
+        h / 2.0
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// The mean squared interpolation error of each of the `dim` coordinates (`coords`, N x dim, in

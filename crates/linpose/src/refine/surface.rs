@@ -91,9 +91,12 @@ impl Surface {
 
     /// The surface point at `t` into `f` (L values), and when `jac` is given its derivatives
     /// (D rows of L, row-major) too. `t` must lie in the domain ([`Surface::clamp`]).
+    /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
     pub fn eval(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>) {
         let d = self.params();
         let (l, n) = (self.dim, self.shape.iter().product::<usize>());
+        let lo = f.len();
+        debug_assert!(lo <= l);
         let mut w = [[0f64; 4]; 8];
         let mut dw = [[0f64; 4]; 8];
         let mut idx = [[0usize; 2]; 8];
@@ -119,7 +122,7 @@ impl Surface {
             if let Some(g) = jac.as_deref_mut() {
                 for k in 0..d {
                     gw[k] = (0..d).map(|j| if j == k { dw[j][combo >> (2 * j) & 3] } else { w[j][combo >> (2 * j) & 3] }).product();
-                    let row = &mut g[k * l..(k + 1) * l];
+                    let row = &mut g[k * lo..(k + 1) * lo];
                     row.iter_mut().zip(c).for_each(|(v, &x)| *v += gw[k] * x as f64);
                 }
             }
@@ -237,11 +240,106 @@ impl Surface {
     }
 }
 
+/// Where a query's coordinates `z` meet the surface `alpha (f(t) + c) + beta g(t)` with the gain
+/// alpha and the offset beta fitted (weighted least squares, `wt`) for each pose: the affine
+/// match of a noisy query ([`super::RefinedModel`]'s noise path). `f` and `g` are the two
+/// surfaces' values at t; returns the weighted squared residual and (alpha, beta).
+pub fn affine_fit(z: &[f64], c: &[f64], wt: &[f64], f: &[f64], g: &[f64]) -> (f64, [f64; 2]) {
+    let (mut a, mut b, mut cc, mut u, mut v, mut zz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for ((((&zl, &cl), &w), &fl), &gl) in z.iter().zip(c).zip(wt).zip(f).zip(g) {
+        let m = fl + cl;
+        a += w * m * m;
+        b += w * m * gl;
+        cc += w * gl * gl;
+        u += w * zl * m;
+        v += w * zl * gl;
+        zz += w * zl * zl;
+    }
+    let det = a * cc - b * b;
+    if det > 1e-9 * a * cc && det > 0.0 {
+        let (al, be) = ((cc * u - b * v) / det, (a * v - b * u) / det);
+        ((zz - al * u - be * v).max(0.0), [al, be])
+    } else if a > 0.0 {
+        ((zz - u * u / a).max(0.0), [u / a, 0.0])
+    } else {
+        (zz, [0.0, 0.0])
+    }
+}
+
 impl Surface {
-    /// Moves `t` to the closest to `y` (distances weighted by `wt`) of the 2^D points around it on the lattice of `step`
-    /// degrees anchored at the first knot of each axis (kept in the domain); returns its squared
-    /// distance. `f` holds L values of scratch.
-    pub fn snap(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
+    /// Levenberg-Marquardt in the pose from `t` on the affine match of [`affine_fit`]: at each
+    /// pose the gain and offset are solved exactly and the step is taken on the reduced residual
+    /// (variable projection, with Kaufman's Jacobian alpha J_f + beta J_g). `bg` is the offset
+    /// surface g, on the same knots. Returns the weighted squared residual reached and its
+    /// (alpha, beta), with `t` moved there. `buf` holds at least (2 D + 5) L values.
+    /// Only the first `z.len()` coordinates count.
+    pub fn refine_affine(&self, bg: &Surface, z: &[f64], c: &[f64], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> (f64, [f64; 2]) {
+        let (d, l) = (self.params(), z.len());
+        let (f, rest) = buf.split_at_mut(l);
+        let (g, rest) = rest.split_at_mut(l);
+        let (jf, rest) = rest.split_at_mut(d * l);
+        let (jg, rest) = rest.split_at_mut(d * l);
+        let (ftry, rest) = rest.split_at_mut(l);
+        let gtry = &mut rest[..l];
+        self.eval(t, f, Some(jf));
+        bg.eval(t, g, Some(jg));
+        let (mut cost, mut ab) = affine_fit(z, c, wt, f, g);
+        let mut mu = -1.0;
+        let mut cand = [0f64; 8];
+        for _ in 0..MAX_ITER {
+            let mut h = [[0f64; 8]; 8];
+            let mut grad = [0f64; 8];
+            // The reduced residual r = z - alpha (f + c) - beta g and its Jacobian in t.
+            let r: Vec<f64> = (0..l).map(|q| z[q] - ab[0] * (f[q] + c[q]) - ab[1] * g[q]).collect();
+            let jac: Vec<f64> = (0..d * l).map(|q| ab[0] * jf[q] + ab[1] * jg[q]).collect();
+            for a in 0..d {
+                let ja = &jac[a * l..(a + 1) * l];
+                grad[a] = ja.iter().zip(&r).zip(wt).map(|((&j, &rv), &w)| w * j * rv).sum();
+                for b in 0..=a {
+                    let v: f64 = ja.iter().zip(&jac[b * l..(b + 1) * l]).zip(wt).map(|((p, q), w)| w * p * q).sum();
+                    (h[a][b], h[b][a]) = (v, v);
+                }
+            }
+            if mu < 0.0 {
+                mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+            }
+            let (mut moved, mut step) = (false, 0.0);
+            for _ in 0..12 {
+                let mut a = h;
+                for (k, row) in a.iter_mut().enumerate().take(d) {
+                    row[k] += mu;
+                }
+                let Some(delta) = solve(&mut a, &grad, d) else { break };
+                for k in 0..d {
+                    cand[k] = t[k] + delta[k];
+                }
+                self.clamp(&mut cand[..d]);
+                self.eval(&cand[..d], ftry, None);
+                bg.eval(&cand[..d], gtry, None);
+                let (cst, abt) = affine_fit(z, c, wt, ftry, gtry);
+                if cst < cost {
+                    step = (0..d).map(|k| (cand[k] - t[k]).abs()).fold(0.0, f64::max);
+                    t.copy_from_slice(&cand[..d]);
+                    (cost, ab) = (cst, abt);
+                    mu = (mu / 3.0).max(1e-12);
+                    moved = true;
+                    break;
+                }
+                mu *= 4.0;
+            }
+            if !moved || step < STEP_TOL {
+                break;
+            }
+            self.eval(t, f, Some(jf));
+            bg.eval(t, g, Some(jg));
+        }
+        (cost, ab)
+    }
+
+    /// The 2^D lattice points of `step` degrees around `t` (anchored at each axis's first knot,
+    /// kept in the domain); `t` moves to the one of least `cost` (evaluated on this surface's
+    /// values there, written into `f`), which is returned.
+    pub fn snap_by(&self, t: &mut [f64], step: f64, f: &mut [f64], mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
         let d = self.params();
         let mut base = [0f64; 8];
         for j in 0..d {
@@ -255,13 +353,22 @@ impl Surface {
             }
             self.clamp(&mut cand[..d]);
             self.eval(&cand[..d], f, None);
-            let c: f64 = y.iter().zip(f.iter()).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum();
+            let c = cost(&cand[..d], f);
             if c < best {
                 (best, out) = (c, cand);
             }
         }
         t.copy_from_slice(&out[..d]);
         best
+    }
+}
+
+impl Surface {
+    /// Moves `t` to the closest to `y` (distances weighted by `wt`) of the 2^D points around it on the lattice of `step`
+    /// degrees anchored at the first knot of each axis (kept in the domain); returns its squared
+    /// distance. `f` holds L values of scratch.
+    pub fn snap(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
+        self.snap_by(t, step, f, |_, f| y.iter().zip(f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum())
     }
 }
 

@@ -122,7 +122,7 @@ fn pixel_noise_ignores_planes_and_measures_white_noise() {
 }
 
 #[test]
-fn noisy_queries_fall_back_to_the_plain_distance_and_stay_close() {
+fn noisy_queries_take_the_affine_match_and_stay_close() {
     let d = train_set();
     // L fixed: no selection, so the weighted metric is kept and the threshold measured.
     let model = RefinedParams::default().components(8).fit(&d).unwrap();
@@ -148,4 +148,67 @@ fn noisy_queries_fall_back_to_the_plain_distance_and_stay_close() {
         let e = test.space().error_deg(test.pose(i), &est[2 * i..2 * i + 2]);
         assert!(e < 5.0, "view {i}: error {e}");
     }
+}
+
+#[test]
+fn clip_bias_shape_is_the_mean_shift_of_clipped_noise() {
+    // E[clip(v + n)] - v for n uniform on [-a, a], by the midpoint rule, against (a / 4) times
+    // the shape, at the reference amplitude.
+    let a = BIAS_AMPLITUDE as f64;
+    for v in [0.0, 0.01, 0.05, 0.099, 0.3, 0.5, 0.95, 0.99, 1.0] {
+        let k = 200_000;
+        let mean: f64 = (0..k).map(|i| (v + a * (2.0 * (i as f64 + 0.5) / k as f64 - 1.0)).clamp(0.0, 1.0)).sum::<f64>() / k as f64;
+        let want = (mean - v) / (a / 4.0);
+        let got = clip_bias_shape(v as f32) as f64;
+        assert!((got - want).abs() < 1e-4, "v = {v}: shape {got}, measured {want}");
+    }
+}
+
+#[test]
+fn the_affine_fit_recovers_gain_and_offset_exactly() {
+    let f = [0.3, -1.2, 0.7, 2.0, -0.4];
+    let g = [1.0, 0.5, -0.25, 0.0, 2.0];
+    let c = [0.1, 0.2, 0.3, 0.4, 0.5];
+    let wt = [1.0, 2.0, 0.5, 1.5, 1.0];
+    let z: Vec<f64> = (0..5).map(|q| 1.7 * (f[q] + c[q]) - 0.3 * g[q]).collect();
+    let (r, ab) = surface::affine_fit(&z, &c, &wt, &f, &g);
+    assert!(r < 1e-12, "residual {r}");
+    assert!((ab[0] - 1.7).abs() < 1e-12 && (ab[1] + 0.3).abs() < 1e-12, "{ab:?}");
+    // With no offset direction the gain alone is fitted.
+    let (r, ab) = surface::affine_fit(&z[..4], &c[..4], &wt[..4], &f[..4], &[0.0; 4]);
+    assert!(ab[1] == 0.0 && r > 0.0);
+}
+
+#[test]
+fn the_affine_match_recovers_training_poses_under_gain_and_background_offset() {
+    // A training view scaled and with its background lifted (what clipped noise does on
+    // average) is matched at its own pose by the noisy path, while the clean path is thrown.
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let m = d.n_features();
+    let mut q = Vec::new();
+    for i in [0, 17, 60, 119] {
+        q.extend(d.row(i).iter().map(|&v| 0.8 * v + 0.03 * clip_bias_shape(v)));
+    }
+    let est = model.predict_noisy(&q).unwrap();
+    for (k, i) in [0, 17, 60, 119].into_iter().enumerate() {
+        let e = d.space().error_deg(d.pose(i), &est[2 * k..2 * k + 2]);
+        assert!(e < 0.26, "view {i}: {:?} for {:?}", &est[2 * k..2 * k + 2], d.pose(i));
+    }
+    assert_eq!(q.len(), 4 * m);
+}
+
+#[test]
+fn the_noisy_match_is_the_least_held_out_error_under_simulated_noise() {
+    let d = train_set();
+    let model = RefinedParams::default().fit(&d).unwrap();
+    let s = model.settings();
+    assert!(!s.noise_selection.is_empty(), "the training grid allows held-out folds");
+    let best = s.noise_selection.iter().map(|c| c.2).fold(f64::INFINITY, f64::min);
+    let first = s.noise_selection.iter().find(|c| c.2 == best).unwrap();
+    assert_eq!((s.noise_components, s.noise_weighted), (first.0, first.1));
+    assert_eq!(s.coord_variance.len(), s.components);
+    // The choice is made on the training views alone: the same data gives the same model.
+    let again = RefinedParams::default().fit(&d).unwrap();
+    assert_eq!(again.settings(), s);
 }
