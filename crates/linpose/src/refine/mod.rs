@@ -344,11 +344,76 @@ pub struct RefinedModel {
     bg_surface: Surface,
     axes: Vec<Vec<f64>>,
     surface: Surface,
-    /// Coarse surface points (n x L) and their poses (n x D).
+    /// Coarse surface points, coordinate-major (L x n: coordinate l of every point, then l + 1),
+    /// so the scan over them runs along the points in SIMD lanes; their poses (n x D).
     start_points: Vec<f32>,
-    /// The offset surface at the start poses (n x L).
+    /// The offset surface at the start poses (L x n, as `start_points`).
     bg_start: Vec<f32>,
     start_poses: Vec<f64>,
+    /// Points along each axis of the coarse grid, and whether the axis is circular.
+    start_shape: Vec<(usize, bool)>,
+    /// The noisy match's coarse scan.
+    noise_scan: NoiseScan,
+}
+
+/// The coarse scan of the noisy match: the affine fit of [`surface::affine_fit`] at every coarse
+/// point with fixed weights w0 (a clean query's: nu = 0; the local search then uses the query's
+/// own). With m_i = f_i + c and g_i the point's two surfaces, the 2 x 2 normal matrix
+/// [m.m, m.g; m.g, g.g] (w0-weighted) depends on the point alone, so its inverse is stored and
+/// a query costs two products per point: u_i = (w0 z).m_i, v_i = (w0 z).g_i, and the residual
+/// z.z - (P u^2 + 2 Q u v + R v^2).
+#[derive(Debug, Clone, Default)]
+struct NoiseScan {
+    w0: Vec<f32>,
+    p: Vec<f32>,
+    q: Vec<f32>,
+    r: Vec<f32>,
+}
+
+impl NoiseScan {
+    fn new(model: &RefinedModel, w0: &[f64]) -> NoiseScan {
+        let (n, ln) = (model.start_len(), w0.len());
+        let (mut a, mut b, mut cc) = (vec![0f64; n], vec![0f64; n], vec![0f64; n]);
+        for (q, &w) in w0.iter().enumerate() {
+            let (col, gcol) = (&model.start_points[q * n..(q + 1) * n], &model.bg_start[q * n..(q + 1) * n]);
+            let cq = model.mean_proj[q] as f64;
+            for i in 0..n {
+                let (m, g) = (col[i] as f64 + cq, gcol[i] as f64);
+                a[i] += w * m * m;
+                b[i] += w * m * g;
+                cc[i] += w * g * g;
+            }
+        }
+        let (mut p, mut q, mut r) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+        for i in 0..n {
+            let det = a[i] * cc[i] - b[i] * b[i];
+            (p[i], q[i], r[i]) = if det > 1e-9 * a[i] * cc[i] && det > 0.0 {
+                ((cc[i] / det) as f32, (-b[i] / det) as f32, (a[i] / det) as f32)
+            } else if a[i] > 0.0 {
+                ((1.0 / a[i]) as f32, 0.0, 0.0)
+            } else {
+                (0.0, 0.0, 0.0)
+            };
+        }
+        debug_assert!(ln <= model.components());
+        NoiseScan { w0: w0.iter().map(|&v| v as f32).collect(), p, q, r }
+    }
+
+    /// The residual at every coarse point of the query coordinates `z` (mean added back, the
+    /// first w0.len()), `c` the mean's coordinates.
+    fn scan(&self, cols: &[f32], gcols: &[f32], z: &[f64], c: &[f64]) -> Vec<f32> {
+        let n = self.p.len();
+        let ln = self.w0.len();
+        let a: Vec<f32> = z.iter().zip(&self.w0).map(|(&zq, &w)| w * zq as f32).collect();
+        let ac: f32 = a.iter().zip(c).map(|(&x, &cq)| x * cq as f32).sum();
+        let zz: f32 = z.iter().zip(&self.w0).map(|(&zq, &w)| w * (zq * zq) as f32).sum();
+        let (mut u, mut v) = (vec![0f32; n], vec![0f32; n]);
+        crate::kernels::scan::dots2(crate::kernels::Level::detect(), &cols[..ln * n], &gcols[..ln * n], &a, &mut u, &mut v);
+        u.iter().zip(&v).zip(self.p.iter().zip(&self.q).zip(&self.r)).map(|((&u, &v), ((&p, &q), &r))| {
+            let u = u + ac;
+            zz - (p * u * u + 2.0 * q * u * v + r * v * v)
+        }).collect()
+    }
 }
 
 impl RefinedModel {
@@ -367,17 +432,19 @@ impl RefinedModel {
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
         let surface = Surface::new(&meta.space, &axes, &k64, l)?;
         let start_poses = surface.grid_poses(settings.params.per_cell);
+        let start_shape = surface.grid_shape(settings.params.per_cell);
         let d = axes.len();
         let b64: Vec<f64> = background.iter().map(|&v| v as f64).collect();
         let bg_surface = Surface::new(&meta.space, &axes, &b64, l)?;
-        let mut start_points = Vec::with_capacity(start_poses.len() / d * l);
-        let mut bg_start = Vec::with_capacity(start_poses.len() / d * l);
+        let n_start = start_poses.len() / d;
+        let mut start_points = vec![0f32; n_start * l];
+        let mut bg_start = vec![0f32; n_start * l];
         let mut f = vec![0.0; l];
-        for t in start_poses.chunks_exact(d) {
+        for (i, t) in start_poses.chunks_exact(d).enumerate() {
             surface.eval(t, &mut f, None);
-            start_points.extend(f.iter().map(|&v| v as f32));
+            f.iter().enumerate().for_each(|(c, &v)| start_points[c * n_start + i] = v as f32);
             bg_surface.eval(t, &mut f, None);
-            bg_start.extend(f.iter().map(|&v| v as f32));
+            f.iter().enumerate().for_each(|(c, &v)| bg_start[c * n_start + i] = v as f32);
         }
         let mean_proj =
             basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
@@ -401,6 +468,13 @@ impl RefinedModel {
             start_points,
             bg_start,
             start_poses,
+            start_shape,
+            noise_scan: NoiseScan::default(),
+        })
+        .map(|mut m: RefinedModel| {
+            let w0 = m.noise_weights(0.0);
+            m.noise_scan = NoiseScan::new(&m, &w0);
+            m
         })
     }
 
@@ -426,24 +500,36 @@ impl RefinedModel {
 
     /// The eigenspace coordinates of a few queries (rows of M) into `out` (rows of L): unit
     /// energy, mean subtracted, projected; NaN for a query of zero or non-finite energy.
-    fn project_chunk(&self, queries: &[f32], out: &mut [f32], resid: &mut [f64], energy: &mut [f64]) {
+    /// Also each query's pixel noise per unit-energy coordinate ([`pixel_variance`] over its
+    /// energy) into `noise` when `want_noise` (else 0). Rows go by
+    /// [`PROJECT_ROWS`]: the energy and noise passes bring them into the cache for the product.
+    fn project_chunk(&self, queries: &[f32], out: &mut [f32], resid: &mut [f64], noise: &mut [f64], want_noise: bool) {
         let (l, m) = (self.components(), self.mean.len());
-        let n = queries.len() / m;
-        let q = MatRef::from_row_major_slice(queries, n, m);
+        let spec = self.meta.spec;
+        let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
         let ut = MatRef::from_column_major_slice(&self.basis, m, l);
-        matmul(MatMut::from_row_major_slice_mut(out, n, l), Accum::Replace, q, ut, 1.0f32, Par::Seq);
-        for (((x, y), r), e) in queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).zip(resid.iter_mut()).zip(energy.iter_mut()) {
-            let (sq, xm) = x.iter().zip(&self.mean).fold((0f64, 0f64), |(s, d), (&v, &u)| (s + v as f64 * v as f64, d + v as f64 * u as f64));
-            *e = sq;
-            let norm = sq.sqrt();
-            if norm > 0.0 && norm.is_finite() {
-                let inv = (1.0 / norm) as f32;
-                y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
-                // ||x/|x| - mean||^2 less the energy inside the eigenspace (unscaled coordinates).
-                let inside: f64 = y.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
-                *r = 1.0 - 2.0 * xm / norm + self.mean_sq - inside;
-            } else {
-                y.fill(f32::NAN);
+        let mut sq_dot = [(0f64, 0f64); PROJECT_ROWS];
+        for (((qs, ys), rs), ns) in
+            queries.chunks(PROJECT_ROWS * m).zip(out.chunks_mut(PROJECT_ROWS * l)).zip(resid.chunks_mut(PROJECT_ROWS)).zip(noise.chunks_mut(PROJECT_ROWS))
+        {
+            let n = qs.len() / m;
+            for ((x, sd), nz) in qs.chunks_exact(m).zip(sq_dot.iter_mut()).zip(ns.iter_mut()) {
+                *sd = energy_and_dot(x, &self.mean);
+                *nz = if want_noise && sd.0 > 0.0 { pixel_variance(x, w, h, ch) / sd.0 } else { 0.0 };
+            }
+            let q = MatRef::from_row_major_slice(qs, n, m);
+            matmul(MatMut::from_row_major_slice_mut(ys, n, l), Accum::Replace, q, ut, 1.0f32, Par::Seq);
+            for ((y, r), &(sq, xm)) in ys.chunks_exact_mut(l).zip(rs.iter_mut()).zip(&sq_dot) {
+                let norm = sq.sqrt();
+                if norm > 0.0 && norm.is_finite() {
+                    let inv = (1.0 / norm) as f32;
+                    y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
+                    // ||x/|x| - mean||^2 less the energy inside the eigenspace (unscaled coordinates).
+                    let inside: f64 = y.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
+                    *r = 1.0 - 2.0 * xm / norm + self.mean_sq - inside;
+                } else {
+                    y.fill(f32::NAN);
+                }
             }
         }
     }
@@ -463,20 +549,14 @@ impl RefinedModel {
         let wt: Vec<f64> = self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }).collect();
         let k = self.settings.params.starts.min(self.start_len());
         // The k closest coarse points, by insertion into a short sorted list.
-        let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
-        for (i, p) in self.start_points.chunks_exact(l).enumerate() {
-            let dist: f32 = p.iter().zip(y).zip(&wt).map(|((a, b), &w)| w as f32 * (a - b) * (a - b)).sum();
-            if best.len() < k || dist < best[best.len() - 1].0 {
-                let at = best.partition_point(|b| b.0 <= dist);
-                best.insert(at, (dist, i));
-                best.truncate(k);
-            }
-        }
+        // Every coarse point's distance, one coordinate at a time across all points.
+        let mut dist = vec![0f32; self.start_len()];
+        let w32: Vec<f32> = wt.iter().map(|&w| w as f32).collect();
+        crate::kernels::scan::sq_dist(crate::kernels::Level::detect(), &self.start_points, y, &w32, &mut dist);
+        let best = smallest(&dist, k);
         let mut buf = vec![0.0; (d + 2) * l];
         let (mut best_cost, mut t) = (f64::INFINITY, [0f64; 8]);
-        let first = best.first().map_or(0.0, |b| b.0);
-        // Further starts only where the coarse distance is comparable to the best one's.
-        for &(_, i) in best.iter().filter(|b| b.0 <= 2.0 * first + f32::MIN_POSITIVE) {
+        for i in self.distinct_starts(&best) {
             let mut s = [0f64; 8];
             s[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
             let c = self.surface.refine(y, &wt, &mut s[..d], &mut buf);
@@ -495,6 +575,54 @@ impl RefinedModel {
         }
     }
 
+    /// The starts worth a local search among the closest coarse points `best` (increasing
+    /// distance): those within twice the closest one's distance, less any next to a closer start
+    /// on the coarse grid (one step along every axis), whose basin it shares.
+    fn distinct_starts(&self, best: &[(f32, usize)]) -> Vec<usize> {
+        let first = best.first().map_or(0.0, |b| b.0);
+        let mut kept: Vec<usize> = Vec::with_capacity(best.len());
+        for &(v, i) in best {
+            if v > 2.0 * first + f32::MIN_POSITIVE {
+                break;
+            }
+            if !kept.iter().any(|&j| self.adjacent(i, j)) {
+                kept.push(i);
+            }
+        }
+        kept
+    }
+
+    /// Whether coarse points `i` and `j` are at most one grid step apart along every axis.
+    fn adjacent(&self, mut i: usize, mut j: usize) -> bool {
+        for &(n, circular) in self.start_shape.iter().rev() {
+            let (a, b) = (i % n, j % n);
+            let gap = a.abs_diff(b);
+            if gap > 1 && !(circular && gap == n - 1) {
+                return false;
+            }
+            (i, j) = (i / n, j / n);
+        }
+        true
+    }
+
+    /// The weights of the noisy match on the stored (scaled) coordinates, one per coordinate it
+    /// uses, for pixel noise `nu` per unit-energy coordinate: the wanted weight on the unscaled
+    /// coordinates (1, or 1 / (sigma_l^2 + floor + nu) when weighted) times 1 / scale^2.
+    fn noise_weights(&self, nu: f64) -> Vec<f64> {
+        let s = &self.settings;
+        let l = self.components();
+        let (ln, weighted) = (s.noise_components.clamp(1, l), s.noise_weighted && s.coord_variance.len() == l);
+        let floor = if weighted { WEIGHT_FLOOR * s.coord_variance[..ln].iter().sum::<f64>() / ln as f64 } else { 0.0 };
+        (0..ln).map(|q| if weighted { 1.0 / (s.coord_variance[q] + floor + nu) } else { 1.0 } * self.inv_weight[q]).collect()
+    }
+
+    /// Sets the noisy match (its eigenimages and whether it weights them), and the coarse scan's
+    /// tables with it.
+    pub(crate) fn set_noise_match(&mut self, components: usize, weighted: bool) {
+        (self.settings.noise_components, self.settings.noise_weighted) = (components, weighted);
+        self.noise_scan = NoiseScan::new(self, &self.noise_weights(0.0));
+    }
+
     /// The pose of a noisy query's coordinates `y` (as [`Self::pose_of_coords`]), whose pixel
     /// noise puts variance `nu` on each unit-energy coordinate: the affine match. Clipped noise
     /// brightens a black background by a / 4 and adds energy, so the query is matched to
@@ -505,36 +633,17 @@ impl RefinedModel {
     fn pose_of_noisy(&self, y: &[f32], nu: f64, out: &mut [f64]) {
         let (l, d) = (self.components(), self.axes.len());
         let s = &self.settings;
-        let (ln, weighted) = (s.noise_components.clamp(1, l), s.noise_weighted && s.coord_variance.len() == l);
-        let floor = if weighted { WEIGHT_FLOOR * s.coord_variance[..ln].iter().sum::<f64>() / ln as f64 } else { 0.0 };
-        // Weights on the stored (scaled) coordinates: the wanted weight on the unscaled ones
-        // times 1 / scale^2.
-        let wt: Vec<f64> = (0..ln)
-            .map(|q| {
-                let t = if weighted { 1.0 / (s.coord_variance[q] + floor + nu) } else { 1.0 };
-                t * self.inv_weight[q]
-            })
-            .collect();
+        let wt = self.noise_weights(nu);
+        let ln = wt.len();
         let c: Vec<f64> = self.mean_proj[..ln].iter().map(|&v| v as f64).collect();
         let z: Vec<f64> = y[..ln].iter().zip(&c).map(|(&v, &cv)| v as f64 + cv).collect();
         let k = s.params.starts.min(self.start_len());
-        let mut best: Vec<(f64, usize)> = Vec::with_capacity(k + 1);
-        let (mut fp, mut gp) = (vec![0.0; ln], vec![0.0; ln]);
-        for (i, (p, q)) in self.start_points.chunks_exact(l).zip(self.bg_start.chunks_exact(l)).enumerate() {
-            fp.iter_mut().zip(p).for_each(|(a, &b)| *a = b as f64);
-            gp.iter_mut().zip(q).for_each(|(a, &b)| *a = b as f64);
-            let dist = surface::affine_fit(&z, &c, &wt, &fp, &gp).0;
-            if best.len() < k || dist < best[best.len() - 1].0 {
-                let at = best.partition_point(|b| b.0 <= dist);
-                best.insert(at, (dist, i));
-                best.truncate(k);
-            }
-        }
+        let dist = self.noise_scan.scan(&self.start_points, &self.bg_start, &z, &c);
+        let best = smallest(&dist, k);
         let mut buf = vec![0.0; (2 * d + 5) * l];
         let (mut best_cost, mut t) = (f64::INFINITY, [0f64; 8]);
-        let first = best.first().map_or(0.0, |b| b.0);
         let (fs, bs) = (&self.surface, &self.bg_surface);
-        for &(_, i) in best.iter().filter(|b| b.0 <= 2.0 * first + f64::MIN_POSITIVE) {
+        for i in self.distinct_starts(&best) {
             let mut st = [0f64; 8];
             st[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
             let cst = fs.refine_affine(bs, &z, &c, &wt, &mut st[..d], &mut buf).0;
@@ -648,8 +757,57 @@ pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
     sigma * sigma
 }
 
+/// Queries projected together by [`RefinedModel::project_chunk`] (1.8 MB of 160 x 120 images:
+/// they stay in the L2 cache between the energy pass and the product).
+const PROJECT_ROWS: usize = 24;
+
 /// Rows sampled by [`pixel_noise`].
 const NOISE_ROW_STEP: usize = 8;
+
+/// ||x||^2 and x . u: 16 independent f32 lanes (so the loop vectorises; one running sum is a
+/// chain of dependent adds), each block of 512 values summed into f64.
+fn energy_and_dot(x: &[f32], u: &[f32]) -> (f64, f64) {
+    let (mut sq, mut dt) = (0f64, 0f64);
+    for (xb, ub) in x.chunks(512).zip(u.chunks(512)) {
+        let (mut s, mut d) = ([0f32; 16], [0f32; 16]);
+        let (xc, uc) = (xb.chunks_exact(16), ub.chunks_exact(16));
+        let (xr, ur) = (xc.remainder(), uc.remainder());
+        for (a, b) in xc.zip(uc) {
+            for k in 0..16 {
+                s[k] += a[k] * a[k];
+                d[k] += a[k] * b[k];
+            }
+        }
+        sq += s.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().map(|&v| v as f64 * v as f64).sum::<f64>();
+        dt += d.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().zip(ur).map(|(&v, &w)| v as f64 * w as f64).sum::<f64>();
+    }
+    (sq, dt)
+}
+
+/// The `k` smallest of `dist` no more than twice the smallest (the only ones
+/// [`RefinedModel::distinct_starts`] keeps), with their indices, in increasing order (ties: the
+/// lower index). Two passes: the minimum (vectorised), then the few points under twice it.
+fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
+    let mut lanes = [f32::INFINITY; 16];
+    let chunks = dist.chunks_exact(16);
+    let tail = chunks.remainder().iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
+    for c in chunks {
+        for k in 0..16 {
+            lanes[k] = if c[k] < lanes[k] { c[k] } else { lanes[k] };
+        }
+    }
+    let lo = lanes.iter().fold(tail, |a, &b| if b < a { b } else { a });
+    let cut = 2.0 * lo + f32::MIN_POSITIVE;
+    let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
+    for (i, &v) in dist.iter().enumerate() {
+        if v <= cut && (best.len() < k || v < best[best.len() - 1].0) {
+            let at = best.partition_point(|b| b.0 <= v);
+            best.insert(at, (v, i));
+            best.truncate(k);
+        }
+    }
+    best
+}
 
 /// The scale sqrt(w) of each of `l` coordinates: [`weights`] for the first `ls`, 1 for the rest.
 fn search_scale(sigma2: Option<&[f64]>, ls: usize, l: usize) -> Vec<f64> {
@@ -671,17 +829,15 @@ impl RefinedModel {
         let n = queries.len() / m;
         let mut out = vec![0.0; n * p];
         let rows = chunk_rows(n);
-        let spec = self.meta.spec;
-        let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
             let k = q.len() / m;
-            let (mut y, mut r, mut e) = (vec![0f32; k * l], vec![0f64; k], vec![0f64; k]);
-            self.project_chunk(q, &mut y, &mut r, &mut e);
-            for (((c, o), x), &e) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(q.chunks_exact(m)).zip(&e) {
+            let (mut y, mut r, mut nu) = (vec![0f32; k * l], vec![0f64; k], vec![0f64; k]);
+            self.project_chunk(q, &mut y, &mut r, &mut nu, true);
+            for ((c, o), &nu) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&nu) {
                 if c[0].is_nan() {
                     o.fill(f64::NAN);
                 } else {
-                    self.pose_of_noisy(c, pixel_variance(x, w, h, ch) / e, o);
+                    self.pose_of_noisy(c, nu, o);
                 }
             }
         });
@@ -699,19 +855,14 @@ impl PoseModel for RefinedModel {
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
-            let mut y = vec![0f32; q.len() / m * l];
-            let mut r = vec![0f64; q.len() / m];
-            let mut energy = vec![0f64; q.len() / m];
-            self.project_chunk(q, &mut y, &mut r, &mut energy);
-            let spec = self.meta.spec;
-            let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
-            let check = self.settings.noise_threshold > 0.0;
-            for ((((c, o), &r), x), &e) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&r).zip(q.chunks_exact(m)).zip(&energy) {
-                let noise = if check { pixel_variance(x, w, h, ch) * m as f64 / e } else { 0.0 };
+            let k = q.len() / m;
+            let (mut y, mut r, mut nu) = (vec![0f32; k * l], vec![0f64; k], vec![0f64; k]);
+            self.project_chunk(q, &mut y, &mut r, &mut nu, self.settings.noise_threshold > 0.0);
+            for (((c, o), &r), &nu) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&r).zip(&nu) {
                 if c[0].is_nan() {
                     o.fill(f64::NAN);
                 } else {
-                    self.pose_of_coords(c, r, noise, o);
+                    self.pose_of_coords(c, r, nu * m as f64, o);
                 }
             }
         });

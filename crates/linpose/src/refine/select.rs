@@ -188,8 +188,7 @@ pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap:
             let mut q = test.features().to_vec();
             crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED)?;
             for &(c, w) in &cands {
-                model.settings.noise_components = c;
-                model.settings.noise_weighted = w;
+                model.set_noise_match(c, w);
                 let est = model.predict_noisy(&q)?;
                 // Capped: a gross failure (wrong knot interval) weighs as much as half an
                 // interval, so the rare ones of the sparse fold do not decide the choice.

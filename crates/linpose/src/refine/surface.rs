@@ -141,6 +141,13 @@ impl Surface {
         }
     }
 
+    /// The number of points along each axis of [`Surface::grid_poses`], and whether the axis is
+    /// circular.
+    pub fn grid_shape(&self, per_cell: usize) -> Vec<(usize, bool)> {
+        let per_cell = per_cell.max(1);
+        self.shape.iter().zip(&self.periods).map(|(&n, p)| if p.is_some() { (n * per_cell, true) } else { ((n - 1) * per_cell + 1, false) }).collect()
+    }
+
     /// The poses of a regular grid over the domain with `per_cell` points per knot interval
     /// along each axis (the knots included), row-major.
     pub fn grid_poses(&self, per_cell: usize) -> Vec<f64> {
@@ -255,6 +262,16 @@ pub fn affine_fit(z: &[f64], c: &[f64], wt: &[f64], f: &[f64], g: &[f64]) -> (f6
         v += w * zl * gl;
         zz += w * zl * zl;
     }
+    affine_solve(zz, [a, b, cc, u, v])
+}
+
+/// The residual of [`affine_fit`] from its weighted sums `s` = (m.m, m.g, g.g, z.m, z.g), m = f + c,
+/// and z.z.
+pub fn affine_residual(zz: f64, s: [f64; 5]) -> f64 {
+    affine_solve(zz, s).0
+}
+
+fn affine_solve(zz: f64, [a, b, cc, u, v]: [f64; 5]) -> (f64, [f64; 2]) {
     let det = a * cc - b * b;
     if det > 1e-9 * a * cc && det > 0.0 {
         let (al, be) = ((cc * u - b * v) / det, (a * v - b * u) / det);
@@ -290,11 +307,17 @@ impl Surface {
             let mut h = [[0f64; 8]; 8];
             let mut grad = [0f64; 8];
             // The reduced residual r = z - alpha (f + c) - beta g and its Jacobian in t.
-            let r: Vec<f64> = (0..l).map(|q| z[q] - ab[0] * (f[q] + c[q]) - ab[1] * g[q]).collect();
-            let jac: Vec<f64> = (0..d * l).map(|q| ab[0] * jf[q] + ab[1] * jg[q]).collect();
+            // (In place: f becomes r and jf the Jacobian; both are evaluated afresh after a step.)
+            for q in 0..l {
+                f[q] = z[q] - ab[0] * (f[q] + c[q]) - ab[1] * g[q];
+            }
+            for q in 0..d * l {
+                jf[q] = ab[0] * jf[q] + ab[1] * jg[q];
+            }
+            let (r, jac) = (&*f, &*jf);
             for a in 0..d {
                 let ja = &jac[a * l..(a + 1) * l];
-                grad[a] = ja.iter().zip(&r).zip(wt).map(|((&j, &rv), &w)| w * j * rv).sum();
+                grad[a] = ja.iter().zip(r).zip(wt).map(|((&j, &rv), &w)| w * j * rv).sum();
                 for b in 0..=a {
                     let v: f64 = ja.iter().zip(&jac[b * l..(b + 1) * l]).zip(wt).map(|((p, q), w)| w * p * q).sum();
                     (h[a][b], h[b][a]) = (v, v);
