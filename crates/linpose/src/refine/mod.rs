@@ -47,9 +47,12 @@
 //! metric wins by far on some objects, obj6: 0.39 against 5.38 degrees, and loses on others,
 //! obj20: 2.29 against 1.76).
 //!
-//! Status (issue 6): see bench/beyond_compare.py and the figures in the commit history; the
-//! per-query time is still above the eigenspace's (the coarse start scan and up to 8 local
-//! searches cost more than its k-d tree).
+//! Cost of a query: the projection (L M, as the eigenspace's, with the energy and noise passes
+//! cache-blocked), a scan of the coarse points in SIMD lanes ([`crate::kernels::scan`]; for a
+//! noisy query two products per point, the affine fit's per-point products being stored),
+//! and Levenberg-Marquardt from the distinct closest ones only (a start next to a closer one on
+//! the coarse grid shares its basin). bench/beyond_compare.py measures it against the
+//! eigenspace; BENCHMARKS.md holds the figures.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
@@ -165,7 +168,7 @@ pub struct RefinedSettings {
     /// Eigenimages kept, L.
     pub components: usize,
     /// Eigenimages of the weighted search of a clean query (the first ones; 0: all). The rest
-    /// serve only noisy queries, matched with the plain distance in all L.
+    /// serve only noisy queries (the affine match, up to all L).
     #[serde(default)]
     pub search_components: usize,
     /// Fraction of the training energy (about the mean) they hold.
@@ -190,8 +193,7 @@ pub struct RefinedSettings {
     #[serde(default)]
     pub residual_energy: f64,
     /// The noise threshold: the largest pixel-noise estimate ([`pixel_noise`]) of a training
-    /// image. A query above it is treated as noisy and matched with the eigenspace's plain
-    /// distance (0: never).
+    /// image. A query above it is treated as noisy and takes the affine match (0: never).
     #[serde(default)]
     pub noise_threshold: f64,
     /// Eigenimages of the affine match of a noisy query (the first ones).
@@ -222,7 +224,8 @@ impl RefinedSettings {
     }
 }
 
-/// Eigenimages kept for noisy queries: the eigenspace's default L.
+/// Eigenimages kept for noisy queries (the most the affine match may use): the eigenspace's
+/// default L.
 pub const NOISE_COMPONENTS: usize = 20;
 
 impl Estimator for RefinedParams {
@@ -240,7 +243,7 @@ impl Estimator for RefinedParams {
         let best_weighted = selection.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
         let plain = plain_error.is_some_and(|e| e < best_weighted);
         let (l_max, weighted) = if plain { (NOISE_COMPONENTS, false) } else { (l_max, self.weighted) };
-        // Noisy queries are matched as the eigenspace matches them, in its L = 20 coordinates:
+        // The affine match of noisy queries may use up to the eigenspace's L = 20 coordinates:
         // they are kept (unweighted) past the L of the weighted search.
         let l_store = if weighted { l_max.max(NOISE_COMPONENTS) } else { l_max };
         let pca = pca::fit(train, Dimension::Fixed(l_store))?;
@@ -358,21 +361,23 @@ pub struct RefinedModel {
 
 /// The coarse scan of the noisy match: the affine fit of [`surface::affine_fit`] at every coarse
 /// point with fixed weights w0 (a clean query's: nu = 0; the local search then uses the query's
-/// own). With m_i = f_i + c and g_i the point's two surfaces, the 2 x 2 normal matrix
-/// [m.m, m.g; m.g, g.g] (w0-weighted) depends on the point alone, so its inverse is stored and
-/// a query costs two products per point: u_i = (w0 z).m_i, v_i = (w0 z).g_i, and the residual
-/// z.z - (P u^2 + 2 Q u v + R v^2).
+/// own). With m_i = f_i + c and g_i the point's two surfaces, the w0-weighted products
+/// A = m.m, B = m.g, C = g.g depend on the point alone, so a query costs two products per point,
+/// u_i = (w0 z).m_i and v_i = (w0 z).g_i, and the residual z.z - u^2 / A - e^2 / S with
+/// e = v - (B / A) u and S = C - B^2 / A (the fit on m, then on g's part orthogonal to m: two
+/// non-negative terms, so nothing cancels when g is nearly parallel to m).
 #[derive(Debug, Clone, Default)]
 struct NoiseScan {
     w0: Vec<f32>,
-    p: Vec<f32>,
-    q: Vec<f32>,
-    r: Vec<f32>,
+    /// Per point: 1 / A, B / A, 1 / S (0 where the fit is degenerate).
+    inv_a: Vec<f64>,
+    b_over_a: Vec<f64>,
+    inv_s: Vec<f64>,
 }
 
 impl NoiseScan {
     fn new(model: &RefinedModel, w0: &[f64]) -> NoiseScan {
-        let (n, ln) = (model.start_len(), w0.len());
+        let n = model.start_len();
         let (mut a, mut b, mut cc) = (vec![0f64; n], vec![0f64; n], vec![0f64; n]);
         for (q, &w) in w0.iter().enumerate() {
             let (col, gcol) = (&model.start_points[q * n..(q + 1) * n], &model.bg_start[q * n..(q + 1) * n]);
@@ -384,35 +389,42 @@ impl NoiseScan {
                 cc[i] += w * g * g;
             }
         }
-        let (mut p, mut q, mut r) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+        let (mut inv_a, mut b_over_a, mut inv_s) = (vec![0f64; n], vec![0f64; n], vec![0f64; n]);
         for i in 0..n {
-            let det = a[i] * cc[i] - b[i] * b[i];
-            (p[i], q[i], r[i]) = if det > 1e-9 * a[i] * cc[i] && det > 0.0 {
-                ((cc[i] / det) as f32, (-b[i] / det) as f32, (a[i] / det) as f32)
-            } else if a[i] > 0.0 {
-                ((1.0 / a[i]) as f32, 0.0, 0.0)
-            } else {
-                (0.0, 0.0, 0.0)
-            };
+            if a[i] > 0.0 {
+                (inv_a[i], b_over_a[i]) = (1.0 / a[i], b[i] / a[i]);
+                let schur = cc[i] - b[i] * b[i] / a[i];
+                if schur > 1e-9 * cc[i] && schur > 0.0 {
+                    inv_s[i] = 1.0 / schur;
+                }
+            }
         }
-        debug_assert!(ln <= model.components());
-        NoiseScan { w0: w0.iter().map(|&v| v as f32).collect(), p, q, r }
+        debug_assert!(w0.len() <= model.components());
+        NoiseScan { w0: w0.iter().map(|&v| v as f32).collect(), inv_a, b_over_a, inv_s }
+    }
+
+    /// Numbers held, all counted as 8 bytes.
+    fn len(&self) -> usize {
+        self.w0.len() + 3 * self.inv_a.len()
     }
 
     /// The residual at every coarse point of the query coordinates `z` (mean added back, the
     /// first w0.len()), `c` the mean's coordinates.
     fn scan(&self, cols: &[f32], gcols: &[f32], z: &[f64], c: &[f64]) -> Vec<f32> {
-        let n = self.p.len();
+        let n = self.inv_a.len();
         let ln = self.w0.len();
         let a: Vec<f32> = z.iter().zip(&self.w0).map(|(&zq, &w)| w * zq as f32).collect();
-        let ac: f32 = a.iter().zip(c).map(|(&x, &cq)| x * cq as f32).sum();
-        let zz: f32 = z.iter().zip(&self.w0).map(|(&zq, &w)| w * (zq * zq) as f32).sum();
+        let ac: f64 = z.iter().zip(&self.w0).zip(c).map(|((&zq, &w), &cq)| w as f64 * zq * cq).sum();
+        let zz: f64 = z.iter().zip(&self.w0).map(|(&zq, &w)| w as f64 * zq * zq).sum();
         let (mut u, mut v) = (vec![0f32; n], vec![0f32; n]);
         crate::kernels::scan::dots2(crate::kernels::Level::detect(), &cols[..ln * n], &gcols[..ln * n], &a, &mut u, &mut v);
-        u.iter().zip(&v).zip(self.p.iter().zip(&self.q).zip(&self.r)).map(|((&u, &v), ((&p, &q), &r))| {
-            let u = u + ac;
-            zz - (p * u * u + 2.0 * q * u * v + r * v * v)
-        }).collect()
+        (0..n)
+            .map(|i| {
+                let uu = u[i] as f64 + ac;
+                let e = v[i] as f64 - self.b_over_a[i] * uu;
+                (zz - uu * uu * self.inv_a[i] - e * e * self.inv_s[i]).max(0.0) as f32
+            })
+            .collect()
     }
 }
 
@@ -582,7 +594,7 @@ impl RefinedModel {
         let first = best.first().map_or(0.0, |b| b.0);
         let mut kept: Vec<usize> = Vec::with_capacity(best.len());
         for &(v, i) in best {
-            if v > 2.0 * first + f32::MIN_POSITIVE {
+            if v > 2.0 * first.max(0.0) + f32::MIN_POSITIVE {
                 break;
             }
             if !kept.iter().any(|&j| self.adjacent(i, j)) {
@@ -797,7 +809,7 @@ fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
         }
     }
     let lo = lanes.iter().fold(tail, |a, &b| if b < a { b } else { a });
-    let cut = 2.0 * lo + f32::MIN_POSITIVE;
+    let cut = 2.0 * lo.max(0.0) + f32::MIN_POSITIVE;
     let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
     for (i, &v) in dist.iter().enumerate() {
         if v <= cut && (best.len() < k || v < best[best.len() - 1].0) {
@@ -887,6 +899,7 @@ impl PoseModel for RefinedModel {
             + self.start_points.len()
             + self.bg_start.len())
             * 4
+            + self.noise_scan.len() * 8
             + (self.start_poses.len() + self.axes.iter().map(Vec::len).sum::<usize>()) * 8
     }
 
