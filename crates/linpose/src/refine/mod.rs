@@ -526,7 +526,7 @@ impl RefinedModel {
         {
             let n = qs.len() / m;
             for ((x, sd), nz) in qs.chunks_exact(m).zip(sq_dot.iter_mut()).zip(ns.iter_mut()) {
-                *sd = energy_and_dot(x, &self.mean);
+                *sd = crate::linalg::energy_and_dot(x, &self.mean);
                 *nz = if want_noise && sd.0 > 0.0 { pixel_variance(x, w, h, ch) / sd.0 } else { 0.0 };
             }
             let q = MatRef::from_row_major_slice(qs, n, m);
@@ -775,26 +775,6 @@ const PROJECT_ROWS: usize = 24;
 
 /// Rows sampled by [`pixel_noise`].
 const NOISE_ROW_STEP: usize = 8;
-
-/// ||x||^2 and x . u: 16 independent f32 lanes (so the loop vectorises; one running sum is a
-/// chain of dependent adds), each block of 512 values summed into f64.
-fn energy_and_dot(x: &[f32], u: &[f32]) -> (f64, f64) {
-    let (mut sq, mut dt) = (0f64, 0f64);
-    for (xb, ub) in x.chunks(512).zip(u.chunks(512)) {
-        let (mut s, mut d) = ([0f32; 16], [0f32; 16]);
-        let (xc, uc) = (xb.chunks_exact(16), ub.chunks_exact(16));
-        let (xr, ur) = (xc.remainder(), uc.remainder());
-        for (a, b) in xc.zip(uc) {
-            for k in 0..16 {
-                s[k] += a[k] * a[k];
-                d[k] += a[k] * b[k];
-            }
-        }
-        sq += s.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().map(|&v| v as f64 * v as f64).sum::<f64>();
-        dt += d.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().zip(ur).map(|(&v, &w)| v as f64 * w as f64).sum::<f64>();
-    }
-    (sq, dt)
-}
 
 /// The `k` smallest of `dist` no more than twice the smallest (the only ones
 /// [`RefinedModel::distinct_starts`] keeps), with their indices, in increasing order (ties: the

@@ -17,9 +17,9 @@ use crate::pose::{wrap_positive, PoseSpace};
 use crate::Result;
 
 /// Most Levenberg-Marquardt iterations per start.
-const MAX_ITER: usize = 12;
+const MAX_ITER: usize = 8;
 /// A step below this many degrees ends the iteration.
-const STEP_TOL: f64 = 2e-3;
+const STEP_TOL: f64 = 1e-2;
 
 /// The continuous manifold of one fitted model.
 #[derive(Debug, Clone)]
