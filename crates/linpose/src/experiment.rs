@@ -202,9 +202,11 @@ pub fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
             let (n, l, s, d) = (r.knots_len(), r.components(), r.start_len(), r.meta().space.len());
             let c = 1usize << d;
             (
-                "2^D NL + SL + ML".to_string(),
+                // The view surface and the noisy match's offset surface (2^D slopes per knot each),
+                // both at the S coarse points, the noisy scan's three numbers per point, the basis.
+                "2 (2^D NL + SL) + 3S + ML".to_string(),
                 vec![("D".to_string(), d), ("N".to_string(), n), ("S".to_string(), s), ("L".to_string(), l), ("M".to_string(), m)],
-                c * n * l + s * l + m * l,
+                2 * (c * n * l + s * l) + 3 * s + m * l,
             )
         }
         #[allow(unreachable_patterns)]
