@@ -46,6 +46,15 @@ pub fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
     out
 }
 
+/// One fold of [`folds`]: the kept views, the held-out ones, and the grid of the kept ones.
+fn split(train: &Dataset, keep: &[bool]) -> Result<(Dataset, Dataset, Grid)> {
+    let fit = train.subset(keep)?;
+    let held: Vec<bool> = keep.iter().map(|k| !k).collect();
+    let test = train.subset(&held)?;
+    let grid = Grid::new(train.space(), fit.poses(), fit.manifest().images(), fit.manifest().root())?;
+    Ok((fit, test, grid))
+}
+
 /// Chooses L for `params` on `train` (laid out on `grid`): the chosen L and every candidate's
 /// mean held-out error (degrees).
 pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Vec<(usize, f64)>)> {
@@ -65,10 +74,7 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(u
     let m = train.n_features();
     let mut sums: Vec<(usize, f64, usize, usize)> = Vec::new();
     for keep in &folds {
-        let fit = train.subset(keep)?;
-        let held: Vec<bool> = keep.iter().map(|k| !k).collect();
-        let test = train.subset(&held)?;
-        let sub_grid = Grid::new(space, fit.poses(), fit.manifest().images(), fit.manifest().root())?;
+        let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
         let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max)? } else { None };
@@ -160,14 +166,11 @@ pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap:
     }
     let space = train.space();
     let (m, d) = (train.n_features(), space.len());
-    let l_fit = super::NOISE_COMPONENTS.max(CANDIDATES.iter().copied().filter(|&c| c <= l_cap).max().unwrap_or(l_cap)).min(l_cap);
+    let l_fit = super::NOISE_COMPONENTS.min(l_cap);
     let mut scores: Vec<(usize, bool, f64, usize)> = Vec::new();
     let cap = error_cap(grid);
     for keep in &folds {
-        let fit = train.subset(keep)?;
-        let held: Vec<bool> = keep.iter().map(|k| !k).collect();
-        let test = train.subset(&held)?;
-        let sub_grid = Grid::new(space, fit.poses(), fit.manifest().images(), fit.manifest().root())?;
+        let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(l_fit))?;
         let l = pca.dim();
         let coord_variance = interpolation_variance(&fit, &sub_grid, &pca.coords, l)?;
