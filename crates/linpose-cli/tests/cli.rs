@@ -2,6 +2,7 @@
 
 mod util;
 
+use std::process::Command;
 use util::{blob_image, write_dataset, Dir};
 
 fn json(path: &std::path::Path) -> serde_json::Value {
@@ -254,4 +255,51 @@ mod bad_input {
         d.ok(&["train", "--data", "data", "--out", "m.safetensors"]);
         d.fails(&["eval", "--model", "m.safetensors", "--data", "data", "--noise", "1.5"], &["noise", "[0, 1]"]);
     }
+}
+
+/// `train --stream` with more images than pixels: least squares through X^T X, read in blocks by
+/// a reader thread and summed in 8-bit integer arithmetic, gives the in-memory ridge model, the
+/// same file on 1 and 3 threads, and says which path it took.
+#[test]
+fn streamed_training_matches_the_in_memory_ridge_fit() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 2, &[20.0, 35.0, 50.0, 65.0], (12, 9)); // 720 images > 108 pixels
+    let weights = |file: &str| -> Vec<f64> {
+        let bytes = std::fs::read(d.path(file)).unwrap();
+        let st = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+        let w = st.tensor("weights").unwrap();
+        w.data().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64).collect()
+    };
+    d.ok(&["train", "--data", "data", "--ridge", "1e-3", "--out", "mem.safetensors"]);
+    let out = Command::new(env!("CARGO_BIN_EXE_linpose"))
+        .args(["train", "--stream", "--data", "data", "--ridge", "1e-3", "--out", "s1.safetensors"])
+        .env("RAYON_NUM_THREADS", "1")
+        .current_dir(d.path(""))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    // The integer kernels run where AVX-512 VNNI does (and LINPOSE_SIMD does not cap it).
+    #[cfg(target_arch = "x86_64")]
+    let vnni = std::env::var_os("LINPOSE_SIMD").is_none()
+        && std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vnni");
+    #[cfg(not(target_arch = "x86_64"))]
+    let vnni = false;
+    let arithmetic = if vnni { "8-bit integer" } else { ", f64" };
+    assert!(err.contains("X^T X") && err.contains(arithmetic), "{err}");
+    let out = Command::new(env!("CARGO_BIN_EXE_linpose"))
+        .args(["train", "--stream", "--data", "data", "--ridge", "1e-3", "--out", "s3.safetensors"])
+        .env("RAYON_NUM_THREADS", "3")
+        .current_dir(d.path(""))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read(d.path("s1.safetensors")).unwrap() == std::fs::read(d.path("s3.safetensors")).unwrap(), "thread count changes the model");
+    let (want, got) = (weights("mem.safetensors"), weights("s1.safetensors"));
+    let num: f64 = want.iter().zip(&got).map(|(a, b)| (a - b) * (a - b)).sum();
+    let den: f64 = want.iter().map(|a| a * a).sum();
+    eprintln!("streamed against in-memory: relative difference {:.2e}", (num / den).sqrt());
+    assert!((num / den).sqrt() < 1e-6, "relative difference {}", (num / den).sqrt());
 }

@@ -8,25 +8,44 @@
 //! - N > M, [`SolverPath::LeastSquares`]: the minimum-norm exact fit no longer exists (X X^T is
 //!   singular once N > M); the model is least squares, with ridge lambda,
 //!   W = (X^T X + lambda I)^{-1} X^T P. X^T X (M x M) and X^T P (M x K) are accumulated block by
-//!   block, so memory is M^2 * 8 bytes (twice that while factoring) whatever N. With lambda > 0
-//!   this is the same model as the in-memory ridge fit W = X^T (X X^T + lambda I)^{-1} P (the
+//!   block, so memory is about M^2 * 4 bytes whatever N: X^T X's lower triangle, copied band by
+//!   band into the (zeroed, upper half untouched) matrix that is then factored in place, plus two
+//!   blocks of images (1.7 GB in all for 160 x 120 images). With lambda > 0 this
+//!   is the same model as the in-memory ridge fit W = X^T (X X^T + lambda I)^{-1} P (the
 //!   push-through identity). Images whose pixels never vary (a black background) make X^T X
 //!   singular, so this path needs lambda > 0 in practice; it refuses a singular system and says so.
 //!   Centring is not offered on this path.
 //!
-//! Blocks are summed in manifest order, each by the kernel of [`crate::kernels::syrk`], so the
+//! On the least-squares path a reader thread decodes the next block while the current one is
+//! accumulated. Blocks whose values are all 8-bit levels (what every 8-bit image gives: the
+//! feature of level k is the f32 value k * fl(1/255) = V_k 2^-31 with V_k an integer) are summed
+//! in integers by the AVX-512 VNNI kernels of [`crate::kernels::syrk`]: with V_k = k m + r_k
+//! (m = fl(1/255) 2^31, |r_k| <= 127), the products of two features are
+//! 2^-62 (m^2 k_p k_q + m (k_p r_q + r_p k_q) + r_p r_q). The first two sums are exact in
+//! integers, in two passes (`vpdpwssd` on pairs of images, `vpdpbusd` on quads) that together
+//! take half the instructions of the f64 kernel's FMAs; the last, under 4e-15 per image, is left
+//! out. X^T X is thus that of the same f32 features as the in-memory path, to about 1e-14
+//! relative, at about twice the f64 kernel's speed. From the first block that is not 8-bit
+//! (16-bit images, say), the rest is summed in f64; so is everything on a CPU without AVX-512
+//! VNNI (the same model to about 1e-14 in X^T X, not the same bits).
+//!
+//! Blocks are summed in manifest order, each by the kernels of [`crate::kernels::syrk`], so the
 //! result does not depend on the thread count.
 
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
-use crate::kernels::syrk::{pack_columns, padded, SyrkAcc};
+use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 use crate::linear::{LinearModel, LinearParams};
 use crate::manifest::Manifest;
 use crate::model::{Estimator, ModelMeta};
 use crate::{Error, Result};
-use faer::linalg::solvers::Solve;
-use faer::{Mat, Side};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::triangular_solve::{solve_lower_triangular_in_place, solve_upper_triangular_in_place};
+use faer::{Mat, MatMut, MatRef};
 use rayon::prelude::*;
+use std::sync::mpsc::sync_channel;
+use std::time::Instant;
 
 /// The solver a streamed fit used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -55,119 +74,286 @@ pub fn choose_path(n: usize, m: usize) -> SolverPath {
     }
 }
 
-/// Images decoded per block on the least-squares path.
-pub const BLOCK: usize = 512;
+/// Images decoded per block on the least-squares path (one 8-bit panel).
+pub const BLOCK: usize = 2 * KCP;
+
+/// 1/255 as image_io computes 8-bit features (`k as f32 * S8`).
+const S8: f32 = 1.0 / 255.0;
+
+/// The residuals r_k = V_k - k m of the 8-bit features k * S8 = V_k 2^-31 (m = S8 2^31, an
+/// integer: S8 has 24 significant bits and lies in [2^-8, 2^-7)); all within -127..=127.
+fn level_residuals() -> [i8; 256] {
+    let m = S8 as f64 * 2f64.powi(31);
+    let mut r = [0i8; 256];
+    for (k, r) in r.iter_mut().enumerate() {
+        let v = (k as f32 * S8) as f64 * 2f64.powi(31);
+        let d = v - k as f64 * m;
+        assert!(v.fract() == 0.0 && d.abs() <= 127.0, "8-bit feature {k} is not V 2^-31 with a small residual");
+        *r = d as i8;
+    }
+    r
+}
+
+/// What a streamed fit did and where its time went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StreamStats {
+    /// The solver.
+    pub path: SolverPath,
+    /// Images and features.
+    pub n: usize,
+    /// Features per image.
+    pub m: usize,
+    /// Seconds spent reading and decoding images (on the least-squares path on a reader thread,
+    /// overlapped with the accumulation).
+    pub read_s: f64,
+    /// Seconds the accumulation waited for the reader (the part of reading not overlapped).
+    pub wait_s: f64,
+    /// Seconds accumulating X^T X and X^T P (least-squares path; 0 on the Gram path).
+    pub accumulate_s: f64,
+    /// Seconds solving: Cholesky factorisation and triangular solves (least squares), or the
+    /// whole in-memory fit with its Gram matrix (Gram path).
+    pub solve_s: f64,
+    /// Whether X^T X was summed in integers (every image 8-bit).
+    pub integer_8bit: bool,
+}
+
+impl StreamStats {
+    /// The accumulation's FLOP/s: M^2 N floating-point operations (the M^2 N / 2 multiply-adds of
+    /// X^T X's lower triangle, counted once although the 8-bit path does them in integers in two
+    /// passes) over `accumulate_s`.
+    pub fn accumulate_flops(&self) -> f64 {
+        (self.m as f64).powi(2) * self.n as f64 / self.accumulate_s
+    }
+}
 
 /// Fits the linear model on every image of `manifest`, reading them from disk in blocks (see the
 /// module documentation for the two paths). `progress` is called with images read.
-pub fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, progress: &(dyn Fn(u64) + Sync)) -> Result<(LinearModel, SolverPath)> {
+pub fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, progress: &(dyn Fn(u64) + Sync)) -> Result<(LinearModel, StreamStats)> {
     let mut row0 = Vec::new();
     let (w, h) = read_features(&manifest.image_path(0), color, None, "", &mut row0)?;
     let spec = ImageSpec { width: w, height: h, color };
     let (n, m) = (manifest.len(), spec.features());
     match choose_path(n, m) {
         SolverPath::Gram => {
+            let t = Instant::now();
             let data = Dataset::load(manifest.clone(), color, progress)?;
-            Ok((params.fit(&data)?, SolverPath::Gram))
+            let read_s = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let model = params.fit(&data)?;
+            let stats = StreamStats { path: SolverPath::Gram, n, m, read_s, wait_s: 0.0, accumulate_s: 0.0, solve_s: t.elapsed().as_secs_f64(), integer_8bit: false };
+            Ok((model, stats))
         }
         SolverPath::LeastSquares => {
             let context = format!("the size of the data set's first image, {}", manifest.images()[0]);
+            let mut row = Vec::with_capacity(m);
+            // One reader thread decodes the images of a block in order while the rayon pool
+            // accumulates the previous block: decoding is a few per cent of the work.
             let read = |start: usize, block: &mut [f32]| -> Result<()> {
-                block.par_chunks_mut(m).enumerate().try_for_each(|(k, slot)| {
-                    let mut row = Vec::with_capacity(m);
+                for (k, slot) in block.chunks_exact_mut(m).enumerate() {
+                    row.clear();
                     read_features(&manifest.image_path(start + k), color, Some((w, h)), &context, &mut row)?;
                     slot.copy_from_slice(&row);
                     progress(1);
-                    Ok(())
-                })
+                }
+                Ok(())
             };
-            let model = fit_least_squares(manifest, spec, params, BLOCK, read)?;
-            Ok((model, SolverPath::LeastSquares))
+            fit_least_squares(manifest, spec, params, BLOCK, read)
         }
     }
 }
 
+/// A block of images on its way from the reader to the accumulation.
+struct Block {
+    start: usize,
+    len: usize,
+    /// Features, `len` rows of M.
+    f: Vec<f32>,
+    /// The same as 8-bit levels, when `exact`.
+    q: Vec<u8>,
+    /// Whether every feature is an 8-bit level (k as f32 / 255 exactly as image_io makes it).
+    exact: bool,
+}
+
+/// Fills `q` with the 8-bit levels of `f` and says whether every value is one.
+fn quantize(f: &[f32], q: &mut [u8]) -> bool {
+    let mut exact = true;
+    for (d, &v) in q.iter_mut().zip(f) {
+        // Truncation rounds a non-negative value to the nearest level (and inlines, where
+        // f32::round is a libm call); anything else fails the comparison.
+        let k = (v * 255.0 + 0.5) as i32;
+        let ok = (0..=255).contains(&k) && (k as f32) * S8 == v;
+        exact &= ok;
+        *d = if ok { k as u8 } else { 0 };
+    }
+    exact
+}
+
 /// The least-squares path on images delivered by `read(start, block)`, which fills `block`
-/// (rows of M features) with images `start..`, `block.len() / M` of them.
+/// (rows of M features) with images `start..`, `block.len() / M` of them. `read` runs on a thread
+/// of its own, one block ahead of the accumulation.
 pub fn fit_least_squares(
     manifest: &Manifest,
     spec: ImageSpec,
     params: &LinearParams,
     block: usize,
-    read: impl Fn(usize, &mut [f32]) -> Result<()>,
-) -> Result<LinearModel> {
+    mut read: impl FnMut(usize, &mut [f32]) -> Result<()> + Send,
+) -> Result<(LinearModel, StreamStats)> {
     if params.is_centered() {
         return Err(Error::invalid("center", true, "centring is not offered on the streaming least-squares path (N > M)"));
     }
+    assert!(block > 0, "block size");
     let lambda = params.ridge_lambda();
     let space = manifest.space();
     let (n, m, k) = (manifest.len(), spec.features(), space.encoded_len());
+    let np = padded(m);
     let mut acc = SyrkAcc::new(m);
     let mut xtp = vec![0f64; m * k]; // X^T P, row-major M x K
-    let mut buf = vec![0f32; block.min(n) * m];
-    let mut panel = vec![0f64; padded(m) * crate::kernels::syrk::KC];
+    // Every block so far 8-bit, on a CPU with AVX-512 VNNI (without it the portable integer
+    // kernel gives the same bits but is slower than the f64 kernel, so the f64 path is taken).
+    let mut exact = acc.uses_vnni();
+    let r = level_residuals();
+    // C += s1 sum k_p k_q + s2 sum (k_p r_q + r_p k_q): 2^-62 m^2 and 2^-62 m, exact powers of two
+    // times 24-bit integers.
+    let s1 = (S8 as f64) * (S8 as f64);
+    let s2 = S8 as f64 * 2f64.powi(-31);
     let mut p = vec![0f64; block * k];
-    let mut start = 0;
-    while start < n {
-        let b = block.min(n - start);
-        let x = &mut buf[..b * m];
-        read(start, x)?;
-        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Dataset { path: manifest.image_path(start + i / m), message: "image has a non-finite value".into() });
+    let (mut pa, mut pb) = (Vec::new(), Vec::new()); // 8-bit panels, step pairs
+    let mut quads: [Vec<i32>; 4] = Default::default(); // 8-bit panels, step quads
+    let mut panel = Vec::new(); // f64 panel
+    let (mut wait_s, mut accumulate_s) = (0.0, 0.0);
+    let bsize = block.min(n);
+
+    let read_s = std::thread::scope(|scope| -> Result<f64> {
+        let (full_tx, full_rx) = sync_channel::<Result<Block>>(1);
+        let (free_tx, free_rx) = sync_channel::<Block>(2);
+        for _ in 0..2 {
+            free_tx.send(Block { start: 0, len: 0, f: vec![0.0; bsize * m], q: vec![0; bsize * m], exact: false }).expect("fresh channel");
         }
-        for i in 0..b {
-            space.encode(manifest.pose(start + i), &mut p[i * k..(i + 1) * k]);
-        }
-        // X^T X over the block, in panels of KC images, in order.
-        let mut r0 = 0;
-        while r0 < b {
-            let kc = crate::kernels::syrk::KC.min(b - r0);
-            let pn = &mut panel[..padded(m) * kc];
-            pack_columns(pn, &x[r0 * m..(r0 + kc) * m], kc, m, None);
-            acc.update(pn, kc);
-            r0 += kc;
-        }
-        // X^T P: pixel chunks in parallel, images in order.
-        xtp.par_chunks_mut(1024 * k).enumerate().for_each(|(c, out)| {
-            let p0 = c * 1024;
+        let reader = scope.spawn(move || {
+            let mut read_s = 0.0;
+            let mut start = 0;
+            while start < n {
+                let Ok(mut blk) = free_rx.recv() else { break };
+                let b = block.min(n - start);
+                let t = Instant::now();
+                let res = read(start, &mut blk.f[..b * m]).and_then(|()| {
+                    let f = &blk.f[..b * m];
+                    if let Some(i) = f.iter().position(|v| !v.is_finite()) {
+                        return Err(Error::Dataset { path: manifest.image_path(start + i / m), message: "image has a non-finite value".into() });
+                    }
+                    blk.exact = quantize(f, &mut blk.q[..b * m]);
+                    Ok(())
+                });
+                read_s += t.elapsed().as_secs_f64();
+                let failed = res.is_err();
+                (blk.start, blk.len) = (start, b);
+                if full_tx.send(res.map(|()| blk)).is_err() || failed {
+                    break;
+                }
+                start += b;
+            }
+            read_s
+        });
+        let mut done = 0;
+        while done < n {
+            let t = Instant::now();
+            let Ok(blk) = full_rx.recv() else { break };
+            let blk = blk?;
+            wait_s += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let (start, b) = (blk.start, blk.len);
+            debug_assert_eq!(start, done);
+            exact &= blk.exact; // from the first block that is not 8-bit on, f64
             for i in 0..b {
-                let row = &x[i * m + p0..i * m + p0 + out.len() / k];
-                let pi = &p[i * k..(i + 1) * k];
-                for (o, &v) in out.chunks_exact_mut(k).zip(row) {
-                    o.iter_mut().zip(pi).for_each(|(o, &q)| *o += v as f64 * q);
+                space.encode(manifest.pose(start + i), &mut p[i * k..(i + 1) * k]);
+            }
+            // X^T X over the block, in panels, in order.
+            let mut r0 = 0;
+            while r0 < b {
+                if exact {
+                    let kc = (2 * KCP).min(4 * KCQ).min(b - r0);
+                    let q8 = &blk.q[r0 * m..(r0 + kc) * m];
+                    let kcp = kc.div_ceil(2);
+                    pa.resize(np * KCP, 0);
+                    pb.resize(np * KCP, 0);
+                    let (a, bb) = (&mut pa[..np * kcp], &mut pb[..np * kcp]);
+                    pack_pairs_u8(a, bb, q8, kc, m);
+                    acc.update_u8(a, bb, kcp, s1);
+                    let kcq = kc.div_ceil(4);
+                    quads.iter_mut().for_each(|v| v.resize(np * KCQ, 0));
+                    let [ak, ar, bk, br] = quads.each_mut().map(|v| &mut v[..np * kcq]);
+                    pack_quads_u8(ak, ar, bk, br, q8, kc, m, &r);
+                    acc.update_u8_cross(ak, ar, bk, br, kcq, s2);
+                    r0 += kc;
+                } else {
+                    let kc = KC.min(b - r0);
+                    panel.resize(np * KC, 0.0);
+                    let pn = &mut panel[..np * kc];
+                    pack_columns(pn, &blk.f[r0 * m..(r0 + kc) * m], kc, m, None);
+                    acc.update(pn, kc);
+                    r0 += kc;
                 }
             }
-        });
-        start += b;
-    }
-    let mut a = acc.into_matrix();
+            // X^T P: pixel chunks in parallel, images in order.
+            let (f, pr) = (&blk.f, &p);
+            xtp.par_chunks_mut(1024 * k).enumerate().for_each(|(c, out)| {
+                let p0 = c * 1024;
+                for i in 0..b {
+                    let pi = &pr[i * k..(i + 1) * k];
+                    for (o, &v) in out.chunks_exact_mut(k).zip(&f[i * m + p0..]) {
+                        o.iter_mut().zip(pi).for_each(|(o, &q)| *o += v as f64 * q);
+                    }
+                }
+            });
+            accumulate_s += t.elapsed().as_secs_f64();
+            done += b;
+            let _ = free_tx.send(blk);
+        }
+        drop((full_rx, free_tx));
+        Ok(reader.join().expect("the reader thread panicked"))
+    })?;
+    drop((pa, pb, quads, panel, p));
+
+    let t = Instant::now();
+    let mut a = acc.into_lower(1.0); // column-major M x M, lower triangle
     for i in 0..m {
-        a[(i, i)] += lambda;
+        a[i * m + i] += lambda;
     }
-    let scale = (0..m).map(|i| a[(i, i)]).fold(0.0, f64::max);
-    let llt = a.llt(Side::Lower).map_err(|e| singular(lambda, &format!("{e:?}")))?;
-    drop(a);
-    let l = llt.L();
+    let scale = (0..m).map(|i| a[i * m + i]).fold(0.0, f64::max);
+    let par = crate::linalg::par();
+    let mut mem = MemBuffer::new(cholesky_in_place_scratch::<f64>(m, par, Default::default()));
+    cholesky_in_place(MatMut::from_column_major_slice_mut(&mut a, m, m), Default::default(), par, MemStack::new(&mut mem), Default::default())
+        .map_err(|e| singular(lambda, &format!("{e:?}")))?;
+    let l = MatRef::from_column_major_slice(&a, m, m);
     let dmin = (0..m).map(|i| l[(i, i)] * l[(i, i)]).fold(f64::INFINITY, f64::min);
     if !(dmin > scale * m as f64 * 1e-13) {
         return Err(singular(lambda, &format!("smallest pivot {dmin:.3e} against a largest diagonal of {scale:.3e}")));
     }
-    let rhs = Mat::from_fn(m, k, |i, j| xtp[i * k + j]);
-    let wm = llt.solve(rhs.as_ref());
+    let mut wm = Mat::from_fn(m, k, |i, j| xtp[i * k + j]);
+    solve_lower_triangular_in_place(l, wm.as_mut(), par);
+    solve_upper_triangular_in_place(l.transpose(), wm.as_mut(), par);
+    drop(a);
     let mut w = vec![0.0; k * m];
     for j in 0..k {
         for i in 0..m {
             w[j * m + i] = wm[(i, j)];
         }
     }
+    let solve_s = t.elapsed().as_secs_f64();
     let meta = ModelMeta {
         method: crate::linear::METHOD.into(),
         spec,
         space: space.clone(),
         train_poses: manifest.poses().to_vec(),
-        settings: serde_json::json!({ "ridge": lambda, "center": false, "solver": "least squares (X^T X)" }),
+        settings: serde_json::json!({
+            "ridge": lambda,
+            "center": false,
+            "solver": "least squares (X^T X)",
+            "accumulation": if exact { "integer (8-bit pixels)" } else { "f64" },
+        }),
     };
-    Ok(LinearModel::new(meta, w, vec![0.0; k]))
+    let stats = StreamStats { path: SolverPath::LeastSquares, n, m, read_s, wait_s, accumulate_s, solve_s, integer_8bit: exact };
+    Ok((LinearModel::new(meta, w, vec![0.0; k]), stats))
 }
 
 fn singular(lambda: f64, detail: &str) -> Error {
@@ -182,13 +368,51 @@ mod tests {
     use super::*;
     use crate::{Param, PoseSpace};
 
-    fn data(n: usize, w: usize, h: usize) -> Dataset {
+    fn dataset(n: usize, w: usize, h: usize, f: Vec<f32>) -> Dataset {
         let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
         let poses: Vec<f64> = (0..n).flat_map(|i| [30.0 + (i % 7) as f64 * 5.0, (i * 37 % 360) as f64]).collect();
         let names = (0..n).map(|i| format!("{i}.png")).collect();
-        let f: Vec<f32> = (0..n * w * h).map(|i| ((i * 7919 + i / 13) % 251) as f32 / 255.0).collect();
         let spec = ImageSpec { width: w as u32, height: h as u32, color: ColorMode::Gray };
         Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap()
+    }
+
+    /// Values that are not 8-bit levels (k / 255 by division is not k * (1/255) for every k).
+    fn data(n: usize, w: usize, h: usize) -> Dataset {
+        let f: Vec<f32> = (0..n * w * h).map(|i| ((i * 7919 + i / 13) % 251) as f32 / 255.0).collect();
+        dataset(n, w, h, f)
+    }
+
+    /// Pseudo-random 8-bit levels, as image_io makes them from 8-bit images.
+    fn data_8bit(n: usize, w: usize, h: usize) -> Dataset {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let f: Vec<f32> = (0..n * w * h)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 56) as f32 * S8
+            })
+            .collect();
+        dataset(n, w, h, f)
+    }
+
+    fn stream(d: &Dataset, params: &LinearParams, block: usize) -> (LinearModel, StreamStats) {
+        let m = d.n_features();
+        fit_least_squares(d.manifest(), d.spec(), params, block, |s, x| {
+            x.copy_from_slice(&d.features()[s * m..s * m + x.len()]);
+            Ok(())
+        })
+        .unwrap()
+    }
+
+    fn rel_diff(want: &LinearModel, got: &LinearModel) -> f64 {
+        let num: f64 = want.weights().iter().zip(got.weights()).map(|(a, b)| (a - b) * (a - b)).sum();
+        let den: f64 = want.weights().iter().map(|a| a * a).sum();
+        (num / den).sqrt()
+    }
+
+    fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
     }
 
     /// With ridge, least squares through X^T X is the in-memory ridge fit through X X^T.
@@ -200,14 +424,80 @@ mod tests {
         let params = LinearParams::default().ridge(1e-2);
         let want = params.fit(&d).unwrap();
         for block in [7, 64, 1000] {
-            let got = fit_least_squares(d.manifest(), d.spec(), &params, block, |s, x| {
-                x.copy_from_slice(&d.features()[s * m..s * m + x.len()]);
-                Ok(())
-            })
-            .unwrap();
-            let num: f64 = want.weights().iter().zip(got.weights()).map(|(a, b)| (a - b) * (a - b)).sum();
-            let den: f64 = want.weights().iter().map(|a| a * a).sum();
-            assert!((num / den).sqrt() < 1e-9, "block {block}: relative difference {}", (num / den).sqrt());
+            let (got, stats) = stream(&d, &params, block);
+            assert!(!stats.integer_8bit, "these values are not all 8-bit levels");
+            let r = rel_diff(&want, &got);
+            assert!(r < 1e-9, "block {block}: relative difference {r}");
+        }
+    }
+
+    /// 8-bit images take the integer path: the in-memory ridge fit on the same f32 features.
+    #[test]
+    fn integer_8bit_path_matches_in_memory_ridge() {
+        let d = data_8bit(1100, 10, 6);
+        let params = LinearParams::default().ridge(1e-2);
+        let want = params.fit(&d).unwrap();
+        for block in [5, 64, 1024, 5000] {
+            let (got, stats) = stream(&d, &params, block);
+            assert_eq!(stats.integer_8bit, SyrkAcc::new(1).uses_vnni());
+            let r = rel_diff(&want, &got);
+            assert!(r < 1e-9, "block {block}: relative difference {r}");
+        }
+    }
+
+    /// The integer sums reproduce X^T X of the f32 features: every level against f64 products.
+    #[test]
+    fn integer_xtx_is_that_of_the_f32_features() {
+        // Two "images" of 256 pixels: every level, and the levels reversed.
+        let (n, m) = (2, 256);
+        let q: Vec<u8> = (0..256).map(|k| k as u8).chain((0..256).rev().map(|k| k as u8)).collect();
+        let f: Vec<f64> = q.iter().map(|&k| (k as f32 * S8) as f64).collect();
+        let mut acc = SyrkAcc::new(m);
+        let (kcp, kcq) = (1, 1);
+        let np = padded(m);
+        let (mut a, mut b) = (vec![0; np * kcp], vec![0; np * kcp]);
+        pack_pairs_u8(&mut a, &mut b, &q, n, m);
+        acc.update_u8(&a, &b, kcp, (S8 as f64) * (S8 as f64));
+        let mut v: [Vec<i32>; 4] = std::array::from_fn(|_| vec![0; np * kcq]);
+        let [ak, ar, bk, br] = &mut v;
+        pack_quads_u8(ak, ar, bk, br, &q, n, m, &level_residuals());
+        acc.update_u8_cross(ak, ar, bk, br, kcq, S8 as f64 * 2f64.powi(-31));
+        let c = acc.into_lower(1.0);
+        let mut worst = 0f64;
+        for p in 0..m {
+            for j in 0..=p {
+                let want = f[p] * f[j] + f[m + p] * f[m + j];
+                worst = worst.max((c[j * m + p] - want).abs());
+            }
+        }
+        assert!(worst < 1e-14, "largest difference {worst:e}");
+    }
+
+    /// A block that is not 8-bit switches the rest of the fit to f64, keeping what was summed.
+    #[test]
+    fn switch_from_8bit_to_f64_keeps_the_model() {
+        let (n, w, h) = (700, 8, 5);
+        let m = w * h;
+        let mut f: Vec<f32> = data_8bit(n, w, h).features().to_vec();
+        f[500 * m + 3] = 0.123_456_7; // image 500 is not 8-bit
+        let d = dataset(n, w, h, f);
+        let params = LinearParams::default().ridge(1e-2);
+        let want = params.fit(&d).unwrap();
+        let (got, stats) = stream(&d, &params, 128);
+        assert!(!stats.integer_8bit);
+        let r = rel_diff(&want, &got);
+        assert!(r < 1e-9, "relative difference {r}");
+    }
+
+    /// The same bits on 1, 2 and 8 threads, on both kernels and through the parallel Cholesky.
+    #[test]
+    fn streamed_models_do_not_depend_on_the_thread_count() {
+        for d in [data_8bit(900, 32, 24), data(900, 32, 24)] {
+            let params = LinearParams::default().ridge(1e-3);
+            let fit = || stream(&d, &params, 256).0.weights().to_vec();
+            let one = in_pool(1, fit);
+            assert!(one == in_pool(2, fit), "1 and 2 threads differ");
+            assert!(one == in_pool(8, fit), "1 and 8 threads differ");
         }
     }
 
@@ -225,5 +515,19 @@ mod tests {
         })
         .unwrap_err();
         assert!(e.to_string().contains("singular") || format!("{e:?}").contains("ridge"), "{e}");
+    }
+
+    #[test]
+    fn a_reader_error_stops_the_fit() {
+        let d = data(300, 4, 4);
+        let e = fit_least_squares(d.manifest(), d.spec(), &LinearParams::default().ridge(1e-3), 64, |s, _| {
+            if s >= 128 {
+                Err(Error::invalid("test", s, "unreadable"))
+            } else {
+                Ok(())
+            }
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("unreadable"), "{e}");
     }
 }
