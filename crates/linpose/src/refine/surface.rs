@@ -198,7 +198,6 @@ impl Surface {
         self.eval(t, f, Some(jac));
         let mut cost = dist(f);
         let mut mu = -1.0;
-        let mut cand = [0f64; 8];
         for _ in 0..MAX_ITER {
             // Normal equations H = J^T J, g = J^T (y - f).
             let mut h = [[0f64; 8]; 8];
@@ -214,36 +213,50 @@ impl Surface {
             if mu < 0.0 {
                 mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
-            let mut moved = false;
-            let mut step = 0.0;
-            for _ in 0..12 {
-                let mut a = h;
-                for (k, row) in a.iter_mut().enumerate().take(d) {
-                    row[k] += mu;
-                }
-                let Some(delta) = solve(&mut a, &g, d) else { break };
-                for k in 0..d {
-                    cand[k] = t[k] + delta[k];
-                }
-                self.clamp(&mut cand[..d]);
-                self.eval(&cand[..d], ftry, None);
-                let c = dist(ftry);
-                if c < cost {
-                    step = (0..d).map(|k| (cand[k] - t[k]).abs()).fold(0.0, f64::max);
-                    t.copy_from_slice(&cand[..d]);
-                    cost = c;
-                    mu = (mu / 3.0).max(1e-12);
-                    moved = true;
-                    break;
-                }
-                mu *= 4.0;
-            }
-            if !moved || step < STEP_TOL {
+            let Some((c, step)) = self.damped_step(&h, &g, &mut mu, t, cost, |cand| {
+                self.eval(cand, ftry, None);
+                dist(ftry)
+            }) else {
+                break;
+            };
+            cost = c;
+            if step < STEP_TOL {
                 break;
             }
             self.eval(t, f, Some(jac));
         }
         cost
+    }
+}
+
+impl Surface {
+    /// One damped Gauss-Newton step of Levenberg-Marquardt from `t` on the normal equations
+    /// (`h`, `grad`): the damping `mu` grows 4x until `cost_at` a (domain-clamped) candidate is
+    /// below `cost` (then `t` moves there and `mu` shrinks 3x), at most 12 tries. Returns the new
+    /// cost and the largest coordinate move, or None when no try lowered the cost.
+    fn damped_step(&self, h: &[[f64; 8]; 8], grad: &[f64; 8], mu: &mut f64, t: &mut [f64], cost: f64, mut cost_at: impl FnMut(&[f64]) -> f64) -> Option<(f64, f64)> {
+        let d = self.params();
+        let mut cand = [0f64; 8];
+        for _ in 0..12 {
+            let mut a = *h;
+            for (k, row) in a.iter_mut().enumerate().take(d) {
+                row[k] += *mu;
+            }
+            let delta = solve(&mut a, grad, d)?;
+            for k in 0..d {
+                cand[k] = t[k] + delta[k];
+            }
+            self.clamp(&mut cand[..d]);
+            let c = cost_at(&cand[..d]);
+            if c < cost {
+                let step = (0..d).map(|k| (cand[k] - t[k]).abs()).fold(0.0, f64::max);
+                t.copy_from_slice(&cand[..d]);
+                *mu = (*mu / 3.0).max(1e-12);
+                return Some((c, step));
+            }
+            *mu *= 4.0;
+        }
+        None
     }
 }
 
@@ -302,7 +315,6 @@ impl Surface {
         bg.eval(t, g, Some(jg));
         let (mut cost, mut ab) = affine_fit(z, c, wt, f, g);
         let mut mu = -1.0;
-        let mut cand = [0f64; 8];
         for _ in 0..MAX_ITER {
             let mut h = [[0f64; 8]; 8];
             let mut grad = [0f64; 8];
@@ -326,31 +338,18 @@ impl Surface {
             if mu < 0.0 {
                 mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
-            let (mut moved, mut step) = (false, 0.0);
-            for _ in 0..12 {
-                let mut a = h;
-                for (k, row) in a.iter_mut().enumerate().take(d) {
-                    row[k] += mu;
-                }
-                let Some(delta) = solve(&mut a, &grad, d) else { break };
-                for k in 0..d {
-                    cand[k] = t[k] + delta[k];
-                }
-                self.clamp(&mut cand[..d]);
-                self.eval(&cand[..d], ftry, None);
-                bg.eval(&cand[..d], gtry, None);
+            let mut trial = ab;
+            let Some((cst, step)) = self.damped_step(&h, &grad, &mut mu, t, cost, |cand| {
+                self.eval(cand, ftry, None);
+                bg.eval(cand, gtry, None);
                 let (cst, abt) = affine_fit(z, c, wt, ftry, gtry);
-                if cst < cost {
-                    step = (0..d).map(|k| (cand[k] - t[k]).abs()).fold(0.0, f64::max);
-                    t.copy_from_slice(&cand[..d]);
-                    (cost, ab) = (cst, abt);
-                    mu = (mu / 3.0).max(1e-12);
-                    moved = true;
-                    break;
-                }
-                mu *= 4.0;
-            }
-            if !moved || step < STEP_TOL {
+                trial = abt;
+                cst
+            }) else {
+                break;
+            };
+            (cost, ab) = (cst, trial);
+            if step < STEP_TOL {
                 break;
             }
             self.eval(t, f, Some(jf));
