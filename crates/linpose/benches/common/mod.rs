@@ -34,3 +34,15 @@ pub fn training_set() -> Dataset {
     let spec = ImageSpec { width: W as u32, height: H as u32, color: ColorMode::Gray };
     Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap()
 }
+
+/// The rendered duck on the paper's grid (1760 views, 160 x 120): the 9-degree training subset
+/// (222 views) and every view as raw 8-bit pixels, for queries whose search behaves as on real
+/// data (on random images a k-d tree degenerates).
+pub fn rendered_duck() -> (Dataset, Vec<u8>) {
+    use linpose::render::{objects, synth, RenderParams};
+    let grid = synth::PoseGrid::paper();
+    let data = synth::dataset(&objects::builtin("duck").unwrap(), &grid, &RenderParams::default(), std::path::Path::new("duck"), &|_| {}).unwrap();
+    let mask = data.manifest().training_mask(&linpose::TrainSelection::Step(9.0)).unwrap();
+    let pixels = data.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    (data.subset(&mask).unwrap(), pixels)
+}

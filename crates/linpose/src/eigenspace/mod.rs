@@ -64,6 +64,9 @@ pub const METHOD: &str = "eigenspace";
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
 /// every thread a few tasks.
+/// 8-bit queries per parallel task of a batch (a multiple of [`dot_u8::BATCH_IMAGES`]).
+const U8_BATCH: usize = 32 * dot_u8::BATCH_IMAGES;
+
 fn chunk_rows(n: usize) -> usize {
     n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
 }
@@ -282,19 +285,44 @@ impl EigenspaceModel {
         let (l, m) = (self.components(), self.mean.len());
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
-        let one = |(x, y): (&[u8], &mut [f32])| self.project_one_u8(level, x, y);
-        if n >= 8 {
-            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(l)).with_min_len(4).for_each(one);
+        if n >= U8_BATCH {
+            queries.par_chunks(U8_BATCH * m).zip(out.par_chunks_mut(U8_BATCH * l)).for_each_init(Vec::new, |scratch, (q, y)| {
+                self.project_u8_batch(level, q, y, scratch)
+            });
         } else {
-            queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(one);
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(|(x, y)| self.project_one_u8(level, x, y));
         }
         Ok(())
+    }
+
+    /// Several 8-bit queries: the products by [`dot_u8::dots_batch`] (bit-identical to
+    /// [`dot_u8::dots`] one image at a time), then each row scaled as in `project_one_u8`.
+    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut Vec<f32>) {
+        let m = self.mean.len();
+        let mut energy = [0u64; U8_BATCH];
+        let energy = &mut energy[..queries.len() / m];
+        dot_u8::dots_batch(level, queries, m, &self.basis, out, energy, scratch);
+        for (y, &ss) in out.chunks_exact_mut(self.components()).zip(energy.iter()) {
+            self.scale(ss, y);
+        }
     }
 
     #[inline]
     fn project_one_u8(&self, level: Level, x: &[u8], y: &mut [f32]) {
         dot_u8::dots(level, x, &self.basis, y);
-        let ss = dot_u8::sum_squares(x);
+        self.scale_u8(x, y);
+    }
+
+    /// Raw products `y` of an 8-bit query to unit-energy, mean-subtracted coordinates (NaN for
+    /// an all-black image).
+    #[inline]
+    fn scale_u8(&self, x: &[u8], y: &mut [f32]) {
+        self.scale(dot_u8::sum_squares(x), y)
+    }
+
+    /// As `scale_u8`, given the query's sum of squared pixel values.
+    #[inline]
+    fn scale(&self, ss: u64, y: &mut [f32]) {
         if ss > 0 {
             let inv = (1.0 / (ss as f64).sqrt()) as f32;
             y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
@@ -405,20 +433,29 @@ impl PoseModel for EigenspaceModel {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let (space, level) = (&self.meta.space, Level::detect());
-        let one = |(x, o): (&[u8], &mut [f64])| {
-            let mut y = [0f32; 64];
-            let y = if l <= 64 { &mut y[..l] } else { return self.predict_one_u8_dyn(level, x, o) };
-            self.project_one_u8(level, x, y);
+        let search = |y: &[f32], o: &mut [f64]| {
             if y[0].is_nan() {
                 o.fill(f64::NAN);
             } else {
                 pose_of(&self.axes, space, self.index.nearest(y), o);
             }
         };
-        if n >= 8 {
-            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).with_min_len(4).for_each(one);
+        if n >= U8_BATCH {
+            queries.par_chunks(U8_BATCH * m).zip(out.par_chunks_mut(U8_BATCH * p)).for_each_init(
+                || (Vec::new(), vec![0f32; U8_BATCH * l]),
+                |(scratch, y), (q, o)| {
+                    let y = &mut y[..q.len() / m * l];
+                    self.project_u8_batch(level, q, y, scratch);
+                    y.chunks_exact(l).zip(o.chunks_exact_mut(p)).for_each(|(y, o)| search(y, o));
+                },
+            );
         } else {
-            queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
+            queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(|(x, o)| {
+                let mut y = [0f32; 64];
+                let y = if l <= 64 { &mut y[..l] } else { return self.predict_one_u8_dyn(level, x, o) };
+                self.project_one_u8(level, x, y);
+                search(y, o)
+            });
         }
         if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
             return Err(Error::invalid(

@@ -233,6 +233,15 @@ fn u8_queries_match_f32_queries() {
     for (a, b) in yf.iter().zip(&y8) {
         assert!((a - b).abs() < 1e-5, "{a} vs {b}");
     }
+    // A batch (the blocked products) and one query at a time give the same bits.
+    let qb: Vec<u8> = q8.iter().copied().cycle().take(5 * q8.len()).collect();
+    let mut yb = vec![0f32; 5 * n * l];
+    model.project_u8_into(&qb, &mut yb).unwrap();
+    let mut one = vec![0f32; l];
+    for (q, y) in qb.chunks_exact(W * H).zip(yb.chunks_exact(l)) {
+        model.project_u8_into(q, &mut one).unwrap();
+        assert_eq!(one.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), y.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+    }
     let mut p8 = vec![0.0; n];
     model.predict_u8_into(&q8, &mut p8).unwrap();
     let pf = model.predict(&qf).unwrap();

@@ -31,6 +31,89 @@ pub fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
     }
 }
 
+/// Images per register block of [`dots_batch`]: with [`BATCH_ROWS`] weight rows, 24 of the 32
+/// AVX-512 registers accumulate.
+pub const BATCH_IMAGES: usize = 6;
+/// Weight rows per register block of [`dots_batch`].
+const BATCH_ROWS: usize = 4;
+/// Images per cache block of [`dots_batch`]: the weights are read from the outer caches once per
+/// this many images.
+const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
+/// Pixels per cache block of [`dots_batch`]: a block of 20 weight rows (30 KiB) stays in the L1
+/// cache while the images' block passes over it.
+const PIXEL_CHUNK: usize = 384;
+
+/// [`dots`] for several images at once: `out[i * rows + r] = sum_p xs[i * m + p] * w[r * m + p]`,
+/// `rows = w.len() / m`, and each image's [`sum_squares`] into `energy`. Bit-identical to
+/// calling [`dots`] image by image (each product is
+/// summed in the same lanes in the same order). On AVX-512 the work goes in cache blocks of
+/// [`PIXEL_CHUNK`] pixels of up to 96 images (converted to f32 once, into 64-byte aligned
+/// `scratch`, resized as needed) and every row, and within them in register blocks of 6 images
+/// by 4 rows: a weight vector loaded serves 6 images, an image vector 4 rows, and the weights are
+/// read from the outer caches once per 96 images. That makes a batch compute-bound; one image at
+/// a time is bound by reading all the weights once per image.
+#[track_caller]
+pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<f32>) {
+    assert!(m > 0 && xs.len() % m == 0 && w.len() % m == 0, "whole images and weight rows of length m");
+    let (n, rows) = (xs.len() / m, w.len() / m);
+    assert_eq!(out.len(), n * rows, "one output per image and row");
+    assert_eq!(energy.len(), n, "one energy per image");
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if level == Level::Avx512 && rows > 0 {
+        done = n / BATCH_IMAGES * BATCH_IMAGES;
+        for ((xg, og), eg) in xs[..done * m].chunks(BATCH_GROUP * m).zip(out.chunks_mut(BATCH_GROUP * rows)).zip(energy.chunks_mut(BATCH_GROUP)) {
+            let g = xg.len() / m;
+            let (xlen, wlen, alen) = (g * PIXEL_CHUNK, rows * PIXEL_CHUNK, g * rows * LANES);
+            scratch.resize(xlen + wlen + alen + LANES, 0.0);
+            let skip = scratch.as_ptr().align_offset(64).min(LANES);
+            let (xf, rest) = scratch[skip..].split_at_mut(xlen);
+            let (wf, acc) = rest.split_at_mut(wlen);
+            acc.fill(0.0);
+            let steps = m / LANES;
+            let mut sq = [0u64; BATCH_GROUP];
+            for c0 in (0..steps).step_by(PIXEL_CHUNK / LANES) {
+                let (p0, p1) = (c0 * LANES, ((c0 + PIXEL_CHUNK / LANES).min(steps)) * LANES);
+                let pc = p1 - p0;
+                let next = (p1..(p1 + PIXEL_CHUNK).min(m)).step_by(64);
+                for ((f, x), sq) in xf.chunks_exact_mut(PIXEL_CHUNK).zip(xg.chunks_exact(m)).zip(&mut sq) {
+                    // SAFETY: as below; both slices hold pc values, a multiple of 16.
+                    *sq += unsafe { x86::widen_avx512(&x[p0..p1], &mut f[..pc]) } as u64;
+                    // The next block's lines of this image: one stream per image is more than
+                    // the hardware prefetcher follows.
+                    for p in next.clone() {
+                        // SAFETY: p < m, inside the image.
+                        unsafe { x86::prefetch(x.as_ptr().add(p)) };
+                    }
+                }
+                for (f, wr) in wf.chunks_exact_mut(PIXEL_CHUNK).zip(w.chunks_exact(m)) {
+                    f[..pc].copy_from_slice(&wr[p0..p1]);
+                }
+                for (xb, ab) in xf.chunks_exact(BATCH_IMAGES * PIXEL_CHUNK).zip(acc.chunks_exact_mut(BATCH_IMAGES * rows * LANES)) {
+                    // SAFETY: Level::Avx512 was detected by the caller; the blocks hold
+                    // BATCH_IMAGES images and `rows` rows of PIXEL_CHUNK values from 64-byte
+                    // boundaries, and pc <= PIXEL_CHUNK (checked in the kernel).
+                    unsafe { x86::block_avx512(xb, wf, rows, pc / LANES, ab) };
+                }
+            }
+            for (b, ((x, o), e)) in xg.chunks_exact(m).zip(og.chunks_exact_mut(rows)).zip(eg.iter_mut()).enumerate() {
+                *e = sq[b] + x[steps * LANES..].iter().map(|&v| v as u64 * v as u64).sum::<u64>();
+                for (r, o) in o.iter_mut().enumerate() {
+                    let mut a = [[0f32; LANES]; 1];
+                    a[0].copy_from_slice(&acc[(b * rows + r) * LANES..][..LANES]);
+                    tail(x, &w[r * m..(r + 1) * m], &mut a);
+                    *o = reduce(&a[0]);
+                }
+            }
+        }
+    }
+    let _ = scratch;
+    for ((x, o), e) in xs[done * m..].chunks_exact(m).zip(out[done * rows..].chunks_exact_mut(rows)).zip(&mut energy[done..]) {
+        dots(level, x, w, o);
+        *e = sum_squares(x);
+    }
+}
+
 /// Sum of squares of the pixels, exact (in integers).
 pub fn sum_squares(x: &[u8]) -> u64 {
     // Per chunk the u32 sum stays below 2^32 (65,536 * 255^2 < 2^32).
@@ -100,7 +183,7 @@ fn lanes_portable<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{lanes_portable, tail, LANES};
+    use super::{lanes_portable, tail, BATCH_IMAGES, BATCH_ROWS, LANES, PIXEL_CHUNK};
     use std::arch::x86_64::*;
 
     /// # Safety
@@ -108,6 +191,82 @@ mod x86 {
     #[target_feature(enable = "avx2,fma")]
     pub unsafe fn lanes_avx2<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
         lanes_portable::<R>(x, w)
+    }
+
+    /// `out[i] = x[i] as f32`, 16 at a time (`x.len()` a multiple of 16, at most 4096, `out`
+    /// as long); returns the sum of the squares of `x`, exact.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F and AVX-512BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn widen_avx512(x: &[u8], out: &mut [f32]) -> u32 {
+        assert!(x.len() % LANES == 0 && out.len() == x.len() && x.len() <= 1 << 12);
+        let mut sq = _mm512_setzero_si512();
+        for (c, o) in x.chunks_exact(LANES).zip(out.chunks_exact_mut(LANES)) {
+            let v = _mm512_cvtepu8_epi32(_mm_loadu_si128(c.as_ptr() as *const __m128i));
+            _mm512_storeu_ps(o.as_mut_ptr(), _mm512_cvtepi32_ps(v));
+            // v * v per lane (v < 256, so the low 16 bits of each product's pair suffice).
+            sq = _mm512_add_epi32(sq, _mm512_madd_epi16(v, v));
+        }
+        // At most 4096 squares of 255 in all (< 2^31).
+        _mm512_reduce_add_epi32(sq) as u32
+    }
+
+    /// Hints the cache line at `p` into the caches.
+    #[inline(always)]
+    pub unsafe fn prefetch(p: *const u8) {
+        _mm_prefetch::<_MM_HINT_T0>(p as *const i8);
+    }
+
+    /// One cache block: `steps` vector steps of BATCH_IMAGES images (`xf`, rows of
+    /// PIXEL_CHUNK f32) against `rows` weight rows (`wf`, rows of PIXEL_CHUNK), added to the lane
+    /// accumulators `acc` (lane l of image b and row r at `acc[(b * rows + r) * 16 + l]`), in
+    /// register blocks of BATCH_ROWS rows, each accumulator updated in pixel order as in
+    /// [`lanes_avx512`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn block_avx512(xf: &[f32], wf: &[f32], rows: usize, steps: usize, acc: &mut [f32]) {
+        assert!(steps * LANES <= PIXEL_CHUNK && xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && wf.len() >= rows * PIXEL_CHUNK);
+        assert!(acc.len() >= BATCH_IMAGES * rows * LANES);
+        for r0 in (0..rows).step_by(BATCH_ROWS) {
+            match (rows - r0).min(BATCH_ROWS) {
+                1 => regs::<1>(xf, wf, rows, r0, steps, acc),
+                2 => regs::<2>(xf, wf, rows, r0, steps, acc),
+                3 => regs::<3>(xf, wf, rows, r0, steps, acc),
+                _ => regs::<BATCH_ROWS>(xf, wf, rows, r0, steps, acc),
+            }
+        }
+    }
+
+    /// Rows r0..r0 + R of one cache block, in registers.
+    #[target_feature(enable = "avx512f")]
+    unsafe fn regs<const R: usize>(xf: &[f32], wf: &[f32], rows: usize, r0: usize, steps: usize, acc: &mut [f32]) {
+        let (xp, wp, ap) = (xf.as_ptr(), wf.as_ptr().add(r0 * PIXEL_CHUNK), acc.as_mut_ptr());
+        let mut a = [[_mm512_setzero_ps(); R]; BATCH_IMAGES];
+        for b in 0..BATCH_IMAGES {
+            for r in 0..R {
+                a[b][r] = _mm512_loadu_ps(ap.add((b * rows + r0 + r) * LANES));
+            }
+        }
+        for c in 0..steps {
+            let mut wv = [_mm512_setzero_ps(); R];
+            for r in 0..R {
+                wv[r] = _mm512_load_ps(wp.add(r * PIXEL_CHUNK + c * LANES));
+            }
+            for b in 0..BATCH_IMAGES {
+                let xv = _mm512_load_ps(xp.add(b * PIXEL_CHUNK + c * LANES));
+                for r in 0..R {
+                    a[b][r] = _mm512_fmadd_ps(xv, wv[r], a[b][r]);
+                }
+            }
+        }
+        for b in 0..BATCH_IMAGES {
+            for r in 0..R {
+                _mm512_storeu_ps(ap.add((b * rows + r0 + r) * LANES), a[b][r]);
+            }
+        }
     }
 
     /// # Safety
@@ -155,6 +314,25 @@ mod tests {
                     Some(f) => assert_eq!(f.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "{level:?}"),
                     None => first = Some(out),
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_batch_gives_the_bits_of_one_image_at_a_time() {
+        for &(m, n, rows) in &[(16, 6, 4), (100, 13, 20), (19_200 / 40, 7, 3), (37, 12, 5), (480, 5, 20)] {
+            let xs: Vec<u8> = (0..m * n).map(|i| ((i * 7919 + 13) % 256) as u8).collect();
+            let w: Vec<f32> = (0..m * rows).map(|i| ((i * 104729) % 2001) as f32 / 1000.0 - 1.0).collect();
+            for level in Level::supported() {
+                let mut one = vec![0f32; n * rows];
+                xs.chunks_exact(m).zip(one.chunks_exact_mut(rows)).for_each(|(x, o)| dots(level, x, &w, o));
+                let mut batch = vec![0f32; n * rows];
+                let mut energy = vec![0u64; n];
+                dots_batch(level, &xs, m, &w, &mut batch, &mut energy, &mut Vec::new());
+                let want: Vec<u64> = xs.chunks_exact(m).map(sum_squares).collect();
+                assert_eq!(energy, want, "{level:?} m {m} n {n}");
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&one), bits(&batch), "{level:?} m {m} n {n} rows {rows}");
             }
         }
     }
