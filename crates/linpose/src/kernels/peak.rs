@@ -51,6 +51,24 @@ fn fma_loop(iters: u64, seed: f64) -> f64 {
 mod x86 {
     use std::arch::x86_64::*;
 
+    /// The wrapping sum of `words`, 32 per step in four independent vector sums.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn read_avx512(words: &[u64]) -> u64 {
+        let mut acc = [_mm512_setzero_si512(); 4];
+        let chunks = words.chunks_exact(32);
+        let tail = chunks.remainder().iter().fold(0u64, |a, &b| a.wrapping_add(b));
+        for c in chunks {
+            for (k, a) in acc.iter_mut().enumerate() {
+                *a = _mm512_add_epi64(*a, _mm512_loadu_si512(c.as_ptr().add(8 * k) as *const _));
+            }
+        }
+        let s = _mm512_add_epi64(_mm512_add_epi64(acc[0], acc[1]), _mm512_add_epi64(acc[2], acc[3]));
+        (_mm512_reduce_add_epi64(s) as u64).wrapping_add(tail)
+    }
+
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
@@ -89,4 +107,31 @@ pub fn copy_bandwidth(bytes: usize, reps: usize) -> f64 {
     }
     times.sort_by(f64::total_cmp);
     bytes as f64 / times[times.len() / 2]
+}
+
+/// Seconds for one thread to read `buf` (summed as 64-bit words in 8-lane vectors, 4
+/// independent sums, the widest loads available: the loads are the only cost), median of `reps`
+/// after one warm-up pass, so a buffer that fits in the caches is read from them. The bound of
+/// a read-only kernel on the same bytes: a copy also writes, and costs about twice as much.
+pub fn read_seconds(buf: &[u8], reps: usize) -> f64 {
+    let words: Vec<u64> = buf.chunks(8).map(|c| c.iter().fold(0u64, |a, &b| a << 8 | b as u64)).collect();
+    let mut times = Vec::with_capacity(reps);
+    for r in 0..=reps {
+        let t = Instant::now();
+        std::hint::black_box(read_words(&words));
+        if r > 0 {
+            times.push(t.elapsed().as_secs_f64());
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn read_words(words: &[u64]) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if is_x86_feature_detected!("avx512f") {
+        // SAFETY: avx512f was detected just above.
+        return unsafe { x86::read_avx512(words) };
+    }
+    words.iter().fold(0u64, |a, &b| a.wrapping_add(b))
 }
