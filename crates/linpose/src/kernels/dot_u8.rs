@@ -45,13 +45,14 @@ const PIXEL_CHUNK: usize = 384;
 
 /// [`dots`] for several images at once: `out[i * rows + r] = sum_p xs[i * m + p] * w[r * m + p]`,
 /// `rows = w.len() / m`, and each image's [`sum_squares`] into `energy`. Bit-identical to
-/// calling [`dots`] image by image (each product is
-/// summed in the same lanes in the same order). On AVX-512 the work goes in cache blocks of
-/// [`PIXEL_CHUNK`] pixels of up to 96 images (converted to f32 once, into 64-byte aligned
-/// `scratch`, resized as needed) and every row, and within them in register blocks of 6 images
-/// by 4 rows: a weight vector loaded serves 6 images, an image vector 4 rows, and the weights are
-/// read from the outer caches once per 96 images. That makes a batch compute-bound; one image at
-/// a time is bound by reading all the weights once per image.
+/// calling [`dots`] and [`sum_squares`] image by image (each product is summed in the same lanes
+/// in the same order). On AVX-512 the work goes in cache blocks of [`PIXEL_CHUNK`] pixels of
+/// [`BATCH_GROUP`] images (converted to f32 once, into 64-byte aligned `scratch`, resized as
+/// needed) and every row, and within them in register blocks of 6 images by 4 rows: a weight
+/// vector loaded serves 6 images, an image vector 4 rows, and the weights are read from the
+/// outer caches once per group. That makes a batch compute-bound; one image at a time is bound
+/// by reading all the weights once per image. Images past the last whole register block go one
+/// at a time.
 #[track_caller]
 pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<f32>) {
     assert!(m > 0 && xs.len() % m == 0 && w.len() % m == 0, "whole images and weight rows of length m");
