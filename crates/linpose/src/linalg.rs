@@ -37,11 +37,11 @@ pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
     mu
 }
 
-/// The Gram matrix G = X X^T (N x N) from X^T (M x N): see [`crate::kernels::syrk`] (exactly
+/// The Gram matrix G = X X^T (N x N) from X^T (M x N): see [`crate::kernels::gram`] (exactly
 /// symmetric; the same bits whatever the thread count).
 pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
     let (m, n) = (xt.nrows(), xt.ncols());
-    crate::kernels::syrk::gram_rows(n, m, |i, k0, out| {
+    crate::kernels::gram::gram_rows(n, m, |i, k0, out| {
         let col = xt.col(i);
         out.iter_mut().enumerate().for_each(|(k, o)| *o = col[k0 + k]);
     })
@@ -50,14 +50,7 @@ pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
 /// The Gram matrix G = X X^T (N x N) of N row-major f32 feature rows, each optionally minus
 /// `mean`, in f64 (every f32 product is exact in f64), without an f64 copy of X.
 pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
-    debug_assert_eq!(features.len(), n * m);
-    crate::kernels::syrk::gram_rows(n, m, |i, k0, out| {
-        let row = &features[i * m + k0..i * m + k0 + out.len()];
-        match mean {
-            Some(mu) => out.iter_mut().zip(row.iter().zip(&mu[k0..])).for_each(|(o, (&v, &u))| *o = v as f64 - u),
-            None => out.iter_mut().zip(row).for_each(|(o, &v)| *o = v as f64),
-        }
-    })
+    crate::kernels::gram::gram_f32(features, n, m, mean)
 }
 
 /// A row-major N x K matrix as faer's column-major one.

@@ -1,6 +1,6 @@
 //! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
-//! ([`syrk`]), the 8-bit query products ([`dot_u8`]) and the refined eigenspace's coarse scan
-//! ([`scan`]).
+//! ([`syrk`]; [`gram`] drives it for X X^T in memory), the 8-bit query products ([`dot_u8`]) and
+//! the refined eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in
 //! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
@@ -8,6 +8,7 @@
 //! plain reference. The instruction set is detected once at run time ([`Level::detect`]).
 
 pub mod dot_u8;
+pub mod gram;
 pub mod peak;
 pub mod scan;
 pub mod syrk;

@@ -1,5 +1,6 @@
 //! The symmetric rank-k update C += P P^T, lower triangle, f64: what builds the Gram matrix
-//! G = X X^T (P = X, rows are images) and, streaming, X^T X (P = X^T, rows are pixels).
+//! G = X X^T (P = X, rows are images; driven by [`super::gram`]) and, streaming, X^T X (P = X^T,
+//! rows are pixels).
 //!
 //! P arrives in panels of `kc` reduction steps, packed by [`pack_rows`] or [`pack_columns`]:
 //! groups of 8 rows, each group `kc` steps of its 8 rows' values side by side, so that one
@@ -336,7 +337,7 @@ fn band_update(band: &mut Band, panel: &[f64], kc: usize, level: Level) {
             }
             let a = &panel[(r / GROUP) * gs..(r / GROUP + 3) * gs];
             let out = &mut band.buf[c0 * ld + t * MR..(c0 + GROUP - 1) * ld + t * MR + MR];
-            tile(level, a, b, kc, out, ld);
+            tile::<3>(level, a, b, kc, out, ld);
         }
     }
 }
@@ -465,28 +466,28 @@ fn tile_u8_cross_portable([ak, ar, bk, br]: [&[i32]; 4], kcq: usize, out: &mut [
     }
 }
 
-/// out[c * ld + r] += sum_k a[r][k] b[c][k] for the 24 x 8 tile (a: three packed groups, b: one).
+/// out[c * ld + r] += sum_k a[r][k] b[c][k] for the (8 Q) x 8 tile (a: Q packed groups, b: one);
+/// Q = 3 is the 24 x 8 tile, 1 and 2 finish a column of tiles that is not a multiple of 24 rows.
 #[inline]
-fn tile(level: Level, a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
-    debug_assert!(a.len() == 3 * GROUP * kc && b.len() == GROUP * kc && out.len() == 7 * ld + MR);
+pub(super) fn tile<const Q: usize>(level: Level, a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
+    debug_assert!(a.len() == Q * GROUP * kc && b.len() == GROUP * kc && out.len() >= 7 * ld + Q * GROUP);
     match level {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: Level::Avx512 is only constructed when avx512f is detected (SyrkAcc::with_level
-        // checks), and the slices have the lengths the kernel reads and writes (asserted above).
-        Level::Avx512 => unsafe { x86::tile_avx512(a, b, kc, out, ld) },
+        // checks), and the slices have the lengths the kernel reads and writes (asserted there).
+        Level::Avx512 => unsafe { x86::tile_avx512::<Q>(a, b, kc, out, ld) },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: Level::Avx2 is only constructed when avx2 and fma are detected.
-        Level::Avx2 => unsafe { x86::tile_avx2(a, b, kc, out, ld) },
-        _ => tile_portable(a, b, kc, out, ld),
+        Level::Avx2 => unsafe { x86::tile_avx2::<Q>(a, b, kc, out, ld) },
+        _ => tile_portable::<Q>(a, b, kc, out, ld),
     }
 }
 
-/// The portable micro-kernel: the 24 x 8 tile as six 8 x 4 sub-tiles (few enough accumulators
-/// for 16 registers); per element the same fused operations in the same order as the AVX-512
-/// kernel.
+/// The portable micro-kernel: the tile as 8 x 4 sub-tiles (few enough accumulators for 16
+/// registers); per element the same fused operations in the same order as the AVX-512 kernel.
 #[inline(always)]
-fn tile_portable(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
-    for q in 0..3 {
+fn tile_portable<const Q: usize>(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
+    for q in 0..Q {
         let aq = &a[q * GROUP * kc..(q + 1) * GROUP * kc];
         for h in 0..2 {
             let mut acc = [[0f64; GROUP]; 4];
@@ -706,30 +707,39 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn tile_avx2(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
-        tile_portable(a, b, kc, out, ld)
+    pub unsafe fn tile_avx2<const Q: usize>(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
+        tile_portable::<Q>(a, b, kc, out, ld)
     }
 
+    /// The (8 Q) x 8 tile: 8 Q accumulators, per step Q loads and 8 broadcasts. The tile's
+    /// lines of C are prefetched first, so that they arrive while the sums run.
+    ///
     /// # Safety
-    /// The CPU must support AVX-512F; `a` holds 3 * 8 * kc values, `b` 8 * kc, `out` 7 * ld + 24.
+    /// The CPU must support AVX-512F; `a` holds Q * 8 * kc values, `b` 8 * kc, `out` 7 * ld + 8 Q.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn tile_avx512(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
-        assert!(a.len() >= 3 * GROUP * kc && b.len() >= GROUP * kc && out.len() >= 7 * ld + 24);
-        let (a0, b0) = (a.as_ptr(), b.as_ptr());
-        let (a1, a2) = (a0.add(GROUP * kc), a0.add(2 * GROUP * kc));
-        let mut acc = [[_mm512_setzero_pd(); 8]; 3];
+    pub unsafe fn tile_avx512<const Q: usize>(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
+        assert!(a.len() >= Q * GROUP * kc && b.len() >= GROUP * kc && out.len() >= 7 * ld + Q * GROUP);
+        let (a0, b0, o) = (a.as_ptr(), b.as_ptr(), out.as_mut_ptr());
+        for c in 0..8 {
+            for q in 0..Q {
+                _mm_prefetch::<_MM_HINT_T0>(o.add(c * ld + q * 8) as *const i8);
+            }
+        }
+        let mut acc = [[_mm512_setzero_pd(); 8]; Q];
         for k in 0..kc {
-            let x = [_mm512_loadu_pd(a0.add(k * 8)), _mm512_loadu_pd(a1.add(k * 8)), _mm512_loadu_pd(a2.add(k * 8))];
+            let mut x = [_mm512_setzero_pd(); Q];
+            for q in 0..Q {
+                x[q] = _mm512_loadu_pd(a0.add(q * GROUP * kc + k * 8));
+            }
             for c in 0..8 {
                 let y = _mm512_set1_pd(*b0.add(k * 8 + c));
-                for q in 0..3 {
+                for q in 0..Q {
                     acc[q][c] = _mm512_fmadd_pd(x[q], y, acc[q][c]);
                 }
             }
         }
-        let o = out.as_mut_ptr();
         for c in 0..8 {
-            for q in 0..3 {
+            for q in 0..Q {
                 let p = o.add(c * ld + q * 8);
                 _mm512_storeu_pd(p, _mm512_add_pd(_mm512_loadu_pd(p), acc[q][c]));
             }
@@ -737,35 +747,8 @@ mod x86 {
     }
 }
 
-/// G = X X^T for `n` rows of `m` values read by `read(i, k0, out)` (row i from column k0), in
-/// panels of [`KC`] columns.
-pub fn gram_rows(n: usize, m: usize, read: impl Fn(usize, usize, &mut [f64]) + Sync) -> Mat<f64> {
-    gram_rows_with(n, m, Level::detect(), read)
-}
-
-/// Reduction steps per packed panel (measured: 256 beats 128; a panel of 222 rows is 480 KiB,
-/// so it is packed and used while in L2).
+/// Reduction steps per packed f64 panel of the streaming X^T X (measured: 256 beats 128).
 pub const KC: usize = 256;
-
-/// [`gram_rows`] with a given SIMD level. Each panel is packed (in parallel over row groups)
-/// just before it is used, while it is still in cache.
-pub fn gram_rows_with(n: usize, m: usize, level: Level, read: impl Fn(usize, usize, &mut [f64]) + Sync) -> Mat<f64> {
-    let np = padded(n);
-    let mut acc = SyrkAcc::with_level(n, level);
-    let mut buf = vec![0f64; np * KC.min(m)];
-    let mut k0 = 0;
-    while k0 < m {
-        let kc = KC.min(m - k0);
-        let panel = &mut buf[..np * kc];
-        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| {
-            let rows = (n.saturating_sub(g * GROUP)).min(GROUP);
-            pack_rows(p, rows, kc, k0, |i, k0, out| read(g * GROUP + i, k0, out));
-        });
-        acc.update(panel, kc);
-        k0 += kc;
-    }
-    acc.into_matrix()
-}
 
 #[cfg(test)]
 mod tests {
@@ -783,43 +766,6 @@ mod tests {
             }
         }
         g
-    }
-
-    #[test]
-    fn gram_matches_reference_on_every_path_and_paths_agree_bitwise() {
-        for &(n, m) in &[(1, 3), (5, 37), (30, 300), (200, 600)] {
-            let x = data(n, m);
-            let want = reference(&x, n, m);
-            let mut first: Option<Mat<f64>> = None;
-            for level in Level::supported() {
-                let g = gram_rows_with(n, m, level, |i, k0, out| {
-                    out.iter_mut().zip(&x[i * m + k0..]).for_each(|(o, &v)| *o = v as f64)
-                });
-                for i in 0..n {
-                    for j in 0..n {
-                        let w = want[i * n + j];
-                        assert!((g[(i, j)] - w).abs() <= 1e-13 * (m as f64) * w.abs().max(1.0), "{level:?} n {n} ({i},{j})");
-                        assert_eq!(g[(i, j)].to_bits(), g[(j, i)].to_bits());
-                    }
-                }
-                if let Some(f) = &first {
-                    assert!(f.as_ref() == g.as_ref(), "{level:?} differs from the first path at n {n}");
-                } else {
-                    first = Some(g);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn result_does_not_depend_on_the_thread_count() {
-        let (n, m) = (250, 520);
-        let x = data(n, m);
-        let run = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| gram_rows(n, m, |i, k0, out| out.iter_mut().zip(&x[i * m + k0..]).for_each(|(o, &v)| *o = v as f64)))
-        };
-        assert!(run(1).as_ref() == run(3).as_ref());
     }
 
     #[test]

@@ -1,0 +1,430 @@
+//! The Gram matrix G = X X^T of N rows of M values (one image a row): its lower triangle summed
+//! by the f64 micro-kernel of [`super::syrk`] (P = X), for the in-memory fit.
+//!
+//! M is cut into panels of [`KC`] steps. Each panel's rows are packed into groups of 8 (one
+//! AVX-512 register holds 8 rows at one step; f32 rows are converted and transposed 8 x 8 in
+//! registers by [`pack_group_f32`]), then the triangle is updated tile by tile: for each tile of
+//! 24 rows, 8 columns at a time (its rows stay in L1, the columns stream from L2, a third of the
+//! traffic of the other order); where the columns cross the diagonal only the rows from it are
+//! computed, so only the 8 x 8 diagonal blocks compute values above it. The triangle is stored
+//! as bands of rows, split into work items of one band and at most [`COLS`] columns, of about
+//! equal cost, so that the threads stay balanced; the next panel is packed while one is used.
+//!
+//! Few images (N = 222 has about 50 tiles of 24 x 8 per column of panels) leave too little
+//! output to share, so M is also split: [`chunks`] consecutive runs of panels are summed into
+//! partial Grams, in parallel, and added in order (as much memory again per partial, so the
+//! count is capped by [`PARTIALS_BYTES`]).
+//!
+//! Summation order: every element of a partial is, for each of its panels in order, its value
+//! plus a sequential fused multiply-add sum over the panel's steps started from zero (as in
+//! [`super::syrk`]); G is ((C_0 + C_1) + C_2) + ... The chunks depend on N and M only, so the
+//! result has the same bits whatever the thread count, tile split or SIMD path; it differs from
+//! a one-chunk sum by rounding only (tested).
+
+use super::syrk::{tile, GROUP};
+use super::Level;
+use faer::Mat;
+use rayon::prelude::*;
+
+/// Reduction steps per packed panel: a tile's 24 rows (24 KiB) stay in L1 while the columns
+/// stream past; a panel of 224 rows (230 KiB) and the partial Gram it updates (350 KiB) stay in
+/// L2, and for N = 2000 a band's 192 rows (192 KiB) and an item's columns do.
+pub const KC: usize = 128;
+/// Rows of C per band (a multiple of 24, so that tiles start on the band's groups).
+const BAND: usize = 192;
+/// Most columns of C per work item.
+const COLS: usize = 192;
+/// Most partial Grams.
+const MAX_CHUNKS: usize = 8;
+/// Fewest panels per partial Gram.
+const MIN_PANELS: usize = 4;
+/// Most memory the partial Grams beyond the first may take together.
+const PARTIALS_BYTES: usize = 16 << 20;
+
+/// Rows of C computed for n rows of X: n padded with zero rows to whole groups.
+fn padded8(n: usize) -> usize {
+    n.div_ceil(GROUP) * GROUP
+}
+
+/// How many partial Grams (chunks of M) to sum for n rows of m values: as many as fit in
+/// [`PARTIALS_BYTES`], up to [`MAX_CHUNKS`], with at least [`MIN_PANELS`] panels each. A
+/// function of n and m only, never of the thread count.
+pub fn chunks(n: usize, m: usize) -> usize {
+    let bytes = Acc::new(n).len() * 8;
+    let by_memory = 1 + PARTIALS_BYTES / bytes.max(1);
+    (m.div_ceil(KC) / MIN_PANELS).min(by_memory).clamp(1, MAX_CHUNKS)
+}
+
+/// One band of C's rows: `rows` rows from `r0`, columns `0..r0 + rows`, stored column by
+/// column (`buf[c * rows + r - r0]`).
+struct Band {
+    r0: usize,
+    rows: usize,
+    buf: Vec<f64>,
+}
+
+/// The lower triangle of a Gram matrix, in bands.
+struct Acc {
+    n: usize,
+    bands: Vec<Band>,
+}
+
+impl Acc {
+    fn new(n: usize) -> Self {
+        let np = padded8(n);
+        let bands = (0..np)
+            .step_by(BAND)
+            .map(|r0| {
+                let rows = BAND.min(np - r0);
+                Band { r0, rows, buf: vec![0.0; rows * (r0 + rows)] }
+            })
+            .collect();
+        Acc { n, bands }
+    }
+
+    /// Values stored.
+    fn len(&self) -> usize {
+        self.bands.iter().map(|b| b.buf.len()).sum()
+    }
+
+    /// C += P P^T for one packed panel of `kc` steps (`padded8(n) * kc` values), in parallel
+    /// over items of one band and at most [`COLS`] columns.
+    fn update(&mut self, panel: &[f64], kc: usize, level: Level) {
+        let items: Vec<(usize, usize, usize, &mut [f64])> = self
+            .bands
+            .iter_mut()
+            .flat_map(|b| {
+                let (r0, rows) = (b.r0, b.rows);
+                b.buf.chunks_mut(COLS * rows).enumerate().map(move |(j, out)| (r0, rows, j * COLS, out))
+            })
+            .collect();
+        items.into_par_iter().for_each(|(r0, rows, c0, out)| item_update(r0, rows, c0, out, panel, kc, level));
+    }
+
+    /// C += other, element by element.
+    fn add(&mut self, other: &Acc) {
+        self.bands.par_iter_mut().zip(&other.bands).for_each(|(b, o)| b.buf.iter_mut().zip(&o.buf).for_each(|(v, &w)| *v += w));
+    }
+
+    /// The full symmetric n x n matrix (the lower triangle mirrored).
+    fn into_matrix(self) -> Mat<f64> {
+        let n = self.n;
+        let mut c = Mat::<f64>::zeros(n, n);
+        for band in self.bands {
+            for col in 0..(band.r0 + band.rows).min(n) {
+                let (lo, hi) = (band.r0.max(col), (band.r0 + band.rows).min(n));
+                if lo < hi {
+                    let src = &band.buf[col * band.rows + lo - band.r0..col * band.rows + hi - band.r0];
+                    let dst = c.col_mut(col).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
+                    dst[lo..hi].copy_from_slice(src);
+                }
+            }
+        }
+        for j in 0..n {
+            for i in 0..j {
+                c[(i, j)] = c[(j, i)];
+            }
+        }
+        c
+    }
+}
+
+/// Columns `c0..` of one band (`out`, leading dimension `rows`): for each tile of 24 rows (the
+/// last 8 or 16), its 8 columns at a time; in the columns that cross the diagonal only the rows
+/// from it. A tile's rows of the panel (24 x kc) stay in L1 while the columns stream from L2.
+fn item_update(r0: usize, rows: usize, c0: usize, out: &mut [f64], panel: &[f64], kc: usize, level: Level) {
+    let gs = GROUP * kc;
+    let (c1, end) = (c0 + out.len() / rows, r0 + rows);
+    for r in (r0..end).step_by(3 * GROUP) {
+        let re = (r + 3 * GROUP).min(end);
+        for c in (c0..c1.min(re)).step_by(GROUP) {
+            let rs = r.max(c);
+            let q = (re - rs) / GROUP;
+            let (a, b) = (&panel[(rs / GROUP) * gs..(rs / GROUP + q) * gs], &panel[(c / GROUP) * gs..(c / GROUP + 1) * gs]);
+            let o = &mut out[(c - c0) * rows + rs - r0..(c - c0 + GROUP - 1) * rows + rs - r0 + q * GROUP];
+            match q {
+                3 => tile::<3>(level, a, b, kc, o, rows),
+                2 => tile::<2>(level, a, b, kc, o, rows),
+                _ => tile::<1>(level, a, b, kc, o, rows),
+            }
+        }
+    }
+}
+
+/// G = X X^T for `n` rows of `m` values: `pack(panel, k0, kc)` fills `panel` (`padded8(n) * kc`
+/// values, groups of 8 rows, zero rows past n) with steps `k0..k0 + kc`. `chunks` partial Grams
+/// (see the module doc).
+fn gram_with(n: usize, m: usize, level: Level, chunks: usize, pack: impl Fn(&mut [f64], usize, usize) + Sync) -> Mat<f64> {
+    let np = padded8(n);
+    let panels = m.div_ceil(KC);
+    let chunks = chunks.clamp(1, panels.max(1));
+    let mut partials: Vec<Acc> = (0..chunks)
+        .into_par_iter()
+        .map(|s| {
+            let mut acc = Acc::new(n);
+            let (mut cur, mut next) = (vec![0f64; np * KC.min(m)], vec![0f64; np * KC.min(m)]);
+            let steps = |p: usize| (p * KC, KC.min(m - p * KC));
+            let (first, last) = (s * panels / chunks, (s + 1) * panels / chunks);
+            if first < last {
+                let (k0, kc) = steps(first);
+                pack(&mut cur[..np * kc], k0, kc);
+            }
+            // Each panel is updated while the next is packed, in one fork-join.
+            for p in first..last {
+                let kc = steps(p).1;
+                rayon::join(
+                    || acc.update(&cur[..np * kc], kc, level),
+                    || {
+                        if p + 1 < last {
+                            let (k0, kc) = steps(p + 1);
+                            pack(&mut next[..np * kc], k0, kc);
+                        }
+                    },
+                );
+                std::mem::swap(&mut cur, &mut next);
+            }
+            acc
+        })
+        .collect();
+    let rest = partials.split_off(1.min(partials.len()));
+    let mut acc = partials.pop().unwrap_or_else(|| Acc::new(n));
+    for other in &rest {
+        acc.add(other);
+    }
+    acc.into_matrix()
+}
+
+/// G = X X^T for `n` rows of `m` values read by `read(i, k0, out)` (row i from column k0).
+pub fn gram_rows(n: usize, m: usize, read: impl Fn(usize, usize, &mut [f64]) + Sync) -> Mat<f64> {
+    gram_with(n, m, Level::detect(), chunks(n, m), |panel, k0, kc| {
+        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| {
+            let rows = n.saturating_sub(g * GROUP).min(GROUP);
+            super::syrk::pack_rows(p, rows, kc, k0, |i, k0, out| read(g * GROUP + i, k0, out));
+        })
+    })
+}
+
+/// G = X X^T for `n` row-major f32 rows of `m` values, each minus `mean` when given (the f64
+/// difference of the f32 value converted, as the f64 paths compute it).
+pub fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
+    gram_f32_with(x, n, m, mean, Level::detect(), chunks(n, m))
+}
+
+fn gram_f32_with(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>, level: Level, chunks: usize) -> Mat<f64> {
+    assert_eq!(x.len(), n * m, "feature rows size");
+    assert!(mean.map_or(true, |u| u.len() == m), "mean row size");
+    gram_with(n, m, level, chunks, |panel, k0, kc| {
+        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_f32(p, x, n, m, g * GROUP, k0, kc, mean, level))
+    })
+}
+
+/// Packs rows `i0..i0 + 8` of the row-major `n x m` f32 matrix `x` (rows past n zero), steps
+/// `k0..k0 + kc`, each value minus `mean` when given, into `out` (`8 * kc`: step k's 8 rows at
+/// `out[8 k..]`).
+#[allow(clippy::too_many_arguments)]
+pub fn pack_group_f32(out: &mut [f64], x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, mean: Option<&[f64]>, level: Level) {
+    assert!(out.len() == GROUP * kc && k0 + kc <= m && x.len() >= n * m, "packed group size");
+    let rows = n.saturating_sub(i0).min(GROUP);
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if level == Level::Avx512 {
+        // SAFETY: Level::Avx512 is only detected with avx512f; the kernel reads rows i0..i0 +
+        // rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 8)].
+        unsafe { x86::pack_group_f32_avx512(out, x, m, i0, rows, k0, kc, mean) };
+        done = kc - kc % GROUP;
+    }
+    let _ = level;
+    for k in done..kc {
+        for l in 0..GROUP {
+            out[k * GROUP + l] = if l < rows {
+                let v = x[(i0 + l) * m + k0 + k] as f64;
+                mean.map_or(v, |u| v - u[k0 + k])
+            } else {
+                0.0
+            };
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::GROUP;
+    use std::arch::x86_64::*;
+
+    /// Steps `0..kc - kc % 8` of [`super::pack_group_f32`]: per 8 steps, 8 row vectors
+    /// converted (and the mean subtracted), transposed in registers, stored as 8 steps.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; rows `i0..i0 + rows` of `x` (row length m) must hold steps
+    /// `k0..k0 + kc`, `out` 8 * kc values and `mean` (when given) m.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn pack_group_f32_avx512(out: &mut [f64], x: &[f32], m: usize, i0: usize, rows: usize, k0: usize, kc: usize, mean: Option<&[f64]>) {
+        assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
+        assert!(mean.map_or(true, |u| u.len() >= k0 + kc));
+        let (xp, o) = (x.as_ptr(), out.as_mut_ptr());
+        // Index vectors of the transpose: pairs of rows (unpack), then quads, then halves.
+        let lo2 = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+        let hi2 = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+        let lo4 = _mm512_setr_epi64(0, 1, 2, 3, 8, 9, 10, 11);
+        let hi4 = _mm512_setr_epi64(4, 5, 6, 7, 12, 13, 14, 15);
+        for k in (0..kc - kc % GROUP).step_by(GROUP) {
+            let mut r = [_mm512_setzero_pd(); 8];
+            let mu = mean.map(|u| _mm512_loadu_pd(u.as_ptr().add(k0 + k)));
+            if k % 16 == 0 {
+                // The rows' lines 8 ahead (into the next panel at the end): a group reads 8
+                // rows far apart, short runs each, which the hardware prefetchers miss.
+                for l in 0..rows {
+                    _mm_prefetch::<_MM_HINT_T0>(xp.wrapping_add((i0 + l) * m + k0 + k + 128) as *const i8);
+                }
+            }
+            for (l, rl) in r.iter_mut().enumerate().take(rows) {
+                let v = _mm512_cvtps_pd(_mm256_loadu_ps(xp.add((i0 + l) * m + k0 + k)));
+                *rl = match mu {
+                    Some(u) => _mm512_sub_pd(v, u),
+                    None => v,
+                };
+            }
+            // t[2j] = (r[2j][0], r[2j+1][0], r[2j][2], r[2j+1][2], ..), t[2j+1] the odd steps.
+            let t = [
+                _mm512_unpacklo_pd(r[0], r[1]),
+                _mm512_unpackhi_pd(r[0], r[1]),
+                _mm512_unpacklo_pd(r[2], r[3]),
+                _mm512_unpackhi_pd(r[2], r[3]),
+                _mm512_unpacklo_pd(r[4], r[5]),
+                _mm512_unpackhi_pd(r[4], r[5]),
+                _mm512_unpacklo_pd(r[6], r[7]),
+                _mm512_unpackhi_pd(r[6], r[7]),
+            ];
+            // u: rows 0-3 at steps (0, 4), (1, 5), (2, 6), (3, 7); v: rows 4-7.
+            let u = [
+                _mm512_permutex2var_pd(t[0], lo2, t[2]),
+                _mm512_permutex2var_pd(t[1], lo2, t[3]),
+                _mm512_permutex2var_pd(t[0], hi2, t[2]),
+                _mm512_permutex2var_pd(t[1], hi2, t[3]),
+            ];
+            let v = [
+                _mm512_permutex2var_pd(t[4], lo2, t[6]),
+                _mm512_permutex2var_pd(t[5], lo2, t[7]),
+                _mm512_permutex2var_pd(t[4], hi2, t[6]),
+                _mm512_permutex2var_pd(t[5], hi2, t[7]),
+            ];
+            let p = o.add(k * GROUP);
+            for j in 0..4 {
+                _mm512_storeu_pd(p.add(j * GROUP), _mm512_permutex2var_pd(u[j], lo4, v[j]));
+                _mm512_storeu_pd(p.add((j + 4) * GROUP), _mm512_permutex2var_pd(u[j], hi4, v[j]));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data(n: usize, m: usize) -> Vec<f32> {
+        (0..n * m).map(|i| ((i * 2654435761usize) % 1009) as f32 / 1009.0 - 0.3).collect()
+    }
+
+    fn reference(x: &[f32], n: usize, m: usize) -> Vec<f64> {
+        let mut g = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                g[i * n + j] = (0..m).map(|k| x[i * m + k] as f64 * x[j * m + k] as f64).sum();
+            }
+        }
+        g
+    }
+
+    fn read(x: &[f32], m: usize) -> impl Fn(usize, usize, &mut [f64]) + Sync + '_ {
+        move |i, k0, out| out.iter_mut().zip(&x[i * m + k0..]).for_each(|(o, &v)| *o = v as f64)
+    }
+
+    /// Sizes that are and are not multiples of 8, 24 and the band, with one and several panels.
+    const SIZES: [(usize, usize); 6] = [(1, 3), (5, 37), (13, 300), (40, 260), (200, 600), (250, 1100)];
+
+    #[test]
+    fn gram_matches_reference_on_every_path_and_paths_agree_bitwise() {
+        for &(n, m) in &SIZES {
+            let x = data(n, m);
+            let want = reference(&x, n, m);
+            let mut first: Option<Mat<f64>> = None;
+            for level in Level::supported() {
+                let g = gram_with(n, m, level, chunks(n, m), |panel, k0, kc| {
+                    for (g, p) in panel.chunks_mut(GROUP * kc).enumerate() {
+                        super::super::syrk::pack_rows(p, n.saturating_sub(g * GROUP).min(GROUP), kc, k0, |i, k0, out| read(&x, m)(g * GROUP + i, k0, out));
+                    }
+                });
+                for i in 0..n {
+                    for j in 0..n {
+                        let w = want[i * n + j];
+                        assert!((g[(i, j)] - w).abs() <= 1e-13 * (m as f64) * w.abs().max(1.0), "{level:?} n {n} ({i},{j})");
+                        assert_eq!(g[(i, j)].to_bits(), g[(j, i)].to_bits());
+                    }
+                }
+                // The f32 packing gives the same panels (so the same bits).
+                assert!(gram_f32_with(&x, n, m, None, level, chunks(n, m)).as_ref() == g.as_ref(), "{level:?} n {n}: f32 packing");
+                if let Some(f) = &first {
+                    assert!(f.as_ref() == g.as_ref(), "{level:?} differs from the first path at n {n}");
+                } else {
+                    first = Some(g);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn f32_packing_matches_the_row_reader_with_a_mean() {
+        let (n, m) = (21, 75);
+        let x = data(n, m);
+        let mu: Vec<f64> = (0..m).map(|k| (k as f64 * 0.37).sin() * 0.1).collect();
+        for level in Level::supported() {
+            for (k0, kc) in [(0, 75), (3, 64), (10, 13), (70, 5)] {
+                for g in 0..n.div_ceil(GROUP) + 1 {
+                    let (mut got, mut want) = (vec![1.0; GROUP * kc], vec![1.0; GROUP * kc]);
+                    pack_group_f32(&mut got, &x, n, m, g * GROUP, k0, kc, Some(&mu), level);
+                    super::super::syrk::pack_rows(&mut want, n.saturating_sub(g * GROUP).min(GROUP), kc, k0, |i, k0, out| {
+                        let row = &x[(g * GROUP + i) * m + k0..];
+                        out.iter_mut().zip(row.iter().zip(&mu[k0..])).for_each(|(o, (&v, &u))| *o = v as f64 - u)
+                    });
+                    assert!(got == want, "{level:?} group {g} steps {k0}+{kc}");
+                }
+            }
+        }
+    }
+
+    /// Partial Grams over chunks of M add up to the one-chunk Gram up to rounding (each element
+    /// a sum of m products of f32 values, so relative 1e-12 is far above f64 rounding).
+    #[test]
+    fn split_m_matches_the_one_chunk_gram() {
+        for &(n, m) in &[(30, 5000), (222, 2600)] {
+            let x = data(n, m);
+            let one = gram_f32_with(&x, n, m, None, Level::detect(), 1);
+            for k in [2, 3, 8] {
+                let split = gram_f32_with(&x, n, m, None, Level::detect(), k);
+                let scale = (0..n).map(|i| one[(i, i)]).fold(0f64, f64::max);
+                for j in 0..n {
+                    for i in 0..n {
+                        assert!((split[(i, j)] - one[(i, j)]).abs() <= 1e-12 * scale, "n {n} chunks {k} ({i},{j})");
+                    }
+                }
+            }
+        }
+        assert_eq!(chunks(222, 19_200), MAX_CHUNKS);
+        assert_eq!(chunks(2000, 19_200), 1);
+    }
+
+    #[test]
+    fn result_does_not_depend_on_the_thread_count() {
+        for (n, m) in [(250, 5200), (40, 3000)] {
+            let x = data(n, m);
+            assert!(chunks(n, m) > 1);
+            let run = |threads| {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                pool.install(|| (gram_rows(n, m, read(&x, m)), gram_f32(&x, n, m, None)))
+            };
+            let (a, b) = (run(1), run(3));
+            assert!(a.0.as_ref() == b.0.as_ref() && a.1.as_ref() == b.1.as_ref() && a.0.as_ref() == a.1.as_ref());
+        }
+    }
+}
