@@ -9,7 +9,9 @@ Rendered objects: `linpose synth --object NAME` (the paper's 1760 views, 160x120
 folder once; training subset every 9 degrees. COIL-20: every object, train step 10, clean. The
 peer (`peer.py --only eigenspace`) runs once per data set and noise level and its JSON is cached.
 For each method: `linpose train` then `linpose eval --noise A`; per-query time = predict_s /
-n_eval (same machine, same run). Prints one row per data set and noise: unseen mean errors,
+n_eval (same machine, same run), or with `--timing-reps R` the median of R batched predicts of
+every view by the `predict_timing` example, the methods' models alternated in one process so
+that they see the same load (build it first: `cargo build --release --example predict_timing`). Prints one row per data set and noise: unseen mean errors,
 model bytes and per-query microseconds, and whether the candidate meets the issue's bar
 (error <= peer eigenspace, bytes <= linpose eigenspace, time <= linpose eigenspace). Exits 1 when
 any row fails.
@@ -32,6 +34,8 @@ ap.add_argument("--python", default=os.path.join(root, "..", ".peer-venv", "bin"
 ap.add_argument("--linpose", default=os.path.join(root, "target", "release", "linpose"))
 ap.add_argument("--extra", default="", help="extra arguments for `linpose train` of the candidate")
 ap.add_argument("--json", help="write every row here")
+ap.add_argument("--timing-reps", type=int, default=0, help="time the queries with the predict_timing example, alternating the methods, median of this many")
+ap.add_argument("--predict-timing", default=os.path.join(root, "target", "release", "examples", "predict_timing"))
 a = ap.parse_args()
 os.makedirs(a.cache, exist_ok=True)
 run = lambda cmd: subprocess.run(cmd, check=True, capture_output=True, text=True)
@@ -61,6 +65,12 @@ def ours(data_args, key, step, noises):
             run([a.linpose, "eval", "--model", model, *data_args, "--noise", str(n), "--json", ej])
             e = json.load(open(ej))
             out[(m, n)] = dict(err=e["unseen"]["mean_deg"], bytes=e["model_bytes"], us=e["predict_s"] / e["n_eval"] * 1e6, settings=tr["settings"])
+    if a.timing_reps > 0:
+        models = [os.path.join(a.cache, "models", f"{key}-{m}.safetensors") for m in methods]
+        for n in noises:
+            lines = run([a.predict_timing, *data_args[1:], "--noise", str(n), "--reps", str(a.timing_reps), *models]).stdout.splitlines()
+            for m, line in zip(methods, [l for l in lines if "us/query" in l]):
+                out[(m, n)]["us"] = float(line.split()[0])
     return out
 
 
