@@ -324,21 +324,9 @@ mod x86 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_data::{data, reference};
     use super::*;
 
-    fn data(n: usize, m: usize) -> Vec<f32> {
-        (0..n * m).map(|i| ((i * 2654435761usize) % 1009) as f32 / 1009.0 - 0.3).collect()
-    }
-
-    fn reference(x: &[f32], n: usize, m: usize) -> Vec<f64> {
-        let mut g = vec![0.0; n * n];
-        for i in 0..n {
-            for j in 0..n {
-                g[i * n + j] = (0..m).map(|k| x[i * m + k] as f64 * x[j * m + k] as f64).sum();
-            }
-        }
-        g
-    }
 
     fn read(x: &[f32], m: usize) -> impl Fn(usize, usize, &mut [f64]) + Sync + '_ {
         move |i, k0, out| out.iter_mut().zip(&x[i * m + k0..]).for_each(|(o, &v)| *o = v as f64)

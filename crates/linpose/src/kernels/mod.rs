@@ -13,6 +13,26 @@ pub mod peak;
 pub mod scan;
 pub mod syrk;
 
+/// Fixtures shared by the Gram kernels' tests.
+#[cfg(test)]
+mod test_data {
+    /// n rows of m deterministic values in [-0.3, 0.7).
+    pub fn data(n: usize, m: usize) -> Vec<f32> {
+        (0..n * m).map(|i| ((i * 2654435761usize) % 1009) as f32 / 1009.0 - 0.3).collect()
+    }
+
+    /// The Gram matrix of n rows of m values, row-major, summed plainly in f64.
+    pub fn reference(x: &[f32], n: usize, m: usize) -> Vec<f64> {
+        let mut g = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                g[i * n + j] = (0..m).map(|k| x[i * m + k] as f64 * x[j * m + k] as f64).sum();
+            }
+        }
+        g
+    }
+}
+
 /// The SIMD instruction set a kernel runs with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Level {
