@@ -61,12 +61,20 @@ use serde::{Deserialize, Serialize};
 /// The method's name in model files and on the command line.
 pub const METHOD: &str = "eigenspace";
 
+/// Most 8-bit queries per parallel task of a batch (a multiple of [`dot_u8::BATCH_IMAGES`]).
+const U8_BATCH: usize = 32 * dot_u8::BATCH_IMAGES;
+
+/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole register blocks of
+/// [`dot_u8::BATCH_IMAGES`], at most [`U8_BATCH`], and small enough that every thread gets two
+/// tasks.
+fn u8_task_rows(n: usize) -> usize {
+    let b = dot_u8::BATCH_IMAGES;
+    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(b).clamp(1, U8_BATCH / b) * b
+}
+
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
 /// every thread a few tasks.
-/// 8-bit queries per parallel task of a batch (a multiple of [`dot_u8::BATCH_IMAGES`]).
-const U8_BATCH: usize = 32 * dot_u8::BATCH_IMAGES;
-
 fn chunk_rows(n: usize) -> usize {
     n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
 }
@@ -285,8 +293,9 @@ impl EigenspaceModel {
         let (l, m) = (self.components(), self.mean.len());
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
-        if n >= U8_BATCH {
-            queries.par_chunks(U8_BATCH * m).zip(out.par_chunks_mut(U8_BATCH * l)).for_each_init(Vec::new, |scratch, (q, y)| {
+        if n >= 8 {
+            let rows = u8_task_rows(n);
+            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(Vec::new, |scratch, (q, y)| {
                 self.project_u8_batch(level, q, y, scratch)
             });
         } else {
@@ -295,8 +304,9 @@ impl EigenspaceModel {
         Ok(())
     }
 
-    /// Several 8-bit queries: the products by [`dot_u8::dots_batch`] (bit-identical to
-    /// [`dot_u8::dots`] one image at a time), then each row scaled as in `project_one_u8`.
+    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_u8::dots_batch`]
+    /// (bit-identical to [`dot_u8::dots`] one image at a time), then each row scaled as in
+    /// `project_one_u8`.
     fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut Vec<f32>) {
         let m = self.mean.len();
         let mut energy = [0u64; U8_BATCH];
@@ -440,9 +450,10 @@ impl PoseModel for EigenspaceModel {
                 pose_of(&self.axes, space, self.index.nearest(y), o);
             }
         };
-        if n >= U8_BATCH {
-            queries.par_chunks(U8_BATCH * m).zip(out.par_chunks_mut(U8_BATCH * p)).for_each_init(
-                || (Vec::new(), vec![0f32; U8_BATCH * l]),
+        if n >= 8 {
+            let rows = u8_task_rows(n);
+            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
+                || (Vec::new(), vec![0f32; rows * l]),
                 |(scratch, y), (q, o)| {
                     let y = &mut y[..q.len() / m * l];
                     self.project_u8_batch(level, q, y, scratch);
