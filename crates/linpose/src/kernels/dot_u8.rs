@@ -35,13 +35,13 @@ pub fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
 /// AVX-512 registers accumulate.
 pub const BATCH_IMAGES: usize = 6;
 /// Weight rows per register block of [`dots_batch`].
-const BATCH_ROWS: usize = 4;
+pub const BATCH_ROWS: usize = 4;
 /// Images per cache block of [`dots_batch`]: the weights are read from the outer caches once per
 /// this many images.
-const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
+pub const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
 /// Pixels per cache block of [`dots_batch`]: a block of 20 weight rows (30 KiB) stays in the L1
 /// cache while the images' block passes over it.
-const PIXEL_CHUNK: usize = 384;
+pub const PIXEL_CHUNK: usize = 384;
 
 /// [`dots`] for several images at once: `out[i * rows + r] = sum_p xs[i * m + p] * w[r * m + p]`,
 /// `rows = w.len() / m`, and each image's [`sum_squares`] into `energy`. Bit-identical to

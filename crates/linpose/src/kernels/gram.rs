@@ -37,13 +37,13 @@ pub const KC: usize = 128;
 /// faster) and 96 at both sizes, and 24 beats 48 (N = 2000 about 10%).
 const BAND: usize = 24;
 /// Most columns of C per work item.
-const COLS: usize = 192;
+pub const COLS: usize = 192;
 /// Most partial Grams.
-const MAX_CHUNKS: usize = 8;
+pub const MAX_CHUNKS: usize = 8;
 /// Fewest panels per partial Gram.
-const MIN_PANELS: usize = 4;
+pub const MIN_PANELS: usize = 4;
 /// Most memory the partial Grams beyond the first may take together.
-const PARTIALS_BYTES: usize = 16 << 20;
+pub const PARTIALS_BYTES: usize = 16 << 20;
 
 /// Rows of C computed for n rows of X: n padded with zero rows to whole groups.
 fn padded8(n: usize) -> usize {
