@@ -21,7 +21,7 @@
 //! result has the same bits whatever the thread count, tile split or SIMD path; it differs from
 //! a one-chunk sum by rounding only (tested).
 
-use super::syrk::{tile, GROUP};
+use super::syrk::{bands_into_matrix, tile, zero_bands, Band, GROUP};
 use super::Level;
 use faer::Mat;
 use rayon::prelude::*;
@@ -59,14 +59,6 @@ pub fn chunks(n: usize, m: usize) -> usize {
     (m.div_ceil(KC) / MIN_PANELS).min(by_memory).clamp(1, MAX_CHUNKS)
 }
 
-/// One band of C's rows: `rows` rows from `r0`, columns `0..r0 + rows`, stored column by
-/// column (`buf[c * rows + r - r0]`).
-struct Band {
-    r0: usize,
-    rows: usize,
-    buf: Vec<f64>,
-}
-
 /// The lower triangle of a Gram matrix, in bands.
 struct Acc {
     n: usize,
@@ -75,15 +67,7 @@ struct Acc {
 
 impl Acc {
     fn new(n: usize) -> Self {
-        let np = padded8(n);
-        let bands = (0..np)
-            .step_by(BAND)
-            .map(|r0| {
-                let rows = BAND.min(np - r0);
-                Band { r0, rows, buf: vec![0.0; rows * (r0 + rows)] }
-            })
-            .collect();
-        Acc { n, bands }
+        Acc { n, bands: zero_bands(padded8(n), BAND) }
     }
 
     /// Values stored.
@@ -112,24 +96,7 @@ impl Acc {
 
     /// The full symmetric n x n matrix (the lower triangle mirrored).
     fn into_matrix(self) -> Mat<f64> {
-        let n = self.n;
-        let mut c = Mat::<f64>::zeros(n, n);
-        for band in self.bands {
-            for col in 0..(band.r0 + band.rows).min(n) {
-                let (lo, hi) = (band.r0.max(col), (band.r0 + band.rows).min(n));
-                if lo < hi {
-                    let src = &band.buf[col * band.rows + lo - band.r0..col * band.rows + hi - band.r0];
-                    let dst = c.col_mut(col).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
-                    dst[lo..hi].copy_from_slice(src);
-                }
-            }
-        }
-        for j in 0..n {
-            for i in 0..j {
-                c[(i, j)] = c[(j, i)];
-            }
-        }
-        c
+        bands_into_matrix(self.n, self.bands)
     }
 }
 

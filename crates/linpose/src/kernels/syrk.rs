@@ -182,10 +182,42 @@ pub fn pack_columns(dst: &mut [f64], block: &[f32], kc: usize, m: usize, mean: O
 
 /// One band of C's rows: `rows` rows from `r0`, columns `0..r0 + rows`, stored column by
 /// column (`buf[c * rows + r - r0]`).
-struct Band {
-    r0: usize,
-    rows: usize,
-    buf: Vec<f64>,
+pub(super) struct Band {
+    pub(super) r0: usize,
+    pub(super) rows: usize,
+    pub(super) buf: Vec<f64>,
+}
+
+/// Zero bands of `per` rows (the last one shorter) covering the lower triangle of `np` rows.
+pub(super) fn zero_bands(np: usize, per: usize) -> Vec<Band> {
+    (0..np)
+        .step_by(per)
+        .map(|r0| {
+            let rows = per.min(np - r0);
+            Band { r0, rows, buf: vec![0.0; rows * (r0 + rows)] }
+        })
+        .collect()
+}
+
+/// The full symmetric n x n matrix of a lower triangle held in bands (rows past n are padding).
+pub(super) fn bands_into_matrix(n: usize, bands: Vec<Band>) -> Mat<f64> {
+    let mut c = Mat::<f64>::zeros(n, n);
+    for band in bands {
+        for col in 0..(band.r0 + band.rows).min(n) {
+            let (lo, hi) = (band.r0.max(col), (band.r0 + band.rows).min(n));
+            if lo < hi {
+                let src = &band.buf[col * band.rows + lo - band.r0..col * band.rows + hi - band.r0];
+                let dst = c.col_mut(col).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
+                dst[lo..hi].copy_from_slice(src);
+            }
+        }
+    }
+    for j in 0..n {
+        for i in 0..j {
+            c[(i, j)] = c[(j, i)];
+        }
+    }
+    c
 }
 
 /// The lower triangle of C = sum of P P^T over the panels given to [`SyrkAcc::update`].
@@ -207,14 +239,7 @@ impl SyrkAcc {
     pub fn with_level(n: usize, level: Level) -> Self {
         assert!(Level::supported().contains(&level), "SIMD level {level:?} not supported here");
         let np = padded(n);
-        let br = band_rows(np);
-        let bands = (0..np)
-            .step_by(br)
-            .map(|r0| {
-                let rows = br.min(np - r0);
-                Band { r0, rows, buf: vec![0.0; rows * (r0 + rows)] }
-            })
-            .collect();
+        let bands = zero_bands(np, band_rows(np));
         SyrkAcc { n, bands, level, vnni: level == Level::Avx512 && vnni_supported() }
     }
 
@@ -301,25 +326,7 @@ impl SyrkAcc {
     /// The full symmetric n x n matrix (the lower triangle mirrored). Bands are freed as they
     /// are copied, so the peak is about one matrix plus the band buffers' half of it.
     pub fn into_matrix(self) -> Mat<f64> {
-        let n = self.n;
-        let mut c = Mat::<f64>::zeros(n, n);
-        for band in self.bands {
-            for col in 0..(band.r0 + band.rows).min(n) {
-                let src = &band.buf[col * band.rows..(col + 1) * band.rows];
-                for (rl, &v) in src.iter().enumerate() {
-                    let r = band.r0 + rl;
-                    if r >= col && r < n {
-                        c[(r, col)] = v;
-                    }
-                }
-            }
-        }
-        for j in 0..n {
-            for i in 0..j {
-                c[(i, j)] = c[(j, i)];
-            }
-        }
-        c
+        bands_into_matrix(self.n, self.bands)
     }
 }
 
@@ -809,12 +816,7 @@ mod tests {
                     r0 += k;
                 }
                 let c = acc.into_lower(1.0);
-                for p in 0..m {
-                    for q in 0..m {
-                        let w = if p >= q { want[p * m + q] as f64 } else { 0.0 };
-                        assert_eq!(c[q * m + p], w, "n {n} m {m} kc {kc} ({p},{q})");
-                    }
-                }
+                assert_lower_is(&c, &want, m, &format!("n {n} m {m} kc {kc}"));
                 got.push(c);
             }
             assert!(got[0] == got[1]);
@@ -854,15 +856,21 @@ mod tests {
                     r0 += k;
                 }
                 let c = acc.into_lower(2.0);
-                for p in 0..m {
-                    for q in 0..m {
-                        let w = if p >= q { want[p * m + q] as f64 } else { 0.0 };
-                        assert_eq!(c[q * m + p], w, "n {n} m {m} kc {kc} ({p},{q})");
-                    }
-                }
+                assert_lower_is(&c, &want, m, &format!("n {n} m {m} kc {kc}"));
                 got.push(c);
             }
             assert!(got[0] == got[1]);
+        }
+    }
+
+    /// `c` (column-major lower triangle, zero above) holds the exact integer sums `want`
+    /// (row-major, m x m) below and on the diagonal.
+    fn assert_lower_is(c: &[f64], want: &[i64], m: usize, what: &str) {
+        for p in 0..m {
+            for q in 0..m {
+                let w = if p >= q { want[p * m + q] as f64 } else { 0.0 };
+                assert_eq!(c[q * m + p], w, "{what} ({p},{q})");
+            }
         }
     }
 
