@@ -30,25 +30,50 @@ pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32]
     }
 }
 
+/// Points per block of the scans: their sums stay in registers while every coordinate's
+/// values pass (one load per point and coordinate, one store per point).
+const BLOCK: usize = 64;
+
 #[inline(always)]
 fn sq_dist_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
     let n = dist.len();
-    dist.fill(0.0);
-    for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
-        if w != 0.0 {
-            dist.iter_mut().zip(col).for_each(|(s, &p)| *s += w * ((p - yc) * (p - yc)));
+    for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
+        let i0 = b * BLOCK;
+        let mut acc = [0f32; BLOCK];
+        for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
+            if w == 0.0 {
+                continue;
+            }
+            match <&[f32; BLOCK]>::try_from(&col[i0..i0 + out.len()]) {
+                Ok(seg) => (0..BLOCK).for_each(|k| acc[k] += w * ((seg[k] - yc) * (seg[k] - yc))),
+                Err(_) => acc.iter_mut().zip(&col[i0..i0 + out.len()]).for_each(|(s, &p)| *s += w * ((p - yc) * (p - yc))),
+            }
         }
+        out.copy_from_slice(&acc[..out.len()]);
     }
 }
 
 #[inline(always)]
 fn dots2_portable(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
     let n = u.len();
-    u.fill(0.0);
-    v.fill(0.0);
-    for ((col, gcol), &aq) in cols.chunks_exact(n).zip(gcols.chunks_exact(n)).zip(a) {
-        u.iter_mut().zip(col).for_each(|(s, &p)| *s += aq * p);
-        v.iter_mut().zip(gcol).for_each(|(s, &g)| *s += aq * g);
+    for (b, (uo, vo)) in u.chunks_mut(BLOCK).zip(v.chunks_mut(BLOCK)).enumerate() {
+        let (i0, len) = (b * BLOCK, uo.len());
+        let (mut su, mut sv) = ([0f32; BLOCK], [0f32; BLOCK]);
+        for ((col, gcol), &aq) in cols.chunks_exact(n).zip(gcols.chunks_exact(n)).zip(a) {
+            let (c, g) = (&col[i0..i0 + len], &gcol[i0..i0 + len]);
+            match (<&[f32; BLOCK]>::try_from(c), <&[f32; BLOCK]>::try_from(g)) {
+                (Ok(c), Ok(g)) => (0..BLOCK).for_each(|k| {
+                    su[k] += aq * c[k];
+                    sv[k] += aq * g[k];
+                }),
+                _ => {
+                    su.iter_mut().zip(c).for_each(|(s, &p)| *s += aq * p);
+                    sv.iter_mut().zip(g).for_each(|(s, &p)| *s += aq * p);
+                }
+            }
+        }
+        uo.copy_from_slice(&su[..len]);
+        vo.copy_from_slice(&sv[..len]);
     }
 }
 
