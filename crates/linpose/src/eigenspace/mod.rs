@@ -67,7 +67,7 @@ const U8_BATCH: usize = 32 * dot_u8::BATCH_IMAGES;
 /// 8-bit queries per parallel task for a batch of `n` (8 or more): whole register blocks of
 /// [`dot_u8::BATCH_IMAGES`], at most [`U8_BATCH`], and small enough that every thread gets two
 /// tasks.
-fn u8_task_rows(n: usize) -> usize {
+pub(crate) fn u8_task_rows(n: usize) -> usize {
     let b = dot_u8::BATCH_IMAGES;
     n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(b).clamp(1, U8_BATCH / b) * b
 }

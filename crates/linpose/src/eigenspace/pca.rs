@@ -44,6 +44,16 @@ impl Pca {
         self.basis.len() / self.mean.len()
     }
 
+    /// Keeps only the first `l` eigenimages (and coordinates); no-op when `l >= dim()`.
+    pub fn truncate(&mut self, l: usize) {
+        let (dim, m) = (self.dim(), self.mean.len());
+        if l >= dim {
+            return;
+        }
+        self.basis.truncate(l * m);
+        self.coords = self.coords.chunks_exact(dim).flat_map(|c| c[..l].iter().copied()).collect();
+    }
+
     /// The fraction of the training set's energy (about its mean) the kept eigenimages hold.
     pub fn energy_kept(&self) -> f64 {
         let total: f64 = self.eigenvalues.iter().map(|&l| l.max(0.0)).sum();

@@ -47,12 +47,19 @@
 //! metric wins by far on some objects, obj6: 0.39 against 5.38 degrees, and loses on others,
 //! obj20: 2.29 against 1.76).
 //!
-//! Cost of a query: the projection (L M, as the eigenspace's, with the energy and noise passes
-//! cache-blocked), a scan of the coarse points in SIMD lanes ([`crate::kernels::scan`]; for a
-//! noisy query two products per point, the affine fit's per-point products being stored),
-//! and Levenberg-Marquardt from the distinct closest ones only (a start next to a closer one on
-//! the coarse grid shares its basin). bench/beyond_compare.py measures it against the
-//! eigenspace; BENCHMARKS.md holds the figures.
+//! The model keeps only the eigenimages its queries use: the weighted search's L and the noisy
+//! match's (the eigenspace keeps 20), so the basis, the surface and each query's projection
+//! shrink with them (duck: 12 of 20).
+//!
+//! Cost of a query: the projection on those L eigenimages and the mean (whose product gives the
+//! residual), by the eigenspace's own kernels (one f32 product per batch chunk; for 8-bit images
+//! [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same pass), the
+//! sampled pixel-noise pass ([`pixel_variance`], [`pixel_variance_u8`]), a scan of the coarse
+//! points in register blocks ([`crate::kernels::scan`]; for a noisy query two products per
+//! point, the affine fit's per-point products being stored), and Levenberg-Marquardt from the
+//! distinct closest ones only (a start next to a closer one on the coarse grid shares its
+//! basin). bench/beyond_compare.py measures it against the eigenspace; BENCHMARKS.md holds the
+//! figures.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
@@ -63,6 +70,7 @@ pub mod surface;
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
+use crate::kernels::{dot_u8, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
@@ -224,8 +232,8 @@ impl RefinedSettings {
     }
 }
 
-/// Eigenimages kept for noisy queries (the most the affine match may use): the eigenspace's
-/// default L.
+/// The most eigenimages the noisy match's choice considers (the eigenspace's default L); the
+/// model keeps only as many as the chosen matches use.
 pub const NOISE_COMPONENTS: usize = 20;
 
 impl Estimator for RefinedParams {
@@ -246,18 +254,24 @@ impl Estimator for RefinedParams {
         // The affine match of noisy queries may use up to the eigenspace's L = 20 coordinates:
         // they are kept (unweighted) past the L of the weighted search.
         let l_store = if weighted { l_max.max(NOISE_COMPONENTS) } else { l_max };
-        let pca = pca::fit(train, Dimension::Fixed(l_store))?;
+        let mut pca = pca::fit(train, Dimension::Fixed(l_store))?;
+        let l_search = l_max.min(pca.dim());
+        // The match of noisy queries, chosen on held-out views under simulated noise.
+        let (noise_components, noise_weighted, noise_selection) = match select::choose_noise(train, &grid, self, pca.dim())? {
+            Some(chosen) => chosen,
+            None => (NOISE_COMPONENTS.min(pca.dim()), false, Vec::new()),
+        };
+        // Only the eigenimages some query uses are kept: the weighted search's and the noisy
+        // match's. A query projects on no more (cheaper than the eigenspace's 20 when both
+        // use fewer), and the clean search's residual is the one its choice was scored with.
+        if weighted {
+            pca.truncate(l_search.max(noise_components));
+        }
         let l = pca.dim();
-        let l_search = l_max.min(l);
         // Each coordinate weighted by the inverse of its interpolation error (see the module
         // doc): basis and knots scaled by sqrt(w), so the search is Euclidean.
         let coord_variance = select::interpolation_variance(train, &grid, &pca.coords, l)?;
         let sigma2 = if weighted { coord_variance.as_ref().map(|s| s[..l_search].to_vec()) } else { None };
-        // The match of noisy queries, chosen on held-out views under simulated noise.
-        let (noise_components, noise_weighted, noise_selection) = match select::choose_noise(train, &grid, self, l)? {
-            Some(chosen) => chosen,
-            None => (NOISE_COMPONENTS.min(l), false, Vec::new()),
-        };
         let scale = search_scale(sigma2.as_deref(), l_search, l);
         let spec = train.spec();
         let noise_threshold =
@@ -334,8 +348,11 @@ pub(crate) fn background_knots(train: &Dataset, sample_at: &[usize], basis: &[f6
 pub struct RefinedModel {
     meta: ModelMeta,
     settings: RefinedSettings,
-    basis: Vec<f32>,
-    mean: Vec<f32>,
+    /// The L eigenimages (rows of M, scaled), then the mean image: one matrix, so that a query's
+    /// products with both (the mean's for its residual) are one pass over it.
+    rows: Vec<f32>,
+    /// M, the pixels of an image.
+    m: usize,
     mean_proj: Vec<f32>,
     /// ||mean||^2.
     mean_sq: f64,
@@ -418,13 +435,13 @@ impl NoiseScan {
         let zz: f64 = z.iter().zip(&self.w0).map(|(&zq, &w)| w as f64 * zq * zq).sum();
         let (mut u, mut v) = (vec![0f32; n], vec![0f32; n]);
         crate::kernels::scan::dots2(crate::kernels::Level::detect(), &cols[..ln * n], &gcols[..ln * n], &a, &mut u, &mut v);
-        (0..n)
-            .map(|i| {
-                let uu = u[i] as f64 + ac;
-                let e = v[i] as f64 - self.b_over_a[i] * uu;
-                (zz - uu * uu * self.inv_a[i] - e * e * self.inv_s[i]).max(0.0) as f32
-            })
-            .collect()
+        // In place, over zipped slices (no index checks: the loop vectorises).
+        for ((((d, &vi), &ba), &ia), &is) in u.iter_mut().zip(&v).zip(&self.b_over_a).zip(&self.inv_a).zip(&self.inv_s) {
+            let uu = *d as f64 + ac;
+            let e = vi as f64 - ba * uu;
+            *d = (zz - uu * uu * ia - e * e * is).max(0.0) as f32;
+        }
+        u
     }
 }
 
@@ -467,8 +484,8 @@ impl RefinedModel {
         Ok(RefinedModel {
             meta,
             settings,
-            basis,
-            mean,
+            rows: [basis, mean].concat(),
+            m,
             mean_proj,
             mean_sq,
             inv_weight,
@@ -510,40 +527,86 @@ impl RefinedModel {
         self.start_poses.len() / self.axes.len()
     }
 
-    /// The eigenspace coordinates of a few queries (rows of M) into `out` (rows of L): unit
-    /// energy, mean subtracted, projected; NaN for a query of zero or non-finite energy.
-    /// Also each query's pixel noise per unit-energy coordinate ([`pixel_variance`] over its
-    /// energy) into `noise` when `want_noise` (else 0). Rows go by
-    /// [`PROJECT_ROWS`]: the energy and noise passes bring them into the cache for the product.
-    fn project_chunk(&self, queries: &[f32], out: &mut [f32], resid: &mut [f64], noise: &mut [f64], want_noise: bool) {
-        let (l, m) = (self.components(), self.mean.len());
+    /// Whether a clean query's search weights depend on its residual (the weighted metric:
+    /// 1 / (sigma_l^2 + floor + nu)). The plain metric weighs every coordinate alike, so nu only
+    /// scales the distance and its products with the mean are not needed.
+    fn uses_residual(&self) -> bool {
+        !self.settings.interpolation_variance.is_empty()
+    }
+
+    /// Products per query: the L coordinates, and the mean's when [`Self::uses_residual`].
+    fn product_rows(&self) -> usize {
+        self.components() + self.uses_residual() as usize
+    }
+
+    /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
+    /// (rows of L), `s.resid` and `s.noise`: the products with the eigenimages and the mean as one
+    /// sequential f32 product into `s.raw` (rayon splits the batch, see [`chunk_rows`]), then each
+    /// query's energy and, when `want_noise`, its pixel noise ([`pixel_variance`]), as
+    /// [`Self::finish_query`] takes them.
+    fn project_f32(&self, queries: &[f32], want_noise: bool, s: &mut QueryScratch) {
+        let (l, m, k) = (self.components(), self.m, self.product_rows());
+        let n = queries.len() / m;
         let spec = self.meta.spec;
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
-        let ut = MatRef::from_column_major_slice(&self.basis, m, l);
-        let mut sq_dot = [(0f64, 0f64); PROJECT_ROWS];
-        for (((qs, ys), rs), ns) in
-            queries.chunks(PROJECT_ROWS * m).zip(out.chunks_mut(PROJECT_ROWS * l)).zip(resid.chunks_mut(PROJECT_ROWS)).zip(noise.chunks_mut(PROJECT_ROWS))
-        {
-            let n = qs.len() / m;
-            for ((x, sd), nz) in qs.chunks_exact(m).zip(sq_dot.iter_mut()).zip(ns.iter_mut()) {
-                *sd = crate::linalg::energy_and_dot(x, &self.mean);
-                *nz = if want_noise && sd.0 > 0.0 { pixel_variance(x, w, h, ch) / sd.0 } else { 0.0 };
-            }
-            let q = MatRef::from_row_major_slice(qs, n, m);
-            matmul(MatMut::from_row_major_slice_mut(ys, n, l), Accum::Replace, q, ut, 1.0f32, Par::Seq);
-            for ((y, r), &(sq, xm)) in ys.chunks_exact_mut(l).zip(rs.iter_mut()).zip(&sq_dot) {
-                let norm = sq.sqrt();
-                if norm > 0.0 && norm.is_finite() {
-                    let inv = (1.0 / norm) as f32;
-                    y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
-                    // ||x/|x| - mean||^2 less the energy inside the eigenspace (unscaled coordinates).
-                    let inside: f64 = y.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
-                    *r = 1.0 - 2.0 * xm / norm + self.mean_sq - inside;
-                } else {
-                    y.fill(f32::NAN);
-                }
+        s.resize(n, l, k);
+        let ut = MatRef::from_column_major_slice(&self.rows[..k * m], m, k);
+        let q = MatRef::from_row_major_slice(queries, n, m);
+        matmul(MatMut::from_row_major_slice_mut(&mut s.raw, n, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
+        for (i, x) in queries.chunks_exact(m).enumerate() {
+            let energy = crate::linalg::energy_and_dot(x, x).0;
+            let pv = if want_noise { pixel_variance(x, w, h, ch) } else { 0.0 };
+            (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
+        }
+    }
+
+    /// As [`Self::project_f32`] for 8-bit images given as raw pixel values (n of them): the
+    /// products by [`dot_u8::dots_batch`] from 8 queries on (one at a time by [`dot_u8::dots`]
+    /// below), the energy exact in integers, the pixel noise by [`pixel_variance_u8`], all in
+    /// pixel values: the 1 / 255 of the features cancels in each ratio.
+    fn project_u8(&self, level: Level, queries: &[u8], want_noise: bool, s: &mut QueryScratch) {
+        let (l, m, k) = (self.components(), self.m, self.product_rows());
+        let n = queries.len() / m;
+        let spec = self.meta.spec;
+        let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
+        s.resize(n, l, k);
+        let rows = &self.rows[..k * m];
+        if n >= 8 {
+            dot_u8::dots_batch(level, queries, m, rows, &mut s.raw, &mut s.energy, &mut s.block);
+        } else {
+            for ((x, r), e) in queries.chunks_exact(m).zip(s.raw.chunks_exact_mut(k)).zip(s.energy.iter_mut()) {
+                dot_u8::dots(level, x, rows, r);
+                *e = dot_u8::sum_squares(x);
             }
         }
+        for (i, x) in queries.chunks_exact(m).enumerate() {
+            let pv = if want_noise { pixel_variance_u8(x, w, h, ch) } else { 0.0 };
+            (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, pv, &mut s.y[i * l..(i + 1) * l]);
+        }
+    }
+
+    /// One query from its products `raw` ([`Self::product_rows`]: the L coordinates, then the
+    /// mean's when used), its energy ||x||^2 and its pixel variance `pv`, in the same units:
+    /// the unit-energy, mean-subtracted coordinates into `y` (NaN for a query of zero or
+    /// non-finite energy), and its residual ||x / ||x|| - mean||^2 less the energy inside the
+    /// eigenspace (0 when not used) and pixel noise per unit-energy coordinate.
+    fn finish_query(&self, raw: &[f32], energy: f64, pv: f64, y: &mut [f32]) -> (f64, f64) {
+        let norm = energy.sqrt();
+        if !(norm > 0.0 && norm.is_finite()) {
+            y.fill(f32::NAN);
+            return (0.0, 0.0);
+        }
+        let l = y.len();
+        let inv = (1.0 / norm) as f32;
+        y.iter_mut().zip(&raw[..l]).zip(&self.mean_proj).for_each(|((v, &r), &c)| *v = r * inv - c);
+        let resid = if self.uses_residual() {
+            // Unscaled coordinates: each scaled one's square times 1 / w_l.
+            let inside: f64 = y.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
+            1.0 - 2.0 * raw[l] as f64 / norm + self.mean_sq - inside
+        } else {
+            0.0
+        };
+        (resid, pv / energy)
     }
 
     /// The pose (degrees, circular values in [0, period)) of eigenspace coordinates `y`.
@@ -552,33 +615,38 @@ impl RefinedModel {
         // Noise per coordinate from the energy off the eigenspace beyond the training views'
         // (isotropic noise puts (M - L) times its per-coordinate variance there); the weights
         // 1 / (sigma_l^2 + floor + nu) relative to the stored 1 / (sigma_l^2 + floor).
-        let m = self.mean.len();
+        let m = self.m;
         let nu = ((residual - self.settings.residual_energy) / (m.saturating_sub(l).max(1)) as f64).max(0.0);
         if self.settings.noise_threshold > 0.0 && noise > self.settings.noise_threshold {
             return self.pose_of_noisy(y, noise / m as f64, out);
         }
         let ls = self.settings.search();
-        let wt: Vec<f64> = self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }).collect();
         let k = self.settings.params.starts.min(self.start_len());
-        // The k closest coarse points, by insertion into a short sorted list.
-        // Every coarse point's distance, one coordinate at a time across all points.
-        let mut dist = vec![0f32; self.start_len()];
-        let w32: Vec<f32> = wt.iter().map(|&w| w as f32).collect();
-        crate::kernels::scan::sq_dist(crate::kernels::Level::detect(), &self.start_points, y, &w32, &mut dist);
-        let best = smallest(&dist, k);
-        let mut buf = vec![0.0; (d + 2) * l];
-        let (mut best_cost, mut t) = (f64::INFINITY, [0f64; 8]);
-        for i in self.distinct_starts(&best) {
-            let mut s = [0f64; 8];
-            s[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
-            let c = self.surface.refine(y, &wt, &mut s[..d], &mut buf);
-            if c < best_cost {
-                (best_cost, t) = (c, s);
+        let mut t = [0f64; 8];
+        SEARCH_SCRATCH.with_borrow_mut(|sc| {
+            let SearchScratch { wt, w32, dist, buf } = sc;
+            wt.clear();
+            wt.extend(self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }));
+            w32.clear();
+            w32.extend(wt.iter().map(|&w| w as f32));
+            // Every coarse point's distance, then the k closest.
+            dist.resize(self.start_len(), 0.0);
+            crate::kernels::scan::sq_dist(Level::detect(), &self.start_points, y, w32, dist);
+            let best = smallest(dist, k);
+            buf.resize((d + 2) * l, 0.0);
+            let mut best_cost = f64::INFINITY;
+            for i in self.distinct_starts(&best) {
+                let mut s = [0f64; 8];
+                s[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
+                let c = self.surface.refine(y, wt, &mut s[..d], buf);
+                if c < best_cost {
+                    (best_cost, t) = (c, s);
+                }
             }
-        }
-        if self.settings.params.resolution > 0.0 {
-            self.surface.snap(y, &wt, &mut t[..d], self.settings.params.resolution, &mut buf[..l]);
-        }
+            if self.settings.params.resolution > 0.0 {
+                self.surface.snap(y, wt, &mut t[..d], self.settings.params.resolution, &mut buf[..l]);
+            }
+        });
         for (j, p) in self.meta.space.params().iter().enumerate() {
             out[j] = match p.period {
                 Some(per) => wrap_positive(t[j], per),
@@ -742,6 +810,35 @@ pub fn pixel_noise(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
 
 /// Immerkaer's estimate of the variance of an image's white noise (see [`pixel_noise`]).
 pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if Level::detect() == Level::Avx512 {
+        // SAFETY: the CPU supports AVX-512 F/BW (detected).
+        return unsafe { simd::pixel_variance_avx512(x, w, h, ch) };
+    }
+    pixel_variance_body(x, w, h, ch)
+}
+
+/// The bodies of [`pixel_variance`] and [`pixel_variance_u8`] compiled for AVX-512 (the same
+/// operations in the same order: the same bits, in wider vectors).
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    /// # Safety
+    /// The CPU must support AVX-512 F and BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
+        super::pixel_variance_body(x, w, h, ch)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX-512 F and BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn pixel_variance_u8_avx512(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
+        super::pixel_variance_u8_body(x, w, h, ch)
+    }
+}
+
+#[inline(always)]
+fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
     if w < 3 || h < 3 {
         return 0.0;
     }
@@ -772,9 +869,38 @@ pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
     sigma * sigma
 }
 
-/// Queries projected together by [`RefinedModel::project_chunk`] (1.8 MB of 160 x 120 images:
-/// they stay in the L2 cache between the energy pass and the product).
-const PROJECT_ROWS: usize = 24;
+/// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
+/// that of its features, pixel / 255): the same mask and rows, summed exactly in integers (the
+/// f32 path rounds, so the two agree to about 1e-6 relative).
+pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if Level::detect() == Level::Avx512 {
+        // SAFETY: the CPU supports AVX-512 F/BW (detected).
+        return unsafe { simd::pixel_variance_u8_avx512(x, w, h, ch) };
+    }
+    pixel_variance_u8_body(x, w, h, ch)
+}
+
+#[inline(always)]
+fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
+    if w < 3 || h < 3 {
+        return 0.0;
+    }
+    let row = w * ch;
+    let n = row - 2 * ch;
+    let (mut sum, mut count) = (0u64, 0usize);
+    let mut dy = vec![0i32; row];
+    for yy in (1..h - 1).step_by(NOISE_ROW_STEP) {
+        let (a, b, c) = (&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
+        dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p as i32 - 2 * q as i32 + r as i32);
+        let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
+        sum += d0.iter().zip(d1).zip(d2).map(|((&p, &q), &r)| (p - 2 * q + r).unsigned_abs() as u64).sum::<u64>();
+        count += 1;
+    }
+    let total = (n * count) as f64;
+    let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum as f64 / (6.0 * total);
+    sigma * sigma
+}
 
 /// Rows sampled by [`pixel_noise`].
 const NOISE_ROW_STEP: usize = 8;
@@ -827,15 +953,13 @@ impl RefinedModel {
     /// Estimates a batch (rows of M) through the noisy match whatever the queries' noise: how
     /// the automatic choice scores its candidates.
     pub(crate) fn predict_noisy(&self, queries: &[f32]) -> Result<Vec<f64>> {
-        let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
+        let (l, m, p) = (self.components(), self.m, self.meta.space.len());
         let n = queries.len() / m;
         let mut out = vec![0.0; n * p];
         let rows = chunk_rows(n);
-        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
-            let k = q.len() / m;
-            let (mut y, mut r, mut nu) = (vec![0f32; k * l], vec![0f64; k], vec![0f64; k]);
-            self.project_chunk(q, &mut y, &mut r, &mut nu, true);
-            for ((c, o), &nu) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&nu) {
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            self.project_f32(q, true, s);
+            for ((c, o), &nu) in s.y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&s.noise) {
                 if c[0].is_nan() {
                     o.fill(f64::NAN);
                 } else {
@@ -847,42 +971,107 @@ impl RefinedModel {
     }
 }
 
+/// A clean query's search buffers (one per thread): the weights, in f64 and f32, the coarse
+/// points' distances and the local search's scratch.
+#[derive(Default)]
+struct SearchScratch {
+    wt: Vec<f64>,
+    w32: Vec<f32>,
+    dist: Vec<f32>,
+    buf: Vec<f64>,
+}
+
+thread_local! {
+    static SEARCH_SCRATCH: std::cell::RefCell<SearchScratch> = std::cell::RefCell::new(SearchScratch::default());
+}
+
+/// A query task's buffers: coordinates (rows of L), residuals and noise, the products (rows of
+/// [`RefinedModel::product_rows`]), the 8-bit queries' energies and
+/// [`dot_u8::dots_batch`]'s blocks.
+#[derive(Default)]
+struct QueryScratch {
+    y: Vec<f32>,
+    resid: Vec<f64>,
+    noise: Vec<f64>,
+    raw: Vec<f32>,
+    energy: Vec<u64>,
+    block: Vec<f32>,
+}
+
+impl QueryScratch {
+    /// Room for `n` queries of `l` coordinates and `k` products.
+    fn resize(&mut self, n: usize, l: usize, k: usize) {
+        self.y.resize(n * l, 0.0);
+        self.resid.resize(n, 0.0);
+        self.noise.resize(n, 0.0);
+        self.raw.resize(n * k, 0.0);
+        self.energy.resize(n, 0);
+    }
+}
+
+/// The error for the first query left NaN (zero or non-finite energy), if any.
+fn no_black_query(out: &[f64], p: usize) -> Result<()> {
+    match out.chunks_exact(p).position(|o| o[0].is_nan()) {
+        Some(i) => Err(Error::invalid(
+            "query",
+            format!("#{i} of the batch"),
+            "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
+        )),
+        None => Ok(()),
+    }
+}
+
+impl RefinedModel {
+    /// The poses of a task's projected queries into `out` (NaN for a query that could not be
+    /// projected).
+    fn poses_of(&self, s: &QueryScratch, out: &mut [f64]) {
+        let (l, m, p) = (self.components(), self.m, self.meta.space.len());
+        for (((c, o), &r), &nu) in s.y.chunks_exact(l).zip(out.chunks_exact_mut(p)).zip(&s.resid).zip(&s.noise) {
+            if c[0].is_nan() {
+                o.fill(f64::NAN);
+            } else {
+                self.pose_of_coords(c, r, nu * m as f64, o);
+            }
+        }
+    }
+}
+
 impl PoseModel for RefinedModel {
     fn meta(&self) -> &ModelMeta {
         &self.meta
     }
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
-        let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
+        let (m, p) = (self.m, self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let rows = chunk_rows(n);
-        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
-            let k = q.len() / m;
-            let (mut y, mut r, mut nu) = (vec![0f32; k * l], vec![0f64; k], vec![0f64; k]);
-            self.project_chunk(q, &mut y, &mut r, &mut nu, self.settings.noise_threshold > 0.0);
-            for (((c, o), &r), &nu) in y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&r).zip(&nu) {
-                if c[0].is_nan() {
-                    o.fill(f64::NAN);
-                } else {
-                    self.pose_of_coords(c, r, nu * m as f64, o);
-                }
-            }
+        let want_noise = self.settings.noise_threshold > 0.0;
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            self.project_f32(q, want_noise, s);
+            self.poses_of(s, o);
         });
-        if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
-            return Err(Error::invalid(
-                "query",
-                format!("#{i} of the batch"),
-                "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
-            ));
-        }
-        Ok(())
+        no_black_query(out, p)
+    }
+
+    /// 8-bit queries: [`Self::project_u8`]'s projection (the eigenspace's 8-bit kernel), then
+    /// the search; the estimates of [`PoseModel::predict_into`] on the same images as features
+    /// up to f32 rounding.
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        let (m, p) = (self.m, self.meta.space.len());
+        let n = batch_len(m, queries.len(), out.len(), p)?;
+        let (level, want_noise) = (Level::detect(), self.settings.noise_threshold > 0.0);
+        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n) } else { n };
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            self.project_u8(level, q, want_noise, s);
+            self.poses_of(s, o);
+        });
+        no_black_query(out, p)
     }
 
     /// Everything held to serve queries: basis, mean and their projections, the surface's knot
     /// values and slopes (2^D N L), the coarse start points with their poses, the knot positions.
     fn model_bytes(&self) -> usize {
-        (self.basis.len()
-            + self.mean.len()
+        (self.rows.len()
             + self.mean_proj.len()
             + self.surface.len()
             + self.bg_surface.len()
@@ -894,12 +1083,12 @@ impl PoseModel for RefinedModel {
     }
 
     fn tensors(&self) -> Vec<Tensor> {
-        let (l, m) = (self.components(), self.mean.len());
+        let (l, m) = (self.components(), self.m);
         let mut shape = self.settings.knot_shape.clone();
         shape.push(l);
         let mut v = vec![
-            Tensor::f32("basis", vec![l, m], self.basis.clone()),
-            Tensor::f32("mean", vec![m], self.mean.clone()),
+            Tensor::f32("basis", vec![l, m], self.rows[..l * m].to_vec()),
+            Tensor::f32("mean", vec![m], self.rows[l * m..].to_vec()),
             Tensor::f32("knots", shape.clone(), self.knots.clone()),
             Tensor::f32("background", shape, self.background.clone()),
         ];

@@ -221,3 +221,61 @@ fn the_starts_are_the_smallest_within_twice_the_least() {
     assert_eq!(super::smallest(&[0.2, 0.0, 0.1], 8), vec![(0.0, 1)]);
     assert_eq!(super::smallest(&[7.0; 20].iter().enumerate().map(|(i, v)| v + i as f32).collect::<Vec<_>>(), 2), vec![(7.0, 0), (8.0, 1)]);
 }
+
+#[test]
+fn the_model_keeps_only_the_eigenimages_its_queries_use() {
+    let d = train_set();
+    // L fixed: the weighted metric, whose search uses 8 eigenimages.
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let s = model.settings();
+    // The clean search's L and the noisy match's L, no more (the eigenspace's 20 were kept
+    // before).
+    assert!(!s.interpolation_variance.is_empty(), "the weighted metric");
+    assert_eq!(s.components, s.search().max(s.noise_components));
+    let m = d.n_features();
+    let tensors = model.tensors();
+    assert_eq!(tensors[0].shape, vec![s.components, m], "basis");
+    // The residual energy is the eigenvalues past the L kept.
+    let pca = crate::eigenspace::pca::fit(&d, Dimension::Fixed(s.components)).unwrap();
+    let want = pca.eigenvalues[s.components..].iter().map(|v| v.max(0.0)).sum::<f64>() / d.len() as f64;
+    assert!((s.residual_energy - want).abs() <= 1e-12 * want.max(1e-300), "{} vs {want}", s.residual_energy);
+}
+
+#[test]
+fn u8_queries_match_f32_queries() {
+    // 8-bit queries (clean and with clipped noise, so both matches run), in batches of every
+    // size the two product paths take, against the same images as f32 features.
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
+    let mut state = 99u64;
+    let mut q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    let m = test.n_features();
+    // Every other view noisy: +-10% uniform, clipped.
+    for x in q8.chunks_exact_mut(m).step_by(2) {
+        for v in x.iter_mut() {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let n = 25.5 * (2.0 * (state >> 40) as f64 / (1u64 << 24) as f64 - 1.0);
+            *v = (*v as f64 + n).round().clamp(0.0, 255.0) as u8;
+        }
+    }
+    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 / 255.0).collect();
+    let n = test.len();
+    for x in q8.chunks_exact(m) {
+        let xf: Vec<f32> = x.iter().map(|&v| v as f32 / 255.0).collect();
+        let (a, b) = (super::pixel_variance_u8(x, W, H, 1) / (255.0 * 255.0), super::pixel_variance(&xf, W, H, 1));
+        assert!((a - b).abs() <= 1e-5 * b.max(1e-12), "pixel variance {a} vs {b}");
+    }
+    let pf = model.predict(&qf).unwrap();
+    for k in [1, 7, 8, n] {
+        let mut p8 = vec![0.0; k * 2];
+        model.predict_u8_into(&q8[..k * m], &mut p8).unwrap();
+        for i in 0..k {
+            let e = test.space().error_deg(&pf[2 * i..2 * i + 2], &p8[2 * i..2 * i + 2]);
+            assert!(e < 1e-3, "batch of {k}, view {i}: {:?} vs {:?}", &p8[2 * i..2 * i + 2], &pf[2 * i..2 * i + 2]);
+        }
+    }
+    let mut one = [0.0; 2];
+    assert!(model.predict_u8_into(&vec![0u8; m], &mut one).is_err(), "a black image is refused");
+    assert!(model.predict_u8_into(&q8[..m - 1], &mut one).is_err(), "a short image is refused");
+}
