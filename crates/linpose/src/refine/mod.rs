@@ -837,20 +837,33 @@ mod simd {
     }
 }
 
+/// Immerkaer's estimate (see [`pixel_noise`]) from every [`NOISE_ROW_STEP`]-th row of an image
+/// of `w` pixels of `ch` channels per row: the estimate is a mean over pixels, and a sample of
+/// rows costs less than the projection. `row_sum(a, b, c)` gives the sum of the absolute mask
+/// responses along row b (its neighbours a and c): the second difference along x of the second
+/// difference across the three rows, over the row's pixels less `ch` at each end.
 #[inline(always)]
-fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
+fn immerkaer<T>(x: &[T], w: usize, h: usize, ch: usize, mut row_sum: impl FnMut(&[T], &[T], &[T]) -> f64) -> f64 {
     if w < 3 || h < 3 {
         return 0.0;
     }
     let row = w * ch;
-    let n = row - 2 * ch;
-    let mut sum = 0.0f64;
-    // Every NOISE_ROW_STEP-th row: the estimate is a mean over pixels, and a sample of rows
-    // costs less than the projection. The mask's response is the second difference along x of
-    // the second difference across the three rows; 16 lane sums so the loop vectorises.
-    let (mut dy, mut count) = (vec![0f32; row], 0);
+    let (mut sum, mut count) = (0.0f64, 0usize);
     for yy in (1..h - 1).step_by(NOISE_ROW_STEP) {
-        let (a, b, c) = (&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
+        sum += row_sum(&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
+        count += 1;
+    }
+    let total = ((row - 2 * ch) * count) as f64;
+    let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum / (6.0 * total);
+    sigma * sigma
+}
+
+#[inline(always)]
+fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
+    let n = (w * ch).saturating_sub(2 * ch);
+    let mut dy = vec![0f32; w * ch];
+    immerkaer(x, w, h, ch, |a, b, c| {
+        // 16 lane sums so the loop vectorises.
         dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p - 2.0 * q + r);
         let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
         let mut lanes = [0f32; 16];
@@ -861,12 +874,8 @@ fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
                 lanes[l] += (p[l] - 2.0 * q[l] + r[l]).abs();
             }
         }
-        sum += lanes.iter().map(|&v| v as f64).sum::<f64>() + tail as f64;
-        count += 1;
-    }
-    let total = (n * count) as f64;
-    let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum / (6.0 * total);
-    sigma * sigma
+        lanes.iter().map(|&v| v as f64).sum::<f64>() + tail as f64
+    })
 }
 
 /// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
@@ -883,23 +892,14 @@ pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
 
 #[inline(always)]
 fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
-    if w < 3 || h < 3 {
-        return 0.0;
-    }
-    let row = w * ch;
-    let n = row - 2 * ch;
-    let (mut sum, mut count) = (0u64, 0usize);
-    let mut dy = vec![0i32; row];
-    for yy in (1..h - 1).step_by(NOISE_ROW_STEP) {
-        let (a, b, c) = (&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
+    let n = (w * ch).saturating_sub(2 * ch);
+    let mut dy = vec![0i32; w * ch];
+    immerkaer(x, w, h, ch, |a, b, c| {
         dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p as i32 - 2 * q as i32 + r as i32);
         let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
-        sum += d0.iter().zip(d1).zip(d2).map(|((&p, &q), &r)| (p - 2 * q + r).unsigned_abs() as u64).sum::<u64>();
-        count += 1;
-    }
-    let total = (n * count) as f64;
-    let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum as f64 / (6.0 * total);
-    sigma * sigma
+        // Exact: a row's sum is an integer far below 2^53.
+        d0.iter().zip(d1).zip(d2).map(|((&p, &q), &r)| (p - 2 * q + r).unsigned_abs() as u64).sum::<u64>() as f64
+    })
 }
 
 /// Rows sampled by [`pixel_noise`].
