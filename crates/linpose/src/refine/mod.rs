@@ -839,18 +839,16 @@ mod simd {
 
 /// Immerkaer's estimate (see [`pixel_noise`]) from every [`NOISE_ROW_STEP`]-th row of an image
 /// of `w` pixels of `ch` channels per row: the estimate is a mean over pixels, and a sample of
-/// rows costs less than the projection. `row_sum(a, b, c)` gives the sum of the absolute mask
-/// responses along row b (its neighbours a and c): the second difference along x of the second
-/// difference across the three rows, over the row's pixels less `ch` at each end.
+/// rows costs less than the projection. `rows` sums the absolute mask responses along each.
 #[inline(always)]
-fn immerkaer<T>(x: &[T], w: usize, h: usize, ch: usize, mut row_sum: impl FnMut(&[T], &[T], &[T]) -> f64) -> f64 {
+fn immerkaer<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, rows: &mut R) -> f64 {
     if w < 3 || h < 3 {
         return 0.0;
     }
     let row = w * ch;
     let (mut sum, mut count) = (0.0f64, 0usize);
     for yy in (1..h - 1).step_by(NOISE_ROW_STEP) {
-        sum += row_sum(&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
+        sum += rows.row_sum(&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
         count += 1;
     }
     let total = ((row - 2 * ch) * count) as f64;
@@ -858,12 +856,25 @@ fn immerkaer<T>(x: &[T], w: usize, h: usize, ch: usize, mut row_sum: impl FnMut(
     sigma * sigma
 }
 
-#[inline(always)]
-fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
-    let n = (w * ch).saturating_sub(2 * ch);
-    let mut dy = vec![0f32; w * ch];
-    immerkaer(x, w, h, ch, |a, b, c| {
-        // 16 lane sums so the loop vectorises.
+/// The row sums of [`immerkaer`]: the absolute responses along row b (its neighbours a and c) of
+/// the second difference along x of the second difference across the three rows, over the row's
+/// pixels less `ch` at each end. A trait with always-inlined methods (not a closure), so that the
+/// AVX-512 builds of [`pixel_variance`] and [`pixel_variance_u8`] compile it for AVX-512 too.
+trait MaskRows<T> {
+    fn row_sum(&mut self, a: &[T], b: &[T], c: &[T]) -> f64;
+}
+
+/// f32 rows: the differences across rows into `dy`, then 16 lane sums so the loop vectorises.
+struct RowsF32 {
+    dy: Vec<f32>,
+    ch: usize,
+}
+
+impl MaskRows<f32> for RowsF32 {
+    #[inline(always)]
+    fn row_sum(&mut self, a: &[f32], b: &[f32], c: &[f32]) -> f64 {
+        let (dy, ch) = (&mut self.dy, self.ch);
+        let n = dy.len() - 2 * ch;
         dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p - 2.0 * q + r);
         let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
         let mut lanes = [0f32; 16];
@@ -875,7 +886,29 @@ fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
             }
         }
         lanes.iter().map(|&v| v as f64).sum::<f64>() + tail as f64
-    })
+    }
+}
+
+/// 8-bit rows, exact in integers (a row's sum is far below 2^53).
+struct RowsU8 {
+    dy: Vec<i32>,
+    ch: usize,
+}
+
+impl MaskRows<u8> for RowsU8 {
+    #[inline(always)]
+    fn row_sum(&mut self, a: &[u8], b: &[u8], c: &[u8]) -> f64 {
+        let (dy, ch) = (&mut self.dy, self.ch);
+        let n = dy.len() - 2 * ch;
+        dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p as i32 - 2 * q as i32 + r as i32);
+        let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
+        d0.iter().zip(d1).zip(d2).map(|((&p, &q), &r)| (p - 2 * q + r).unsigned_abs() as u64).sum::<u64>() as f64
+    }
+}
+
+#[inline(always)]
+fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
+    immerkaer(x, w, h, ch, &mut RowsF32 { dy: vec![0f32; w * ch], ch })
 }
 
 /// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
@@ -892,14 +925,7 @@ pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
 
 #[inline(always)]
 fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
-    let n = (w * ch).saturating_sub(2 * ch);
-    let mut dy = vec![0i32; w * ch];
-    immerkaer(x, w, h, ch, |a, b, c| {
-        dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p as i32 - 2 * q as i32 + r as i32);
-        let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
-        // Exact: a row's sum is an integer far below 2^53.
-        d0.iter().zip(d1).zip(d2).map(|((&p, &q), &r)| (p - 2 * q + r).unsigned_abs() as u64).sum::<u64>() as f64
-    })
+    immerkaer(x, w, h, ch, &mut RowsU8 { dy: vec![0i32; w * ch], ch })
 }
 
 /// Rows sampled by [`pixel_noise`].
