@@ -58,24 +58,22 @@ pub fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
     Mat::from_fn(n, k, |i, j| data[i * k + j])
 }
 
-/// ||x||^2 and x . u: 16 independent f32 lanes (so the loop vectorises; one running sum is a
-/// chain of dependent adds), each block of 512 values summed into f64.
-pub fn energy_and_dot(x: &[f32], u: &[f32]) -> (f64, f64) {
-    let (mut sq, mut dt) = (0f64, 0f64);
-    for (xb, ub) in x.chunks(512).zip(u.chunks(512)) {
-        let (mut s, mut d) = ([0f32; 16], [0f32; 16]);
-        let (xc, uc) = (xb.chunks_exact(16), ub.chunks_exact(16));
-        let (xr, ur) = (xc.remainder(), uc.remainder());
-        for (a, b) in xc.zip(uc) {
+/// ||x||^2: 16 independent f32 lanes (so the loop vectorises; one running sum is a chain of
+/// dependent adds), each block of 512 values summed into f64.
+pub fn energy(x: &[f32]) -> f64 {
+    let mut sq = 0f64;
+    for xb in x.chunks(512) {
+        let mut s = [0f32; 16];
+        let xc = xb.chunks_exact(16);
+        let xr = xc.remainder();
+        for a in xc {
             for k in 0..16 {
                 s[k] += a[k] * a[k];
-                d[k] += a[k] * b[k];
             }
         }
         sq += s.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().map(|&v| v as f64 * v as f64).sum::<f64>();
-        dt += d.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().zip(ur).map(|(&v, &w)| v as f64 * w as f64).sum::<f64>();
     }
-    (sq, dt)
+    sq
 }
 
 /// Dot product of two f32 vectors with eight independent accumulators (vectorises well and

@@ -351,7 +351,7 @@ impl EigenspaceModel {
         let ut = MatRef::from_column_major_slice(&self.basis, m, l);
         matmul(MatMut::from_row_major_slice_mut(out, n, l), Accum::Replace, q, ut, 1.0f32, Par::Seq);
         for (x, y) in queries.chunks_exact(m).zip(out.chunks_exact_mut(l)) {
-            let norm = crate::linalg::energy_and_dot(x, x).0.sqrt();
+            let norm = crate::linalg::energy(x).sqrt();
             if norm > 0.0 && norm.is_finite() {
                 let inv = (1.0 / norm) as f32;
                 y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);

@@ -554,7 +554,7 @@ impl RefinedModel {
         let q = MatRef::from_row_major_slice(queries, n, m);
         matmul(MatMut::from_row_major_slice_mut(&mut s.raw, n, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
         for (i, x) in queries.chunks_exact(m).enumerate() {
-            let energy = crate::linalg::energy_and_dot(x, x).0;
+            let energy = crate::linalg::energy(x);
             let pv = if want_noise { pixel_variance(x, w, h, ch) } else { 0.0 };
             (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
         }
