@@ -1079,7 +1079,7 @@ impl PoseModel for RefinedModel {
         no_black_query(out, p)
     }
 
-    /// 8-bit queries: [`Self::project_u8`]'s projection (the eigenspace's 8-bit kernel), then
+    /// 8-bit queries: the projection by the eigenspace's 8-bit kernel ([`dot_u8::dots_batch`]), then
     /// the search; the estimates of [`PoseModel::predict_into`] on the same images as features
     /// up to f32 rounding.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
