@@ -19,6 +19,20 @@ pub fn sq_dist(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f3
     }
 }
 
+/// As [`sq_dist`], but only for the points that can lie within twice the least distance (the
+/// others get +inf), the first `split` coordinates summed first to rule the rest out: what a search
+/// for the closest points under twice the least distance needs, at a fraction of the cost when the
+/// leading coordinates separate the points. Every distance it gives has the bits of [`sq_dist`]'s.
+pub fn sq_dist_pruned(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+    match level {
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { x86::sq_dist_pruned_avx512(cols, y, wt, dist, split) },
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => unsafe { x86::sq_dist_pruned_avx2(cols, y, wt, dist, split) },
+        _ => sq_dist_pruned_portable(cols, y, wt, dist, split),
+    }
+}
+
 /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]` (rows of `u.len()` values).
 pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
     match level {
@@ -38,19 +52,77 @@ const BLOCK: usize = 64;
 fn sq_dist_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
     let n = dist.len();
     for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
-        let i0 = b * BLOCK;
         let mut acc = [0f32; BLOCK];
-        for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
-            if w == 0.0 {
-                continue;
-            }
-            match <&[f32; BLOCK]>::try_from(&col[i0..i0 + out.len()]) {
-                Ok(seg) => (0..BLOCK).for_each(|k| acc[k] += w * ((seg[k] - yc) * (seg[k] - yc))),
-                Err(_) => acc.iter_mut().zip(&col[i0..i0 + out.len()]).for_each(|(s, &p)| *s += w * ((p - yc) * (p - yc))),
-            }
-        }
+        add_sq(cols, n, b * BLOCK, y, wt, 0, &mut acc[..out.len()]);
         out.copy_from_slice(&acc[..out.len()]);
     }
+}
+
+/// Adds `wt[q] (cols[q][i0 + k] - y[q])^2` to `acc[k]` for the coordinates q = q0.. with a
+/// non-zero weight, in increasing order (`cols`: rows of `n` values).
+#[inline(always)]
+fn add_sq(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], q0: usize, acc: &mut [f32]) {
+    let len = acc.len();
+    for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt).skip(q0) {
+        if w == 0.0 {
+            continue;
+        }
+        let seg = &col[i0..i0 + len];
+        match (<&mut [f32; BLOCK]>::try_from(&mut *acc), <&[f32; BLOCK]>::try_from(seg)) {
+            (Ok(a), Ok(seg)) => (0..BLOCK).for_each(|k| a[k] += w * ((seg[k] - yc) * (seg[k] - yc))),
+            _ => acc.iter_mut().zip(seg).for_each(|(s, &p)| *s += w * ((p - yc) * (p - yc))),
+        }
+    }
+}
+
+/// [`sq_dist`] for the points that can lie within twice the least distance, +inf for the
+/// others: the sums over the first `split` coordinates first (a lower bound of each point's
+/// distance), then the whole distance u of the point of least partial sum, which bounds the least
+/// distance; the remaining coordinates are added only in blocks holding a partial sum within
+/// 2 u. A point's distance, when computed, has the bits of [`sq_dist`]'s (the same terms added
+/// in the same order); every point within twice the least distance is computed, the least
+/// included.
+#[inline(always)]
+fn sq_dist_pruned_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+    let n = dist.len();
+    let split = split.min(y.len());
+    for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
+        let mut acc = [0f32; BLOCK];
+        add_sq(cols, n, b * BLOCK, &y[..split], &wt[..split], 0, &mut acc[..out.len()]);
+        out.copy_from_slice(&acc[..out.len()]);
+    }
+    let Some(first) = argmin(dist) else { return };
+    let mut whole = [dist[first]];
+    add_sq(cols, n, first, y, wt, split, &mut whole);
+    let bound = 2.0 * whole[0].max(0.0) + f32::MIN_POSITIVE;
+    for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
+        if out.iter().fold(false, |hit, &v| hit | (v <= bound)) {
+            let mut acc = [0f32; BLOCK];
+            acc[..out.len()].copy_from_slice(out);
+            add_sq(cols, n, b * BLOCK, y, wt, split, &mut acc[..out.len()]);
+            out.copy_from_slice(&acc[..out.len()]);
+        } else {
+            out.fill(f32::INFINITY);
+        }
+    }
+}
+
+/// The index of the least of `v` (the first of equals; None when empty or all NaN), vectorised in
+/// 16 lanes.
+#[inline(always)]
+fn argmin(v: &[f32]) -> Option<usize> {
+    let mut lanes = [f32::INFINITY; 16];
+    let chunks = v.chunks_exact(16);
+    let tail = chunks.remainder().iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
+    for c in chunks {
+        for k in 0..16 {
+            lanes[k] = if c[k] < lanes[k] { c[k] } else { lanes[k] };
+        }
+    }
+    let lo = lanes.iter().fold(tail, |a, &b| if b < a { b } else { a });
+    // The first block of 16 holding it (tested without branches), then its place there.
+    let b = v.chunks(16).position(|c| c.iter().fold(false, |hit, &x| hit | (x == lo)));
+    b.and_then(|b| v[16 * b..].iter().position(|&x| x == lo).map(|i| 16 * b + i)).or_else(|| v.iter().position(|x| !x.is_nan()))
 }
 
 #[inline(always)]
@@ -79,7 +151,21 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{dots2_portable, sq_dist_portable};
+    use super::{dots2_portable, sq_dist_portable, sq_dist_pruned_portable};
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn sq_dist_pruned_avx2(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+        sq_dist_pruned_portable(cols, y, wt, dist, split)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn sq_dist_pruned_avx512(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+        sq_dist_pruned_portable(cols, y, wt, dist, split)
+    }
 
     /// # Safety
     /// The CPU must support AVX2 and FMA.
@@ -133,6 +219,40 @@ mod tests {
             let (mut u, mut v) = (vec![f32::NAN; n], vec![f32::NAN; n]);
             dots2(level, &cols, &gcols, &y, &mut u, &mut v);
             assert_eq!((u, v), (want_u.clone(), want_v.clone()), "{level:?}");
+        }
+    }
+
+    /// The pruned scan gives the full scan's bits for every point within twice the least
+    /// distance (and +inf or the same bits elsewhere), on clustered points where most blocks are
+    /// ruled out, for every split and level.
+    #[test]
+    fn the_pruned_scan_keeps_every_point_within_twice_the_least() {
+        let (n, l) = (700, 9);
+        // Points along a curve, so that a query near one part of it rules out most blocks.
+        let cols: Vec<f32> = (0..l).flat_map(|q| (0..n).map(move |i| ((i as f32 * 0.013 * (q + 1) as f32).sin() + 0.01 * ((i * 31 + q * 7) % 13) as f32) / (q + 1) as f32)).collect();
+        for (qi, at) in [0usize, 77, 300, 699].into_iter().enumerate() {
+            let y: Vec<f32> = (0..l).map(|q| cols[q * n + at] + 0.003 * (q as f32 - 4.0)).collect();
+            let wt: Vec<f32> = (0..l).map(|q| if q == 5 && qi % 2 == 1 { 0.0 } else { 1.0 / (1.0 + q as f32) }).collect();
+            let mut full = vec![0f32; n];
+            sq_dist(Level::Portable, &cols, &y, &wt, &mut full);
+            let lo = full.iter().cloned().fold(f32::INFINITY, f32::min);
+            for level in Level::supported() {
+                for split in [0, 1, 3, l, l + 2] {
+                    let mut d = vec![f32::NAN; n];
+                    sq_dist_pruned(level, &cols, &y, &wt, &mut d, split);
+                    let mut ruled_out = 0;
+                    for i in 0..n {
+                        if d[i] == f32::INFINITY && full[i] > 2.0 * lo {
+                            ruled_out += 1;
+                        } else {
+                            assert_eq!(d[i].to_bits(), full[i].to_bits(), "point {i}, query {qi}, split {split}, {level:?}");
+                        }
+                    }
+                    if (3..l).contains(&split) {
+                        assert!(ruled_out > n / 2, "only {ruled_out} ruled out (query {qi}, split {split})");
+                    }
+                }
+            }
         }
     }
 }

@@ -551,12 +551,16 @@ impl RefinedModel {
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
         s.resize(n, l, k);
         let ut = MatRef::from_column_major_slice(&self.rows[..k * m], m, k);
-        let q = MatRef::from_row_major_slice(queries, n, m);
-        matmul(MatMut::from_row_major_slice_mut(&mut s.raw, n, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
-        for (i, x) in queries.chunks_exact(m).enumerate() {
-            let energy = crate::linalg::energy(x);
-            let pv = if want_noise { pixel_variance(x, w, h, ch) } else { 0.0 };
-            (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
+        // In sub-chunks whose queries stay in cache from the product to the energy and noise.
+        for (c, xq) in queries.chunks(NOISE_SUB_F32 * m).enumerate() {
+            let (i0, nn) = (c * NOISE_SUB_F32, xq.len() / m);
+            let q = MatRef::from_row_major_slice(xq, nn, m);
+            matmul(MatMut::from_row_major_slice_mut(&mut s.raw[i0 * k..(i0 + nn) * k], nn, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
+            for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
+                let energy = crate::linalg::energy(x);
+                let pv = if want_noise { pixel_variance(x, w, h, ch) } else { 0.0 };
+                (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
+            }
         }
     }
 
@@ -571,17 +575,21 @@ impl RefinedModel {
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
         s.resize(n, l, k);
         let rows = &self.rows[..k * m];
-        if n >= 8 {
-            dot_u8::dots_batch(level, queries, m, rows, &mut s.raw, &mut s.energy, &mut s.block);
-        } else {
-            for ((x, r), e) in queries.chunks_exact(m).zip(s.raw.chunks_exact_mut(k)).zip(s.energy.iter_mut()) {
-                dot_u8::dots(level, x, rows, r);
-                *e = dot_u8::sum_squares(x);
+        // In sub-chunks whose images stay in cache from the products to the noise pass.
+        for (c, xq) in queries.chunks(NOISE_SUB_U8 * m).enumerate() {
+            let (i0, nn) = (c * NOISE_SUB_U8, xq.len() / m);
+            if n >= 8 {
+                dot_u8::dots_batch(level, xq, m, rows, &mut s.raw[i0 * k..(i0 + nn) * k], &mut s.energy[i0..i0 + nn], &mut s.block);
+            } else {
+                for ((x, r), e) in xq.chunks_exact(m).zip(s.raw[i0 * k..].chunks_exact_mut(k)).zip(&mut s.energy[i0..]) {
+                    dot_u8::dots(level, x, rows, r);
+                    *e = dot_u8::sum_squares(x);
+                }
             }
-        }
-        for (i, x) in queries.chunks_exact(m).enumerate() {
-            let pv = if want_noise { pixel_variance_u8(x, w, h, ch) } else { 0.0 };
-            (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, pv, &mut s.y[i * l..(i + 1) * l]);
+            for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
+                let pv = if want_noise { pixel_variance_u8(x, w, h, ch) } else { 0.0 };
+                (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, pv, &mut s.y[i * l..(i + 1) * l]);
+            }
         }
     }
 
@@ -631,7 +639,7 @@ impl RefinedModel {
             w32.extend(wt.iter().map(|&w| w as f32));
             // Every coarse point's distance, then the k closest.
             dist.resize(self.start_len(), 0.0);
-            crate::kernels::scan::sq_dist(Level::detect(), &self.start_points, y, w32, dist);
+            crate::kernels::scan::sq_dist_pruned(Level::detect(), &self.start_points, y, w32, dist, SCAN_SPLIT);
             let best = smallest(dist, k);
             buf.resize((d + 2) * l, 0.0);
             let mut best_cost = f64::INFINITY;
@@ -927,6 +935,20 @@ pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
 fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
     immerkaer(x, w, h, ch, &mut RowsU8 { dy: vec![0i32; w * ch], ch })
 }
+
+/// Coordinates of the coarse scan's first pass ([`crate::kernels::scan::sq_dist_pruned`]): the
+/// leading ones rule most coarse points out before the rest are summed.
+const SCAN_SPLIT: usize = 4;
+
+/// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
+/// [`dot_u8::BATCH_IMAGES`], and few enough that their images (19.2 KB each at 160 x 120) are
+/// still in the L2 cache when the noise pass reads them after the products (with the chunk's 192,
+/// that pass read them from memory: 2 us of a 17 us query on one thread).
+const NOISE_SUB_U8: usize = 8 * dot_u8::BATCH_IMAGES;
+
+/// f32 queries per sub-chunk of [`RefinedModel::project_f32`] (77 KB each at 160 x 120), for the
+/// same reason.
+const NOISE_SUB_F32: usize = 16;
 
 /// Rows sampled by [`pixel_noise`].
 const NOISE_ROW_STEP: usize = 8;
