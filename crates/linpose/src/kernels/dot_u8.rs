@@ -65,7 +65,10 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
         done = n / BATCH_IMAGES * BATCH_IMAGES;
         for ((xg, og), eg) in xs[..done * m].chunks(BATCH_GROUP * m).zip(out.chunks_mut(BATCH_GROUP * rows)).zip(energy.chunks_mut(BATCH_GROUP)) {
             let g = xg.len() / m;
-            let (xlen, wlen, alen) = (g * PIXEL_CHUNK, rows * PIXEL_CHUNK, g * rows * LANES);
+            // Weights already on 64-byte boundaries (every row too) are read in place; others are
+            // copied block by block.
+            let in_place = w.as_ptr().align_offset(64) == 0 && m % LANES == 0;
+            let (xlen, wlen, alen) = (g * PIXEL_CHUNK, if in_place { 0 } else { rows * PIXEL_CHUNK }, g * rows * LANES);
             scratch.resize(xlen + wlen + alen + LANES, 0.0);
             let skip = scratch.as_ptr().align_offset(64).min(LANES);
             let (xf, rest) = scratch[skip..].split_at_mut(xlen);
@@ -87,14 +90,20 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
                         unsafe { x86::prefetch(x.as_ptr().add(p)) };
                     }
                 }
-                for (f, wr) in wf.chunks_exact_mut(PIXEL_CHUNK).zip(w.chunks_exact(m)) {
-                    f[..pc].copy_from_slice(&wr[p0..p1]);
-                }
+                let (wb, stride): (&[f32], usize) = if in_place {
+                    (&w[p0..], m)
+                } else {
+                    for (f, wr) in wf.chunks_exact_mut(PIXEL_CHUNK).zip(w.chunks_exact(m)) {
+                        f[..pc].copy_from_slice(&wr[p0..p1]);
+                    }
+                    (wf, PIXEL_CHUNK)
+                };
                 for (xb, ab) in xf.chunks_exact(BATCH_IMAGES * PIXEL_CHUNK).zip(acc.chunks_exact_mut(BATCH_IMAGES * rows * LANES)) {
                     // SAFETY: Level::Avx512 was detected by the caller; the blocks hold
-                    // BATCH_IMAGES images and `rows` rows of PIXEL_CHUNK values from 64-byte
-                    // boundaries, and pc <= PIXEL_CHUNK (checked in the kernel).
-                    unsafe { x86::block_avx512(xb, wf, rows, pc / LANES, ab) };
+                    // BATCH_IMAGES images of PIXEL_CHUNK values and `rows` weight rows `stride`
+                    // apart, all from 64-byte boundaries, and pc <= PIXEL_CHUNK (checked in the
+                    // kernel).
+                    unsafe { x86::block_avx512(xb, wb, stride, rows, pc / LANES, ab) };
                 }
             }
             for (b, ((x, o), e)) in xg.chunks_exact(m).zip(og.chunks_exact_mut(rows)).zip(eg.iter_mut()).enumerate() {
@@ -220,7 +229,7 @@ mod x86 {
     }
 
     /// One cache block: `steps` vector steps of BATCH_IMAGES images (`xf`, rows of
-    /// PIXEL_CHUNK f32) against `rows` weight rows (`wf`, rows of PIXEL_CHUNK), added to the lane
+    /// PIXEL_CHUNK f32) against `rows` weight rows (`wf`, `stride` apart), added to the lane
     /// accumulators `acc` (lane l of image b and row r at `acc[(b * rows + r) * 16 + l]`), in
     /// register blocks of BATCH_ROWS rows, each accumulator updated in pixel order as in
     /// [`lanes_avx512`].
@@ -228,23 +237,24 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn block_avx512(xf: &[f32], wf: &[f32], rows: usize, steps: usize, acc: &mut [f32]) {
-        assert!(steps * LANES <= PIXEL_CHUNK && xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && wf.len() >= rows * PIXEL_CHUNK);
+    pub unsafe fn block_avx512(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, acc: &mut [f32]) {
+        assert!(steps * LANES <= PIXEL_CHUNK && xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && rows > 0);
+        assert!(stride % LANES == 0 && wf.len() >= (rows - 1) * stride + steps * LANES && wf.as_ptr().align_offset(64) == 0);
         assert!(acc.len() >= BATCH_IMAGES * rows * LANES);
         for r0 in (0..rows).step_by(BATCH_ROWS) {
             match (rows - r0).min(BATCH_ROWS) {
-                1 => regs::<1>(xf, wf, rows, r0, steps, acc),
-                2 => regs::<2>(xf, wf, rows, r0, steps, acc),
-                3 => regs::<3>(xf, wf, rows, r0, steps, acc),
-                _ => regs::<BATCH_ROWS>(xf, wf, rows, r0, steps, acc),
+                1 => regs::<1>(xf, wf, stride, rows, r0, steps, acc),
+                2 => regs::<2>(xf, wf, stride, rows, r0, steps, acc),
+                3 => regs::<3>(xf, wf, stride, rows, r0, steps, acc),
+                _ => regs::<BATCH_ROWS>(xf, wf, stride, rows, r0, steps, acc),
             }
         }
     }
 
     /// Rows r0..r0 + R of one cache block, in registers.
     #[target_feature(enable = "avx512f")]
-    unsafe fn regs<const R: usize>(xf: &[f32], wf: &[f32], rows: usize, r0: usize, steps: usize, acc: &mut [f32]) {
-        let (xp, wp, ap) = (xf.as_ptr(), wf.as_ptr().add(r0 * PIXEL_CHUNK), acc.as_mut_ptr());
+    unsafe fn regs<const R: usize>(xf: &[f32], wf: &[f32], stride: usize, rows: usize, r0: usize, steps: usize, acc: &mut [f32]) {
+        let (xp, wp, ap) = (xf.as_ptr(), wf.as_ptr().add(r0 * stride), acc.as_mut_ptr());
         let mut a = [[_mm512_setzero_ps(); R]; BATCH_IMAGES];
         for b in 0..BATCH_IMAGES {
             for r in 0..R {
@@ -254,7 +264,7 @@ mod x86 {
         for c in 0..steps {
             let mut wv = [_mm512_setzero_ps(); R];
             for r in 0..R {
-                wv[r] = _mm512_load_ps(wp.add(r * PIXEL_CHUNK + c * LANES));
+                wv[r] = _mm512_load_ps(wp.add(r * stride + c * LANES));
             }
             for b in 0..BATCH_IMAGES {
                 let xv = _mm512_load_ps(xp.add(b * PIXEL_CHUNK + c * LANES));
@@ -327,13 +337,22 @@ mod tests {
             for level in Level::supported() {
                 let mut one = vec![0f32; n * rows];
                 xs.chunks_exact(m).zip(one.chunks_exact_mut(rows)).for_each(|(x, o)| dots(level, x, &w, o));
-                let mut batch = vec![0f32; n * rows];
-                let mut energy = vec![0u64; n];
-                dots_batch(level, &xs, m, &w, &mut batch, &mut energy, &mut Vec::new());
-                let want: Vec<u64> = xs.chunks_exact(m).map(sum_squares).collect();
-                assert_eq!(energy, want, "{level:?} m {m} n {n}");
-                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&one), bits(&batch), "{level:?} m {m} n {n} rows {rows}");
+                // The weights on a 64-byte boundary (read in place when m is a multiple of 16)
+                // and off one (copied block by block).
+                let aligned = crate::kernels::AlignedF32::new(&w);
+                let mut shifted = vec![0f32; w.len() + 16];
+                let at = (shifted.as_ptr().align_offset(64) + 1) % 16;
+                shifted[at..at + w.len()].copy_from_slice(&w);
+                assert_eq!(aligned.as_ptr().align_offset(64), 0);
+                for wv in [&aligned[..], &shifted[at..at + w.len()]] {
+                    let mut batch = vec![0f32; n * rows];
+                    let mut energy = vec![0u64; n];
+                    dots_batch(level, &xs, m, wv, &mut batch, &mut energy, &mut Vec::new());
+                    let want: Vec<u64> = xs.chunks_exact(m).map(sum_squares).collect();
+                    assert_eq!(energy, want, "{level:?} m {m} n {n}");
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&one), bits(&batch), "{level:?} m {m} n {n} rows {rows}");
+                }
             }
         }
     }

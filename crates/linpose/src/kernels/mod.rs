@@ -13,6 +13,45 @@ pub mod peak;
 pub mod scan;
 pub mod syrk;
 
+/// f32 values that start on a 64-byte boundary (a cache line, one AVX-512 vector), so that a
+/// kernel can load them aligned in place instead of copying them ([`dot_u8::dots_batch`] reads
+/// model weights this way). Read-only once made; a clone is aligned afresh.
+#[derive(Default)]
+pub struct AlignedF32 {
+    buf: Vec<f32>,
+    off: usize,
+    len: usize,
+}
+
+impl AlignedF32 {
+    /// A 64-byte aligned copy of `v`.
+    pub fn new(v: &[f32]) -> Self {
+        let mut buf = vec![0f32; v.len() + 15];
+        let off = buf.as_ptr().align_offset(64).min(15);
+        buf[off..off + v.len()].copy_from_slice(v);
+        AlignedF32 { buf, off, len: v.len() }
+    }
+}
+
+impl std::ops::Deref for AlignedF32 {
+    type Target = [f32];
+    fn deref(&self) -> &[f32] {
+        &self.buf[self.off..self.off + self.len]
+    }
+}
+
+impl Clone for AlignedF32 {
+    fn clone(&self) -> Self {
+        AlignedF32::new(self)
+    }
+}
+
+impl std::fmt::Debug for AlignedF32 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
 /// Fixtures shared by the Gram kernels' tests.
 #[cfg(test)]
 mod test_data {

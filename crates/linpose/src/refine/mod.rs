@@ -70,7 +70,7 @@ pub mod surface;
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
-use crate::kernels::{dot_u8, Level};
+use crate::kernels::{dot_u8, AlignedF32, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
@@ -349,8 +349,9 @@ pub struct RefinedModel {
     meta: ModelMeta,
     settings: RefinedSettings,
     /// The L eigenimages (rows of M, scaled), then the mean image: one matrix, so that a query's
-    /// products with both (the mean's for its residual) are one pass over it.
-    rows: Vec<f32>,
+    /// products with both (the mean's for its residual) are one pass over it; 64-byte aligned,
+    /// so the 8-bit products read it in place.
+    rows: AlignedF32,
     /// M, the pixels of an image.
     m: usize,
     mean_proj: Vec<f32>,
@@ -484,7 +485,7 @@ impl RefinedModel {
         Ok(RefinedModel {
             meta,
             settings,
-            rows: [basis, mean].concat(),
+            rows: AlignedF32::new(&[basis, mean].concat()),
             m,
             mean_proj,
             mean_sq,
