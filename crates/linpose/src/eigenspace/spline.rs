@@ -109,6 +109,7 @@ impl Spline {
 
     /// [`Spline::weights`] with their derivatives in `t`: (weights, d weights / dt, i, j), so
     /// that value' = dw_y0 y_i + dw_s0 s_i + dw_y1 y_j + dw_s1 s_j.
+    #[inline]
     pub fn weights_d(&self, t: f64) -> ([f64; 4], [f64; 4], usize, usize) {
         let nx = self.x.len();
         if nx == 1 {
