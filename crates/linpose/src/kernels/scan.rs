@@ -23,7 +23,8 @@ pub fn sq_dist(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f3
 /// others get +inf), the first `split` coordinates summed first to rule the rest out: what a search
 /// for the closest points under twice the least distance needs, at a fraction of the cost when the
 /// leading coordinates separate the points. Every distance it gives has the bits of [`sq_dist`]'s.
-pub fn sq_dist_pruned(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+/// Returns the least distance.
+pub fn sq_dist_pruned(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
     match level {
         #[cfg(target_arch = "x86_64")]
         Level::Avx512 => unsafe { x86::sq_dist_pruned_avx512(cols, y, wt, dist, split) },
@@ -76,53 +77,71 @@ fn add_sq(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], q0: usize, a
 }
 
 /// [`sq_dist`] for the points that can lie within twice the least distance, +inf for the
-/// others: the sums over the first `split` coordinates first (a lower bound of each point's
-/// distance), then the whole distance u of the point of least partial sum, which bounds the least
-/// distance; the remaining coordinates are added only in blocks holding a partial sum within
-/// 2 u. A point's distance, when computed, has the bits of [`sq_dist`]'s (the same terms added
-/// in the same order); every point within twice the least distance is computed, the least
-/// included.
+/// others; returns the least distance. First the sums over the first `split` coordinates (a lower
+/// bound of each point's distance), then the whole distance u of the point of least partial sum,
+/// which bounds the least distance; the remaining coordinates are added only in blocks holding a
+/// partial sum within 2 u. A point's distance, when computed, has the bits of [`sq_dist`]'s (the
+/// same terms added in the same order); every point within twice the least distance is
+/// computed, the least included.
 #[inline(always)]
-fn sq_dist_pruned_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+fn sq_dist_pruned_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
     let n = dist.len();
     let split = split.min(y.len());
+    let mut lanes = [f32::INFINITY; 17];
     for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
         let mut acc = [0f32; BLOCK];
         add_sq(cols, n, b * BLOCK, &y[..split], &wt[..split], 0, &mut acc[..out.len()]);
         out.copy_from_slice(&acc[..out.len()]);
+        lane_min(&mut lanes, &acc[..out.len()]);
     }
-    let Some(first) = argmin(dist) else { return };
-    let mut whole = [dist[first]];
-    add_sq(cols, n, first, y, wt, split, &mut whole);
-    let bound = 2.0 * whole[0].max(0.0) + f32::MIN_POSITIVE;
+    let least = reduce_min(&lanes);
+    // The first point of least partial sum: its block of 16 tested without branches, then its
+    // place there.
+    let first = dist.chunks(16).position(|c| c.iter().fold(false, |hit, &x| hit | (x == least)));
+    let bound = match first.and_then(|b| dist[16 * b..].iter().position(|&x| x == least).map(|i| 16 * b + i)) {
+        Some(first) => {
+            let mut whole = [dist[first]];
+            add_sq(cols, n, first, y, wt, split, &mut whole);
+            2.0 * whole[0].max(0.0) + f32::MIN_POSITIVE
+        }
+        // No finite partial sum: nothing is ruled out.
+        None => f32::INFINITY,
+    };
+    let mut lanes = [f32::INFINITY; 17];
     for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
-        if out.iter().fold(false, |hit, &v| hit | (v <= bound)) {
+        if out.iter().fold(false, |hit, &v| hit | !(v > bound)) {
             let mut acc = [0f32; BLOCK];
             acc[..out.len()].copy_from_slice(out);
             add_sq(cols, n, b * BLOCK, y, wt, split, &mut acc[..out.len()]);
             out.copy_from_slice(&acc[..out.len()]);
+            lane_min(&mut lanes, &acc[..out.len()]);
         } else {
             out.fill(f32::INFINITY);
         }
     }
+    reduce_min(&lanes)
 }
 
-/// The index of the least of `v` (the first of equals; None when empty or all NaN), vectorised in
-/// 16 lanes.
+/// `lanes[k] = min(lanes[k], v[16 i + k])` over every whole 16 values of `v`, and the rest's
+/// least into lane 16 (NaN ignored): the lanes stay in a register, no partial stores.
 #[inline(always)]
-fn argmin(v: &[f32]) -> Option<usize> {
-    let mut lanes = [f32::INFINITY; 16];
+fn lane_min(lanes: &mut [f32; 17], v: &[f32]) {
+    let mut m: [f32; 16] = lanes[..16].try_into().expect("16 lanes");
     let chunks = v.chunks_exact(16);
-    let tail = chunks.remainder().iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
+    let rest = chunks.remainder().iter().fold(lanes[16], |a, &b| if b < a { b } else { a });
     for c in chunks {
         for k in 0..16 {
-            lanes[k] = if c[k] < lanes[k] { c[k] } else { lanes[k] };
+            m[k] = if c[k] < m[k] { c[k] } else { m[k] };
         }
     }
-    let lo = lanes.iter().fold(tail, |a, &b| if b < a { b } else { a });
-    // The first block of 16 holding it (tested without branches), then its place there.
-    let b = v.chunks(16).position(|c| c.iter().fold(false, |hit, &x| hit | (x == lo)));
-    b.and_then(|b| v[16 * b..].iter().position(|&x| x == lo).map(|i| 16 * b + i)).or_else(|| v.iter().position(|x| !x.is_nan()))
+    lanes[..16].copy_from_slice(&m);
+    lanes[16] = rest;
+}
+
+/// The least of the lanes.
+#[inline(always)]
+fn reduce_min(lanes: &[f32; 17]) -> f32 {
+    lanes.iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a })
 }
 
 #[inline(always)]
@@ -156,14 +175,14 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn sq_dist_pruned_avx2(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+    pub unsafe fn sq_dist_pruned_avx2(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
         sq_dist_pruned_portable(cols, y, wt, dist, split)
     }
 
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn sq_dist_pruned_avx512(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) {
+    pub unsafe fn sq_dist_pruned_avx512(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
         sq_dist_pruned_portable(cols, y, wt, dist, split)
     }
 
@@ -239,7 +258,8 @@ mod tests {
             for level in Level::supported() {
                 for split in [0, 1, 3, l, l + 2] {
                     let mut d = vec![f32::NAN; n];
-                    sq_dist_pruned(level, &cols, &y, &wt, &mut d, split);
+                    let least = sq_dist_pruned(level, &cols, &y, &wt, &mut d, split);
+                    assert_eq!(least.to_bits(), lo.to_bits());
                     let mut ruled_out = 0;
                     for i in 0..n {
                         if d[i] == f32::INFINITY && full[i] > 2.0 * lo {

@@ -640,8 +640,8 @@ impl RefinedModel {
             w32.extend(wt.iter().map(|&w| w as f32));
             // Every coarse point's distance, then the k closest.
             dist.resize(self.start_len(), 0.0);
-            crate::kernels::scan::sq_dist_pruned(Level::detect(), &self.start_points, y, w32, dist, SCAN_SPLIT);
-            let best = smallest(dist, k);
+            let lo = crate::kernels::scan::sq_dist_pruned(Level::detect(), &self.start_points, y, w32, dist, SCAN_SPLIT);
+            let best = smallest_under(dist, k, lo);
             buf.resize((d + 2) * l, 0.0);
             let mut best_cost = f64::INFINITY;
             for i in self.distinct_starts(&best) {
@@ -827,8 +827,8 @@ pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
     pixel_variance_body(x, w, h, ch)
 }
 
-/// The bodies of [`pixel_variance`] and [`pixel_variance_u8`] compiled for AVX-512 (the same
-/// operations in the same order: the same bits, in wider vectors).
+/// The bodies of [`pixel_variance`], [`pixel_variance_u8`] and [`smallest`] compiled for
+/// AVX-512 (the same operations in the same order: the same bits, in wider vectors).
 #[cfg(target_arch = "x86_64")]
 mod simd {
     /// # Safety
@@ -843,6 +843,13 @@ mod simd {
     #[target_feature(enable = "avx512f,avx512bw")]
     pub unsafe fn pixel_variance_u8_avx512(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
         super::pixel_variance_u8_body(x, w, h, ch)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX-512 F and BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn smallest_avx512(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
+        super::smallest_body(dist, k, lo)
     }
 }
 
@@ -959,15 +966,35 @@ const NOISE_ROW_STEP: usize = 8;
 /// lower index). Two passes: the minimum (vectorised), then the few points under twice it.
 /// `k` is at least 1.
 fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
-    let mut lanes = [f32::INFINITY; 16];
-    let chunks = dist.chunks_exact(16);
-    let tail = chunks.remainder().iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
-    for c in chunks {
-        for k in 0..16 {
-            lanes[k] = if c[k] < lanes[k] { c[k] } else { lanes[k] };
-        }
+    smallest_under(dist, k, f32::NAN)
+}
+
+/// [`smallest`] given the least of `dist`, `lo` (NaN: not known, found first).
+fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
+    #[cfg(target_arch = "x86_64")]
+    if Level::detect() == Level::Avx512 {
+        // SAFETY: the CPU supports AVX-512 F/BW (detected).
+        return unsafe { simd::smallest_avx512(dist, k, lo) };
     }
-    let lo = lanes.iter().fold(tail, |a, &b| if b < a { b } else { a });
+    smallest_body(dist, k, lo)
+}
+
+/// The body of [`smallest_under`] (compiled for AVX-512 too: comparisons only, the same result).
+#[inline(always)]
+fn smallest_body(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
+    let lo = if lo.is_nan() {
+        let mut lanes = [f32::INFINITY; 16];
+        let chunks = dist.chunks_exact(16);
+        let tail = chunks.remainder().iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
+        for c in chunks {
+            for k in 0..16 {
+                lanes[k] = if c[k] < lanes[k] { c[k] } else { lanes[k] };
+            }
+        }
+        lanes.iter().fold(tail, |a, &b| if b < a { b } else { a })
+    } else {
+        lo
+    };
     let cut = 2.0 * lo.max(0.0) + f32::MIN_POSITIVE;
     let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
     // Blocks of 16 tested without branches first: few hold a point under the cut.
