@@ -279,3 +279,35 @@ fn u8_queries_match_f32_queries() {
     assert!(model.predict_u8_into(&vec![0u8; m], &mut one).is_err(), "a black image is refused");
     assert!(model.predict_u8_into(&q8[..m - 1], &mut one).is_err(), "a short image is refused");
 }
+
+/// The 8-bit pixel-noise estimate (i16 lanes, u32 sums) is exact: it equals the mask responses
+/// summed plainly in i64, on random images and on a 0 / 255 checkerboard, whose responses reach
+/// the extreme +-2040, grey and in 3 channels.
+#[test]
+fn the_8_bit_pixel_variance_is_exact() {
+    let reference = |x: &[u8], w: usize, h: usize, ch: usize| -> f64 {
+        let at = |yy: usize, i: usize| x[yy * w * ch + i] as i64;
+        let (mut sum, mut count) = (0i64, 0usize);
+        for yy in (1..h - 1).step_by(super::NOISE_ROW_STEP) {
+            let dy = |i: usize| at(yy - 1, i) - 2 * at(yy, i) + at(yy + 1, i);
+            sum += (0..w * ch - 2 * ch).map(|i| (dy(i) - 2 * dy(i + ch) + dy(i + 2 * ch)).abs()).sum::<i64>();
+            count += 1;
+        }
+        let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum as f64 / (6.0 * ((w * ch - 2 * ch) * count) as f64);
+        sigma * sigma
+    };
+    let mut state = 7u64;
+    for &(w, h, ch) in &[(160usize, 120usize, 1usize), (37, 21, 3), (3, 3, 1), (1000, 9, 1)] {
+        let random: Vec<u8> = (0..w * h * ch)
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (state >> 56) as u8
+            })
+            .collect();
+        let checker: Vec<u8> = (0..w * h * ch).map(|i| if ((i / ch) % w + i / (w * ch)) % 2 == 0 { 255 } else { 0 }).collect();
+        for x in [&random, &checker] {
+            let (got, want) = (super::pixel_variance_u8(x, w, h, ch), reference(x, w, h, ch));
+            assert_eq!(got, want, "{w} x {h} x {ch}");
+        }
+    }
+}
