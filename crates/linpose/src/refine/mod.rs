@@ -741,10 +741,11 @@ impl RefinedModel {
             }
         }
         if s.params.resolution > 0.0 {
-            let mut g = vec![0.0; ln];
-            fs.snap_by(&mut t[..d], s.params.resolution, &mut buf[..ln], |tt, f| {
-                bs.eval(tt, &mut g, None);
-                surface::affine_fit(&z, &c, &wt, f, &g).0
+            let (f, rest) = buf.split_at_mut(ln);
+            let g = &mut rest[..ln];
+            fs.snap_by(&mut t[..d], s.params.resolution, |tt| {
+                fs.eval_pair(bs, tt, f, None, g, None);
+                surface::affine_fit(&z, &c, &wt, f, g).0
             });
         }
         for (j, p) in self.meta.space.params().iter().enumerate() {

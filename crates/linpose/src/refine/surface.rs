@@ -98,18 +98,32 @@ impl Surface {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::eval_avx512(self, t, f, jac) };
         }
-        self.eval_body(t, f, jac)
+        self.eval_body(t, f, jac, None)
     }
 
-    /// The body of [`Surface::eval`]: every coordinate of the value and of the Jacobian rows
-    /// summed over the 4^D corner terms in the same order on every build (multiplications and
-    /// additions, no fused multiply-add), so the AVX-512 build gives the same bits.
+    /// [`Surface::eval`] of this surface (into `f`, `jac`) and of `other` (into `g`, `jac_g`) at
+    /// the same `t`: two surfaces on the same knots (the noisy match's f and offset g), the
+    /// spline weights and knot indices found once. Each surface's values have the bits of its
+    /// own [`Surface::eval`].
+    pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
+        assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            // SAFETY: the CPU supports AVX-512F (detected).
+            return unsafe { simd::eval_pair_avx512(self, other, t, f, jac, g, jac_g) };
+        }
+        self.eval_body(t, f, jac, Some((other, g, jac_g)))
+    }
+
+    /// The body of [`Surface::eval`] (and with `other`, of [`Surface::eval_pair`]): every
+    /// coordinate of the value and of the Jacobian rows summed over the 4^D corner terms in the
+    /// same order on every build (multiplications and additions, no fused multiply-add), so the
+    /// AVX-512 build gives the same bits.
     #[inline(always)]
-    fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>) {
+    fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<(&Surface, &mut [f64], Option<&mut [f64]>)>) {
         let d = self.params();
-        let (l, n) = (self.dim, self.shape.iter().product::<usize>());
-        let lo = f.len();
-        debug_assert!(lo <= l);
+        let n = self.shape.iter().product::<usize>();
+        debug_assert!(f.len() <= self.dim);
         let mut w = [[0f64; 4]; 8];
         let mut dw = [[0f64; 4]; 8];
         let mut idx = [[0usize; 2]; 8];
@@ -121,6 +135,12 @@ impl Surface {
         if let Some(g) = jac.as_deref_mut() {
             g.fill(0.0);
         }
+        if let Some((_, g, jg)) = other.as_mut() {
+            g.fill(0.0);
+            if let Some(jg) = jg.as_deref_mut() {
+                jg.fill(0.0);
+            }
+        }
         let mut gw = [0f64; 8];
         for combo in 0..1usize << (2 * d) {
             let (mut weight, mut knot, mut mask) = (1.0, 0, 0);
@@ -130,37 +150,15 @@ impl Surface {
                 knot += idx[j][a >> 1] * self.stride[j];
                 mask |= (a & 1) << j;
             }
-            let c = &self.coef[(mask * n + knot) * l..(mask * n + knot) * l + lo];
-            let Some(g) = jac.as_deref_mut() else {
-                f.iter_mut().zip(c).for_each(|(v, &x)| *v += weight * x as f64);
-                continue;
-            };
-            for k in 0..d {
-                gw[k] = (0..d).map(|j| if j == k { dw[j][combo >> (2 * j) & 3] } else { w[j][combo >> (2 * j) & 3] }).product();
+            if jac.is_some() || other.as_ref().is_some_and(|o| o.2.is_some()) {
+                for k in 0..d {
+                    gw[k] = (0..d).map(|j| if j == k { dw[j][combo >> (2 * j) & 3] } else { w[j][combo >> (2 * j) & 3] }).product();
+                }
             }
-            // One pass over the corner's values for the value and every Jacobian row (D = 1
-            // and 2 spelled out so the loop vectorises).
-            match d {
-                1 => f.iter_mut().zip(&mut g[..lo]).zip(c).for_each(|((v, a), &x)| {
-                    let x = x as f64;
-                    *v += weight * x;
-                    *a += gw[0] * x;
-                }),
-                2 => {
-                    let (g0, g1) = g.split_at_mut(lo);
-                    f.iter_mut().zip(g0).zip(&mut g1[..lo]).zip(c).for_each(|(((v, a), b), &x)| {
-                        let x = x as f64;
-                        *v += weight * x;
-                        *a += gw[0] * x;
-                        *b += gw[1] * x;
-                    })
-                }
-                _ => {
-                    f.iter_mut().zip(c).for_each(|(v, &x)| *v += weight * x as f64);
-                    for k in 0..d {
-                        g[k * lo..(k + 1) * lo].iter_mut().zip(c).for_each(|(v, &x)| *v += gw[k] * x as f64);
-                    }
-                }
+            let row = mask * n + knot;
+            corner_term(&self.coef[row * self.dim..], d, weight, &gw, f, jac.as_deref_mut());
+            if let Some((o, g, jg)) = other.as_mut() {
+                corner_term(&o.coef[row * o.dim..], d, weight, &gw, g, jg.as_deref_mut());
             }
         }
     }
@@ -353,8 +351,7 @@ impl Surface {
         let (jg, rest) = rest.split_at_mut(d * l);
         let (ftry, rest) = rest.split_at_mut(l);
         let gtry = &mut rest[..l];
-        self.eval(t, f, Some(jf));
-        bg.eval(t, g, Some(jg));
+        self.eval_pair(bg, t, f, Some(jf), g, Some(jg));
         let (mut cost, mut ab) = affine_fit(z, c, wt, f, g);
         let mut mu = -1.0;
         for _ in 0..MAX_ITER {
@@ -382,8 +379,7 @@ impl Surface {
             }
             let mut trial = ab;
             let Some((cst, step)) = self.damped_step(&h, &grad, &mut mu, t, cost, |cand| {
-                self.eval(cand, ftry, None);
-                bg.eval(cand, gtry, None);
+                self.eval_pair(bg, cand, ftry, None, gtry, None);
                 let (cst, abt) = affine_fit(z, c, wt, ftry, gtry);
                 trial = abt;
                 cst
@@ -394,16 +390,15 @@ impl Surface {
             if step < STEP_TOL {
                 break;
             }
-            self.eval(t, f, Some(jf));
-            bg.eval(t, g, Some(jg));
+            self.eval_pair(bg, t, f, Some(jf), g, Some(jg));
         }
         (cost, ab)
     }
 
     /// The 2^D lattice points of `step` degrees around `t` (anchored at each axis's first knot,
-    /// kept in the domain); `t` moves to the one of least `cost` (evaluated on this surface's
-    /// values there, written into `f`), which is returned.
-    pub fn snap_by(&self, t: &mut [f64], step: f64, f: &mut [f64], mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
+    /// kept in the domain); `t` moves to the one of least `cost` (which evaluates what it needs
+    /// at the pose it is given), which is returned.
+    pub fn snap_by(&self, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64]) -> f64) -> f64 {
         let d = self.params();
         let mut base = [0f64; 8];
         for j in 0..d {
@@ -416,8 +411,7 @@ impl Surface {
                 cand[j] = base[j] + step * (corner >> j & 1) as f64;
             }
             self.clamp(&mut cand[..d]);
-            self.eval(&cand[..d], f, None);
-            let c = cost(&cand[..d], f);
+            let c = cost(&cand[..d]);
             if c < best {
                 (best, out) = (c, cand);
             }
@@ -432,7 +426,45 @@ impl Surface {
     /// degrees anchored at the first knot of each axis (kept in the domain); returns its squared
     /// distance. `f` holds L values of scratch.
     pub fn snap(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
-        self.snap_by(t, step, f, |_, f| y.iter().zip(f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum())
+        self.snap_by(t, step, |cand| {
+            self.eval(cand, f, None);
+            y.iter().zip(&*f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum()
+        })
+    }
+}
+
+/// One corner's term of [`Surface::eval`]: its values `c` (at least `f.len()`) times `weight`
+/// into `f`, and times each `gw[k]` into the Jacobian rows when asked for; one pass over `c`
+/// (D = 1 and 2 spelled out so the loop vectorises).
+#[inline(always)]
+fn corner_term(c: &[f32], d: usize, weight: f64, gw: &[f64; 8], f: &mut [f64], jac: Option<&mut [f64]>) {
+    let lo = f.len();
+    let c = &c[..lo];
+    let Some(g) = jac else {
+        f.iter_mut().zip(c).for_each(|(v, &x)| *v += weight * x as f64);
+        return;
+    };
+    match d {
+        1 => f.iter_mut().zip(&mut g[..lo]).zip(c).for_each(|((v, a), &x)| {
+            let x = x as f64;
+            *v += weight * x;
+            *a += gw[0] * x;
+        }),
+        2 => {
+            let (g0, g1) = g.split_at_mut(lo);
+            f.iter_mut().zip(g0).zip(&mut g1[..lo]).zip(c).for_each(|(((v, a), b), &x)| {
+                let x = x as f64;
+                *v += weight * x;
+                *a += gw[0] * x;
+                *b += gw[1] * x;
+            })
+        }
+        _ => {
+            f.iter_mut().zip(c).for_each(|(v, &x)| *v += weight * x as f64);
+            for k in 0..d {
+                g[k * lo..(k + 1) * lo].iter_mut().zip(c).for_each(|(v, &x)| *v += gw[k] * x as f64);
+            }
+        }
     }
 }
 
@@ -443,8 +475,15 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
+    pub unsafe fn eval_pair_avx512(s: &Surface, o: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
+        s.eval_body(t, f, jac, Some((o, g, jac_g)))
+    }
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
     pub unsafe fn eval_avx512(s: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
-        s.eval_body(t, f, jac)
+        s.eval_body(t, f, jac, None)
     }
 }
 

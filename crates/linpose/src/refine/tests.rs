@@ -57,6 +57,31 @@ fn surface_resamples_to_the_eigenspace_manifold() {
     }
 }
 
+/// Two surfaces on the same knots evaluated together give each one's own bits, values and
+/// Jacobians, in full and on fewer coordinates.
+#[test]
+fn a_pair_of_surfaces_evaluates_as_each_alone() {
+    let d = train_set();
+    let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
+    let n = g.sample_at.len();
+    let a: Vec<f64> = (0..n * 5).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
+    let b: Vec<f64> = (0..n * 5).map(|i| ((i * 104729) % 997) as f64 / 300.0 - 1.5).collect();
+    let (sa, sb) = (surface::Surface::new(d.space(), &g.axes, &a, 5).unwrap(), surface::Surface::new(d.space(), &g.axes, &b, 5).unwrap());
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for (k, lo) in [(0usize, 5usize), (1, 3), (2, 5), (3, 1)] {
+        let mut t = [33.3 + 9.1 * k as f64, 17.0 + 71.5 * k as f64];
+        sa.clamp(&mut t);
+        let (mut f, mut jf, mut gv, mut jg) = (vec![0.0; lo], vec![0.0; 2 * lo], vec![0.0; lo], vec![0.0; 2 * lo]);
+        sa.eval_pair(&sb, &t, &mut f, Some(&mut jf), &mut gv, Some(&mut jg));
+        let (mut f1, mut jf1, mut g1, mut jg1) = (vec![0.0; lo], vec![0.0; 2 * lo], vec![0.0; lo], vec![0.0; 2 * lo]);
+        sa.eval(&t, &mut f1, Some(&mut jf1));
+        sb.eval(&t, &mut g1, Some(&mut jg1));
+        assert_eq!((bits(&f), bits(&jf), bits(&gv), bits(&jg)), (bits(&f1), bits(&jf1), bits(&g1), bits(&jg1)), "pose {t:?}, {lo} coordinates");
+        sa.eval_pair(&sb, &t, &mut f, None, &mut gv, None);
+        assert_eq!((bits(&f), bits(&gv)), (bits(&f1), bits(&g1)), "values only");
+    }
+}
+
 #[test]
 fn unseen_views_are_close_and_the_file_round_trips() {
     let d = train_set();
