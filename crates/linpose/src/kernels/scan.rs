@@ -45,6 +45,31 @@ pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32]
     }
 }
 
+/// The affine match's residual at every point, in place of `u`:
+/// `u[i] = max(zz - uu^2 inv_a[i] - e^2 inv_s[i], 0)` with `uu = u[i] + ac` and
+/// `e = v[i] - b_over_a[i] uu`, in f64 (the refined eigenspace's noisy scan; the per-point
+/// sums `u`, `v` from [`dots2`]).
+#[allow(clippy::too_many_arguments)]
+pub fn affine_residuals(level: Level, u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
+    match level {
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { x86::affine_residuals_avx512(u, v, b_over_a, inv_a, inv_s, ac, zz) },
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => unsafe { x86::affine_residuals_avx2(u, v, b_over_a, inv_a, inv_s, ac, zz) },
+        _ => affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz),
+    }
+}
+
+#[inline(always)]
+fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
+    // Over zipped slices (no index checks: the loop vectorises).
+    for ((((d, &vi), &ba), &ia), &is) in u.iter_mut().zip(v).zip(b_over_a).zip(inv_a).zip(inv_s) {
+        let uu = *d as f64 + ac;
+        let e = vi as f64 - ba * uu;
+        *d = (zz - uu * uu * ia - e * e * is).max(0.0) as f32;
+    }
+}
+
 /// Points per block of the scans: their sums stay in registers while every coordinate's
 /// values pass (one load per point and coordinate, one store per point).
 const BLOCK: usize = 64;
@@ -170,7 +195,21 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{dots2_portable, sq_dist_portable, sq_dist_pruned_portable};
+    use super::{affine_residuals_portable, dots2_portable, sq_dist_portable, sq_dist_pruned_portable};
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn affine_residuals_avx2(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
+        affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn affine_residuals_avx512(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
+        affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz)
+    }
 
     /// # Safety
     /// The CPU must support AVX2 and FMA.
@@ -238,6 +277,29 @@ mod tests {
             let (mut u, mut v) = (vec![f32::NAN; n], vec![f32::NAN; n]);
             dots2(level, &cols, &gcols, &y, &mut u, &mut v);
             assert_eq!((u, v), (want_u.clone(), want_v.clone()), "{level:?}");
+        }
+    }
+
+    #[test]
+    fn the_affine_residuals_agree_on_every_level() {
+        let n = 133;
+        let u0: Vec<f32> = (0..n).map(|i| ((i * 7919) % 1000) as f32 / 300.0 - 1.0).collect();
+        let v: Vec<f32> = (0..n).map(|i| ((i * 104729) % 997) as f32 / 400.0 - 1.2).collect();
+        let ba: Vec<f64> = (0..n).map(|i| (i % 17) as f64 / 9.0 - 0.5).collect();
+        let ia: Vec<f64> = (0..n).map(|i| 0.5 + (i % 5) as f64 / 7.0).collect();
+        let is: Vec<f64> = (0..n).map(|i| if i % 11 == 0 { 0.0 } else { 1.0 + (i % 3) as f64 }).collect();
+        let (ac, zz) = (0.37, 9.5);
+        let want: Vec<f32> = (0..n)
+            .map(|i| {
+                let uu = u0[i] as f64 + ac;
+                let e = v[i] as f64 - ba[i] * uu;
+                (zz - uu * uu * ia[i] - e * e * is[i]).max(0.0) as f32
+            })
+            .collect();
+        for level in Level::supported() {
+            let mut u = u0.clone();
+            affine_residuals(level, &mut u, &v, &ba, &ia, &is, ac, zz);
+            assert_eq!(u, want, "{level:?}");
         }
     }
 

@@ -436,12 +436,7 @@ impl NoiseScan {
         let zz: f64 = z.iter().zip(&self.w0).map(|(&zq, &w)| w as f64 * zq * zq).sum();
         let (mut u, mut v) = (vec![0f32; n], vec![0f32; n]);
         crate::kernels::scan::dots2(crate::kernels::Level::detect(), &cols[..ln * n], &gcols[..ln * n], &a, &mut u, &mut v);
-        // In place, over zipped slices (no index checks: the loop vectorises).
-        for ((((d, &vi), &ba), &ia), &is) in u.iter_mut().zip(&v).zip(&self.b_over_a).zip(&self.inv_a).zip(&self.inv_s) {
-            let uu = *d as f64 + ac;
-            let e = vi as f64 - ba * uu;
-            *d = (zz - uu * uu * ia - e * e * is).max(0.0) as f32;
-        }
+        crate::kernels::scan::affine_residuals(crate::kernels::Level::detect(), &mut u, &v, &self.b_over_a, &self.inv_a, &self.inv_s, ac, zz);
         u
     }
 }
