@@ -36,12 +36,20 @@ pub fn sq_dist_pruned(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &
 
 /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]` (rows of `u.len()` values).
 pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
+    dots2_at(level, cols, gcols, u.len(), 0, a, u, v)
+}
+
+/// [`dots2`] for the points `i0..i0 + u.len()` of rows of `n` values: the same bits as the whole
+/// scan's at those points.
+#[allow(clippy::too_many_arguments)]
+pub fn dots2_at(level: Level, cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+    assert!(i0 + u.len() <= n && u.len() == v.len(), "points inside the rows");
     match level {
         #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::dots2_avx512(cols, gcols, a, u, v) },
+        Level::Avx512 => unsafe { x86::dots2_avx512(cols, gcols, n, i0, a, u, v) },
         #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { x86::dots2_avx2(cols, gcols, a, u, v) },
-        _ => dots2_portable(cols, gcols, a, u, v),
+        Level::Avx2 => unsafe { x86::dots2_avx2(cols, gcols, n, i0, a, u, v) },
+        _ => dots2_portable(cols, gcols, n, i0, a, u, v),
     }
 }
 
@@ -68,6 +76,25 @@ fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: 
         let e = vi as f64 - ba * uu;
         *d = (zz - uu * uu * ia - e * e * is).max(0.0) as f32;
     }
+}
+
+/// The index of the least of `v` (the first of equals; None when empty or all NaN).
+pub fn argmin(level: Level, v: &[f32]) -> Option<usize> {
+    match level {
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { x86::argmin_avx512(v) },
+        _ => argmin_portable(v),
+    }
+}
+
+#[inline(always)]
+fn argmin_portable(v: &[f32]) -> Option<usize> {
+    let mut lanes = [f32::INFINITY; 17];
+    lane_min(&mut lanes, v);
+    let least = reduce_min(&lanes);
+    // Its block of 16 tested without branches, then its place there.
+    let b = v.chunks(16).position(|c| c.iter().fold(false, |hit, &x| hit | (x == least)));
+    b.and_then(|b| v[16 * b..].iter().position(|&x| x == least).map(|i| 16 * b + i))
 }
 
 /// Points per block of the scans: their sums stay in registers while every coordinate's
@@ -170,10 +197,9 @@ fn reduce_min(lanes: &[f32; 17]) -> f32 {
 }
 
 #[inline(always)]
-fn dots2_portable(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
-    let n = u.len();
+fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
     for (b, (uo, vo)) in u.chunks_mut(BLOCK).zip(v.chunks_mut(BLOCK)).enumerate() {
-        let (i0, len) = (b * BLOCK, uo.len());
+        let (i0, len) = (first + b * BLOCK, uo.len());
         let (mut su, mut sv) = ([0f32; BLOCK], [0f32; BLOCK]);
         for ((col, gcol), &aq) in cols.chunks_exact(n).zip(gcols.chunks_exact(n)).zip(a) {
             let (c, g) = (&col[i0..i0 + len], &gcol[i0..i0 + len]);
@@ -195,7 +221,14 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{affine_residuals_portable, dots2_portable, sq_dist_portable, sq_dist_pruned_portable};
+    use super::{affine_residuals_portable, argmin_portable, dots2_portable, sq_dist_portable, sq_dist_pruned_portable};
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn argmin_avx512(v: &[f32]) -> Option<usize> {
+        argmin_portable(v)
+    }
 
     /// # Safety
     /// The CPU must support AVX2 and FMA.
@@ -242,15 +275,17 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn dots2_avx2(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
-        dots2_portable(cols, gcols, a, u, v)
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn dots2_avx2(cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+        dots2_portable(cols, gcols, n, i0, a, u, v)
     }
 
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn dots2_avx512(cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
-        dots2_portable(cols, gcols, a, u, v)
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn dots2_avx512(cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+        dots2_portable(cols, gcols, n, i0, a, u, v)
     }
 }
 
@@ -276,7 +311,26 @@ mod tests {
             assert_eq!(d, want, "{level:?}");
             let (mut u, mut v) = (vec![f32::NAN; n], vec![f32::NAN; n]);
             dots2(level, &cols, &gcols, &y, &mut u, &mut v);
-            assert_eq!((u, v), (want_u.clone(), want_v.clone()), "{level:?}");
+            assert_eq!((&u, &v), (&want_u, &want_v), "{level:?}");
+            // A range of points (not on a block boundary) gives the same bits.
+            let (mut ur, mut vr) = (vec![f32::NAN; 70], vec![f32::NAN; 70]);
+            dots2_at(level, &cols, &gcols, n, 37, &y, &mut ur, &mut vr);
+            assert_eq!((&ur[..], &vr[..]), (&want_u[37..107], &want_v[37..107]), "{level:?}");
+        }
+    }
+
+    #[test]
+    fn argmin_finds_the_first_least() {
+        for level in Level::supported() {
+            assert_eq!(argmin(level, &[]), None);
+            assert_eq!(argmin(level, &[f32::NAN, f32::NAN]), None);
+            let v: Vec<f32> = (0..100).map(|i| ((i * 37) % 101) as f32).collect();
+            assert_eq!(argmin(level, &v), Some(0));
+            let mut w: Vec<f32> = (0..70).map(|i| 5.0 + (i % 7) as f32).collect();
+            (w[33], w[50], w[12]) = (1.0, 1.0, f32::NAN);
+            assert_eq!(argmin(level, &w), Some(33), "{level:?}");
+            w[69] = -1.0;
+            assert_eq!(argmin(level, &w), Some(69), "{level:?}");
         }
     }
 

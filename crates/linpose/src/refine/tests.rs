@@ -336,3 +336,32 @@ fn the_8_bit_pixel_variance_is_exact() {
         }
     }
 }
+
+/// The noisy scan's pruned pass gives the full pass's bits at every coarse point within twice
+/// the least residual (the only ones the starts are taken from), and rules most others out.
+#[test]
+fn the_noisy_scan_keeps_every_point_within_twice_the_least() {
+    let d = train_set();
+    let model = RefinedParams::default().components(12).fit(&d).unwrap();
+    let ns = &model.noise_scan;
+    let ln = ns.w0.len();
+    assert!(ns.split > 0 && ns.split < ln, "split {} of {ln}", ns.split);
+    let n = model.start_len();
+    let c: Vec<f64> = model.mean_proj[..ln].iter().map(|&v| v as f64).collect();
+    let mut ruled_out = 0;
+    for (k, at) in [0usize, n / 3, n / 2, n - 1].into_iter().enumerate() {
+        // A coarse point's coordinates, scaled (a gain) and perturbed (noise), mean added back.
+        let z: Vec<f64> = (0..ln).map(|q| 0.9 * (model.start_points[q * n + at] as f64 + c[q]) + 0.01 * ((q * 7 + k) % 5) as f64 - 0.02).collect();
+        let all = ns.scan_all(&model.start_points, &model.bg_start, &z, &c);
+        let pruned = ns.scan(&model.start_points, &model.bg_start, &z, &c);
+        let lo = all.iter().cloned().fold(f32::INFINITY, f32::min);
+        for i in 0..n {
+            if pruned[i] == f32::INFINITY && all[i] > 2.0 * lo {
+                ruled_out += 1;
+            } else {
+                assert_eq!(pruned[i].to_bits(), all[i].to_bits(), "point {i}, query {k}");
+            }
+        }
+    }
+    assert!(ruled_out > n, "only {ruled_out} of {} ruled out", 4 * n);
+}
