@@ -52,14 +52,17 @@
 //! shrink with them (duck: 12 of 20).
 //!
 //! Cost of a query: the projection on those L eigenimages and the mean (whose product gives the
-//! residual), by the eigenspace's own kernels (one f32 product per batch chunk; for 8-bit images
-//! [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same pass), the
-//! sampled pixel-noise pass ([`pixel_variance`], [`pixel_variance_u8`]), a scan of the coarse
-//! points in register blocks ([`crate::kernels::scan`]; for a noisy query two products per
-//! point, the affine fit's per-point products being stored), and Levenberg-Marquardt from the
-//! distinct closest ones only (a start next to a closer one on the coarse grid shares its
-//! basin). bench/beyond_compare.py measures it against the eigenspace; BENCHMARKS.md holds the
-//! figures.
+//! residual), by the eigenspace's own kernels (one f32 product per sub-chunk of a batch; for
+//! 8-bit images [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same
+//! pass), in sub-chunks small enough that the images are still cached for the sampled pixel-noise
+//! pass ([`pixel_variance`], [`pixel_variance_u8`]); a scan of the coarse points in register
+//! blocks ([`crate::kernels::scan`]) that rules most of them out on the leading coordinates first
+//! (a partial sum, or for a noisy query the affine fit on the first half of 16 or more
+//! coordinates, bounds the whole from below; every point within twice the least is still scored
+//! exactly); and Levenberg-Marquardt from the distinct closest ones only (a start next to a
+//! closer one on the coarse grid shares its basin), the noisy match evaluating its two surfaces
+//! together ([`surface::Surface::eval_pair`]). bench/beyond_compare.py measures it against the
+//! eigenspace; BENCHMARKS.md holds the figures.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
