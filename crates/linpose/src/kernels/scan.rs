@@ -19,21 +19,6 @@ pub fn sq_dist(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f3
     }
 }
 
-/// As [`sq_dist`], but only for the points that can lie within twice the least distance (the
-/// others get +inf), the first `split` coordinates summed first to rule the rest out: what a search
-/// for the closest points under twice the least distance needs, at a fraction of the cost when the
-/// leading coordinates separate the points. Every distance it gives has the bits of [`sq_dist`]'s.
-/// Returns the least distance.
-pub fn sq_dist_pruned(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::sq_dist_pruned_avx512(cols, y, wt, dist, split) },
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { x86::sq_dist_pruned_avx2(cols, y, wt, dist, split) },
-        _ => sq_dist_pruned_portable(cols, y, wt, dist, split),
-    }
-}
-
 /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]` (rows of `u.len()` values).
 pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
     dots2_at(level, cols, gcols, u.len(), 0, a, u, v)
@@ -76,6 +61,107 @@ fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: 
         let e = vi as f64 - ba * uu;
         *d = (zz - uu * uu * ia - e * e * is).max(0.0) as f32;
     }
+}
+
+/// Points per box of [`boxes`] and [`sq_dist_boxed`]: one AVX-512 vector.
+pub const BOX: usize = 16;
+
+/// The bounding boxes of every [`BOX`] consecutive points (the last box maybe fewer) in the
+/// first `split` rows of `cols` (rows of `n` values): for each row q, the boxes' least values,
+/// then their greatest (`2 split` rows of `n.div_ceil(BOX)`).
+pub fn boxes(cols: &[f32], n: usize, split: usize) -> Vec<f32> {
+    let nb = n.div_ceil(BOX);
+    let mut out = vec![0f32; 2 * split * nb];
+    for (q, col) in cols.chunks_exact(n).take(split).enumerate() {
+        for (b, c) in col.chunks(BOX).enumerate() {
+            out[2 * q * nb + b] = c.iter().fold(f32::INFINITY, |a, &v| a.min(v));
+            out[(2 * q + 1) * nb + b] = c.iter().fold(f32::NEG_INFINITY, |a, &v| a.max(v));
+        }
+    }
+    out
+}
+
+/// [`sq_dist`] for the points that can lie within twice the least distance, +inf for the
+/// others; returns the least distance. Each box of [`BOX`] points ([`boxes`], over the first
+/// `split` coordinates) gets a lower bound of its points' distances: the weighted squared
+/// distance from the query to the box in those coordinates, the same terms as a point's in the
+/// same order, each no larger (rounding is monotone), so no larger than any of its points'
+/// sums. The points of the box of least bound are scored in full; twice their least distance
+/// bounds the cut, and only boxes whose bound is within it are scored. Every distance given has
+/// the bits of [`sq_dist`]'s. `lb` is scratch.
+#[allow(clippy::too_many_arguments)]
+pub fn sq_dist_boxed(level: Level, cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
+    match level {
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { x86::sq_dist_boxed_avx512(cols, boxes, split, y, wt, dist, lb) },
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx2 => unsafe { x86::sq_dist_boxed_avx2(cols, boxes, split, y, wt, dist, lb) },
+        _ => sq_dist_boxed_portable(cols, boxes, split, y, wt, dist, lb),
+    }
+}
+
+#[inline(always)]
+fn sq_dist_boxed_portable(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
+    let n = dist.len();
+    let nb = n.div_ceil(BOX);
+    let split = split.min(y.len());
+    assert!(boxes.len() >= 2 * split * nb, "a box for every {BOX} points");
+    lb.clear();
+    lb.resize(nb, 0.0);
+    for q in 0..split {
+        let (w, yc) = (wt[q], y[q]);
+        if w == 0.0 {
+            continue;
+        }
+        let (lo, hi) = (&boxes[2 * q * nb..(2 * q + 1) * nb], &boxes[(2 * q + 1) * nb..(2 * q + 2) * nb]);
+        for ((l, &a), &b) in lb.iter_mut().zip(lo).zip(hi) {
+            // The distance to [a, b] is 0 inside, the nearer end's outside.
+            let d = if yc < a { a - yc } else if yc > b { yc - b } else { 0.0 };
+            *l += w * (d * d);
+        }
+    }
+    let Some(first) = argmin_portable(lb) else {
+        // No finite bound (a NaN query): score everything.
+        dist.chunks_mut(BOX).enumerate().for_each(|(b, out)| score_box(cols, n, b, y, wt, out));
+        return dist.iter().fold(f32::INFINITY, |a, &v| if v < a { v } else { a });
+    };
+    let fb = &mut dist[first * BOX..((first + 1) * BOX).min(n)];
+    score_box(cols, n, first, y, wt, fb);
+    let u = fb.iter().fold(f32::INFINITY, |a, &v| if v < a { v } else { a });
+    let cut = 2.0 * u.max(0.0) + f32::MIN_POSITIVE;
+    let mut lanes = [f32::INFINITY; 17];
+    for (b, out) in dist.chunks_mut(BOX).enumerate() {
+        if !(lb[b] > cut) {
+            if b != first {
+                score_box(cols, n, b, y, wt, out);
+            }
+            lane_min(&mut lanes, out);
+        } else {
+            out.fill(f32::INFINITY);
+        }
+    }
+    reduce_min(&lanes)
+}
+
+/// The distances of box `b`'s points (`out`, [`BOX`] or fewer), every coordinate.
+#[inline(always)]
+fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut [f32]) {
+    let mut acc = [0f32; BOX];
+    let len = out.len();
+    match <&mut [f32; BOX]>::try_from(&mut acc[..len]) {
+        // A whole box: a fixed length, so the sums stay in one register.
+        Ok(a) => {
+            for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
+                if w == 0.0 {
+                    continue;
+                }
+                let seg: &[f32; BOX] = col[b * BOX..(b + 1) * BOX].try_into().expect("a whole box");
+                (0..BOX).for_each(|k| a[k] += w * ((seg[k] - yc) * (seg[k] - yc)));
+            }
+        }
+        Err(_) => add_sq(cols, n, b * BOX, y, wt, 0, &mut acc[..len]),
+    }
+    out.copy_from_slice(&acc[..len]);
 }
 
 /// The index of the least of `v` (the first of equals; None when empty or all NaN).
@@ -128,52 +214,6 @@ fn add_sq(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], q0: usize, a
     }
 }
 
-/// [`sq_dist`] for the points that can lie within twice the least distance, +inf for the
-/// others; returns the least distance. First the sums over the first `split` coordinates (a lower
-/// bound of each point's distance), then the whole distance u of the point of least partial sum,
-/// which bounds the least distance; the remaining coordinates are added only in blocks holding a
-/// partial sum within 2 u. A point's distance, when computed, has the bits of [`sq_dist`]'s (the
-/// same terms added in the same order); every point within twice the least distance is
-/// computed, the least included.
-#[inline(always)]
-fn sq_dist_pruned_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
-    let n = dist.len();
-    let split = split.min(y.len());
-    let mut lanes = [f32::INFINITY; 17];
-    for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
-        let mut acc = [0f32; BLOCK];
-        add_sq(cols, n, b * BLOCK, &y[..split], &wt[..split], 0, &mut acc[..out.len()]);
-        out.copy_from_slice(&acc[..out.len()]);
-        lane_min(&mut lanes, &acc[..out.len()]);
-    }
-    let least = reduce_min(&lanes);
-    // The first point of least partial sum: its block of 16 tested without branches, then its
-    // place there.
-    let first = dist.chunks(16).position(|c| c.iter().fold(false, |hit, &x| hit | (x == least)));
-    let bound = match first.and_then(|b| dist[16 * b..].iter().position(|&x| x == least).map(|i| 16 * b + i)) {
-        Some(first) => {
-            let mut whole = [dist[first]];
-            add_sq(cols, n, first, y, wt, split, &mut whole);
-            2.0 * whole[0].max(0.0) + f32::MIN_POSITIVE
-        }
-        // No finite partial sum: nothing is ruled out.
-        None => f32::INFINITY,
-    };
-    let mut lanes = [f32::INFINITY; 17];
-    for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
-        if out.iter().fold(false, |hit, &v| hit | !(v > bound)) {
-            let mut acc = [0f32; BLOCK];
-            acc[..out.len()].copy_from_slice(out);
-            add_sq(cols, n, b * BLOCK, y, wt, split, &mut acc[..out.len()]);
-            out.copy_from_slice(&acc[..out.len()]);
-            lane_min(&mut lanes, &acc[..out.len()]);
-        } else {
-            out.fill(f32::INFINITY);
-        }
-    }
-    reduce_min(&lanes)
-}
-
 /// `lanes[k] = min(lanes[k], v[16 i + k])` over every whole 16 values of `v`, and the rest's
 /// least into lane 16 (NaN ignored): the lanes stay in a register, no partial stores.
 #[inline(always)]
@@ -221,7 +261,23 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32]
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{affine_residuals_portable, argmin_portable, dots2_portable, sq_dist_portable, sq_dist_pruned_portable};
+    use super::{affine_residuals_portable, argmin_portable, dots2_portable, sq_dist_boxed_portable, sq_dist_portable};
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn sq_dist_boxed_avx2(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
+        sq_dist_boxed_portable(cols, boxes, split, y, wt, dist, lb)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    #[allow(clippy::too_many_arguments)]
+    pub unsafe fn sq_dist_boxed_avx512(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
+        sq_dist_boxed_portable(cols, boxes, split, y, wt, dist, lb)
+    }
 
     /// # Safety
     /// The CPU must support AVX-512F.
@@ -242,20 +298,6 @@ mod x86 {
     #[target_feature(enable = "avx512f")]
     pub unsafe fn affine_residuals_avx512(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
         affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn sq_dist_pruned_avx2(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
-        sq_dist_pruned_portable(cols, y, wt, dist, split)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn sq_dist_pruned_avx512(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32], split: usize) -> f32 {
-        sq_dist_pruned_portable(cols, y, wt, dist, split)
     }
 
     /// # Safety
@@ -357,11 +399,11 @@ mod tests {
         }
     }
 
-    /// The pruned scan gives the full scan's bits for every point within twice the least
-    /// distance (and +inf or the same bits elsewhere), on clustered points where most blocks are
-    /// ruled out, for every split and level.
+    /// The boxed scan gives the full scan's bits for every point within twice the least
+    /// distance (and +inf or the same bits elsewhere), on points along a curve where most boxes
+    /// are ruled out, for every split and level.
     #[test]
-    fn the_pruned_scan_keeps_every_point_within_twice_the_least() {
+    fn the_boxed_scan_keeps_every_point_within_twice_the_least() {
         let (n, l) = (700, 9);
         // Points along a curve, so that a query near one part of it rules out most blocks.
         let cols: Vec<f32> = (0..l).flat_map(|q| (0..n).map(move |i| ((i as f32 * 0.013 * (q + 1) as f32).sin() + 0.01 * ((i * 31 + q * 7) % 13) as f32) / (q + 1) as f32)).collect();
@@ -373,19 +415,20 @@ mod tests {
             let lo = full.iter().cloned().fold(f32::INFINITY, f32::min);
             for level in Level::supported() {
                 for split in [0, 1, 3, l, l + 2] {
+                    let bx = boxes(&cols, n, split.min(l));
                     let mut d = vec![f32::NAN; n];
-                    let least = sq_dist_pruned(level, &cols, &y, &wt, &mut d, split);
-                    assert_eq!(least.to_bits(), lo.to_bits());
-                    let mut ruled_out = 0;
+                    let least = sq_dist_boxed(level, &cols, &bx, split, &y, &wt, &mut d, &mut Vec::new());
+                    assert_eq!(least.to_bits(), lo.to_bits(), "boxed: query {qi}, split {split}");
+                    let mut boxed_out = 0;
                     for i in 0..n {
                         if d[i] == f32::INFINITY && full[i] > 2.0 * lo {
-                            ruled_out += 1;
+                            boxed_out += 1;
                         } else {
-                            assert_eq!(d[i].to_bits(), full[i].to_bits(), "point {i}, query {qi}, split {split}, {level:?}");
+                            assert_eq!(d[i].to_bits(), full[i].to_bits(), "boxed: point {i}, query {qi}, split {split}, {level:?}");
                         }
                     }
                     if (3..l).contains(&split) {
-                        assert!(ruled_out > n / 2, "only {ruled_out} ruled out (query {qi}, split {split})");
+                        assert!(boxed_out > n / 2, "boxed: only {boxed_out} ruled out (query {qi}, split {split})");
                     }
                 }
             }
