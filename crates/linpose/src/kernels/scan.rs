@@ -156,7 +156,10 @@ fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut 
                     continue;
                 }
                 let seg: &[f32; BOX] = col[b * BOX..(b + 1) * BOX].try_into().expect("a whole box");
-                (0..BOX).for_each(|k| a[k] += w * ((seg[k] - yc) * (seg[k] - yc)));
+                // A plain loop: a closure here was compiled apart, without AVX-512.
+                for k in 0..BOX {
+                    a[k] += w * ((seg[k] - yc) * (seg[k] - yc));
+                }
             }
         }
         Err(_) => add_sq(cols, n, b * BOX, y, wt, 0, &mut acc[..len]),

@@ -1061,15 +1061,15 @@ fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
 }
 
 /// Coordinates of the coarse points' bounding boxes (see [`RefinedModel::start_boxes`]): the
-/// leading 4 rule most boxes out. perf of duck's 8-bit views, the scan's time over the product
-/// kernel's: boxes on 4 coordinates 0.33, 8 0.34, 12 0.36; the partial sums on 4 coordinates
-/// that came before them 0.44.
+/// leading 8. perf of duck's 8-bit views on one thread, the scan's samples over the product
+/// kernel's: boxes on 4 coordinates 0.48, 8 0.38 and 0.39, 12 0.43 and 0.44; the partial sums
+/// on 4 coordinates that came before them 0.47.
 fn box_split(l: usize) -> usize {
     SCAN_SPLIT.min(l)
 }
 
 /// Coordinates of the coarse points' bounding boxes ([`crate::kernels::scan::sq_dist_boxed`]).
-const SCAN_SPLIT: usize = 4;
+const SCAN_SPLIT: usize = 8;
 
 /// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
 /// [`dot_u8::BATCH_IMAGES`], and few enough that their images (19.2 KB each at 160 x 120) are
