@@ -162,7 +162,7 @@ fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut 
                 }
             }
         }
-        Err(_) => add_sq(cols, n, b * BOX, y, wt, 0, &mut acc[..len]),
+        Err(_) => add_sq(cols, n, b * BOX, y, wt, &mut acc[..len]),
     }
     out.copy_from_slice(&acc[..len]);
 }
@@ -195,24 +195,33 @@ fn sq_dist_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
     let n = dist.len();
     for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
         let mut acc = [0f32; BLOCK];
-        add_sq(cols, n, b * BLOCK, y, wt, 0, &mut acc[..out.len()]);
+        add_sq(cols, n, b * BLOCK, y, wt, &mut acc[..out.len()]);
         out.copy_from_slice(&acc[..out.len()]);
     }
 }
 
-/// Adds `wt[q] (cols[q][i0 + k] - y[q])^2` to `acc[k]` for the coordinates q = q0.. with a
-/// non-zero weight, in increasing order (`cols`: rows of `n` values).
+/// Adds `wt[q] (cols[q][i0 + k] - y[q])^2` to `acc[k]` for the coordinates with a non-zero
+/// weight, in increasing order (`cols`: rows of `n` values).
 #[inline(always)]
-fn add_sq(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], q0: usize, acc: &mut [f32]) {
+fn add_sq(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], acc: &mut [f32]) {
     let len = acc.len();
-    for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt).skip(q0) {
+    for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
         if w == 0.0 {
             continue;
         }
         let seg = &col[i0..i0 + len];
         match (<&mut [f32; BLOCK]>::try_from(&mut *acc), <&[f32; BLOCK]>::try_from(seg)) {
-            (Ok(a), Ok(seg)) => (0..BLOCK).for_each(|k| a[k] += w * ((seg[k] - yc) * (seg[k] - yc))),
-            _ => acc.iter_mut().zip(seg).for_each(|(s, &p)| *s += w * ((p - yc) * (p - yc))),
+            // Plain loops: a closure here can be compiled apart, without the caller's AVX-512.
+            (Ok(a), Ok(seg)) => {
+                for k in 0..BLOCK {
+                    a[k] += w * ((seg[k] - yc) * (seg[k] - yc));
+                }
+            }
+            _ => {
+                for (s, &p) in acc.iter_mut().zip(seg) {
+                    *s += w * ((p - yc) * (p - yc));
+                }
+            }
         }
     }
 }

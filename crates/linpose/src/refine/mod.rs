@@ -57,9 +57,9 @@
 //! pass), in sub-chunks small enough that the images are still cached for the sampled pixel-noise
 //! pass ([`pixel_variance`], [`pixel_variance_u8`]); a scan of the coarse points in register
 //! blocks ([`crate::kernels::scan`]) that rules most of them out on the leading coordinates first
-//! (a partial sum, or for a noisy query the affine fit on the first half of 16 or more
-//! coordinates, bounds the whole from below; every point within twice the least is still scored
-//! exactly); and Levenberg-Marquardt from the distinct closest ones only (a start next to a
+//! (the distance to bounding boxes of 16 coarse points in the first 8 coordinates, or for a
+//! noisy query the affine fit on the first half of 16 or more coordinates, bounds the whole from
+//! below; every point within twice the least is still scored exactly); and Levenberg-Marquardt from the distinct closest ones only (a start next to a
 //! closer one on the coarse grid shares its basin), the noisy match evaluating its two surfaces
 //! together ([`surface::Surface::eval_pair`]). bench/beyond_compare.py measures it against the
 //! eigenspace; BENCHMARKS.md holds the figures.
