@@ -167,6 +167,22 @@ fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut 
     out.copy_from_slice(&acc[..len]);
 }
 
+/// The least of `v` (+inf when empty or all NaN).
+pub fn least(level: Level, v: &[f32]) -> f32 {
+    match level {
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 => unsafe { x86::least_avx512(v) },
+        _ => least_portable(v),
+    }
+}
+
+#[inline(always)]
+fn least_portable(v: &[f32]) -> f32 {
+    let mut lanes = [f32::INFINITY; 17];
+    lane_min(&mut lanes, v);
+    reduce_min(&lanes)
+}
+
 /// The index of the least of `v` (the first of equals; None when empty or all NaN).
 pub fn argmin(level: Level, v: &[f32]) -> Option<usize> {
     match level {
@@ -178,9 +194,7 @@ pub fn argmin(level: Level, v: &[f32]) -> Option<usize> {
 
 #[inline(always)]
 fn argmin_portable(v: &[f32]) -> Option<usize> {
-    let mut lanes = [f32::INFINITY; 17];
-    lane_min(&mut lanes, v);
-    let least = reduce_min(&lanes);
+    let least = least_portable(v);
     // Its block of 16 tested without branches, then its place there.
     let b = v.chunks(16).position(|c| c.iter().fold(false, |hit, &x| hit | (x == least)));
     b.and_then(|b| v[16 * b..].iter().position(|&x| x == least).map(|i| 16 * b + i))
@@ -273,7 +287,14 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32]
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{affine_residuals_portable, argmin_portable, dots2_portable, sq_dist_boxed_portable, sq_dist_portable};
+    use super::{affine_residuals_portable, argmin_portable, dots2_portable, least_portable, sq_dist_boxed_portable, sq_dist_portable};
+
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn least_avx512(v: &[f32]) -> f32 {
+        least_portable(v)
+    }
 
     /// # Safety
     /// The CPU must support AVX2 and FMA.
@@ -377,6 +398,8 @@ mod tests {
     fn argmin_finds_the_first_least() {
         for level in Level::supported() {
             assert_eq!(argmin(level, &[]), None);
+            assert_eq!(least(level, &[]), f32::INFINITY);
+            assert_eq!(least(level, &[3.0, f32::NAN, -2.5, 7.0]), -2.5);
             assert_eq!(argmin(level, &[f32::NAN, f32::NAN]), None);
             let v: Vec<f32> = (0..100).map(|i| ((i * 37) % 101) as f32).collect();
             assert_eq!(argmin(level, &v), Some(0));

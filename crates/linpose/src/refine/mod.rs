@@ -59,9 +59,10 @@
 //! blocks ([`crate::kernels::scan`]) that rules most of them out on the leading coordinates first
 //! (the distance to bounding boxes of 16 coarse points in the first 8 coordinates, or for a
 //! noisy query the affine fit on the first half of 16 or more coordinates, bounds the whole from
-//! below; every point within twice the least is still scored exactly); and Levenberg-Marquardt from the distinct closest ones only (a start next to a
-//! closer one on the coarse grid shares its basin), the noisy match evaluating its two surfaces
-//! together ([`surface::Surface::eval_pair`]). bench/beyond_compare.py measures it against the
+//! below; every point within twice the least is still scored exactly); and Levenberg-Marquardt
+//! from the distinct closest ones only (a start next to a closer one on the coarse grid shares
+//! its basin), the noisy match evaluating its two surfaces together
+//! ([`surface::Surface::eval_pair`]). bench/beyond_compare.py measures it against the
 //! eigenspace; BENCHMARKS.md holds the figures.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
@@ -1060,16 +1061,14 @@ fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
     immerkaer(x, w, h, ch, &mut RowsU8 { dy: vec![0i16; w * ch], ch })
 }
 
-/// Coordinates of the coarse points' bounding boxes (see [`RefinedModel::start_boxes`]): the
-/// leading 8. perf of duck's 8-bit views on one thread, the scan's samples over the product
-/// kernel's: boxes on 4 coordinates 0.48, 8 0.38 and 0.39, 12 0.43 and 0.44; the partial sums
-/// on 4 coordinates that came before them 0.47.
+/// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
+/// [`crate::kernels::scan::sq_dist_boxed`]) of a model of `l`: the leading 8. perf of duck's
+/// 8-bit views on one thread, the scan's samples over the product kernel's: boxes on 4
+/// coordinates 0.48, 8 0.38 and 0.39, 12 0.43 and 0.44; the partial sums on 4 coordinates that
+/// came before them 0.47.
 fn box_split(l: usize) -> usize {
-    SCAN_SPLIT.min(l)
+    8.min(l)
 }
-
-/// Coordinates of the coarse points' bounding boxes ([`crate::kernels::scan::sq_dist_boxed`]).
-const SCAN_SPLIT: usize = 8;
 
 /// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
 /// [`dot_u8::BATCH_IMAGES`], and few enough that their images (19.2 KB each at 160 x 120) are
@@ -1104,10 +1103,10 @@ const NOISE_ROW_STEP: usize = 8;
 /// lower index). Two passes: the minimum (vectorised), then the few points under twice it.
 /// `k` is at least 1.
 fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
-    smallest_under(dist, k, f32::NAN)
+    smallest_under(dist, k, crate::kernels::scan::least(Level::detect(), dist))
 }
 
-/// [`smallest`] given the least of `dist`, `lo` (NaN: not known, found first).
+/// [`smallest`] given the least of `dist`, `lo`.
 fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
     #[cfg(target_arch = "x86_64")]
     if Level::detect() == Level::Avx512 {
@@ -1120,19 +1119,6 @@ fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
 /// The body of [`smallest_under`] (compiled for AVX-512 too: comparisons only, the same result).
 #[inline(always)]
 fn smallest_body(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
-    let lo = if lo.is_nan() {
-        let mut lanes = [f32::INFINITY; 16];
-        let chunks = dist.chunks_exact(16);
-        let tail = chunks.remainder().iter().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
-        for c in chunks {
-            for k in 0..16 {
-                lanes[k] = if c[k] < lanes[k] { c[k] } else { lanes[k] };
-            }
-        }
-        lanes.iter().fold(tail, |a, &b| if b < a { b } else { a })
-    } else {
-        lo
-    };
     let cut = 2.0 * lo.max(0.0) + f32::MIN_POSITIVE;
     let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
     // Blocks of 16 tested without branches first: few hold a point under the cut.

@@ -255,16 +255,13 @@ impl Surface {
             if mu < 0.0 {
                 mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
-            let Some((c, step)) = self.damped_step(&h, &g, &mut mu, t, cost, STEP_TOL, |cand| {
+            let Some(c) = self.damped_step(&h, &g, &mut mu, t, cost, STEP_TOL, |cand| {
                 self.eval(cand, ftry, None);
                 dist(ftry)
             }) else {
                 break;
             };
             cost = c;
-            if step < STEP_TOL {
-                break;
-            }
             self.eval(t, f, Some(jac));
         }
         cost
@@ -274,10 +271,11 @@ impl Surface {
 impl Surface {
     /// One damped Gauss-Newton step of Levenberg-Marquardt from `t` on the normal equations
     /// (`h`, `grad`): the damping `mu` grows 4x until `cost_at` a (domain-clamped) candidate is
-    /// below `cost` (then `t` moves there and `mu` shrinks 3x), at most 12 tries. Returns the new
-    /// cost and the largest coordinate move, or None when no try lowered the cost.
+    /// below `cost` (then `t` moves there and `mu` shrinks 3x), at most 12 tries, none moving any
+    /// coordinate by less than `tol`. Returns the new cost, or None when no try lowered the cost
+    /// (which ends the iteration).
     #[allow(clippy::too_many_arguments)]
-    fn damped_step(&self, h: &[[f64; 8]; 8], grad: &[f64; 8], mu: &mut f64, t: &mut [f64], cost: f64, tol: f64, mut cost_at: impl FnMut(&[f64]) -> f64) -> Option<(f64, f64)> {
+    fn damped_step(&self, h: &[[f64; 8]; 8], grad: &[f64; 8], mu: &mut f64, t: &mut [f64], cost: f64, tol: f64, mut cost_at: impl FnMut(&[f64]) -> f64) -> Option<f64> {
         let d = self.params();
         let mut cand = [0f64; 8];
         for _ in 0..12 {
@@ -301,7 +299,7 @@ impl Surface {
             if c < cost {
                 t.copy_from_slice(&cand[..d]);
                 *mu = (*mu / 3.0).max(1e-12);
-                return Some((c, step));
+                return Some(c);
             }
             *mu *= 4.0;
         }
@@ -387,7 +385,7 @@ impl Surface {
                 mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
             let mut trial = ab;
-            let Some((cst, step)) = self.damped_step(&h, &grad, &mut mu, t, cost, AFFINE_STEP_TOL, |cand| {
+            let Some(cst) = self.damped_step(&h, &grad, &mut mu, t, cost, AFFINE_STEP_TOL, |cand| {
                 self.eval_pair(bg, cand, ftry, None, gtry, None);
                 let (cst, abt) = affine_fit(z, c, wt, ftry, gtry);
                 trial = abt;
@@ -396,9 +394,6 @@ impl Surface {
                 break;
             };
             (cost, ab) = (cst, trial);
-            if step < AFFINE_STEP_TOL {
-                break;
-            }
             self.eval_pair(bg, t, f, Some(jf), g, Some(jg));
         }
         (cost, ab)
