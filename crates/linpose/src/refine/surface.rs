@@ -87,6 +87,16 @@ impl Surface {
         self.shape.len()
     }
 
+    /// For one pose parameter: its knots (with the closing knot of a circular axis), its
+    /// period, and the knot values and slopes (knot-major, L each) with L; None for D > 1.
+    pub fn line_parts(&self) -> Option<(&[f64], Option<f64>, &[f32], &[f32], usize)> {
+        if self.params() != 1 {
+            return None;
+        }
+        let n = self.shape[0] * self.dim;
+        Some((self.splines[0].knots(), self.periods[0], &self.coef[..n], &self.coef[n..2 * n], self.dim))
+    }
+
     /// Numbers held: 2^D x N x L.
     pub fn len(&self) -> usize {
         self.coef.len()

@@ -365,3 +365,38 @@ fn the_noisy_scan_keeps_every_point_within_twice_the_least() {
     }
     assert!(ruled_out > n, "only {ruled_out} of {} ruled out", 4 * n);
 }
+
+/// A turntable: one circular parameter, the synthetic object seen from 40 degrees of elevation.
+fn turntable(azim: &[f64]) -> Dataset {
+    let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
+    let (mut poses, mut names, mut f) = (Vec::new(), Vec::new(), Vec::new());
+    for &a in azim {
+        poses.push(a);
+        names.push(format!("{a}.png"));
+        f.extend(image(40.0, a));
+    }
+    let spec = ImageSpec { width: W as u32, height: H as u32, color: ColorMode::Gray };
+    Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap()
+}
+
+#[test]
+fn on_a_turntable_the_plain_metric_finds_the_eigenspace_manifold_point() {
+    // One pose parameter: the clean search is the exact lattice search (every 0.5-degree pose
+    // of the spline curve, lattice::Lattice), so with the eigenspace's metric and L it picks
+    // the eigenspace's own nearest manifold point (the same spline resampled on the same lattice).
+    let train = turntable(&(0..24).map(|k| 15.0 * k as f64).collect::<Vec<_>>());
+    let queries = turntable(&(0..120).map(|k| 3.0 * k as f64 + 0.7).collect::<Vec<_>>());
+    let refined = RefinedParams::default().components(6).weighted(false).fit(&train).unwrap();
+    assert!(refined.lattice.is_some(), "a one-parameter model searches its lattice");
+    let eigen = crate::eigenspace::EigenspaceParams::default().components(6).fit(&train).unwrap();
+    let (a, b) = (refined.predict(queries.features()).unwrap(), eigen.predict(queries.features()).unwrap());
+    assert_eq!(a, b);
+    // Off the lattice (resolution 0) the local search runs instead, and lands within a lattice
+    // step of the lattice search's pose.
+    let continuous = RefinedParams::default().components(6).weighted(false).resolution(0.0).fit(&train).unwrap();
+    assert!(continuous.lattice.is_none());
+    let c = continuous.predict(queries.features()).unwrap();
+    for (i, (x, y)) in a.iter().zip(&c).enumerate() {
+        assert!(queries.space().error_deg(&[*x], &[*y]) <= 0.5, "query {i}: {x} against {y}");
+    }
+}
