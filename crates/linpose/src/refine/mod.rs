@@ -661,7 +661,14 @@ impl RefinedModel {
             matmul(MatMut::from_row_major_slice_mut(&mut s.raw[i0 * k..(i0 + nn) * k], nn, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 let energy = crate::linalg::energy(x);
-                let pv = if want_noise { pixel_variance(x, w, h, ch) } else { 0.0 };
+                let pv = if want_noise {
+                    let rows = s.rows_f32.get_or_insert_with(|| RowsF32 { dy: Vec::new(), ch });
+                    rows.ch = ch;
+                    rows.dy.resize(w * ch, 0.0);
+                    pixel_variance_in(x, w, h, ch, rows)
+                } else {
+                    0.0
+                };
                 (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
             }
         }
@@ -937,12 +944,17 @@ pub fn pixel_noise(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
 
 /// Immerkaer's estimate of the variance of an image's white noise (see [`pixel_noise`]).
 pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
+    pixel_variance_in(x, w, h, ch, &mut RowsF32 { dy: vec![0f32; w * ch], ch })
+}
+
+/// [`pixel_variance`] with the row buffer `rows` (of w x ch values), so a batch allocates it once.
+fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32) -> f64 {
     #[cfg(target_arch = "x86_64")]
     if Level::detect() == Level::Avx512 {
         // SAFETY: the CPU supports AVX-512 F/BW (detected).
-        return unsafe { simd::pixel_variance_avx512(x, w, h, ch) };
+        return unsafe { simd::pixel_variance_avx512(x, w, h, ch, rows) };
     }
-    pixel_variance_body(x, w, h, ch)
+    pixel_variance_body(x, w, h, ch, rows)
 }
 
 /// The bodies of [`pixel_variance`], [`pixel_variance_u8`] and [`smallest`] compiled for
@@ -952,8 +964,8 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512 F and BW.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
-        super::pixel_variance_body(x, w, h, ch)
+    pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut super::RowsF32) -> f64 {
+        super::pixel_variance_body(x, w, h, ch, rows)
     }
 
     /// # Safety
@@ -1118,8 +1130,8 @@ impl MaskRows<u8> for RowsU8 {
 }
 
 #[inline(always)]
-fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
-    immerkaer(x, w, h, ch, &mut RowsF32 { dy: vec![0f32; w * ch], ch })
+fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32) -> f64 {
+    immerkaer(x, w, h, ch, rows)
 }
 
 /// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
@@ -1282,6 +1294,7 @@ struct QueryScratch {
     energy: Vec<u64>,
     block: Vec<f32>,
     rows_u8: Option<RowsU8>,
+    rows_f32: Option<RowsF32>,
 }
 
 impl QueryScratch {
