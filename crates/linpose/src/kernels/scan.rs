@@ -280,8 +280,14 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32]
                 }
             }
         }
-        uo.copy_from_slice(&su[..len]);
-        vo.copy_from_slice(&sv[..len]);
+        // Whole blocks by fixed-size stores (a slice copy of a run-time length calls memmove).
+        match (<&mut [f32; BLOCK]>::try_from(&mut *uo), <&mut [f32; BLOCK]>::try_from(&mut *vo)) {
+            (Ok(uo), Ok(vo)) => (*uo, *vo) = (su, sv),
+            _ => {
+                uo.copy_from_slice(&su[..len]);
+                vo.copy_from_slice(&sv[..len]);
+            }
+        }
     }
 }
 

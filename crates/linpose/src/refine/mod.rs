@@ -483,23 +483,25 @@ impl NoiseScan {
 
     /// The residual at every coarse point that can lie within twice the least (+inf at the
     /// others) of the query coordinates `z` (mean added back, the first w0.len()), `c` the mean's
-    /// coordinates. Every residual given has the bits of [`Self::scan_all`]'s.
-    fn scan(&self, cols: &[f32], gcols: &[f32], z: &[f64], c: &[f64]) -> Vec<f32> {
+    /// coordinates, into `u` (`v` is scratch; both are resized, and every value is written).
+    /// Every residual given has the bits of [`Self::scan_all`]'s.
+    fn scan(&self, cols: &[f32], gcols: &[f32], z: &[f64], c: &[f64], u: &mut Vec<f32>, v: &mut Vec<f32>) {
         let (n, ln, s) = (self.full.inv_a.len(), self.w0.len(), self.split);
         if s == 0 {
-            return self.scan_all(cols, gcols, z, c);
+            return self.scan_all(cols, gcols, z, c, u, v);
         }
         let level = Level::detect();
         let a: Vec<f32> = z.iter().zip(&self.w0).map(|(&zq, &w)| w * zq as f32).collect();
         let (ac, zz) = Self::sums(&self.w0, z, c);
         let (ac_s, zz_s) = Self::sums(&self.w0[..s], &z[..s], &c[..s]);
-        let (mut u, mut v) = (vec![0f32; n], vec![0f32; n]);
+        u.resize(n, 0.0);
+        v.resize(n, 0.0);
         // Lower bounds: the fit on the first s coordinates.
-        crate::kernels::scan::dots2(level, &cols[..s * n], &gcols[..s * n], &a[..s], &mut u, &mut v);
-        self.part.residuals(0..n, &mut u, &v, ac_s, zz_s);
+        crate::kernels::scan::dots2(level, &cols[..s * n], &gcols[..s * n], &a[..s], u, v);
+        self.part.residuals(0..n, u, v, ac_s, zz_s);
         // Any point's whole residual bounds the least; the least partial one's is likely close.
-        let Some(first) = crate::kernels::scan::argmin(level, &u) else {
-            return self.scan_all(cols, gcols, z, c);
+        let Some(first) = crate::kernels::scan::argmin(level, u) else {
+            return self.scan_all(cols, gcols, z, c, u, v);
         };
         self.degenerate.iter().for_each(|&i| u[i] = 0.0);
         let (mut u1, mut v1) = ([0f32], [0f32]);
@@ -517,19 +519,18 @@ impl NoiseScan {
                 ub.fill(f32::INFINITY);
             }
         }
-        u
     }
 
-    /// The residual at every coarse point (see [`Self::scan`]).
-    fn scan_all(&self, cols: &[f32], gcols: &[f32], z: &[f64], c: &[f64]) -> Vec<f32> {
+    /// The residual at every coarse point into `u` (see [`Self::scan`]).
+    fn scan_all(&self, cols: &[f32], gcols: &[f32], z: &[f64], c: &[f64], u: &mut Vec<f32>, v: &mut Vec<f32>) {
         let n = self.full.inv_a.len();
         let ln = self.w0.len();
         let a: Vec<f32> = z.iter().zip(&self.w0).map(|(&zq, &w)| w * zq as f32).collect();
         let (ac, zz) = Self::sums(&self.w0, z, c);
-        let (mut u, mut v) = (vec![0f32; n], vec![0f32; n]);
-        crate::kernels::scan::dots2(Level::detect(), &cols[..ln * n], &gcols[..ln * n], &a, &mut u, &mut v);
-        self.full.residuals(0..n, &mut u, &v, ac, zz);
-        u
+        u.resize(n, 0.0);
+        v.resize(n, 0.0);
+        crate::kernels::scan::dots2(Level::detect(), &cols[..ln * n], &gcols[..ln * n], &a, u, v);
+        self.full.residuals(0..n, u, v, ac, zz);
     }
 
     /// (w0 z).c and (w0 z).z over the coordinates of `w0`.
@@ -851,8 +852,10 @@ impl RefinedModel {
         let c: Vec<f64> = self.mean_proj[..ln].iter().map(|&v| v as f64).collect();
         let z: Vec<f64> = y[..ln].iter().zip(&c).map(|(&v, &cv)| v as f64 + cv).collect();
         let k = s.params.starts.min(self.start_len());
-        let dist = self.noise_scan.scan(&self.start_points, &self.bg_start, &z, &c);
-        let best = smallest(&dist, k);
+        let best = SEARCH_SCRATCH.with_borrow_mut(|sc| {
+            self.noise_scan.scan(&self.start_points, &self.bg_start, &z, &c, &mut sc.dist, &mut sc.lb);
+            smallest(&sc.dist, k)
+        });
         let mut buf = vec![0.0; (2 * d + 5) * l];
         let (mut best_cost, mut t) = (f64::INFINITY, [0f64; 8]);
         let (fs, bs) = (&self.surface, &self.bg_surface);

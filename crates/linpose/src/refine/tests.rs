@@ -352,8 +352,11 @@ fn the_noisy_scan_keeps_every_point_within_twice_the_least() {
     for (k, at) in [0usize, n / 3, n / 2, n - 1].into_iter().enumerate() {
         // A coarse point's coordinates, scaled (a gain) and perturbed (noise), mean added back.
         let z: Vec<f64> = (0..ln).map(|q| 0.9 * (model.start_points[q * n + at] as f64 + c[q]) + 0.01 * ((q * 7 + k) % 5) as f64 - 0.02).collect();
-        let all = ns.scan_all(&model.start_points, &model.bg_start, &z, &c);
-        let pruned = ns.scan(&model.start_points, &model.bg_start, &z, &c);
+        let (mut all, mut pruned, mut v) = (Vec::new(), vec![f32::NAN; 3], Vec::new());
+        ns.scan_all(&model.start_points, &model.bg_start, &z, &c, &mut all, &mut v);
+        // Scratch reused from another query: every value is written.
+        ns.scan(&model.start_points, &model.bg_start, &z, &c, &mut pruned, &mut v);
+        assert_eq!(pruned.len(), n);
         let lo = all.iter().cloned().fold(f32::INFINITY, f32::min);
         for i in 0..n {
             if pruned[i] == f32::INFINITY && all[i] > 2.0 * lo {
