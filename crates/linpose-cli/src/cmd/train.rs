@@ -15,7 +15,8 @@ pub enum Method {
     /// Murase & Nayar's parametric eigenspace: PCA, spline manifold, nearest neighbour.
     Eigenspace,
     /// Beyond the paper: the eigenspace searched continuously on its spline manifold
-    /// (Levenberg-Marquardt from the closest coarse points), L chosen from held-out training views.
+    /// (Levenberg-Marquardt from the closest coarse points; with one pose parameter, every lattice pose
+    /// exactly), L chosen from held-out training views.
     Refined,
 }
 

@@ -578,9 +578,11 @@ impl RefinedModel {
         let sigma2 = (settings.interpolation_variance.len() == ls).then_some(&settings.interpolation_variance[..]);
         let inv_weight = search_scale(sigma2, ls, l).iter().map(|s| 1.0 / (s * s)).collect();
         let step = settings.params.resolution;
+        // The lattice search costs in proportion to the lattice (the local search does not):
+        // kept for lattices of at most MAX_LATTICE poses.
         let lattice = surface
             .line_parts()
-            .filter(|_| step > 0.0)
+            .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
         let start_boxes = if lattice.is_some() { Vec::new() } else { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) };
         Ok(RefinedModel {
@@ -1193,6 +1195,10 @@ fn noise_scan_split(ln: usize) -> usize {
         0
     }
 }
+
+/// Most lattice poses of a one-parameter model searched exactly ([`lattice::Lattice`]; 720 at the
+/// default 0.5 degrees on a turntable); a finer `resolution` keeps the local search and snap.
+pub const MAX_LATTICE: usize = 16_384;
 
 /// Rows sampled by [`pixel_noise`].
 const NOISE_ROW_STEP: usize = 8;

@@ -398,6 +398,11 @@ fn on_a_turntable_the_plain_metric_finds_the_eigenspace_manifold_point() {
     // step of the lattice search's pose.
     let continuous = RefinedParams::default().components(6).weighted(false).resolution(0.0).fit(&train).unwrap();
     assert!(continuous.lattice.is_none());
+    // A lattice past MAX_LATTICE poses keeps the local search too.
+    let fine = RefinedParams::default().components(6).weighted(false).resolution(360.0 / (MAX_LATTICE + 1) as f64).fit(&train).unwrap();
+    assert!(fine.lattice.is_none());
+    let coarse = RefinedParams::default().components(6).weighted(false).resolution(360.0 / MAX_LATTICE as f64).fit(&train).unwrap();
+    assert!(coarse.lattice.is_some());
     let c = continuous.predict(queries.features()).unwrap();
     for (i, (x, y)) in a.iter().zip(&c).enumerate() {
         assert!(queries.space().error_deg(&[*x], &[*y]) <= 0.5, "query {i}: {x} against {y}");
