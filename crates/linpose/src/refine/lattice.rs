@@ -144,9 +144,9 @@ impl Lattice {
         out
     }
 
-    /// Numbers held: (f32 count, f64 count).
-    pub fn len(&self) -> (usize, usize) {
-        (self.values.len() + self.slopes.len(), self.unit.len() + 4 * self.cells.len() + self.even.len())
+    /// Bytes held (the interval table counted as four 8-byte numbers an interval).
+    pub fn bytes(&self) -> usize {
+        (self.values.len() + self.slopes.len()) * 4 + (self.unit.len() + 4 * self.cells.len() + self.even.len()) * 8
     }
 
     /// The seven weighted products per knot, [product][column] into `g` (PAIRS x cols).

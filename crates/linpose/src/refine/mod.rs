@@ -664,14 +664,7 @@ impl RefinedModel {
             matmul(MatMut::from_row_major_slice_mut(&mut s.raw[i0 * k..(i0 + nn) * k], nn, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 let energy = crate::linalg::energy(x);
-                let pv = if want_noise {
-                    let rows = s.rows_f32.get_or_insert_with(|| RowsF32 { dy: Vec::new(), ch });
-                    rows.ch = ch;
-                    rows.dy.resize(w * ch, 0.0);
-                    pixel_variance_in(x, w, h, ch, rows)
-                } else {
-                    0.0
-                };
+                let pv = if want_noise { pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch)) } else { 0.0 };
                 (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
             }
         }
@@ -700,16 +693,7 @@ impl RefinedModel {
                 }
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
-                let pv = if want_noise {
-                    let rows = match s.rows_u8.take() {
-                        Some(r) if r.fits(w * ch, ch) => r,
-                        _ => RowsU8::new(w * ch, ch),
-                    };
-                    let rows = s.rows_u8.insert(rows);
-                    pixel_variance_u8_in(x, w, h, ch, rows)
-                } else {
-                    0.0
-                };
+                let pv = if want_noise { pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch)) } else { 0.0 };
                 (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, pv, &mut s.y[i * l..(i + 1) * l]);
             }
         }
@@ -1049,6 +1033,17 @@ struct RowsF32 {
     ch: usize,
 }
 
+impl RowsF32 {
+    /// The buffer in `slot` (new if none) made for rows of `row` values of `ch` channels (every
+    /// row overwrites it whole).
+    fn reuse(slot: &mut Option<RowsF32>, row: usize, ch: usize) -> &mut RowsF32 {
+        let r = slot.get_or_insert_with(|| RowsF32 { dy: Vec::new(), ch });
+        r.ch = ch;
+        r.dy.resize(row, 0.0);
+        r
+    }
+}
+
 impl MaskRows<f32> for RowsF32 {
     #[inline(always)]
     fn row_sum(&mut self, a: &[f32], b: &[f32], c: &[f32]) -> f64 {
@@ -1085,9 +1080,14 @@ struct RowsU8 {
 }
 
 impl RowsU8 {
-    /// Whether these buffers are made for rows of `row` values of `ch` channels.
-    fn fits(&self, row: usize, ch: usize) -> bool {
-        self.ch == ch && self.dy.len() == self.keep.len() + 2 * ch && self.keep.len() == row.saturating_sub(2 * ch).div_ceil(32) * 32
+    /// The buffers in `slot` when they are made for rows of `row` values of `ch` channels, else
+    /// new ones put there.
+    fn reuse(slot: &mut Option<RowsU8>, row: usize, ch: usize) -> &mut RowsU8 {
+        // The mask's length and the channels fix every buffer's (see new).
+        if !slot.as_ref().is_some_and(|r| r.ch == ch && r.keep.len() == row.saturating_sub(2 * ch).div_ceil(32) * 32) {
+            *slot = Some(RowsU8::new(row, ch));
+        }
+        slot.as_mut().expect("just filled")
     }
 
     fn new(row: usize, ch: usize) -> RowsU8 {
@@ -1388,7 +1388,7 @@ impl PoseModel for RefinedModel {
             + self.bg_start.len())
             * 4
             + self.noise_scan.len() * 8
-            + self.lattice.as_ref().map_or(0, |g| g.len().0 * 4 + g.len().1 * 8)
+            + self.lattice.as_ref().map_or(0, lattice::Lattice::bytes)
             + (self.start_poses.len() + self.axes.iter().map(Vec::len).sum::<usize>()) * 8
     }
 

@@ -322,6 +322,7 @@ fn the_8_bit_pixel_variance_is_exact() {
         sigma * sigma
     };
     let mut state = 7u64;
+    let mut slot = None;
     for &(w, h, ch) in &[(160usize, 120usize, 1usize), (37, 21, 3), (3, 3, 1), (1000, 9, 1)] {
         let random: Vec<u8> = (0..w * h * ch)
             .map(|_| {
@@ -330,14 +331,14 @@ fn the_8_bit_pixel_variance_is_exact() {
             })
             .collect();
         let checker: Vec<u8> = (0..w * h * ch).map(|i| if ((i / ch) % w + i / (w * ch)) % 2 == 0 { 255 } else { 0 }).collect();
-        // One set of row buffers reused for both images (as a batch does), and one flushing its
-        // u32 lanes after every row (as a very wide image would).
-        let (mut reused, mut flushing) = (super::RowsU8::new(w * ch, ch), super::RowsU8::new(w * ch, ch));
+        // Row buffers reused from image to image and size to size (as batches do), and ones
+        // flushing their u32 lanes after every row (as a very wide image would).
+        let mut flushing = super::RowsU8::new(w * ch, ch);
         flushing.flush_every = 1;
         for x in [&random, &checker] {
             let (got, want) = (super::pixel_variance_u8(x, w, h, ch), reference(x, w, h, ch));
             assert_eq!(got, want, "{w} x {h} x {ch}");
-            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, &mut reused), want, "reused, {w} x {h} x {ch}");
+            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, super::RowsU8::reuse(&mut slot, w * ch, ch)), want, "reused, {w} x {h} x {ch}");
             assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, &mut flushing), want, "flushed, {w} x {h} x {ch}");
         }
     }
