@@ -29,8 +29,8 @@ pub struct Lattice {
     /// Coordinates searched (the first `ls` of the curve's L).
     ls: usize,
     /// Columns per row of `values`, `slopes` and the per-knot products: the knots, the first
-    /// one again on a circular axis (interval i runs from knot i to knot i + 1), then zeros
-    /// past the intervals' count rounded up to 8 (8 intervals are read at once), to a multiple
+    /// one again on a circular axis (interval i runs from knot i to knot i + 1), then zeros, so
+    /// that 8 intervals (and their next knots) can be read from any interval on, to a multiple
     /// of 16 (whole vectors: a scalar tail cost as much as the rest).
     cols: usize,
     /// Knot values and slopes of the searched coordinates, [l][column].
@@ -100,7 +100,7 @@ impl Lattice {
     pub fn new(knots: &[f64], period: Option<f64>, values: &[f32], slopes: &[f32], dim: usize, ls: usize, step: f64) -> Lattice {
         let n = values.len() / dim;
         let intervals = if period.is_some() { n } else { n - 1 };
-        let cols = (intervals.div_ceil(8) * 8 + 1).max(n + 1).div_ceil(16) * 16;
+        let cols = (intervals.div_ceil(8) * 8 + 1).max(intervals + 9).max(n + 1).div_ceil(16) * 16;
         let (mut v, mut s) = (vec![0f32; ls * cols], vec![0f32; ls * cols]);
         for l in 0..ls {
             for k in 0..n {
@@ -315,50 +315,17 @@ impl Lattice {
         best_t
     }
 
-    /// The 14 factors of the distance's terms on interval `i` (of length `h`), in the order of
-    /// [`TERMS`]: the products H_a H_b (those off the diagonal twice; each slope carries h),
-    /// then the linear terms times -2.
-    #[inline(always)]
-    fn factors(&self, i: usize, h: f64, g: &[f64], cp: &[f64], cs: &[f64]) -> [f64; 14] {
-        let c = self.cols;
-        let gi = |p: usize, k: usize| g[p * c + k];
-        let (a, b, h2) = (i, i + 1, h * h);
-        [
-            gi(0, a),
-            2.0 * h * gi(1, a),
-            h2 * gi(2, a),
-            gi(0, b),
-            2.0 * h * gi(1, b),
-            h2 * gi(2, b),
-            2.0 * gi(3, a),
-            2.0 * h * gi(4, a),
-            2.0 * h * gi(5, a),
-            2.0 * h2 * gi(6, a),
-            -2.0 * cp[a],
-            -2.0 * h * cs[a],
-            -2.0 * cp[b],
-            -2.0 * h * cs[b],
-        ]
-    }
-
-    /// The distance (less ||y||^2) on interval `i` as a polynomial in u (coefficients from
-    /// degree 0).
+    /// The distance (less ||y||^2) on interval `i` (of length `h`) as a polynomial in u
+    /// (coefficients from degree 0): lane 0 of [`Lattice::polys8`] from `i`.
     #[inline(always)]
     fn poly(&self, i: usize, h: f64, g: &[f64], cp: &[f64], cs: &[f64]) -> [f64; 7] {
-        let f = self.factors(i, h, g, cp, cs);
-        let mut poly = [0f64; 7];
-        for (fac, p) in f.iter().zip(TERMS.iter()) {
-            for q in 0..7 {
-                if p[q] != 0.0 {
-                    poly[q] += fac * p[q];
-                }
-            }
-        }
-        poly
+        self.polys8(i, h, g, cp, cs).map(|lanes| lanes[0])
     }
 
-    /// [`Lattice::poly`] of intervals i0 to i0 + 7 (all of length `h`), as [degree][lane];
-    /// lanes past the last interval get an infinite constant.
+    /// The distance (less ||y||^2) on intervals i0 to i0 + 7 (all of length `h`) as polynomials
+    /// in u, [degree][lane]; lanes past the last interval get an infinite constant. The 14
+    /// factors of the terms in the order of [`TERMS`]: the products H_a H_b (those off the
+    /// diagonal twice; each slope carries h), then the linear terms times -2.
     #[inline(always)]
     fn polys8(&self, i0: usize, h: f64, g: &[f64], cp: &[f64], cs: &[f64]) -> [[f64; 8]; 7] {
         let c = self.cols;
