@@ -148,22 +148,7 @@ fn sq_dist_boxed_portable(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], 
 fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut [f32]) {
     let mut acc = [0f32; BOX];
     let len = out.len();
-    match <&mut [f32; BOX]>::try_from(&mut acc[..len]) {
-        // A whole box: a fixed length, so the sums stay in one register.
-        Ok(a) => {
-            for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
-                if w == 0.0 {
-                    continue;
-                }
-                let seg: &[f32; BOX] = col[b * BOX..(b + 1) * BOX].try_into().expect("a whole box");
-                // A plain loop: a closure here was compiled apart, without AVX-512.
-                for k in 0..BOX {
-                    a[k] += w * ((seg[k] - yc) * (seg[k] - yc));
-                }
-            }
-        }
-        Err(_) => add_sq(cols, n, b * BOX, y, wt, &mut acc[..len]),
-    }
+    add_sq::<BOX>(cols, n, b * BOX, y, wt, &mut acc[..len]);
     out.copy_from_slice(&acc[..len]);
 }
 
@@ -209,33 +194,36 @@ fn sq_dist_portable(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
     let n = dist.len();
     for (b, out) in dist.chunks_mut(BLOCK).enumerate() {
         let mut acc = [0f32; BLOCK];
-        add_sq(cols, n, b * BLOCK, y, wt, &mut acc[..out.len()]);
+        add_sq::<BLOCK>(cols, n, b * BLOCK, y, wt, &mut acc[..out.len()]);
         out.copy_from_slice(&acc[..out.len()]);
     }
 }
 
 /// Adds `wt[q] (cols[q][i0 + k] - y[q])^2` to `acc[k]` for the coordinates with a non-zero
-/// weight, in increasing order (`cols`: rows of `n` values).
+/// weight, in increasing order (`cols`: rows of `n` values). With `acc` of exactly N values the
+/// length is fixed, so the sums stay in registers.
 #[inline(always)]
-fn add_sq(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], acc: &mut [f32]) {
+fn add_sq<const N: usize>(cols: &[f32], n: usize, i0: usize, y: &[f32], wt: &[f32], acc: &mut [f32]) {
     let len = acc.len();
+    if let Ok(a) = <&mut [f32; N]>::try_from(&mut *acc) {
+        for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
+            if w == 0.0 {
+                continue;
+            }
+            let seg: &[f32; N] = col[i0..i0 + N].try_into().expect("a whole block");
+            // Plain loops: a closure here can be compiled apart, without the caller's AVX-512.
+            for k in 0..N {
+                a[k] += w * ((seg[k] - yc) * (seg[k] - yc));
+            }
+        }
+        return;
+    }
     for ((col, &yc), &w) in cols.chunks_exact(n).zip(y).zip(wt) {
         if w == 0.0 {
             continue;
         }
-        let seg = &col[i0..i0 + len];
-        match (<&mut [f32; BLOCK]>::try_from(&mut *acc), <&[f32; BLOCK]>::try_from(seg)) {
-            // Plain loops: a closure here can be compiled apart, without the caller's AVX-512.
-            (Ok(a), Ok(seg)) => {
-                for k in 0..BLOCK {
-                    a[k] += w * ((seg[k] - yc) * (seg[k] - yc));
-                }
-            }
-            _ => {
-                for (s, &p) in acc.iter_mut().zip(seg) {
-                    *s += w * ((p - yc) * (p - yc));
-                }
-            }
+        for (s, &p) in acc.iter_mut().zip(&col[i0..i0 + len]) {
+            *s += w * ((p - yc) * (p - yc));
         }
     }
 }

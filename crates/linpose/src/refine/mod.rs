@@ -943,7 +943,7 @@ fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF3
         // SAFETY: the CPU supports AVX-512 F/BW (detected).
         return unsafe { simd::pixel_variance_avx512(x, w, h, ch, rows) };
     }
-    pixel_variance_body(x, w, h, ch, rows)
+    immerkaer(x, w, h, ch, rows)
 }
 
 /// The bodies of [`pixel_variance`], [`pixel_variance_u8`] and [`smallest`] compiled for
@@ -954,14 +954,14 @@ mod simd {
     /// The CPU must support AVX-512 F and BW.
     #[target_feature(enable = "avx512f,avx512bw")]
     pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut super::RowsF32) -> f64 {
-        super::pixel_variance_body(x, w, h, ch, rows)
+        super::immerkaer(x, w, h, ch, rows)
     }
 
     /// # Safety
     /// The CPU must support AVX-512 F and BW.
     #[target_feature(enable = "avx512f,avx512bw")]
     pub unsafe fn pixel_variance_u8_avx512(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut super::RowsU8) -> f64 {
-        super::pixel_variance_u8_body(x, w, h, ch, rows)
+        super::immerkaer(x, w, h, ch, rows)
     }
 
     /// # Safety
@@ -1134,11 +1134,6 @@ impl MaskRows<u8> for RowsU8 {
     }
 }
 
-#[inline(always)]
-fn pixel_variance_body(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32) -> f64 {
-    immerkaer(x, w, h, ch, rows)
-}
-
 /// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
 /// that of its features, pixel / 255): the same mask and rows, summed exactly in integers (the
 /// f32 path rounds, so the two agree to about 1e-6 relative).
@@ -1154,11 +1149,6 @@ fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut Rows
         // SAFETY: the CPU supports AVX-512 F/BW (detected).
         return unsafe { simd::pixel_variance_u8_avx512(x, w, h, ch, rows) };
     }
-    pixel_variance_u8_body(x, w, h, ch, rows)
-}
-
-#[inline(always)]
-fn pixel_variance_u8_body(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8) -> f64 {
     immerkaer(x, w, h, ch, rows)
 }
 
