@@ -376,12 +376,7 @@ impl Lattice {
 fn least(p: &[[f64; 8]; 7], even: &[f64]) -> ([f64; 8], [f64; 8]) {
     let (mut bv, mut bj) = ([f64::INFINITY; 8], [0f64; 8]);
     for (j, &u) in even.iter().enumerate() {
-        let mut r = p[6];
-        for q in (0..6).rev() {
-            for k in 0..8 {
-                r[k] = r[k] * u + p[q][k];
-            }
-        }
+        let r = horner8(p, u);
         for k in 0..8 {
             if r[k] < bv[k] {
                 (bv[k], bj[k]) = (r[k], j as f64);
