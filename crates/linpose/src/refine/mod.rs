@@ -24,9 +24,12 @@
 //!    That nu proved far too small for the paper's noise (uniform +-a, clipped to [0, 255]: on a
 //!    black background it brightens by about a/4, a silhouette-shaped change that lands in the
 //!    leading, most trusted coordinates). So a noisy query is detected from the image itself:
-//!    [`pixel_noise`] (Immerkaer's estimate, which ignores smooth shading) above the largest
-//!    value of any training image means noise (on the paper's grid every +-5% / +-10% query is
-//!    detected and no clean one is; duck: 1 of 1760 clean), and such a query takes the affine
+//!    [`pixel_noise`] (Immerkaer's estimate, which ignores smooth shading) above a threshold
+//!    means noise: the geometric mean of the largest value of a clean training image and the
+//!    least of the training images under simulated +-5% noise ([`select::noise_threshold`];
+//!    the largest clean value itself would let about one clean query in N + 1 through, as a
+//!    fresh view is as likely as any training view to be the noisiest; on the paper's grid and
+//!    COIL-20 every +-5% / +-10% query is detected and no clean one), and such a query takes the affine
 //!    match: its coordinates z (mean added back) against alpha (f(t) + c) + beta g(t), with the
 //!    gain alpha (the noise's extra energy shrinks a unit-energy query) and the offset beta
 //!    solved per pose, g the surface through the knots' [`clip_bias_shape`] (what clipped noise
@@ -210,8 +213,10 @@ pub struct RefinedSettings {
     /// noise, estimated per query (see the module doc).
     #[serde(default)]
     pub residual_energy: f64,
-    /// The noise threshold: the largest pixel-noise estimate ([`pixel_noise`]) of a training
-    /// image. A query above it is treated as noisy and takes the affine match (0: never).
+    /// The noise threshold ([`select::noise_threshold`]): between the largest pixel-noise
+    /// estimate ([`pixel_noise`]) of a training image and the smallest of the training images
+    /// with simulated noise. A query above it is treated as noisy and takes the affine match (0:
+    /// never).
     #[serde(default)]
     pub noise_threshold: f64,
     /// Eigenimages of the affine match of a noisy query (the first ones).
@@ -283,9 +288,7 @@ impl Estimator for RefinedParams {
         let coord_variance = select::interpolation_variance(train, &grid, &pca.coords, l)?;
         let sigma2 = if weighted { coord_variance.as_ref().map(|s| s[..l_search].to_vec()) } else { None };
         let scale = search_scale(sigma2.as_deref(), l_search, l);
-        let spec = train.spec();
-        let noise_threshold =
-            (0..train.len()).map(|i| pixel_noise(train.row(i), spec.width as usize, spec.height as usize, spec.color.channels())).fold(0.0, f64::max);
+        let noise_threshold = select::noise_threshold(train)?.threshold;
         let mut knots = Vec::with_capacity(grid.sample_at.len() * l);
         for &i in &grid.sample_at {
             knots.extend(pca.coords[i * l..(i + 1) * l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));

@@ -17,6 +17,7 @@ use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
 use crate::model::{ModelMeta, PoseModel};
 use crate::Result;
+use rayon::prelude::*;
 
 /// L when the training grid is too small to hold views out.
 pub const FALLBACK_COMPONENTS: usize = 20;
@@ -209,6 +210,56 @@ pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap:
         _ => Some(s),
     });
     Ok(best.map(|(c, w, _)| (c, w, scored.clone())))
+}
+
+/// Rows of training images given simulated noise at once by [`noise_threshold`].
+const NOISE_BLOCK: usize = 64;
+
+/// The noise threshold of a clean query ([`RefinedSettings::noise_threshold`]), from the training
+/// images alone: `clean`, the largest [`super::pixel_noise`] of a training image, and `noisy`,
+/// the smallest of the same images with simulated uniform noise at the smallest of
+/// [`NOISE_LEVELS`] (clipped, fixed seed). When they separate, the threshold is their geometric
+/// mean, the same factor from each; otherwise `clean`.
+///
+/// Why not `clean` itself: a fresh clean view is as likely as any of the N training views to
+/// be the noisiest of the N + 1, so it exceeds the training maximum with probability 1 / (N +
+/// 1), and about one clean query in N + 1 would take the noisy match, whose free gain and
+/// offset cost precision. The midpoint keeps every simulated noisy training view above it.
+pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
+    let spec = train.spec();
+    let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), train.n_features());
+    let noise = |x: &[f32]| super::pixel_noise(x, w, h, ch);
+    let clean = (0..train.len()).into_par_iter().map(|i| noise(train.row(i))).reduce(|| 0.0, f64::max);
+    let level = NOISE_LEVELS.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut noisy = f64::INFINITY;
+    for (b, block) in train.features().chunks(NOISE_BLOCK * m).enumerate() {
+        let mut q = block.to_vec();
+        crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED.wrapping_add(b as u64))?;
+        noisy = q.par_chunks(m).map(noise).reduce(|| noisy, f64::min);
+    }
+    Ok(NoiseThreshold { clean, noisy, threshold: separating(clean, noisy) })
+}
+
+/// The threshold between the noisiest clean value `clean` and the least noisy value `noisy`:
+/// their geometric mean when they separate, else `clean` (0, no training noise to measure
+/// against, stays 0: detection off).
+pub fn separating(clean: f64, noisy: f64) -> f64 {
+    if clean > 0.0 && noisy.is_finite() && noisy > clean {
+        (clean * noisy).sqrt()
+    } else {
+        clean
+    }
+}
+
+/// What [`noise_threshold`] measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseThreshold {
+    /// The largest pixel noise of a clean training image.
+    pub clean: f64,
+    /// The smallest pixel noise of a training image with simulated noise (infinite for none).
+    pub noisy: f64,
+    /// The threshold.
+    pub threshold: f64,
 }
 
 /// The cap on a held-out view's error when scoring the noisy match: half the smallest spacing of

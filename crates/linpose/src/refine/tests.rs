@@ -415,3 +415,30 @@ fn on_a_turntable_the_plain_metric_finds_the_eigenspace_manifold_point() {
         assert!(queries.space().error_deg(&[*x], &[*y]) <= 0.5, "query {i}: {x} against {y}");
     }
 }
+
+#[test]
+fn the_noise_threshold_separates_clean_and_noisy_training_views() {
+    let d = train_set();
+    let spec = d.spec();
+    let (w, h, m) = (spec.width as usize, spec.height as usize, d.n_features());
+    let t = select::noise_threshold(&d).unwrap();
+    let clean = (0..d.len()).map(|i| super::pixel_noise(d.row(i), w, h, 1)).fold(0.0, f64::max);
+    assert_eq!(t.clean, clean, "the noisiest clean training view");
+    assert!(t.noisy > 2.0 * t.clean, "simulated +-5% noise stands well above the clean views: {t:?}");
+    assert!((t.threshold / (t.clean * t.noisy).sqrt() - 1.0).abs() < 1e-12, "{t:?}");
+    // Other noise draws at the smallest level land above it too, clean views below.
+    for seed in [1, 2, 3] {
+        let mut q = d.features().to_vec();
+        crate::eval::add_uniform_noise(&mut q, m, select::NOISE_LEVELS[0], seed).unwrap();
+        for x in q.chunks_exact(m) {
+            assert!(super::pixel_noise(x, w, h, 1) > t.threshold);
+        }
+    }
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    assert_eq!(model.settings().noise_threshold, t.threshold, "the model keeps the threshold");
+    // No separation, or nothing measured: the clean maximum (0 turns detection off).
+    assert_eq!(select::separating(1e-4, 4e-4), 2e-4);
+    assert_eq!(select::separating(4e-4, 1e-4), 4e-4);
+    assert_eq!(select::separating(4e-4, f64::INFINITY), 4e-4);
+    assert_eq!(select::separating(0.0, 1e-3), 0.0);
+}
