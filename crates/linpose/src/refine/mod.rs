@@ -29,10 +29,10 @@
 //!    least of the training images under simulated +-5% noise ([`select::noise_threshold`];
 //!    the largest clean value itself would let about one clean query in N + 1 through, as a
 //!    fresh view is as likely as any training view to be the noisiest; on the paper's grid and
-//!    COIL-20 every +-5% / +-10% query is detected and no clean one), and such a query takes the affine
-//!    match: its coordinates z (mean added back) against alpha (f(t) + c) + beta g(t), with the
-//!    gain alpha (the noise's extra energy shrinks a unit-energy query) and the offset beta
-//!    solved per pose, g the surface through the knots' [`clip_bias_shape`] (what clipped noise
+//!    COIL-20 every +-5% / +-10% query is detected and no clean one). Such a query takes the
+//!    affine match: its coordinates z (mean added back) against alpha (f(t) + c) + beta g(t),
+//!    with the gain alpha (the noise's extra energy shrinks a unit-energy query) and the offset
+//!    beta solved per pose, g the surface through the knots' [`clip_bias_shape`] (what clipped noise
 //!    adds on average, projected). Its eigenimages (8-20) and whether it weights coordinates by
 //!    1 / (sigma_l^2 + floor + nu), nu the query's own pixel noise per coordinate, are chosen on
 //!    held-out training views under simulated noise ([`select::choose_noise`]). The eigenspace

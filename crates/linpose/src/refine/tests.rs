@@ -426,7 +426,8 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     assert_eq!(t.clean, clean, "the noisiest clean training view");
     assert!(t.noisy > 2.0 * t.clean, "simulated +-5% noise stands well above the clean views: {t:?}");
     assert!((t.threshold / (t.clean * t.noisy).sqrt() - 1.0).abs() < 1e-12, "{t:?}");
-    // Other noise draws at the smallest level land above it too, clean views below.
+    assert!(t.clean < t.threshold && t.threshold < t.noisy, "{t:?}");
+    // Other noise draws at the smallest level land above it too.
     for seed in [1, 2, 3] {
         let mut q = d.features().to_vec();
         crate::eval::add_uniform_noise(&mut q, m, select::NOISE_LEVELS[0], seed).unwrap();
