@@ -235,7 +235,7 @@ pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
     for (b, block) in train.features().chunks(NOISE_BLOCK * m).enumerate() {
         let mut q = block.to_vec();
         crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED.wrapping_add(b as u64))?;
-        noisy = q.par_chunks(m).map(noise).reduce(|| noisy, f64::min);
+        noisy = noisy.min(q.par_chunks(m).map(noise).reduce(|| f64::INFINITY, f64::min));
     }
     Ok(NoiseThreshold { clean, noisy, threshold: separating(clean, noisy) })
 }
