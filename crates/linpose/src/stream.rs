@@ -34,6 +34,7 @@
 
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
+use crate::kernels::levels::{quantize, residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
 use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 use crate::linear::{LinearModel, LinearParams};
 use crate::manifest::Manifest;
@@ -76,23 +77,6 @@ pub fn choose_path(n: usize, m: usize) -> SolverPath {
 
 /// Images decoded per block on the least-squares path (one 8-bit panel).
 pub const BLOCK: usize = 2 * KCP;
-
-/// 1/255 as image_io computes 8-bit features (`k as f32 * S8`).
-const S8: f32 = 1.0 / 255.0;
-
-/// The residuals r_k = V_k - k m of the 8-bit features k * S8 = V_k 2^-31 (m = S8 2^31, an
-/// integer: S8 has 24 significant bits and lies in [2^-8, 2^-7)); all within -127..=127.
-fn level_residuals() -> [i8; 256] {
-    let m = S8 as f64 * 2f64.powi(31);
-    let mut r = [0i8; 256];
-    for (k, r) in r.iter_mut().enumerate() {
-        let v = (k as f32 * S8) as f64 * 2f64.powi(31);
-        let d = v - k as f64 * m;
-        assert!(v.fract() == 0.0 && d.abs() <= 127.0, "8-bit feature {k} is not V 2^-31 with a small residual");
-        *r = d as i8;
-    }
-    r
-}
 
 /// What a streamed fit did and where its time went.
 #[derive(Debug, Clone, PartialEq)]
@@ -174,20 +158,6 @@ struct Block {
     exact: bool,
 }
 
-/// Fills `q` with the 8-bit levels of `f` and says whether every value is one.
-fn quantize(f: &[f32], q: &mut [u8]) -> bool {
-    let mut exact = true;
-    for (d, &v) in q.iter_mut().zip(f) {
-        // Truncation rounds a non-negative value to the nearest level (and inlines, where
-        // f32::round is a libm call); anything else fails the comparison.
-        let k = (v * 255.0 + 0.5) as i32;
-        let ok = (0..=255).contains(&k) && (k as f32) * S8 == v;
-        exact &= ok;
-        *d = if ok { k as u8 } else { 0 };
-    }
-    exact
-}
-
 /// The least-squares path on images delivered by `read(start, block)`, which fills `block`
 /// (rows of M features) with images `start..`, `block.len() / M` of them. `read` runs on a thread
 /// of its own, one block ahead of the accumulation.
@@ -214,8 +184,7 @@ pub fn fit_least_squares(
     let r = level_residuals();
     // C += s1 sum k_p k_q + s2 sum (k_p r_q + r_p k_q): 2^-62 m^2 and 2^-62 m, exact powers of two
     // times 24-bit integers.
-    let s1 = (S8 as f64) * (S8 as f64);
-    let s2 = S8 as f64 * 2f64.powi(-31);
+    let (s1, s2) = (SCALE_PAIRS, SCALE_CROSS);
     let mut p = vec![0f64; block * k];
     let (mut pa, mut pb) = (Vec::new(), Vec::new()); // 8-bit panels, step pairs
     let mut quads: [Vec<i32>; 4] = Default::default(); // 8-bit panels, step quads
@@ -366,6 +335,7 @@ fn singular(lambda: f64, detail: &str) -> Error {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kernels::levels::S8;
     use crate::{Param, PoseSpace};
 
     fn dataset(n: usize, w: usize, h: usize, f: Vec<f32>) -> Dataset {
@@ -457,11 +427,11 @@ mod tests {
         let np = padded(m);
         let (mut a, mut b) = (vec![0; np * kcp], vec![0; np * kcp]);
         pack_pairs_u8(&mut a, &mut b, &q, n, m);
-        acc.update_u8(&a, &b, kcp, (S8 as f64) * (S8 as f64));
+        acc.update_u8(&a, &b, kcp, SCALE_PAIRS);
         let mut v: [Vec<i32>; 4] = std::array::from_fn(|_| vec![0; np * kcq]);
         let [ak, ar, bk, br] = &mut v;
         pack_quads_u8(ak, ar, bk, br, &q, n, m, &level_residuals());
-        acc.update_u8_cross(ak, ar, bk, br, kcq, S8 as f64 * 2f64.powi(-31));
+        acc.update_u8_cross(ak, ar, bk, br, kcq, SCALE_CROSS);
         let c = acc.into_lower(1.0);
         let mut worst = 0f64;
         for p in 0..m {

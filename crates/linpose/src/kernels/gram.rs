@@ -21,6 +21,7 @@
 //! result has the same bits whatever the thread count, tile split or SIMD path; it differs from
 //! a one-chunk sum by rounding only (tested).
 
+use super::gram8::gram_levels;
 use super::syrk::{bands_into_matrix, tile, zero_bands, Band, GROUP};
 use super::Level;
 use faer::Mat;
@@ -176,8 +177,20 @@ pub fn gram_rows(n: usize, m: usize, read: impl Fn(usize, usize, &mut [f64]) + S
 }
 
 /// G = X X^T for `n` row-major f32 rows of `m` values, each minus `mean` when given (the f64
-/// difference of the f32 value converted, as the f64 paths compute it).
+/// difference of the f32 value converted, as the f64 paths compute it). Uncentred 8-bit
+/// features go to [`gram_levels`] (exact integer sums) where the CPU has AVX-512 VNNI,
+/// everything else to the f64 kernel ([`gram_f32_fma`]).
 pub fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
+    if mean.is_none() {
+        if let Some(g) = gram_levels(x, n, m) {
+            return g;
+        }
+    }
+    gram_f32_fma(x, n, m, mean)
+}
+
+/// [`gram_f32`] by the f64 kernel whatever the values.
+pub fn gram_f32_fma(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     gram_f32_with(x, n, m, mean, Level::detect(), chunks(n, m))
 }
 

@@ -9,6 +9,8 @@
 
 pub mod dot_u8;
 pub mod gram;
+pub mod gram8;
+pub mod levels;
 pub mod peak;
 pub mod scan;
 pub mod syrk;

@@ -47,9 +47,65 @@ fn fma_loop(iters: u64, seed: f64) -> f64 {
     acc.iter().sum()
 }
 
+/// The f64-FLOP-equivalent peak of the 8-bit Gram ([`super::gram::gram_levels`]): a
+/// register-only loop of AVX-512 VNNI instructions on every rayon thread for about `seconds`,
+/// `vpdpwssd` and `vpdpbusd` in equal numbers as the Gram issues them, counted as 2 FLOP per
+/// lane per instruction (the Gram spends one 32-bit lane of one instruction per product of two
+/// features: half a `vpdpwssd` lane for k_p k_q over a step pair, two halves of `vpdpbusd`
+/// lanes for k_p r_q + r_p k_q over a step quad, where the f64 kernel spends one f64 lane of
+/// one fused multiply-add). None without AVX-512 VNNI.
+pub fn vnni_gram_flops(seconds: f64) -> Option<f64> {
+    #[cfg(target_arch = "x86_64")]
+    if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vnni") {
+        // SAFETY (both calls): avx512f and avx512vnni were detected just above; registers only.
+        let run = |iters: u64, seed: i32| unsafe { x86::vnni_loop(iters, seed) };
+        let mut iters = 1u64 << 14;
+        let iters = loop {
+            let t = Instant::now();
+            std::hint::black_box(run(iters, 1));
+            let dt = t.elapsed().as_secs_f64();
+            if dt > 0.02 {
+                break ((iters as f64) * seconds / dt).max(1.0) as u64;
+            }
+            iters *= 4;
+        };
+        let threads = rayon::current_num_threads();
+        let t = Instant::now();
+        let s: i64 = (0..threads).into_par_iter().map(|i| run(iters, i as i32) as i64).sum();
+        let dt = t.elapsed().as_secs_f64();
+        std::hint::black_box(s);
+        return Some((threads as u64 * iters * x86::VNNI_PER_ITER * 16) as f64 * 2.0 / dt);
+    }
+    let _ = seconds;
+    None
+}
+
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use std::arch::x86_64::*;
+
+    /// VNNI instructions per iteration of [`vnni_loop`].
+    pub const VNNI_PER_ITER: u64 = 16;
+
+    /// 8 `vpdpwssd` and 8 `vpdpbusd` per iteration into 16 independent accumulators.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F and AVX-512 VNNI.
+    #[target_feature(enable = "avx512f,avx512vnni")]
+    pub unsafe fn vnni_loop(iters: u64, seed: i32) -> i32 {
+        let (x, y) = (_mm512_set1_epi32(seed | 0x0001_0001), _mm512_set1_epi32(0x0102_0304));
+        let mut acc = [_mm512_setzero_si512(); 16];
+        for _ in 0..iters {
+            for (j, a) in acc.iter_mut().enumerate() {
+                *a = if j % 2 == 0 { _mm512_dpwssd_epi32(*a, x, y) } else { _mm512_dpbusd_epi32(*a, x, y) };
+            }
+        }
+        let mut s = _mm512_setzero_si512();
+        for a in acc {
+            s = _mm512_add_epi32(s, a);
+        }
+        _mm512_reduce_add_epi32(s)
+    }
 
     /// The wrapping sum of `words`, 32 per step in four independent vector sums.
     ///

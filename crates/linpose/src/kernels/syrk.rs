@@ -262,7 +262,19 @@ impl SyrkAcc {
         assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
         assert!(a.len() == np * kcp && b.len() == np * kcp, "packed 8-bit panel size");
         let vnni = self.vnni;
-        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, a, b, kcp, s, vnni));
+        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
+        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, a, b, GROUP, kcp, s, vnni));
+    }
+
+    /// [`SyrkAcc::update_u8`] with the broadcast side read in place from `a` (the halves of its
+    /// groups of 16, 16 lanes a step apart) instead of from a copy in groups of 8.
+    pub fn update_u8_in_place(&mut self, a: &[i32], kcp: usize, s: f64) {
+        let np = padded(self.n);
+        assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
+        assert!(a.len() == np * kcp, "packed 8-bit panel size");
+        let vnni = self.vnni;
+        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
+        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, a, a, GROUP16, kcp, s, vnni));
     }
 
     /// C += s * (K^T R + R^T K) for one panel of `kcq` step quads packed by [`pack_quads_u8`]
@@ -275,7 +287,25 @@ impl SyrkAcc {
             assert_eq!(v.len(), np * kcq, "packed 8-bit panel size");
         }
         let vnni = self.vnni;
-        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, [ak, ar, bk, br], kcq, s, vnni));
+        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
+        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, [ak, ar, bk, br], GROUP, kcq, s, vnni));
+    }
+
+    /// [`SyrkAcc::update_u8_cross`] with the broadcast side read in place from `ak` and `ar`
+    /// (as [`SyrkAcc::update_u8_in_place`]).
+    pub fn update_u8_cross_in_place(&mut self, ak: &[i32], ar: &[i32], kcq: usize, s: f64) {
+        let np = padded(self.n);
+        assert!(kcq <= KCQ_MAX, "8-bit panel of {kcq} step quads exceeds {KCQ_MAX}");
+        assert!(ak.len() == np * kcq && ar.len() == np * kcq, "packed 8-bit panel size");
+        let vnni = self.vnni;
+        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
+        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, [ak, ar, ak, ar], GROUP16, kcq, s, vnni));
+    }
+
+    /// C += other's C (both n x n, element by element).
+    pub fn add(&mut self, other: &SyrkAcc) {
+        assert_eq!(self.n, other.n, "accumulator sizes");
+        self.bands.par_iter_mut().zip(&other.bands).for_each(|(b, o)| b.buf.iter_mut().zip(&o.buf).for_each(|(v, &w)| *v += w));
     }
 
     /// Multiplies every element of C by `s`.
@@ -363,71 +393,106 @@ fn vnni_supported() -> bool {
     }
 }
 
-fn band_update_u8(band: &mut Band, a: &[i32], b: &[i32], kcp: usize, s: f64, vnni: bool) {
+/// Where the broadcast side of column group `cg` starts in `b` and how many lanes it spans:
+/// packed groups of 8 (`bs` = 8 lanes a step) or halves of groups of 16 (`bs` = 16).
+fn b_side(cg: usize, bs: usize, steps: usize) -> std::ops::Range<usize> {
+    let per = bs / GROUP;
+    let start = (cg / per) * bs * steps + (cg % per) * GROUP;
+    start..start + (steps.max(1) - 1) * bs + GROUP
+}
+
+/// The 16-row groups of the 48-row tile at row `r` that column group `c0` needs: from the
+/// group holding the diagonal (none above it) to the last group holding a row below `n16` (none
+/// that is only padding). Rows `rs..rs + 16 q`; q = 0 when the tile is not needed.
+fn tile_rows(r: usize, c0: usize, n16: usize) -> (usize, usize) {
+    let rs = r.max(c0 / GROUP16 * GROUP16);
+    let re = (r + MR16).min(n16);
+    (rs, re.saturating_sub(rs) / GROUP16)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn band_update_u8(band: &mut Band, n16: usize, a: &[i32], b: &[i32], bs: usize, kcp: usize, s: f64, vnni: bool) {
     let ld = band.rows;
     let cols = band.r0 + band.rows;
-    let (ga, gb) = (GROUP16 * kcp, GROUP * kcp);
+    let ga = GROUP16 * kcp;
     for cg in 0..cols / GROUP {
         let c0 = cg * GROUP;
-        let bp = &b[cg * gb..(cg + 1) * gb];
+        let bp = &b[b_side(cg, bs, kcp)];
         for t in 0..band.rows / MR16 {
-            let r = band.r0 + t * MR16;
-            if r + MR16 <= c0 {
-                continue; // the tile lies wholly above the diagonal
+            let (rs, q) = tile_rows(band.r0 + t * MR16, c0, n16);
+            if q == 0 {
+                continue;
             }
-            let ap = &a[(r / GROUP16) * ga..(r / GROUP16 + 3) * ga];
-            let out = &mut band.buf[c0 * ld + t * MR16..(c0 + GROUP - 1) * ld + t * MR16 + MR16];
+            let ap = &a[(rs / GROUP16) * ga..(rs / GROUP16 + q) * ga];
+            let o0 = c0 * ld + rs - band.r0;
+            let out = &mut band.buf[o0..o0 + (GROUP - 1) * ld + q * GROUP16];
             #[cfg(target_arch = "x86_64")]
             if vnni {
                 // SAFETY: vnni is only true when avx512f and avx512vnni were detected; the slices
-                // have the lengths the kernel reads and writes (checked by tile_u8_vnni).
-                unsafe { x86::tile_u8_vnni(ap, bp, kcp, out, ld, s) };
+                // have the lengths the kernels read and write (checked by them).
+                unsafe {
+                    match q {
+                        3 => x86::tile_u8_vnni(ap, bp, bs, kcp, out, ld, s),
+                        2 => x86::tile_u8_vnni_q::<2>(ap, bp, bs, kcp, out, ld, s),
+                        _ => x86::tile_u8_vnni_q::<1>(ap, bp, bs, kcp, out, ld, s),
+                    }
+                }
                 continue;
             }
             let _ = vnni;
-            tile_u8_portable(ap, bp, kcp, out, ld, s);
+            tile_u8_portable(q, ap, bp, bs, kcp, out, ld, s);
         }
     }
 }
 
-fn band_update_u8_cross(band: &mut Band, [ak, ar, bk, br]: [&[i32]; 4], kcq: usize, s: f64, vnni: bool) {
+#[allow(clippy::too_many_arguments)]
+fn band_update_u8_cross(band: &mut Band, n16: usize, [ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, s: f64, vnni: bool) {
     let ld = band.rows;
     let cols = band.r0 + band.rows;
-    let (ga, gb) = (GROUP16 * kcq, GROUP * kcq);
+    let ga = GROUP16 * kcq;
     for cg in 0..cols / GROUP {
         let c0 = cg * GROUP;
-        let (bkp, brp) = (&bk[cg * gb..(cg + 1) * gb], &br[cg * gb..(cg + 1) * gb]);
+        let (bkp, brp) = (&bk[b_side(cg, bs, kcq)], &br[b_side(cg, bs, kcq)]);
         for t in 0..band.rows / MR16 {
-            let r = band.r0 + t * MR16;
-            if r + MR16 <= c0 {
-                continue; // the tile lies wholly above the diagonal
+            let (rs, q) = tile_rows(band.r0 + t * MR16, c0, n16);
+            if q == 0 {
+                continue;
             }
-            let g = r / GROUP16;
-            let (akp, arp) = (&ak[g * ga..(g + 3) * ga], &ar[g * ga..(g + 3) * ga]);
-            let out = &mut band.buf[c0 * ld + t * MR16..(c0 + GROUP - 1) * ld + t * MR16 + MR16];
+            let g = rs / GROUP16;
+            let (akp, arp) = (&ak[g * ga..(g + q) * ga], &ar[g * ga..(g + q) * ga]);
+            let o0 = c0 * ld + rs - band.r0;
+            let out = &mut band.buf[o0..o0 + (GROUP - 1) * ld + q * GROUP16];
             #[cfg(target_arch = "x86_64")]
             if vnni {
-                // SAFETY: as in band_update_u8 (lengths checked by tile_u8_cross_vnni).
-                unsafe { x86::tile_u8_cross_vnni([akp, arp, bkp, brp], kcq, out, ld, s) };
+                // SAFETY: as in band_update_u8 (lengths checked by the kernels).
+                unsafe {
+                    match q {
+                        3 => x86::tile_u8_cross_vnni([akp, arp, bkp, brp], bs, kcq, out, ld, s),
+                        2 => x86::tile_u8_cross_vnni_q::<2>([akp, arp, bkp, brp], bs, kcq, out, ld, s),
+                        _ => x86::tile_u8_cross_vnni_q::<1>([akp, arp, bkp, brp], bs, kcq, out, ld, s),
+                    }
+                }
                 continue;
             }
             let _ = vnni;
-            tile_u8_cross_portable([akp, arp, bkp, brp], kcq, out, ld, s);
+            tile_u8_cross_portable(q, [akp, arp, bkp, brp], bs, kcq, out, ld, s);
         }
     }
 }
 
 /// out[c * ld + r] += s * sum_j (lo(a[r][j]) lo(b[c][j]) + hi(a[r][j]) hi(b[c][j])) for the
-/// 48 x 8 8-bit tile, summed exactly in i32 (a: three packed groups of 16, b: one group of 8).
-fn tile_u8_portable(a: &[i32], b: &[i32], kcp: usize, out: &mut [f64], ld: usize, s: f64) {
-    assert!(a.len() >= 3 * GROUP16 * kcp && b.len() >= GROUP * kcp && out.len() >= 7 * ld + MR16);
+/// (16 q) x 8 8-bit tile (q <= 3), summed exactly in i32 (a: q packed groups of 16, b: 8 lanes a
+/// step, `bs` lanes apart).
+#[allow(clippy::too_many_arguments)]
+fn tile_u8_portable(q: usize, a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
+    assert!(q <= 3 && a.len() >= q * GROUP16 * kcp && b.len() >= (kcp.max(1) - 1) * bs + GROUP && out.len() >= 7 * ld + q * GROUP16);
     let mut acc = [[0i32; MR16]; GROUP];
     for j in 0..kcp {
         let x = &a[j * GROUP16..];
-        let y = &b[j * GROUP..(j + 1) * GROUP];
+        let y = &b[j * bs..j * bs + GROUP];
         for (c, &yc) in y.iter().enumerate() {
             let (ylo, yhi) = (yc as i16 as i32, yc >> 16);
-            for q in 0..3 {
+            for q in 0..q {
                 let xq = &x[q * GROUP16 * kcp..q * GROUP16 * kcp + GROUP16];
                 for (l, &v) in xq.iter().enumerate() {
                     acc[c][q * GROUP16 + l] += (v as i16 as i32) * ylo + (v >> 16) * yhi;
@@ -436,7 +501,7 @@ fn tile_u8_portable(a: &[i32], b: &[i32], kcp: usize, out: &mut [f64], ld: usize
         }
     }
     for (c, col) in acc.iter().enumerate() {
-        out[c * ld..c * ld + MR16].iter_mut().zip(col).for_each(|(o, &v)| *o = (v as f64).mul_add(s, *o));
+        out[c * ld..c * ld + q * GROUP16].iter_mut().zip(col).for_each(|(o, &v)| *o = (v as f64).mul_add(s, *o));
     }
 }
 
@@ -451,15 +516,18 @@ fn bytes_s(v: i32) -> [i32; 4] {
 }
 
 /// out[c * ld + r] += s * sum_j sum_b (k[r][4j+b] rr[c][4j+b] + k[c][4j+b] rr[r][4j+b]) for the
-/// 48 x 8 tile, summed exactly in i32 (ak, ar: three packed groups of 16; bk, br: one of 8).
-fn tile_u8_cross_portable([ak, ar, bk, br]: [&[i32]; 4], kcq: usize, out: &mut [f64], ld: usize, s: f64) {
-    assert!(ak.len() >= 3 * GROUP16 * kcq && ar.len() >= 3 * GROUP16 * kcq && bk.len() >= GROUP * kcq && br.len() >= GROUP * kcq);
-    assert!(out.len() >= 7 * ld + MR16);
+/// (16 q) x 8 tile (q <= 3), summed exactly in i32 (ak, ar: q packed groups of 16; bk, br: 8
+/// lanes a step, `bs` lanes apart).
+#[allow(clippy::too_many_arguments)]
+fn tile_u8_cross_portable(q: usize, [ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
+    let bl = (kcq.max(1) - 1) * bs + GROUP;
+    assert!(q <= 3 && ak.len() >= q * GROUP16 * kcq && ar.len() >= q * GROUP16 * kcq && bk.len() >= bl && br.len() >= bl);
+    assert!(out.len() >= 7 * ld + q * GROUP16);
     let mut acc = [[0i32; MR16]; GROUP];
     for j in 0..kcq {
         for c in 0..GROUP {
-            let (kq, rq) = (bytes_u(bk[j * GROUP + c]), bytes_s(br[j * GROUP + c]));
-            for q in 0..3 {
+            let (kq, rq) = (bytes_u(bk[j * bs + c]), bytes_s(br[j * bs + c]));
+            for q in 0..q {
                 for l in 0..GROUP16 {
                     let i = q * GROUP16 * kcq + j * GROUP16 + l;
                     let (kp, rp) = (bytes_u(ak[i]), bytes_s(ar[i]));
@@ -469,7 +537,7 @@ fn tile_u8_cross_portable([ak, ar, bk, br]: [&[i32]; 4], kcq: usize, out: &mut [
         }
     }
     for (c, col) in acc.iter().enumerate() {
-        out[c * ld..c * ld + MR16].iter_mut().zip(col).for_each(|(o, &v)| *o = (v as f64).mul_add(s, *o));
+        out[c * ld..c * ld + q * GROUP16].iter_mut().zip(col).for_each(|(o, &v)| *o = (v as f64).mul_add(s, *o));
     }
 }
 
@@ -520,15 +588,15 @@ mod x86 {
     use std::arch::x86_64::*;
 
     /// The 8-bit micro-kernel: 24 accumulators of 16 i32 lanes (zmm0-23) for the 48 x 8 tile,
-    /// per step pair three loads of `a` (zmm24-26), eight 32-bit broadcasts of `b` and 24
-    /// `vpdpwssd`. Written in assembly because the compiler, unable to commute `vpdpwssd`'s
+    /// per step pair three loads of `a` (zmm24-26), eight 32-bit broadcasts of `b` (8 lanes a
+    /// step, `bs` lanes apart) and 24 `vpdpwssd`. Written in assembly because the compiler, unable to commute `vpdpwssd`'s
     /// accumulator operand, spilled half the accumulators to the stack (2.3x slower).
     ///
     /// # Safety
     /// The CPU must support AVX-512F and AVX-512 VNNI.
     #[target_feature(enable = "avx512f,avx512vnni")]
-    pub unsafe fn tile_u8_vnni(a: &[i32], b: &[i32], kcp: usize, out: &mut [f64], ld: usize, s: f64) {
-        assert!(a.len() >= 3 * GROUP16 * kcp && b.len() >= GROUP * kcp && out.len() >= 7 * ld + MR16);
+    pub unsafe fn tile_u8_vnni(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
+        assert!(a.len() >= 3 * GROUP16 * kcp && b.len() >= (kcp.max(1) - 1) * bs + GROUP && out.len() >= 7 * ld + MR16);
         let mut acc = [_mm512_setzero_si512(); 24];
         if kcp > 0 {
             // zmm(3c + q) accumulates rows 16q..16q + 16 of column c.
@@ -570,13 +638,14 @@ mod x86 {
                 "vpdpwssd zmm22, zmm25, zmm28",
                 "vpdpwssd zmm23, zmm26, zmm28",
                 "add {a}, 64",
-                "add {b}, 32",
+                "add {b}, {bs}",
                 "dec {n}",
                 "jnz 2b",
                 a = inout(reg) a.as_ptr() => _,
                 b = inout(reg) b.as_ptr() => _,
                 n = inout(reg) kcp => _,
                 g = in(reg) 4 * GROUP16 * kcp,
+                bs = in(reg) 4 * bs,
                 inout("zmm0") acc[0], inout("zmm1") acc[1], inout("zmm2") acc[2], inout("zmm3") acc[3],
                 inout("zmm4") acc[4], inout("zmm5") acc[5], inout("zmm6") acc[6], inout("zmm7") acc[7],
                 inout("zmm8") acc[8], inout("zmm9") acc[9], inout("zmm10") acc[10], inout("zmm11") acc[11],
@@ -588,6 +657,68 @@ mod x86 {
             );
         }
         flush(&acc, out, ld, s);
+    }
+
+    /// [`tile_u8_vnni`] for a (16 Q) x 8 tile, Q = 1 or 2 (where a 48-row tile would reach
+    /// above the diagonal or into padding rows only): few enough accumulators for intrinsics.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F and AVX-512 VNNI.
+    #[target_feature(enable = "avx512f,avx512vnni")]
+    pub unsafe fn tile_u8_vnni_q<const Q: usize>(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
+        assert!(Q <= 2 && a.len() >= Q * GROUP16 * kcp && b.len() >= (kcp.max(1) - 1) * bs + GROUP && out.len() >= 7 * ld + Q * GROUP16);
+        let (ap, bp, ga) = (a.as_ptr(), b.as_ptr(), GROUP16 * kcp);
+        let mut acc = [[_mm512_setzero_si512(); Q]; GROUP];
+        for j in 0..kcp {
+            let x: [__m512i; Q] = std::array::from_fn(|q| _mm512_loadu_si512(ap.add(q * ga + j * GROUP16) as *const _));
+            for (c, acc) in acc.iter_mut().enumerate() {
+                let y = _mm512_set1_epi32(*bp.add(j * bs + c));
+                for q in 0..Q {
+                    acc[q] = _mm512_dpwssd_epi32(acc[q], x[q], y);
+                }
+            }
+        }
+        flush_q(&acc, out, ld, s);
+    }
+
+    /// [`tile_u8_cross_vnni`] for a (16 Q) x 8 tile, Q = 1 or 2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F and AVX-512 VNNI.
+    #[target_feature(enable = "avx512f,avx512vnni")]
+    pub unsafe fn tile_u8_cross_vnni_q<const Q: usize>([ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
+        let bl = (kcq.max(1) - 1) * bs + GROUP;
+        assert!(Q <= 2 && ak.len() >= Q * GROUP16 * kcq && ar.len() >= Q * GROUP16 * kcq && bk.len() >= bl && br.len() >= bl);
+        assert!(out.len() >= 7 * ld + Q * GROUP16);
+        let ga = GROUP16 * kcq;
+        let mut acc = [[_mm512_setzero_si512(); Q]; GROUP];
+        for j in 0..kcq {
+            let xk: [__m512i; Q] = std::array::from_fn(|q| _mm512_loadu_si512(ak.as_ptr().add(q * ga + j * GROUP16) as *const _));
+            let xr: [__m512i; Q] = std::array::from_fn(|q| _mm512_loadu_si512(ar.as_ptr().add(q * ga + j * GROUP16) as *const _));
+            for (c, acc) in acc.iter_mut().enumerate() {
+                let (kc, rc) = (_mm512_set1_epi32(*bk.as_ptr().add(j * bs + c)), _mm512_set1_epi32(*br.as_ptr().add(j * bs + c)));
+                for q in 0..Q {
+                    acc[q] = _mm512_dpbusd_epi32(_mm512_dpbusd_epi32(acc[q], xk[q], rc), kc, xr[q]);
+                }
+            }
+        }
+        flush_q(&acc, out, ld, s);
+    }
+
+    /// out += s * acc for a (16 Q) x 8 tile (`acc[c][q]`: rows 16q.. of column c).
+    #[target_feature(enable = "avx512f")]
+    unsafe fn flush_q<const Q: usize>(acc: &[[__m512i; Q]; GROUP], out: &mut [f64], ld: usize, s: f64) {
+        assert!(out.len() >= 7 * ld + Q * GROUP16);
+        let (o, sv) = (out.as_mut_ptr(), _mm512_set1_pd(s));
+        for (c, col) in acc.iter().enumerate() {
+            for (q, &v) in col.iter().enumerate() {
+                let p = o.add(c * ld + q * GROUP16);
+                let lo = _mm512_cvtepi32_pd(_mm512_castsi512_si256(v));
+                let hi = _mm512_cvtepi32_pd(_mm512_extracti64x4_epi64::<1>(v));
+                _mm512_storeu_pd(p, _mm512_fmadd_pd(lo, sv, _mm512_loadu_pd(p)));
+                _mm512_storeu_pd(p.add(8), _mm512_fmadd_pd(hi, sv, _mm512_loadu_pd(p.add(8))));
+            }
+        }
     }
 
     /// out += s * acc for the 48 x 8 tile (`acc[3c + q]`: rows 16q.. of column c), one fused
@@ -616,8 +747,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F and AVX-512 VNNI.
     #[target_feature(enable = "avx512f,avx512vnni")]
-    pub unsafe fn tile_u8_cross_vnni([ak, ar, bk, br]: [&[i32]; 4], kcq: usize, out: &mut [f64], ld: usize, s: f64) {
-        assert!(ak.len() >= 3 * GROUP16 * kcq && ar.len() >= 3 * GROUP16 * kcq && bk.len() >= GROUP * kcq && br.len() >= GROUP * kcq);
+    pub unsafe fn tile_u8_cross_vnni([ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
+        let bl = (kcq.max(1) - 1) * bs + GROUP;
+        assert!(ak.len() >= 3 * GROUP16 * kcq && ar.len() >= 3 * GROUP16 * kcq && bk.len() >= bl && br.len() >= bl);
         assert!(out.len() >= 7 * ld + MR16);
         let mut acc = [_mm512_setzero_si512(); 24];
         if kcq > 0 {
@@ -687,8 +819,8 @@ mod x86 {
                 "vpdpbusd zmm23, zmm31, zmm29",
                 "add {ak}, 64",
                 "add {ar}, 64",
-                "add {bk}, 32",
-                "add {br}, 32",
+                "add {bk}, {bs}",
+                "add {br}, {bs}",
                 "dec {n}",
                 "jnz 2b",
                 ak = inout(reg) ak.as_ptr() => _,
@@ -697,6 +829,7 @@ mod x86 {
                 br = inout(reg) br.as_ptr() => _,
                 n = inout(reg) kcq => _,
                 g = in(reg) 4 * GROUP16 * kcq,
+                bs = in(reg) 4 * bs,
                 inout("zmm0") acc[0], inout("zmm1") acc[1], inout("zmm2") acc[2], inout("zmm3") acc[3],
                 inout("zmm4") acc[4], inout("zmm5") acc[5], inout("zmm6") acc[6], inout("zmm7") acc[7],
                 inout("zmm8") acc[8], inout("zmm9") acc[9], inout("zmm10") acc[10], inout("zmm11") acc[11],
