@@ -1,6 +1,6 @@
 //! The Gram matrix G = X X^T of 8-bit features (every value k * S8, see [`super::levels`]),
 //! summed exactly in integers by the AVX-512 VNNI kernels of [`super::syrk`]: per panel of
-//! [`KC8`] pixels, [`SCALE_PAIRS`] times sum k_p k_q (`vpdpwssd` on pixel pairs) and
+//! 512 or 1024 pixels (`kc8`), [`SCALE_PAIRS`] times sum k_p k_q (`vpdpwssd` on pixel pairs) and
 //! [`SCALE_CROSS`] times sum (k_p r_q + r_p k_q) (`vpdpbusd` on pixel quads). On this machine a
 //! VNNI instruction does twice the f64 FMA's lanes at the same rate, so the triangle costs
 //! about half the f64 kernel's instructions ([`super::peak::vnni_gram_flops`] measures it).
@@ -11,7 +11,7 @@
 //! 16 x 16 blocks of 32-bit words are transposed so that one word holds one image's pixel pair
 //! (or quad) and 16 images sit side by side, as the micro-kernels load them.
 //!
-//! The panels are split into [`chunks8`] runs summed into partial Grams, one per thread, and
+//! The panels are split into runs (`chunks8`) summed into partial Grams, one per thread, and
 //! added in order (at N = 222 a panel's triangle is too little work to share well at every
 //! panel's fork-join). Where a 48-row tile would reach above the diagonal or into padding rows
 //! only, the kernels compute 16 or 32 of its rows.
@@ -23,15 +23,26 @@
 //! relative (tested against f64 sums).
 
 use super::levels::{residuals, SCALE_CROSS, SCALE_PAIRS, S8};
-use super::syrk::{padded, SyrkAcc, GROUP16, KCP, KCQ};
+use super::syrk::{padded, SyrkAcc, GROUP16, KCP_MAX, KCQ_MAX};
 use super::Level;
 use faer::Mat;
 use rayon::prelude::*;
 
-/// Pixels per panel: [`KCP`] pixel pairs and [`KCQ`] pixel quads (an i32 lane of a tile then
-/// sums at most 2 * 512 * 255^2 < 2^31).
-pub const KC8: usize = 2 * KCP;
-const _: () = assert!(KC8 == 4 * KCQ);
+/// Pixels per panel: 512 for up to [`SMALL`] rows, 1024 above; an i32 lane of a tile then
+/// sums at most 2 * 512 * 255^2 < 2^31. Measured alternating on two cores (M = 19,200): at N =
+/// 222, 512 beat 1024 in four rounds of four (medians 8.1-11.1 ms against 8.8-17.6) and 256 did
+/// not beat 512; at N = 2000, 1024 took 0.57 s against 0.73 s for 512.
+fn kc8(n: usize) -> usize {
+    if padded(n) <= SMALL {
+        512
+    } else {
+        1024
+    }
+}
+
+/// Most rows (padded) that take the shorter panels of [`kc8`].
+const SMALL: usize = 480;
+const _: () = assert!(1024 / 2 <= KCP_MAX && 1024 / 4 <= KCQ_MAX);
 
 /// Pixels per packing chunk: one 16 x 16 block of quads (64 bytes a row).
 const CHUNK: usize = 64;
@@ -46,8 +57,9 @@ pub fn gram_levels(x: &[f32], n: usize, m: usize) -> Option<Mat<f64>> {
     gram_levels_with(x, n, m, || SyrkAcc::new(n), Level::detect())
 }
 
-/// Most partial Grams: measured on two cores at N = 222, M = 19,200, two partials (each
-/// thread sums one, with no fork-join per panel) took 8.7 ms, one 14.0 ms and four 11.8 ms.
+/// Most partial Grams: measured on two cores at N = 222, M = 19,200 (panels of 1024 pixels),
+/// two partials (each thread sums one, with no fork-join per panel) took 8.7 ms, one 14.0 ms
+/// and four 11.8 ms.
 const MAX_CHUNKS8: usize = 2;
 
 /// How many partial Grams (runs of consecutive panels) the 8-bit Gram sums: a function of n
@@ -55,13 +67,13 @@ const MAX_CHUNKS8: usize = 2;
 /// the extra partials within 16 MiB (N = 2000 takes one).
 fn chunks8(n: usize, m: usize) -> usize {
     let bytes = padded(n) * padded(n) * 8;
-    (m.div_ceil(KC8) / 4).min(1 + (16 << 20) / bytes.max(1)).clamp(1, MAX_CHUNKS8)
+    (m.div_ceil(kc8(n)) / 4).min(1 + (16 << 20) / bytes.max(1)).clamp(1, MAX_CHUNKS8)
 }
 
 /// The 8-bit Gram, packing with `level`; `acc()` makes a zero n x n accumulator.
 fn gram_levels_with(x: &[f32], n: usize, m: usize, acc: impl Fn() -> SyrkAcc + Sync, level: Level) -> Option<Mat<f64>> {
     assert_eq!(x.len(), n * m, "feature rows size");
-    let panels = m.div_ceil(KC8);
+    let panels = m.div_ceil(kc8(n));
     let chunks = chunks8(n, m).min(panels.max(1));
     let parts: Vec<Option<SyrkAcc>> = (0..chunks)
         .into_par_iter()
@@ -78,12 +90,13 @@ fn gram_levels_with(x: &[f32], n: usize, m: usize, acc: impl Fn() -> SyrkAcc + S
 /// The sum over panels `panels` (in order) into `acc`; None when a value is not an 8-bit feature.
 fn partial(x: &[f32], n: usize, m: usize, panels: std::ops::Range<usize>, mut acc: SyrkAcc, level: Level) -> Option<SyrkAcc> {
     let np = padded(n);
-    let kc_max = KC8.min(m);
+    let kc8 = kc8(n);
+    let kc_max = kc8.min(m);
     let (lp, lq) = (np * kc_max.div_ceil(2), np * kc_max.div_ceil(4));
     let (mut pa, mut pk, mut pr) = (vec![0i32; lp], vec![0i32; lq], vec![0i32; lq]);
     for p in panels {
-        let k0 = p * KC8;
-        let kc = KC8.min(m - k0);
+        let k0 = p * kc8;
+        let kc = kc8.min(m - k0);
         let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
         let (a, ak, ar) = (&mut pa[..np * kcp], &mut pk[..np * kcq], &mut pr[..np * kcq]);
         if !pack_panel(x, n, m, k0, kc, a, ak, ar, level) {
@@ -397,7 +410,7 @@ mod tests {
 
     #[test]
     fn result_does_not_depend_on_the_thread_count() {
-        assert_eq!((chunks8(30, 8300), chunks8(222, 19_200), chunks8(2000, 19_200), chunks8(222, 5000)), (2, 2, 1, 1));
+        assert_eq!((chunks8(30, 8300), chunks8(222, 19_200), chunks8(2000, 19_200), chunks8(222, 3000)), (2, 2, 1, 1));
         let (n, m) = (130, 8300);
         let x = levels(n, m);
         let run = |threads| {

@@ -1,5 +1,6 @@
 //! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
-//! ([`syrk`]; [`gram`] drives it for X X^T in memory), the 8-bit query products ([`dot_u8`]) and
+//! ([`syrk`]; [`gram`] drives it for X X^T in memory, [`gram8`] for 8-bit features in exact
+//! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`]) and
 //! the refined eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in

@@ -47,7 +47,7 @@ fn fma_loop(iters: u64, seed: f64) -> f64 {
     acc.iter().sum()
 }
 
-/// The f64-FLOP-equivalent peak of the 8-bit Gram ([`super::gram::gram_levels`]): a
+/// The f64-FLOP-equivalent peak of the 8-bit Gram ([`super::gram8::gram_levels`]): a
 /// register-only loop of AVX-512 VNNI instructions on every rayon thread for about `seconds`,
 /// `vpdpwssd` and `vpdpbusd` in equal numbers as the Gram issues them, counted as 2 FLOP per
 /// lane per instruction (the Gram spends one 32-bit lane of one instruction per product of two
