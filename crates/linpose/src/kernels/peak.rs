@@ -20,10 +20,18 @@ pub fn fma_flops_f64(seconds: f64) -> f64 {
 const FMAS_PER_ITER: u64 = 16 * 8;
 
 fn calibrate(seconds: f64) -> u64 {
-    let mut n = 1u64 << 16;
+    calibrate_loop(seconds, 1 << 16, |n| {
+        std::hint::black_box(fma_loop(n, 1.0));
+    })
+}
+
+/// Iterations of `run` that take about `seconds`, from a first count of `first` quadrupled until
+/// a run takes over 20 ms.
+fn calibrate_loop(seconds: f64, first: u64, run: impl Fn(u64)) -> u64 {
+    let mut n = first;
     loop {
         let t = Instant::now();
-        std::hint::black_box(fma_loop(n, 1.0));
+        run(n);
         let dt = t.elapsed().as_secs_f64();
         if dt > 0.02 {
             return ((n as f64) * seconds / dt).max(1.0) as u64;
@@ -57,18 +65,11 @@ fn fma_loop(iters: u64, seed: f64) -> f64 {
 pub fn vnni_gram_flops(seconds: f64) -> Option<f64> {
     #[cfg(target_arch = "x86_64")]
     if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vnni") {
-        // SAFETY (both calls): avx512f and avx512vnni were detected just above; registers only.
+        // SAFETY: avx512f and avx512vnni were detected just above; the loop touches registers only.
         let run = |iters: u64, seed: i32| unsafe { x86::vnni_loop(iters, seed) };
-        let mut iters = 1u64 << 14;
-        let iters = loop {
-            let t = Instant::now();
-            std::hint::black_box(run(iters, 1));
-            let dt = t.elapsed().as_secs_f64();
-            if dt > 0.02 {
-                break ((iters as f64) * seconds / dt).max(1.0) as u64;
-            }
-            iters *= 4;
-        };
+        let iters = calibrate_loop(seconds, 1 << 14, |n| {
+            std::hint::black_box(run(n, 1));
+        });
         let threads = rayon::current_num_threads();
         let t = Instant::now();
         let s: i64 = (0..threads).into_par_iter().map(|i| run(iters, i as i32) as i64).sum();
@@ -190,4 +191,22 @@ fn read_words(words: &[u64]) -> u64 {
         return unsafe { x86::read_avx512(words) };
     }
     words.iter().fold(0u64, |a, &b| a.wrapping_add(b))
+}
+
+#[cfg(test)]
+mod tests {
+    /// The VNNI loop does the instructions it counts: per iteration 8 `vpdpwssd` adding
+    /// 1 * 0x0304 + 1 * 0x0102 = 1030 and 8 `vpdpbusd` adding 1 * 4 + 1 * 2 = 6 to each of 16 lanes.
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn the_vnni_loop_computes_what_it_counts() {
+        if !(is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vnni")) {
+            return;
+        }
+        // SAFETY: avx512f and avx512vnni were detected just above.
+        let s = unsafe { super::x86::vnni_loop(10, 0) };
+        assert_eq!(s, 10 * 16 * 8 * (1030 + 6));
+        assert_eq!(super::x86::VNNI_PER_ITER, 16);
+        assert!(super::vnni_gram_flops(0.01).is_some_and(|f| f > 0.0));
+    }
 }

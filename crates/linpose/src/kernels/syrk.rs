@@ -258,48 +258,46 @@ impl SyrkAcc {
     /// C += s * P P^T for one 8-bit panel of `kcp` step pairs packed by [`pack_pairs_u8`]: the
     /// integer sums are exact, each element of C gets one fused multiply-add.
     pub fn update_u8(&mut self, a: &[i32], b: &[i32], kcp: usize, s: f64) {
-        let np = padded(self.n);
-        assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
-        assert!(a.len() == np * kcp && b.len() == np * kcp, "packed 8-bit panel size");
-        let vnni = self.vnni;
-        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
-        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, a, b, GROUP, kcp, s, vnni));
+        self.pairs(a, b, GROUP, kcp, s);
     }
 
     /// [`SyrkAcc::update_u8`] with the broadcast side read in place from `a` (the halves of its
     /// groups of 16, 16 lanes a step apart) instead of from a copy in groups of 8.
     pub fn update_u8_in_place(&mut self, a: &[i32], kcp: usize, s: f64) {
-        let np = padded(self.n);
-        assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
-        assert!(a.len() == np * kcp, "packed 8-bit panel size");
-        let vnni = self.vnni;
-        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
-        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, a, a, GROUP16, kcp, s, vnni));
+        self.pairs(a, a, GROUP16, kcp, s);
     }
 
     /// C += s * (K^T R + R^T K) for one panel of `kcq` step quads packed by [`pack_quads_u8`]
     /// (K the levels, R their signed values): exact integer sums, one fused multiply-add per
     /// element of C.
     pub fn update_u8_cross(&mut self, ak: &[i32], ar: &[i32], bk: &[i32], br: &[i32], kcq: usize, s: f64) {
-        let np = padded(self.n);
-        assert!(kcq <= KCQ_MAX, "8-bit panel of {kcq} step quads exceeds {KCQ_MAX}");
-        for v in [ak, ar, bk, br] {
-            assert_eq!(v.len(), np * kcq, "packed 8-bit panel size");
-        }
-        let vnni = self.vnni;
-        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
-        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, [ak, ar, bk, br], GROUP, kcq, s, vnni));
+        self.cross([ak, ar, bk, br], GROUP, kcq, s);
     }
 
     /// [`SyrkAcc::update_u8_cross`] with the broadcast side read in place from `ak` and `ar`
     /// (as [`SyrkAcc::update_u8_in_place`]).
     pub fn update_u8_cross_in_place(&mut self, ak: &[i32], ar: &[i32], kcq: usize, s: f64) {
+        self.cross([ak, ar, ak, ar], GROUP16, kcq, s);
+    }
+
+    /// The pair pass, the broadcast side `b` at `bs` lanes a step.
+    fn pairs(&mut self, a: &[i32], b: &[i32], bs: usize, kcp: usize, s: f64) {
+        let np = padded(self.n);
+        assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
+        assert!(a.len() == np * kcp && b.len() == np * kcp, "packed 8-bit panel size");
+        let (vnni, n16) = (self.vnni, self.n.div_ceil(GROUP16) * GROUP16);
+        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, a, b, bs, kcp, s, vnni));
+    }
+
+    /// The cross pass, the broadcast sides `bk`, `br` at `bs` lanes a step.
+    fn cross(&mut self, [ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, s: f64) {
         let np = padded(self.n);
         assert!(kcq <= KCQ_MAX, "8-bit panel of {kcq} step quads exceeds {KCQ_MAX}");
-        assert!(ak.len() == np * kcq && ar.len() == np * kcq, "packed 8-bit panel size");
-        let vnni = self.vnni;
-        let n16 = self.n.div_ceil(GROUP16) * GROUP16;
-        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, [ak, ar, ak, ar], GROUP16, kcq, s, vnni));
+        for v in [ak, ar, bk, br] {
+            assert_eq!(v.len(), np * kcq, "packed 8-bit panel size");
+        }
+        let (vnni, n16) = (self.vnni, self.n.div_ceil(GROUP16) * GROUP16);
+        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, [ak, ar, bk, br], bs, kcq, s, vnni));
     }
 
     /// C += other's C (both n x n, element by element).
