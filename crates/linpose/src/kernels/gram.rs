@@ -1,5 +1,6 @@
 //! The Gram matrix G = X X^T of N rows of M values (one image a row): its lower triangle summed
-//! by the f64 micro-kernel of [`super::syrk`] (P = X), for the in-memory fit.
+//! by the f64 micro-kernel of [`super::syrk`] (P = X), for the in-memory fit of features that
+//! are not 8-bit (or are centred); uncentred 8-bit features take [`super::gram8`].
 //!
 //! M is cut into panels of [`KC`] steps. Each panel's rows are packed into groups of 8 (one
 //! AVX-512 register holds 8 rows at one step; f32 rows are converted and transposed 8 x 8 in

@@ -116,12 +116,13 @@ fn partial(x: &[f32], n: usize, m: usize, panels: std::ops::Range<usize>, mut ac
 pub fn pack_panel(x: &[f32], n: usize, m: usize, k0: usize, kc: usize, a: &mut [i32], ak: &mut [i32], ar: &mut [i32], level: Level) -> bool {
     let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
     let np = padded(n);
+    let r = residuals();
     assert!(k0 + kc <= m && x.len() == n * m, "panel inside the rows");
     assert!(a.len() == np * kcp && ak.len() == np * kcq && ar.len() == np * kcq, "packed panel size");
     a.par_chunks_mut(GROUP16 * kcp)
         .zip(ak.par_chunks_mut(GROUP16 * kcq).zip(ar.par_chunks_mut(GROUP16 * kcq)))
         .enumerate()
-        .map(|(g, (a, (ak, ar)))| pack_group(x, n, m, g * GROUP16, k0, kc, a, ak, ar, level))
+        .map(|(g, (a, (ak, ar)))| pack_group(x, n, m, g * GROUP16, k0, kc, [a, ak, ar], &r, level))
         .reduce(|| true, |p, q| p & q)
 }
 
@@ -130,9 +131,8 @@ pub fn pack_panel(x: &[f32], n: usize, m: usize, k0: usize, kc: usize, a: &mut [
 /// residuals (as bytes) of pixels 4j..4j + 4; pixels past kc are zero. False when a value is not
 /// an 8-bit feature.
 #[allow(clippy::too_many_arguments)]
-fn pack_group(x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, a: &mut [i32], ak: &mut [i32], ar: &mut [i32], level: Level) -> bool {
+fn pack_group(x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a, ak, ar]: [&mut [i32]; 3], r: &[i8; 256], level: Level) -> bool {
     let rows = n.saturating_sub(i0).min(GROUP16);
-    let r = residuals();
     // One chunk of 64 pixels of the 16 rows: levels, residuals, 16-bit levels.
     let mut l8 = Words::default();
     let mut r8 = Words::default();
@@ -145,7 +145,7 @@ fn pack_group(x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, a:
             let out = [l8.bytes_mut(l), r8.bytes_mut(l), w0.bytes_mut(l), w1.bytes_mut(l)];
             if l < rows {
                 let src = &x[(i0 + l) * m + k0 + c0..(i0 + l) * m + k0 + c0 + w];
-                ok &= convert(src, out, &r, level);
+                ok &= convert(src, out, r, level);
             } else {
                 out.into_iter().for_each(|o| o.fill(0));
             }
