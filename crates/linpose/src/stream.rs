@@ -97,7 +97,9 @@ pub struct StreamStats {
     /// Seconds solving: Cholesky factorisation and triangular solves (least squares), or the
     /// whole in-memory fit with its Gram matrix (Gram path).
     pub solve_s: f64,
-    /// Whether X^T X was summed in integers (every image 8-bit).
+    /// Whether X^T X was summed in integers (least-squares path, every image 8-bit). False on
+    /// the Gram path, whose Gram matrix `linalg::gram_f32` sums in integers by itself when the
+    /// features are 8-bit and the CPU has AVX-512 VNNI.
     pub integer_8bit: bool,
 }
 
