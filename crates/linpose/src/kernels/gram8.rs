@@ -30,8 +30,8 @@ use rayon::prelude::*;
 
 /// Pixels per panel: 512 for up to [`SMALL`] rows, 1024 above; an i32 lane of a tile then
 /// sums at most 2 * 512 * 255^2 < 2^31. Measured alternating on two cores (M = 19,200): at N =
-/// 222, 512 beat 1024 in four rounds of four (medians 8.1-11.1 ms against 8.8-17.6) and 256 did
-/// not beat 512; at N = 2000, 1024 took 0.57 s against 0.73 s for 512.
+/// 222, 512 beat 1024 in four alternating rounds (medians 8.1-11.1 ms against 8.8-17.6) and 256
+/// did not beat 512 in three; at N = 2000, 1024 took 0.57 s against 0.73 s for 512 (one round).
 fn kc8(n: usize) -> usize {
     if padded(n) <= SMALL {
         512
@@ -57,9 +57,9 @@ pub fn gram_levels(x: &[f32], n: usize, m: usize) -> Option<Mat<f64>> {
     gram_levels_with(x, n, m, || SyrkAcc::new(n), Level::detect())
 }
 
-/// Most partial Grams: measured on two cores at N = 222, M = 19,200 (panels of 1024 pixels),
-/// two partials (each thread sums one, with no fork-join per panel) took 8.7 ms, one 14.0 ms
-/// and four 11.8 ms.
+/// Most partial Grams: measured once on two cores at N = 222, M = 19,200 (panels of 1024
+/// pixels), two partials (each thread sums one, with no fork-join per panel) took 8.7 ms
+/// (median), one 14.0 ms and four 11.8 ms.
 const MAX_CHUNKS8: usize = 2;
 
 /// How many partial Grams (runs of consecutive panels) the 8-bit Gram sums: a function of n
