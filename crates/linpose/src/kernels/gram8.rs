@@ -168,15 +168,12 @@ fn pack_group(x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a
 struct Words([[u32; 16]; 16]);
 
 impl Words {
+    /// Row `row` as its 64 bytes (little-endian words).
     fn bytes_mut(&mut self, row: usize) -> &mut [u8] {
-        bytemuck_row(&mut self.0[row])
+        let row = &mut self.0[row];
+        // SAFETY: [u32; 16] is 64 initialised bytes with no padding, and u8 has alignment 1.
+        unsafe { std::slice::from_raw_parts_mut(row.as_mut_ptr() as *mut u8, 64) }
     }
-}
-
-/// A row of words as its 64 bytes (little-endian).
-fn bytemuck_row(row: &mut [u32; 16]) -> &mut [u8] {
-    // SAFETY: [u32; 16] is 64 initialised bytes with no padding, and u8 has alignment 1.
-    unsafe { std::slice::from_raw_parts_mut(row.as_mut_ptr() as *mut u8, 64) }
 }
 
 /// Levels, residuals (as bytes) and 16-bit levels (little-endian, pixels 0..32 and 32..64) of

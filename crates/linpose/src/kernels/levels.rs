@@ -75,9 +75,9 @@ mod tests {
         let r = residuals();
         let m = 8_421_505f64;
         assert_eq!(S8 as f64 * 2f64.powi(31), m);
-        for k in 0..256usize {
+        for (k, &rk) in r.iter().enumerate() {
             let v = (k as f32 * S8) as f64;
-            assert_eq!(v, (k as f64 * m + r[k] as f64) * 2f64.powi(-31));
+            assert_eq!(v, (k as f64 * m + rk as f64) * 2f64.powi(-31));
         }
         assert_eq!(SCALE_PAIRS, m * m * 2f64.powi(-62));
         assert_eq!(SCALE_CROSS, m * 2f64.powi(-62));
