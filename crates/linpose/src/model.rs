@@ -56,7 +56,7 @@ pub trait PoseModel: Send + Sync {
 
 /// Checks that `len` values form whole rows of `m` features.
 pub fn check_queries(m: usize, len: usize, context: &str) -> Result<()> {
-    if len % m != 0 || len == 0 {
+    if !len.is_multiple_of(m) || len == 0 {
         return Err(Error::FeatureMismatch { expected: m, got: len, context: context.to_string() });
     }
     Ok(())
@@ -191,6 +191,8 @@ impl TensorSet {
 /// Every kind of model linpose can write and read back.
 #[derive(Debug, Clone)]
 #[non_exhaustive]
+// A program holds one or a few models, and boxing would change how users match on them.
+#[allow(clippy::large_enum_variant)]
 pub enum AnyModel {
     /// Okatani & Deguchi's linear model.
     Linear(crate::linear::LinearModel),

@@ -121,7 +121,7 @@ fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {
     if s.width == 0 || s.height == 0 || s.width as u64 * s.height as u64 > crate::image_io::MAX_PIXELS {
         return Err(format!("damaged metadata: image size {}x{}", s.width, s.height));
     }
-    if meta.train_poses.is_empty() || meta.train_poses.len() % meta.space.len() != 0 {
+    if meta.train_poses.is_empty() || !meta.train_poses.len().is_multiple_of(meta.space.len()) {
         return Err(format!("damaged metadata: {} training pose values for {} parameters", meta.train_poses.len(), meta.space.len()));
     }
     Ok(())

@@ -233,7 +233,7 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
             }
         }
     }
-    if let Some(&amax) = info.noise.iter().filter(|&&a| a > 0.0).last() {
+    if let Some(&amax) = info.noise.iter().rfind(|&&a| a > 0.0) {
         for m in &info.methods {
             let (c, n) = (mean_over(main.iter().copied(), m, 0.0), mean_over(main.iter().copied(), m, amax));
             out.push(format!(

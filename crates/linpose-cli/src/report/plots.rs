@@ -94,6 +94,7 @@ fn colorbar(area: &Area<'_>, vmax: f64, label: &str) -> Result<(), String> {
 
 /// A heat map of `values` (row-major, `ys.len()` rows of `xs.len()`) over a regular grid, with
 /// a colour bar from 0 to `vmax` labelled `unit`.
+#[allow(clippy::too_many_arguments)] // the axes' titles and values, the data and its colour scale
 pub fn heatmap(title: &str, x_desc: &str, y_desc: &str, xs: &[f64], ys: &[f64], values: &[f64], vmax: f64, unit: &str) -> Result<String, String> {
     let half = |v: &[f64]| if v.len() > 1 { (v[1] - v[0]) / 2.0 } else { 0.5 };
     let (hx, hy) = (half(xs), half(ys));

@@ -131,7 +131,7 @@ impl NearestIndex {
     /// Indexes `points` (rows of `dim` coordinates) for `kind` of search; `Auto` is resolved by
     /// [`auto_kind`].
     pub fn new(points: &[f32], dim: usize, kind: SearchKind) -> Result<Self> {
-        if dim == 0 || points.is_empty() || points.len() % dim != 0 {
+        if dim == 0 || points.is_empty() || !points.len().is_multiple_of(dim) {
             return Err(Error::invalid("manifold points", points.len(), format!("need whole rows of {dim} > 0 coordinates")));
         }
         let n = points.len() / dim;

@@ -55,7 +55,7 @@ pub const PIXEL_CHUNK: usize = 384;
 /// at a time.
 #[track_caller]
 pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<f32>) {
-    assert!(m > 0 && xs.len() % m == 0 && w.len() % m == 0, "whole images and weight rows of length m");
+    assert!(m > 0 && xs.len().is_multiple_of(m) && w.len().is_multiple_of(m), "whole images and weight rows of length m");
     let (n, rows) = (xs.len() / m, w.len() / m);
     assert_eq!(out.len(), n * rows, "one output per image and row");
     assert_eq!(energy.len(), n, "one energy per image");
@@ -67,7 +67,7 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
             let g = xg.len() / m;
             // Weights already on 64-byte boundaries (every row too) are read in place; others are
             // copied block by block.
-            let in_place = w.as_ptr().align_offset(64) == 0 && m % LANES == 0;
+            let in_place = w.as_ptr().align_offset(64) == 0 && m.is_multiple_of(LANES);
             let (xlen, wlen, alen) = (g * PIXEL_CHUNK, if in_place { 0 } else { rows * PIXEL_CHUNK }, g * rows * LANES);
             scratch.resize(xlen + wlen + alen + LANES, 0.0);
             let skip = scratch.as_ptr().align_offset(64).min(LANES);
@@ -192,6 +192,8 @@ fn lanes_portable<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
 }
 
 #[cfg(target_arch = "x86_64")]
+// Register blocks index several arrays (accumulators, loaded vectors) by the same loop variables.
+#[allow(clippy::needless_range_loop)]
 mod x86 {
     use super::{lanes_portable, tail, BATCH_IMAGES, BATCH_ROWS, LANES, PIXEL_CHUNK};
     use std::arch::x86_64::*;
@@ -210,7 +212,7 @@ mod x86 {
     /// The CPU must support AVX-512F and AVX-512BW.
     #[target_feature(enable = "avx512f,avx512bw")]
     pub unsafe fn widen_avx512(x: &[u8], out: &mut [f32]) -> u32 {
-        assert!(x.len() % LANES == 0 && out.len() == x.len() && x.len() <= 1 << 12);
+        assert!(x.len().is_multiple_of(LANES) && out.len() == x.len() && x.len() <= 1 << 12);
         let mut sq = _mm512_setzero_si512();
         for (c, o) in x.chunks_exact(LANES).zip(out.chunks_exact_mut(LANES)) {
             let v = _mm512_cvtepu8_epi32(_mm_loadu_si128(c.as_ptr() as *const __m128i));
@@ -239,7 +241,7 @@ mod x86 {
     #[target_feature(enable = "avx512f")]
     pub unsafe fn block_avx512(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, acc: &mut [f32]) {
         assert!(steps * LANES <= PIXEL_CHUNK && xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && rows > 0);
-        assert!(stride % LANES == 0 && wf.len() >= (rows - 1) * stride + steps * LANES && wf.as_ptr().align_offset(64) == 0);
+        assert!(stride.is_multiple_of(LANES) && wf.len() >= (rows - 1) * stride + steps * LANES && wf.as_ptr().align_offset(64) == 0);
         assert!(acc.len() >= BATCH_IMAGES * rows * LANES);
         for r0 in (0..rows).step_by(BATCH_ROWS) {
             match (rows - r0).min(BATCH_ROWS) {

@@ -197,7 +197,7 @@ pub fn gram_f32_fma(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<
 
 fn gram_f32_with(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>, level: Level, chunks: usize) -> Mat<f64> {
     assert_eq!(x.len(), n * m, "feature rows size");
-    assert!(mean.map_or(true, |u| u.len() == m), "mean row size");
+    assert!(mean.is_none_or(|u| u.len() == m), "mean row size");
     gram_with(n, m, level, chunks, |panel, k0, kc| {
         panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_f32(p, x, n, m, g * GROUP, k0, kc, mean, level))
     })
@@ -246,7 +246,7 @@ mod x86 {
     #[target_feature(enable = "avx512f")]
     pub unsafe fn pack_group_f32_avx512(out: &mut [f64], x: &[f32], m: usize, i0: usize, rows: usize, k0: usize, kc: usize, mean: Option<&[f64]>) {
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
-        assert!(mean.map_or(true, |u| u.len() >= k0 + kc));
+        assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
         let (xp, o) = (x.as_ptr(), out.as_mut_ptr());
         // Index vectors of the transpose: pairs of rows (unpack), then quads, then halves.
         let lo2 = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);

@@ -106,6 +106,7 @@ pub fn pack_pairs_u8(a: &mut [i32], b: &mut [i32], block: &[u8], kc: usize, m: u
 /// [`SyrkAcc::update_u8_cross`]: `ak` / `bk` hold the levels k, `ar` / `br` the signed values
 /// `r[k]`, each 32-bit lane four consecutive steps (bytes, zero past `kc`); `ak` / `ar` in groups
 /// of 16 rows of P, `bk` / `br` in groups of 8 (`padded(m) * kc.div_ceil(4)` lanes each).
+#[allow(clippy::too_many_arguments)] // four outputs, their block and its shape, the table
 pub fn pack_quads_u8(ak: &mut [i32], ar: &mut [i32], bk: &mut [i32], br: &mut [i32], block: &[u8], kc: usize, m: usize, r: &[i8; 256]) {
     let kcq = kc.div_ceil(4);
     assert!(kcq <= KCQ_MAX, "8-bit panel of {kcq} step quads exceeds {KCQ_MAX}");
@@ -145,7 +146,7 @@ pub fn pack_quads_u8(ak: &mut [i32], ar: &mut [i32], bk: &mut [i32], br: &mut [i
 /// Packs rows `0..n` of P, steps `k0..k0 + kc`, into `dst` (whole groups of 8 rows, at least
 /// n rows; rows past n are zero), on the calling thread. `read(i, k0, out)` writes row i's `out.len()` values from step k0.
 pub fn pack_rows(dst: &mut [f64], n: usize, kc: usize, k0: usize, read: impl Fn(usize, usize, &mut [f64])) {
-    assert!(dst.len() % (GROUP * kc) == 0 && dst.len() >= n * kc, "packed panel size");
+    assert!(dst.len().is_multiple_of(GROUP * kc) && dst.len() >= n * kc, "packed panel size");
     let mut row = vec![0f64; kc];
     for (g, out) in dst.chunks_exact_mut(GROUP * kc).enumerate() {
         for l in 0..GROUP {
@@ -172,9 +173,9 @@ pub fn pack_columns(dst: &mut [f64], block: &[f32], kc: usize, m: usize, mean: O
         let p0 = g * GROUP;
         for k in 0..kc {
             let o = &mut out[k * GROUP..(k + 1) * GROUP];
-            for l in 0..GROUP {
+            for (l, o) in o.iter_mut().enumerate() {
                 let p = p0 + l;
-                o[l] = if p < m { block[k * m + p] as f64 - mean.map_or(0.0, |u| u[p]) } else { 0.0 };
+                *o = if p < m { block[k * m + p] as f64 - mean.map_or(0.0, |u| u[p]) } else { 0.0 };
             }
         }
     });
@@ -581,6 +582,8 @@ fn tile_portable<const Q: usize>(a: &[f64], b: &[f64], kc: usize, out: &mut [f64
 }
 
 #[cfg(target_arch = "x86_64")]
+// Register tiles index several arrays (accumulators, loaded vectors) by the same loop variables.
+#[allow(clippy::needless_range_loop)]
 mod x86 {
     use super::{tile_portable, GROUP, GROUP16, MR16};
     use std::arch::x86_64::*;

@@ -160,8 +160,7 @@ impl Lattice {
         let (pp1, rest) = rest.split_at_mut(c);
         let (ps1, rest) = rest.split_at_mut(c);
         let (sp1, ss1) = rest.split_at_mut(c);
-        for l in 0..self.ls {
-            let w = wt[l];
+        for (l, &w) in wt.iter().enumerate().take(self.ls) {
             if w == 0.0 {
                 continue;
             }
@@ -363,8 +362,8 @@ impl Lattice {
             )*};
         }
         add_term!(0 1 2 3 4 5 6 7 8 9 10 11 12 13);
-        for k in self.cells.len() - i0..8 {
-            p[0][k] = f64::INFINITY;
+        for lane in p[0].iter_mut().skip(self.cells.len() - i0) {
+            *lane = f64::INFINITY;
         }
         p
     }

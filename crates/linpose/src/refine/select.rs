@@ -56,16 +56,23 @@ fn split(train: &Dataset, keep: &[bool]) -> Result<(Dataset, Dataset, Grid)> {
     Ok((fit, test, grid))
 }
 
+/// Every candidate L scored, with its mean held-out error (degrees).
+pub type Scores = Vec<(usize, f64)>;
+
+/// The noisy match chosen by [`choose_noise`]: L, whether weighted, and every candidate's (L,
+/// weighted, mean capped held-out error in degrees).
+pub type NoiseChoice = (usize, bool, Vec<(usize, bool, f64)>);
+
 /// Chooses L for `params` on `train` (laid out on `grid`): the chosen L and every candidate's
 /// mean held-out error (degrees).
-pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Vec<(usize, f64)>)> {
+pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Scores)> {
     choose(train, grid, params).map(|(l, scored, _)| (l, scored))
 }
 
 /// As [`choose_components`], and when `params` weights the coordinates, also the mean held-out
 /// error of the plain (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates: the
 /// eigenspace's own metric, which the model falls back to when it scores better.
-pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Vec<(usize, f64)>, Option<f64>)> {
+pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Scores, Option<f64>)> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok((FALLBACK_COMPONENTS, Vec::new(), None));
@@ -90,8 +97,8 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(u
             let sig = if plain { None } else { sigma2.as_ref().map(|s| s[..l].to_vec()) };
             let scale = super::weights(sig.as_deref(), l);
             let mut basis = Vec::with_capacity(l * m);
-            for r in 0..l {
-                basis.extend(pca.basis[r * m..(r + 1) * m].iter().map(|&v| (v * scale[r]) as f32));
+            for (row, &s) in pca.basis.chunks_exact(m).zip(&scale).take(l) {
+                basis.extend(row.iter().map(|&v| (v * s) as f32));
             }
             let mut knots = Vec::with_capacity(sub_grid.sample_at.len() * l);
             for &i in &sub_grid.sample_at {
@@ -160,7 +167,7 @@ pub const NOISE_SEED: u64 = 0x5e1ec7;
 /// [`NOISE_LEVELS`] (clipped, fixed seed) and are estimated with every candidate, L among
 /// [`CANDIDATES`] up to `l_cap`, weighted or plain; the least mean pose error wins (a tie goes
 /// to the smaller L, then to the plain metric). None when no fold is possible.
-pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<(usize, bool, Vec<(usize, bool, f64)>)>> {
+pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);

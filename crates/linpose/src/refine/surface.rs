@@ -29,6 +29,14 @@ const STEP_TOL: f64 = 1e-2;
 /// below the eigenspace's); 0.1 moved twin +-5% to 14.03, near the eigenspace's 14.43.
 const AFFINE_STEP_TOL: f64 = 5e-2;
 
+/// One pose parameter's curve ([`Surface::line_parts`]): knots (with the closing knot of a
+/// circular axis), period, knot values and slopes (knot-major, L each), and L.
+pub type LineParts<'a> = (&'a [f64], Option<f64>, &'a [f32], &'a [f32], usize);
+
+/// A second surface evaluated with the first ([`Surface::eval_pair`]): it, its values, and its
+/// Jacobian when wanted.
+type Other<'a> = (&'a Surface, &'a mut [f64], Option<&'a mut [f64]>);
+
 /// The continuous manifold of one fitted model.
 #[derive(Debug, Clone)]
 pub struct Surface {
@@ -89,7 +97,7 @@ impl Surface {
 
     /// For one pose parameter: its knots (with the closing knot of a circular axis), its
     /// period, and the knot values and slopes (knot-major, L each) with L; None for D > 1.
-    pub fn line_parts(&self) -> Option<(&[f64], Option<f64>, &[f32], &[f32], usize)> {
+    pub fn line_parts(&self) -> Option<LineParts<'_>> {
         if self.params() != 1 {
             return None;
         }
@@ -138,7 +146,7 @@ impl Surface {
     /// same order on every build (multiplications and additions, no fused multiply-add), so the
     /// AVX-512 build gives the same bits.
     #[inline(always)]
-    fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<(&Surface, &mut [f64], Option<&mut [f64]>)>) {
+    fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<Other<'_>>) {
         let d = self.params();
         let n = self.shape.iter().product::<usize>();
         debug_assert!(f.len() <= self.dim);
@@ -169,8 +177,8 @@ impl Surface {
                 mask |= (a & 1) << j;
             }
             if jac.is_some() || other.as_ref().is_some_and(|o| o.2.is_some()) {
-                for k in 0..d {
-                    gw[k] = (0..d).map(|j| if j == k { dw[j][combo >> (2 * j) & 3] } else { w[j][combo >> (2 * j) & 3] }).product();
+                for (k, g) in gw.iter_mut().enumerate().take(d) {
+                    *g = (0..d).map(|j| if j == k { dw[j][combo >> (2 * j) & 3] } else { w[j][combo >> (2 * j) & 3] }).product();
                 }
             }
             let row = mask * n + knot;
@@ -503,6 +511,7 @@ mod simd {
 
 /// Solves the small symmetric positive system `a x = b` (D <= 8) by Gaussian elimination; None
 /// when it is singular.
+#[allow(clippy::needless_range_loop)] // elimination reads one row of `a` while it updates another
 fn solve(a: &mut [[f64; 8]; 8], b: &[f64; 8], d: usize) -> Option<[f64; 8]> {
     let mut x = *b;
     for c in 0..d {

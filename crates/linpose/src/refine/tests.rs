@@ -51,8 +51,8 @@ fn surface_resamples_to_the_eigenspace_manifold() {
         dense.pose(d.space(), k, &mut pose);
         s.clamp(&mut pose);
         s.eval(&pose, &mut f, None);
-        for c in 0..6 {
-            assert!((f[c] - dense.points[k * 6 + c]).abs() < 1e-5 * scale, "point {k} coordinate {c}");
+        for (c, &v) in f.iter().enumerate().take(6) {
+            assert!((v - dense.points[k * 6 + c]).abs() < 1e-5 * scale, "point {k} coordinate {c}");
         }
     }
 }
