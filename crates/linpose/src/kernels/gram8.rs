@@ -309,23 +309,12 @@ mod x86 {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_data::reference;
     use super::*;
 
     /// n rows of m 8-bit features, every level present.
     fn levels(n: usize, m: usize) -> Vec<f32> {
         (0..n * m).map(|i| ((i * 2654435761usize) >> 7) % 256).map(|k| k as f32 * S8).collect()
-    }
-
-    /// The Gram of the f32 values, each product summed plainly in f64.
-    fn reference(x: &[f32], n: usize, m: usize) -> Vec<f64> {
-        let mut g = vec![0.0; n * n];
-        for i in 0..n {
-            for j in 0..=i {
-                let v: f64 = (0..m).map(|k| x[i * m + k] as f64 * x[j * m + k] as f64).sum();
-                (g[i * n + j], g[j * n + i]) = (v, v);
-            }
-        }
-        g
     }
 
     /// Sizes around the tile (48 rows), the group (16), the chunk (64) and the panel (1024);
