@@ -153,7 +153,8 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
 
 /// Appends the features of a decoded image.
 pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
-    const S8: f32 = 1.0 / 255.0;
+    // The integer Gram kernels read features back as levels by this same constant.
+    use crate::kernels::levels::S8;
     const S16: f32 = 1.0 / 65535.0;
     match (img, color) {
         (DynamicImage::ImageLuma8(g), ColorMode::Gray) => out.extend(g.as_raw().iter().map(|&v| v as f32 * S8)),

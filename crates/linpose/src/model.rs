@@ -40,7 +40,7 @@ pub trait PoseModel: Send + Sync {
     /// 1 / 255 folded into the model. It agrees with `predict_into` on the same image to f32
     /// rounding. The default converts to features and calls `predict_into`.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
-        let f: Vec<f32> = queries.iter().map(|&v| v as f32 * (1.0 / 255.0)).collect();
+        let f: Vec<f32> = queries.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
         self.predict_into(&f, out)
     }
 

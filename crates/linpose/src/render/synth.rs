@@ -112,7 +112,7 @@ pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path,
             let (e, a) = grid.pose(i);
             r.render_into(mesh, a, e, pixels)?;
             // The same f32 the image reader makes of an 8-bit pixel.
-            row.iter_mut().zip(pixels.iter()).for_each(|(f, &p)| *f = p as f32 * (1.0 / 255.0));
+            row.iter_mut().zip(pixels.iter()).for_each(|(f, &p)| *f = p as f32 * crate::kernels::levels::S8);
             progress(1);
             Ok::<(), Error>(())
         },
