@@ -416,7 +416,7 @@ mod tests {
                         0 => 0,
                         1 if step % 5 == 2 && p % LANES == 7 => v,
                         1 => 0,
-                        _ if (step + img) % 3 == 0 || p >= m / 2 => v,
+                        _ if (step + img).is_multiple_of(3) || p >= m / 2 => v,
                         _ => 0,
                     }
                 })
