@@ -40,6 +40,7 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
+pub mod kdtree;
 pub mod manifold;
 pub mod pca;
 pub mod search;

@@ -1,22 +1,17 @@
-//! Nearest manifold point: a k-d tree (kiddo's immutable tree) or brute force.
+//! Nearest manifold point: a k-d tree ([`super::kdtree`]) or brute force.
 //!
-//! kiddo fixes a tree's dimension at compile time, so the L coordinates are padded with zeros to
-//! the next of a few sizes (4, 8, ..., 24, 32). A zero added to both the query and every point
-//! leaves every distance unchanged, so results are exact; a tree level that happens to split on a
-//! padded coordinate just does no pruning (it is reached only for small L and very large
-//! manifolds). Brute force uses the same padded rows, whose fixed width lets the distance loop
-//! unroll and vectorise; beyond 32 coordinates only brute force is available.
+//! Brute force pads the L coordinates with zeros to the next of a few sizes (4, 8, ..., 24, 32),
+//! whose fixed width lets the distance loop unroll and vectorise; a zero added to both the query
+//! and every point leaves every distance unchanged. Both searches sum a distance's squared
+//! differences coordinate by coordinate in order, so the tree returns brute force's point, ties
+//! included. Beyond 32 coordinates only brute force is available.
 
+use super::kdtree::KdTree;
 use crate::{Error, Result};
-use kiddo::immutable::float::kdtree::ImmutableKdTree;
-use kiddo::SquaredEuclidean;
 use serde::{Deserialize, Serialize};
 
 /// Largest eigenspace dimension a k-d tree is built for.
-pub const MAX_TREE_DIM: usize = 32;
-
-/// Bucket size of the k-d tree's leaves.
-const BUCKET: usize = 32;
+pub const MAX_TREE_DIM: usize = super::kdtree::MAX_DIM;
 
 /// How the nearest manifold point is found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -42,12 +37,13 @@ impl std::fmt::Display for SearchKind {
 }
 
 /// What [`SearchKind::Auto`] picks for `points` manifold points of `dim` coordinates: the k-d
-/// tree from 128 points on, brute force below that and whenever L exceeds [`MAX_TREE_DIM`].
+/// tree from 64 points on, brute force below that and whenever L exceeds [`MAX_TREE_DIM`].
 /// Measured with examples/eigen_search.rs (one thread, points on a smooth curve or sheet, queries
-/// near it, as appearance manifolds and their queries are): brute force costs about
-/// 0.0065 us x points x L / 20 and wins below 64 to 128 points; the tree stays within 0.2 to 5 us
-/// up to 65,536 points (COIL's 720-point manifold: 0.5 against 5 us; the paper grid's 65,520:
-/// 2.5 against 450 us at L = 20).
+/// near it, as appearance manifolds and their queries are; 2026-11-22 on this tree): brute force
+/// costs about 0.0095 us x points x L / 20 and wins at 32 points on the 8-D sheet only (0.09
+/// against 0.13 us); from 64 points on the tree wins everywhere (0.12-0.18 against 0.18-0.99 us)
+/// and stays within 0.1 to 1.2 us up to 65,536 points (1024 points on a curve at L = 20, about
+/// COIL's 720: 0.20 against 9.3 us; the 65,536-point sheet at L = 20: 1.05 against 621 us).
 pub fn auto_kind(points: usize, dim: usize) -> SearchKind {
     if dim <= MAX_TREE_DIM && points >= AUTO_TREE_FROM {
         SearchKind::KdTree
@@ -57,19 +53,16 @@ pub fn auto_kind(points: usize, dim: usize) -> SearchKind {
 }
 
 /// Manifold size from which `Auto` uses the k-d tree.
-const AUTO_TREE_FROM: usize = 128;
+const AUTO_TREE_FROM: usize = 64;
 
-/// Points padded to K coordinates, with an optional tree over them.
+/// Points padded to K coordinates, for brute force.
 #[derive(Debug, Clone)]
 struct Fixed<const K: usize> {
     points: Vec<[f32; K]>,
-    // Boxed: the tree holds K vectors inline, which would make every model as large as the
-    // largest K.
-    tree: Option<Box<ImmutableKdTree<f32, u32, K, BUCKET>>>,
 }
 
 impl<const K: usize> Fixed<K> {
-    fn new(points: &[f32], dim: usize, tree: bool) -> Self {
+    fn new(points: &[f32], dim: usize) -> Self {
         let points: Vec<[f32; K]> = points
             .chunks_exact(dim)
             .map(|p| {
@@ -78,32 +71,26 @@ impl<const K: usize> Fixed<K> {
                 a
             })
             .collect();
-        let tree = tree.then(|| Box::new(ImmutableKdTree::new_from_slice(&points)));
-        Fixed { points, tree }
+        Fixed { points }
     }
 
     #[inline]
     fn nearest(&self, q: &[f32]) -> usize {
         let mut a = [0f32; K];
         a[..q.len()].copy_from_slice(q);
-        match &self.tree {
-            Some(t) => t.nearest_one::<SquaredEuclidean>(&a).item as usize,
-            None => {
-                let mut best = (f32::INFINITY, 0);
-                for (k, p) in self.points.iter().enumerate() {
-                    let mut acc = [0f32; K];
-                    for l in 0..K {
-                        let d = p[l] - a[l];
-                        acc[l] = d * d;
-                    }
-                    let s: f32 = acc.iter().sum();
-                    if s < best.0 {
-                        best = (s, k);
-                    }
-                }
-                best.1
+        let mut best = (f32::INFINITY, 0);
+        for (k, p) in self.points.iter().enumerate() {
+            let mut acc = [0f32; K];
+            for l in 0..K {
+                let d = p[l] - a[l];
+                acc[l] = d * d;
+            }
+            let s: f32 = acc.iter().sum();
+            if s < best.0 {
+                best = (s, k);
             }
         }
+        best.1
     }
 }
 
@@ -117,6 +104,7 @@ enum Store {
     K24(Fixed<24>),
     K32(Fixed<32>),
     Dyn(Vec<f32>),
+    Tree(KdTree),
 }
 
 /// A nearest-neighbour index over the manifold's points.
@@ -149,15 +137,15 @@ impl NearestIndex {
             }
             k => k,
         };
-        let tree = kind == SearchKind::KdTree;
         let store = match dim {
-            0..=4 => Store::K4(Fixed::new(points, dim, tree)),
-            5..=8 => Store::K8(Fixed::new(points, dim, tree)),
-            9..=12 => Store::K12(Fixed::new(points, dim, tree)),
-            13..=16 => Store::K16(Fixed::new(points, dim, tree)),
-            17..=20 => Store::K20(Fixed::new(points, dim, tree)),
-            21..=24 => Store::K24(Fixed::new(points, dim, tree)),
-            25..=32 => Store::K32(Fixed::new(points, dim, tree)),
+            _ if kind == SearchKind::KdTree => Store::Tree(KdTree::new(points, dim)),
+            0..=4 => Store::K4(Fixed::new(points, dim)),
+            5..=8 => Store::K8(Fixed::new(points, dim)),
+            9..=12 => Store::K12(Fixed::new(points, dim)),
+            13..=16 => Store::K16(Fixed::new(points, dim)),
+            17..=20 => Store::K20(Fixed::new(points, dim)),
+            21..=24 => Store::K24(Fixed::new(points, dim)),
+            25..=32 => Store::K32(Fixed::new(points, dim)),
             _ => Store::Dyn(points.to_vec()),
         };
         Ok(NearestIndex { dim, kind, store })
@@ -169,7 +157,7 @@ impl NearestIndex {
     }
 
     /// The index of the point nearest to `q` (`dim` coordinates); ties go to the lower index
-    /// under brute force.
+    /// (the tree gives brute force's answer).
     #[inline]
     pub fn nearest(&self, q: &[f32]) -> usize {
         debug_assert_eq!(q.len(), self.dim);
@@ -181,6 +169,7 @@ impl NearestIndex {
             Store::K20(f) => f.nearest(q),
             Store::K24(f) => f.nearest(q),
             Store::K32(f) => f.nearest(q),
+            Store::Tree(t) => t.nearest(q),
             Store::Dyn(points) => {
                 let mut best = (f32::INFINITY, 0);
                 for (k, p) in points.chunks_exact(self.dim).enumerate() {
@@ -205,9 +194,8 @@ mod tests {
         p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum()
     }
 
-    /// The tree finds a point as near as brute force's, for every padding class (including a
-    /// small L on a large set, where tree levels split on padded zeros) and beyond the tree's
-    /// dimensions.
+    /// The tree finds brute force's point, for every padding class of brute force and beyond the
+    /// tree's dimensions (where Auto takes brute force).
     #[test]
     fn tree_and_brute_agree() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -226,12 +214,40 @@ mod tests {
                 let q: Vec<f32> = (0..dim).map(|_| rng.random_range(-1.2..1.2)).collect();
                 let (a, b) = (brute.nearest(&q), tree.nearest(&q));
                 let (da, db) = (dist(&points[a * dim..(a + 1) * dim], &q), dist(&points[b * dim..(b + 1) * dim], &q));
-                assert!(da == db || (da - db).abs() <= 4.0 * f32::EPSILON * da, "dim {dim}: brute {a} ({da}) vs tree {b} ({db})");
+                assert_eq!(a, b, "dim {dim}: brute {a} ({da}) vs tree {b} ({db})");
+            }
+            // Queries near the points, as eigenspace queries are near their manifold.
+            for k in (0..n).step_by(53) {
+                let q: Vec<f32> = points[k * dim..(k + 1) * dim].iter().map(|v| v + rng.random_range(-2e-3..2e-3)).collect();
+                assert_eq!(brute.nearest(&q), tree.nearest(&q), "dim {dim}, near point {k}");
             }
             // Every point finds itself.
             for k in (0..n).step_by(97) {
                 assert_eq!(tree.nearest(&points[k * dim..(k + 1) * dim]), k);
             }
+        }
+    }
+
+    /// Exact ties go to the lower index, as under brute force: repeated points, a grid of
+    /// points with queries on the cell centres (equidistant from several points), a query with
+    /// a NaN (no distance compares: point 0) and one so far away that every distance is
+    /// infinite (point 0).
+    #[test]
+    fn tree_breaks_ties_as_brute_force_does() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let dim = 3;
+        let mut points: Vec<f32> = (0..400).flat_map(|k| [(k % 20) as f32, (k / 20) as f32, 0.0]).collect();
+        // Every point again, shuffled in after the originals, and some three times.
+        let again: Vec<f32> = (0..600).flat_map(|k| [((k * 7) % 20) as f32, ((k * 13) % 20) as f32, 0.0]).collect();
+        points.extend(again);
+        let brute = NearestIndex::new(&points, dim, SearchKind::Brute).unwrap();
+        let tree = NearestIndex::new(&points, dim, SearchKind::KdTree).unwrap();
+        for _ in 0..500 {
+            let q = [rng.random_range(0..20) as f32 + 0.5, rng.random_range(0..20) as f32 + 0.5 * rng.random_range(0..2) as f32, 0.0];
+            assert_eq!(brute.nearest(&q), tree.nearest(&q), "{q:?}");
+        }
+        for q in [[f32::NAN, 1.0, 0.0], [3e38, -3e38, 3e38]] {
+            assert_eq!((brute.nearest(&q), tree.nearest(&q)), (0, 0), "{q:?}");
         }
     }
 
