@@ -3,7 +3,9 @@
 //! (L = 20 products, then the search), one query and batches of 1024. The linear model runs on
 //! pseudo-random images (its cost does not depend on them), the eigenspace on the rendered duck
 //! (trained on the 9-degree views, queried with its own views), so that its k-d tree search
-//! behaves as on real data. `examples/query_timing.rs` prints the same figures as fractions of
+//! behaves as on real data; the 8-bit products skip steps of 16 black pixels, so the eigenspace
+//! batch is also run on the same views with every 0 raised to 1 (no step skipped, the dense
+//! work). `examples/query_timing.rs` prints the same figures as fractions of
 //! their bounds (the copy, one thread reading the same bytes, the FMA peak).
 //!
 //! cargo bench -p linpose --bench query
@@ -63,6 +65,8 @@ fn queries(c: &mut Criterion) {
     g.bench_function("u8 batch 1024", |b| b.iter(|| eig.predict_u8_into(black_box(qe), &mut out).unwrap()));
     let mut y = vec![0f32; batch * 20];
     g.bench_function("u8 batch 1024, projection alone", |b| b.iter(|| eig.project_u8_into(black_box(qe), &mut y).unwrap()));
+    let qd: Vec<u8> = qe.iter().map(|&v| v.max(1)).collect();
+    g.bench_function("u8 batch 1024, dense (black raised to 1)", |b| b.iter(|| eig.predict_u8_into(black_box(&qd), &mut out).unwrap()));
     g.finish();
 }
 
