@@ -3,10 +3,10 @@
 //! Each node splits its points at the median of its widest coordinate (the spread measured over
 //! the node's own points), so on an eigenspace manifold the splits fall on the leading
 //! components, where the points spread, again and again. A tree that cycles through the
-//! coordinates instead (kiddo's, used before) splits each of 20 components once on 65,520 points
-//! and never the leading ones twice; on the rendered duck's manifold it took 2.1-2.3 us a query
-//! against 0.73-0.80 for this one (one thread, the 1760 views' projections, the same points;
-//! BENCHMARKS.md, issue 7).
+//! coordinates instead (kiddo's, used before, buckets of 32) splits the first 11 of 20
+//! components once each on 65,520 points and never the leading ones twice; on the rendered
+//! duck's manifold it took 2.1-2.3 us a query against 0.73-0.80 for this one (one thread, the
+//! 1760 views' projections, the same points; BENCHMARKS.md, issue 7).
 //!
 //! The search is the classic branch and bound with the incremental cell distance (Arya & Mount):
 //! the nearer child first, the farther one only when the squared distance from the query to its
