@@ -3,9 +3,9 @@
 //! (L = 20 products, then the search), one query and batches of 1024. The linear model runs on
 //! pseudo-random images (its cost does not depend on them), the eigenspace on the rendered duck
 //! (trained on the 9-degree views, queried with its own views), so that its k-d tree search
-//! behaves as on real data; the 8-bit products skip steps of 16 black pixels, so the eigenspace
-//! batch is also run on the same views with every 0 raised to 1 (no step skipped, the dense
-//! work). `examples/query_timing.rs` prints the same figures as fractions of
+//! behaves as on real data; the 8-bit products skip black steps (16 pixels of one image for the
+//! linear model, 64 pixels of 8 images for the eigenspace), so the eigenspace batch is also run
+//! on the same views with every 0 raised to 1 (no step skipped, the dense work). `examples/query_timing.rs` prints the same figures as fractions of
 //! their bounds (the copy, one thread reading the same bytes, the FMA peak).
 //!
 //! cargo bench -p linpose --bench query

@@ -47,7 +47,7 @@ pub mod search;
 pub mod spline;
 
 use crate::dataset::Dataset;
-use crate::kernels::{dot_u8, AlignedF32, Level};
+use crate::kernels::{dot_q, dot_u8, AlignedF32, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -62,16 +62,19 @@ use serde::{Deserialize, Serialize};
 /// The method's name in model files and on the command line.
 pub const METHOD: &str = "eigenspace";
 
-/// Most 8-bit queries per parallel task of a batch (a multiple of [`dot_u8::BATCH_IMAGES`]).
-const U8_BATCH: usize = 32 * dot_u8::BATCH_IMAGES;
+/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
+/// in [`dot_u8::dots_batch`], 16 in [`dot_q::dots_batch`]).
+const U8_BATCH: usize = 192;
 
-/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole register blocks of
-/// [`dot_u8::BATCH_IMAGES`], at most [`U8_BATCH`], and small enough that every thread gets two
-/// tasks.
-pub(crate) fn u8_task_rows(n: usize) -> usize {
-    let b = dot_u8::BATCH_IMAGES;
-    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(b).clamp(1, U8_BATCH / b) * b
+/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
+/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
+pub(crate) fn u8_task_rows(n: usize, block: usize) -> usize {
+    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
 }
+
+/// The eigenspace's blocks of 8-bit queries: a group of [`dot_q::dots_batch`].
+const U8_BLOCK: usize = dot_q::GROUP * dot_q::BLOCK;
+const _: () = assert!(U8_BATCH.is_multiple_of(U8_BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
 
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
@@ -218,6 +221,8 @@ pub struct EigenspaceModel {
     /// Sample positions per pose parameter.
     axes: Vec<Vec<f64>>,
     index: NearestIndex,
+    /// The basis in 24-bit fixed point, for 8-bit queries (derived, not stored in the file).
+    quant: dot_q::QuantRows,
 }
 
 impl EigenspaceModel {
@@ -235,7 +240,8 @@ impl EigenspaceModel {
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let mean_proj =
             basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
-        Ok(EigenspaceModel { meta, settings, basis: AlignedF32::new(&basis), mean, mean_proj, points, axes, index })
+        let quant = dot_q::QuantRows::new(&basis, m);
+        Ok(EigenspaceModel { meta, settings, basis: AlignedF32::new(&basis), mean, mean_proj, points, axes, index, quant })
     }
 
     /// The settings as given and as resolved.
@@ -288,14 +294,15 @@ impl EigenspaceModel {
     }
 
     /// As [`EigenspaceModel::project_into`] for 8-bit images given as raw pixel values: the
-    /// L products by the SIMD kernel of [`crate::kernels::dot_u8`], the energy summed exactly in
-    /// integers (the 1 / 255 of the features cancels in the unit-energy scaling).
+    /// L products summed exactly in integers against the basis in 24-bit fixed point
+    /// ([`crate::kernels::dot_q`]; its one rounding is as fine as the f32 basis's own), the energy
+    /// summed exactly too (the 1 / 255 of the features cancels in the unit-energy scaling).
     pub fn project_u8_into(&self, queries: &[u8], out: &mut [f32]) -> Result<()> {
         let (l, m) = (self.components(), self.mean.len());
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
         if n >= 8 {
-            let rows = u8_task_rows(n);
+            let rows = u8_task_rows(n, U8_BLOCK);
             queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(Vec::new, |scratch, (q, y)| {
                 self.project_u8_batch(level, q, y, scratch)
             });
@@ -305,14 +312,14 @@ impl EigenspaceModel {
         Ok(())
     }
 
-    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_u8::dots_batch`]
-    /// (bit-identical to [`dot_u8::dots`] one image at a time), then each row scaled as in
+    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_q::dots_batch`] (exact, so the
+    /// same bits as [`dot_q::dots`] one image at a time), then each row scaled as in
     /// `project_one_u8`.
-    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut Vec<f32>) {
+    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut Vec<i32>) {
         let m = self.mean.len();
         let mut energy = [0u64; U8_BATCH];
         let energy = &mut energy[..queries.len() / m];
-        dot_u8::dots_batch(level, queries, m, &self.basis, out, energy, scratch);
+        dot_q::dots_batch(level, queries, &self.quant, out, energy, scratch);
         for (y, &ss) in out.chunks_exact_mut(self.components()).zip(energy.iter()) {
             self.scale(ss, y);
         }
@@ -320,7 +327,7 @@ impl EigenspaceModel {
 
     #[inline]
     fn project_one_u8(&self, level: Level, x: &[u8], y: &mut [f32]) {
-        dot_u8::dots(level, x, &self.basis, y);
+        dot_q::dots(level, x, &self.quant, y);
         self.scale_u8(x, y);
     }
 
@@ -452,7 +459,7 @@ impl PoseModel for EigenspaceModel {
             }
         };
         if n >= 8 {
-            let rows = u8_task_rows(n);
+            let rows = u8_task_rows(n, U8_BLOCK);
             queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
                 || (Vec::new(), vec![0f32; rows * l]),
                 |(scratch, y), (q, o)| {

@@ -1354,14 +1354,14 @@ impl PoseModel for RefinedModel {
         no_black_query(out, p)
     }
 
-    /// 8-bit queries: the projection by the eigenspace's 8-bit kernel ([`dot_u8::dots_batch`]), then
+    /// 8-bit queries: the projection by the 8-bit kernel [`dot_u8::dots_batch`], then
     /// the search; the estimates of [`PoseModel::predict_into`] on the same images as features
     /// up to f32 rounding.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let (m, p) = (self.m, self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let (level, want_noise) = (Level::detect(), self.settings.noise_threshold > 0.0);
-        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n) } else { n };
+        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, dot_u8::BATCH_IMAGES) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             self.project_u8(level, q, want_noise, s);
             self.poses_of(s, o);
