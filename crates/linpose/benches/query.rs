@@ -5,8 +5,9 @@
 //! (trained on the 9-degree views, queried with its own views), so that its k-d tree search
 //! behaves as on real data; the 8-bit products skip black steps (16 pixels of one image for the
 //! linear model, 64 pixels of 8 images for the eigenspace), so the eigenspace batch is also run
-//! on the same views with every 0 raised to 1 (no step skipped, the dense work). `examples/query_timing.rs` prints the same figures as fractions of
-//! their bounds (the copy, one thread reading the same bytes, the FMA peak).
+//! on the same views with every 0 raised to 1 (no step skipped, the dense work).
+//! `examples/query_timing.rs` prints the same figures as fractions of their bounds (the copy, one
+//! thread reading the same bytes, the FMA peak).
 //!
 //! cargo bench -p linpose --bench query
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

@@ -98,16 +98,6 @@ impl QuantRows {
         self.rows
     }
 
-    /// Pixels per row.
-    pub fn len(&self) -> usize {
-        self.m
-    }
-
-    /// Whether the rows are empty (never: m > 0).
-    pub fn is_empty(&self) -> bool {
-        self.m == 0
-    }
-
     /// The stored integer of row r at pixel p.
     pub fn int(&self, r: usize, p: usize) -> i32 {
         let d = |k: usize| self.digits()[self.at(r, k, p)] as i32;
@@ -156,8 +146,8 @@ fn sums_at(level: Level, x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
             // SAFETY: AVX-512 F/BW (Level::Avx512) and VNNI were detected.
             return unsafe { x86::sums_vnni(x, q, r0, s) };
         }
-        if level != Level::Portable {
-            // SAFETY: Level::Avx2 and Level::Avx512 imply AVX2 and FMA (Level::detect).
+        if level != Level::Portable && is_x86_feature_detected!("avx2") {
+            // SAFETY: AVX2 was detected.
             return unsafe { x86::sums_avx2(x, q, r0, s) };
         }
     }
@@ -339,8 +329,8 @@ mod x86 {
     /// [`super::sums_portable`] compiled for AVX2.
     ///
     /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
     pub unsafe fn sums_avx2(x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
         super::sums_portable(x, q, r0, s)
     }
@@ -431,7 +421,7 @@ mod tests {
         for m in [300, 1025, 2048] {
             let w = weights(3 * m);
             let q = QuantRows::new(&w, m);
-            assert_eq!((q.rows(), q.len()), (3, m));
+            assert_eq!((q.rows(), q.m), (3, m));
             for r in 0..3 {
                 let row = q.row(r);
                 for (p, (&a, &b)) in w[r * m..].iter().zip(&row).enumerate() {
