@@ -72,9 +72,23 @@ pub(crate) fn u8_task_rows(n: usize, block: usize) -> usize {
     n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
 }
 
-/// The eigenspace's blocks of 8-bit queries: a group of [`dot_q::dots_batch`].
-const U8_BLOCK: usize = dot_q::GROUP * dot_q::BLOCK;
-const _: () = assert!(U8_BATCH.is_multiple_of(U8_BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
+/// The eigenspace's blocks of 8-bit queries at `level`: a group of [`dot_q::dots_batch`] where it
+/// runs, else a register block of [`dot_u8::dots_batch`].
+fn u8_block(level: Level) -> usize {
+    if dot_q::fast(level) {
+        dot_q::GROUP * dot_q::BLOCK
+    } else {
+        dot_u8::BATCH_IMAGES
+    }
+}
+const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
+
+/// Lane sums and copies of a batch's 8-bit products: one per rayon task.
+#[derive(Default)]
+struct U8Scratch {
+    f32s: Vec<f32>,
+    i32s: Vec<i32>,
+}
 
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
@@ -221,7 +235,8 @@ pub struct EigenspaceModel {
     /// Sample positions per pose parameter.
     axes: Vec<Vec<f64>>,
     index: NearestIndex,
-    /// The basis in 24-bit fixed point, for 8-bit queries (derived, not stored in the file).
+    /// The basis in 24-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived, not
+    /// stored in the file).
     quant: dot_q::QuantRows,
 }
 
@@ -293,17 +308,19 @@ impl EigenspaceModel {
         Ok(())
     }
 
-    /// As [`EigenspaceModel::project_into`] for 8-bit images given as raw pixel values: the
-    /// L products summed exactly in integers against the basis in 24-bit fixed point
-    /// ([`crate::kernels::dot_q`]; its one rounding is as fine as the f32 basis's own), the energy
-    /// summed exactly too (the 1 / 255 of the features cancels in the unit-energy scaling).
+    /// As [`EigenspaceModel::project_into`] for 8-bit images given as raw pixel values: with
+    /// AVX-512 VNNI the L products are summed exactly in integers against the basis in 24-bit
+    /// fixed point ([`crate::kernels::dot_q`]; its one rounding is as fine as the f32 basis's
+    /// own), elsewhere in f32 lanes by [`crate::kernels::dot_u8`] (the integer sums without VNNI
+    /// measured 3.5x slower on AVX2); the two agree to f32 rounding. The energy is summed exactly
+    /// (the 1 / 255 of the features cancels in the unit-energy scaling).
     pub fn project_u8_into(&self, queries: &[u8], out: &mut [f32]) -> Result<()> {
         let (l, m) = (self.components(), self.mean.len());
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
         if n >= 8 {
-            let rows = u8_task_rows(n, U8_BLOCK);
-            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(Vec::new, |scratch, (q, y)| {
+            let rows = u8_task_rows(n, u8_block(level));
+            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(U8Scratch::default, |scratch, (q, y)| {
                 self.project_u8_batch(level, q, y, scratch)
             });
         } else {
@@ -312,14 +329,18 @@ impl EigenspaceModel {
         Ok(())
     }
 
-    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_q::dots_batch`] (exact, so the
-    /// same bits as [`dot_q::dots`] one image at a time), then each row scaled as in
-    /// `project_one_u8`.
-    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut Vec<i32>) {
+    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_q::dots_batch`] or
+    /// [`dot_u8::dots_batch`] (each the same bits as its kernel one image at a time), then each
+    /// row scaled as in `project_one_u8`.
+    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut U8Scratch) {
         let m = self.mean.len();
         let mut energy = [0u64; U8_BATCH];
         let energy = &mut energy[..queries.len() / m];
-        dot_q::dots_batch(level, queries, &self.quant, out, energy, scratch);
+        if dot_q::fast(level) {
+            dot_q::dots_batch(level, queries, &self.quant, out, energy, &mut scratch.i32s);
+        } else {
+            dot_u8::dots_batch(level, queries, m, &self.basis, out, energy, &mut scratch.f32s);
+        }
         for (y, &ss) in out.chunks_exact_mut(self.components()).zip(energy.iter()) {
             self.scale(ss, y);
         }
@@ -327,7 +348,11 @@ impl EigenspaceModel {
 
     #[inline]
     fn project_one_u8(&self, level: Level, x: &[u8], y: &mut [f32]) {
-        dot_q::dots(level, x, &self.quant, y);
+        if dot_q::fast(level) {
+            dot_q::dots(level, x, &self.quant, y);
+        } else {
+            dot_u8::dots(level, x, &self.basis, y);
+        }
         self.scale_u8(x, y);
     }
 
@@ -459,9 +484,9 @@ impl PoseModel for EigenspaceModel {
             }
         };
         if n >= 8 {
-            let rows = u8_task_rows(n, U8_BLOCK);
+            let rows = u8_task_rows(n, u8_block(level));
             queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
-                || (Vec::new(), vec![0f32; rows * l]),
+                || (U8Scratch::default(), vec![0f32; rows * l]),
                 |(scratch, y), (q, o)| {
                     let y = &mut y[..q.len() / m * l];
                     self.project_u8_batch(level, q, y, scratch);

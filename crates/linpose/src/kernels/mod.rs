@@ -1,8 +1,8 @@
 //! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
 //! ([`syrk`]; [`gram`] drives it for X X^T in memory, [`gram8`] for 8-bit features in exact
 //! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`] in f32; [`dot_q`] exact
-//! in integers against weights in 24-bit fixed point, for the eigenspace) and the refined
-//! eigenspace's coarse scan ([`scan`]).
+//! in integers against weights in 24-bit fixed point, for the eigenspace where AVX-512 VNNI runs
+//! it) and the refined eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in
 //! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
