@@ -74,7 +74,7 @@ pub(crate) fn u8_task_rows(n: usize, block: usize) -> usize {
 
 /// The eigenspace's blocks of 8-bit queries at `level`: a group of [`dot_q::dots_batch`] where it
 /// runs, else a register block of [`dot_u8::dots_batch`].
-fn u8_block(level: Level) -> usize {
+pub(crate) fn u8_block(level: Level) -> usize {
     if dot_q::fast(level) {
         dot_q::GROUP * dot_q::BLOCK
     } else {

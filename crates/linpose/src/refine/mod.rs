@@ -83,7 +83,7 @@ pub mod surface;
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
-use crate::kernels::{dot_u8, AlignedF32, Level};
+use crate::kernels::{dot_q, dot_u8, AlignedF32, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
@@ -365,6 +365,9 @@ pub struct RefinedModel {
     /// products with both (the mean's for its residual) are one pass over it; 64-byte aligned,
     /// so the 8-bit products read it in place.
     rows: AlignedF32,
+    /// The product rows ([`Self::product_rows`] of `rows`) in 24-bit fixed point, for 8-bit
+    /// queries where [`dot_q::fast`] (derived, not stored in the file).
+    quant: dot_q::QuantRows,
     /// M, the pixels of an image.
     m: usize,
     mean_proj: Vec<f32>,
@@ -588,9 +591,13 @@ impl RefinedModel {
             .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
         let start_boxes = if lattice.is_some() { Vec::new() } else { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) };
+        // The mean's row only when the residual is used (as `product_rows`).
+        let k = l + !settings.interpolation_variance.is_empty() as usize;
+        let quant = dot_q::QuantRows::new(&[&basis[..], &mean[..]].concat()[..k * m], m);
         Ok(RefinedModel {
             meta,
             settings,
+            quant,
             rows: AlignedF32::new(&[basis, mean].concat()),
             m,
             mean_proj,
@@ -674,8 +681,8 @@ impl RefinedModel {
     }
 
     /// As [`Self::project_f32`] for 8-bit images given as raw pixel values (n of them): the
-    /// products by [`dot_u8::dots_batch`] from 8 queries on (one at a time by [`dot_u8::dots`]
-    /// below), the energy exact in integers, the pixel noise by [`pixel_variance_u8`], all in
+    /// products by [`dot_q::dots_batch`] where [`dot_q::fast`], else [`dot_u8::dots_batch`], from 8
+    /// queries on (one at a time below), the energy exact in integers, the pixel noise by [`pixel_variance_u8`], all in
     /// pixel values: the 1 / 255 of the features cancels in each ratio.
     fn project_u8(&self, level: Level, queries: &[u8], want_noise: bool, s: &mut QueryScratch) {
         let (l, m, k) = (self.components(), self.m, self.product_rows());
@@ -687,12 +694,19 @@ impl RefinedModel {
         // In sub-chunks whose images stay in cache from the products to the noise pass.
         for (c, xq) in queries.chunks(NOISE_SUB_U8 * m).enumerate() {
             let (i0, nn) = (c * NOISE_SUB_U8, xq.len() / m);
-            if n >= 8 {
-                dot_u8::dots_batch(level, xq, m, rows, &mut s.raw[i0 * k..(i0 + nn) * k], &mut s.energy[i0..i0 + nn], &mut s.block);
-            } else {
-                for ((x, r), e) in xq.chunks_exact(m).zip(s.raw[i0 * k..].chunks_exact_mut(k)).zip(&mut s.energy[i0..]) {
-                    dot_u8::dots(level, x, rows, r);
-                    *e = dot_u8::sum_squares(x);
+            let (raw, energy) = (&mut s.raw[i0 * k..(i0 + nn) * k], &mut s.energy[i0..i0 + nn]);
+            match (n >= 8, dot_q::fast(level)) {
+                (true, true) => dot_q::dots_batch(level, xq, &self.quant, raw, energy, &mut s.lanes),
+                (true, false) => dot_u8::dots_batch(level, xq, m, rows, raw, energy, &mut s.block),
+                (false, fast) => {
+                    for ((x, r), e) in xq.chunks_exact(m).zip(raw.chunks_exact_mut(k)).zip(energy.iter_mut()) {
+                        if fast {
+                            dot_q::dots(level, x, &self.quant, r);
+                        } else {
+                            dot_u8::dots(level, x, rows, r);
+                        }
+                        *e = dot_u8::sum_squares(x);
+                    }
                 }
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
@@ -1165,10 +1179,11 @@ fn box_split(l: usize) -> usize {
 }
 
 /// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
-/// [`dot_u8::BATCH_IMAGES`], and few enough that their images (19.2 KB each at 160 x 120) are
+/// [`dot_u8::BATCH_IMAGES`] and whole groups of [`dot_q::dots_batch`], and few enough that their images (19.2 KB each at 160 x 120) are
 /// still in the L2 cache when the noise pass reads them after the products (with the chunk's 192,
 /// that pass read them from memory: 2 us of a 17 us query on one thread).
 const NOISE_SUB_U8: usize = 8 * dot_u8::BATCH_IMAGES;
+const _: () = assert!(NOISE_SUB_U8.is_multiple_of(dot_q::GROUP * dot_q::BLOCK));
 
 /// f32 queries per sub-chunk of [`RefinedModel::project_f32`] (77 KB each at 160 x 120), for the
 /// same reason.
@@ -1286,7 +1301,7 @@ thread_local! {
 
 /// A query task's buffers: coordinates (rows of L), residuals and noise, the products (rows of
 /// [`RefinedModel::product_rows`]), the 8-bit queries' energies and
-/// [`dot_u8::dots_batch`]'s blocks.
+/// [`dot_u8::dots_batch`]'s blocks or [`dot_q::dots_batch`]'s lane sums.
 #[derive(Default)]
 struct QueryScratch {
     y: Vec<f32>,
@@ -1295,6 +1310,7 @@ struct QueryScratch {
     raw: Vec<f32>,
     energy: Vec<u64>,
     block: Vec<f32>,
+    lanes: Vec<i32>,
     rows_u8: Option<RowsU8>,
     rows_f32: Option<RowsF32>,
 }
@@ -1361,7 +1377,7 @@ impl PoseModel for RefinedModel {
         let (m, p) = (self.m, self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let (level, want_noise) = (Level::detect(), self.settings.noise_threshold > 0.0);
-        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, dot_u8::BATCH_IMAGES) } else { n };
+        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, crate::eigenspace::u8_block(level)) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             self.project_u8(level, q, want_noise, s);
             self.poses_of(s, o);
