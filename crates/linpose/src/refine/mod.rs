@@ -591,14 +591,14 @@ impl RefinedModel {
             .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
         let start_boxes = if lattice.is_some() { Vec::new() } else { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) };
-        // The mean's row only when the residual is used (as `product_rows`).
-        let k = l + !settings.interpolation_variance.is_empty() as usize;
-        let quant = dot_q::QuantRows::new(&[&basis[..], &mean[..]].concat()[..k * m], m);
+        let rows = [basis, mean].concat();
+        // The product rows: the mean's only when the residual is used (as `product_rows`).
+        let quant = dot_q::QuantRows::new(&rows[..(l + uses_residual(&settings) as usize) * m], m);
         Ok(RefinedModel {
             meta,
             settings,
             quant,
-            rows: AlignedF32::new(&[basis, mean].concat()),
+            rows: AlignedF32::new(&rows),
             m,
             mean_proj,
             mean_sq,
@@ -647,7 +647,7 @@ impl RefinedModel {
     /// 1 / (sigma_l^2 + floor + nu)). The plain metric weighs every coordinate alike, so nu only
     /// scales the distance and its products with the mean are not needed.
     fn uses_residual(&self) -> bool {
-        !self.settings.interpolation_variance.is_empty()
+        uses_residual(&self.settings)
     }
 
     /// Products per query: the L coordinates, and the mean's when [`Self::uses_residual`].
@@ -681,9 +681,10 @@ impl RefinedModel {
     }
 
     /// As [`Self::project_f32`] for 8-bit images given as raw pixel values (n of them): the
-    /// products by [`dot_q::dots_batch`] where [`dot_q::fast`], else [`dot_u8::dots_batch`], from 8
-    /// queries on (one at a time below), the energy exact in integers, the pixel noise by [`pixel_variance_u8`], all in
-    /// pixel values: the 1 / 255 of the features cancels in each ratio.
+    /// products by [`dot_q::dots_batch`] where [`dot_q::fast`], else [`dot_u8::dots_batch`], from
+    /// 8 queries on (one at a time below), the energy exact in integers, the pixel noise by
+    /// [`pixel_variance_u8`], all in pixel values: the 1 / 255 of the features cancels in each
+    /// ratio.
     fn project_u8(&self, level: Level, queries: &[u8], want_noise: bool, s: &mut QueryScratch) {
         let (l, m, k) = (self.components(), self.m, self.product_rows());
         let n = queries.len() / m;
@@ -1178,10 +1179,17 @@ fn box_split(l: usize) -> usize {
     8.min(l)
 }
 
+/// Whether a model with these settings uses the residual (the mean's products): see
+/// [`RefinedModel::uses_residual`].
+fn uses_residual(settings: &RefinedSettings) -> bool {
+    !settings.interpolation_variance.is_empty()
+}
+
 /// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
-/// [`dot_u8::BATCH_IMAGES`] and whole groups of [`dot_q::dots_batch`], and few enough that their images (19.2 KB each at 160 x 120) are
-/// still in the L2 cache when the noise pass reads them after the products (with the chunk's 192,
-/// that pass read them from memory: 2 us of a 17 us query on one thread).
+/// [`dot_u8::BATCH_IMAGES`] and whole groups of [`dot_q::dots_batch`], and few enough that their
+/// images (19.2 KB each at 160 x 120) are still in the L2 cache when the noise pass reads them
+/// after the products (with the chunk's 192, that pass read them from memory: 2 us of a 17 us
+/// query on one thread).
 const NOISE_SUB_U8: usize = 8 * dot_u8::BATCH_IMAGES;
 const _: () = assert!(NOISE_SUB_U8.is_multiple_of(dot_q::GROUP * dot_q::BLOCK));
 
