@@ -72,23 +72,7 @@ pub(crate) fn u8_task_rows(n: usize, block: usize) -> usize {
     n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
 }
 
-/// The eigenspace's blocks of 8-bit queries at `level`: a group of [`dot_q::dots_batch`] where it
-/// runs, else a register block of [`dot_u8::dots_batch`].
-pub(crate) fn u8_block(level: Level) -> usize {
-    if dot_q::fast(level) {
-        dot_q::GROUP * dot_q::BLOCK
-    } else {
-        dot_u8::BATCH_IMAGES
-    }
-}
 const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
-
-/// Lane sums and copies of a batch's 8-bit products: one per rayon task.
-#[derive(Default)]
-struct U8Scratch {
-    f32s: Vec<f32>,
-    i32s: Vec<i32>,
-}
 
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
@@ -237,7 +221,7 @@ pub struct EigenspaceModel {
     index: NearestIndex,
     /// The basis in 24-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived, not
     /// stored in the file).
-    quant: dot_q::QuantRows,
+    quant: dot_q::FastRows,
 }
 
 impl EigenspaceModel {
@@ -255,7 +239,7 @@ impl EigenspaceModel {
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let mean_proj =
             basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
-        let quant = dot_q::QuantRows::new(&basis, m);
+        let quant = dot_q::FastRows::new(&basis, m);
         Ok(EigenspaceModel { meta, settings, basis: AlignedF32::new(&basis), mean, mean_proj, points, axes, index, quant })
     }
 
@@ -319,8 +303,8 @@ impl EigenspaceModel {
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
         if n >= 8 {
-            let rows = u8_task_rows(n, u8_block(level));
-            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(U8Scratch::default, |scratch, (q, y)| {
+            let rows = u8_task_rows(n, self.quant.block(level));
+            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(dot_q::Scratch::default, |scratch, (q, y)| {
                 self.project_u8_batch(level, q, y, scratch)
             });
         } else {
@@ -329,18 +313,13 @@ impl EigenspaceModel {
         Ok(())
     }
 
-    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_q::dots_batch`] or
-    /// [`dot_u8::dots_batch`] (each the same bits as its kernel one image at a time), then each
-    /// row scaled as in `project_one_u8`.
-    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut U8Scratch) {
+    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_q::FastRows::dots_batch`] (the
+    /// same bits as its kernel one image at a time), then each row scaled as in `project_one_u8`.
+    fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut dot_q::Scratch) {
         let m = self.mean.len();
         let mut energy = [0u64; U8_BATCH];
         let energy = &mut energy[..queries.len() / m];
-        if dot_q::fast(level) {
-            dot_q::dots_batch(level, queries, &self.quant, out, energy, &mut scratch.i32s);
-        } else {
-            dot_u8::dots_batch(level, queries, m, &self.basis, out, energy, &mut scratch.f32s);
-        }
+        self.quant.dots_batch(level, queries, m, &self.basis, out, energy, scratch);
         for (y, &ss) in out.chunks_exact_mut(self.components()).zip(energy.iter()) {
             self.scale(ss, y);
         }
@@ -348,11 +327,7 @@ impl EigenspaceModel {
 
     #[inline]
     fn project_one_u8(&self, level: Level, x: &[u8], y: &mut [f32]) {
-        if dot_q::fast(level) {
-            dot_q::dots(level, x, &self.quant, y);
-        } else {
-            dot_u8::dots(level, x, &self.basis, y);
-        }
+        self.quant.dots(level, x, &self.basis, y);
         self.scale_u8(x, y);
     }
 
@@ -484,9 +459,9 @@ impl PoseModel for EigenspaceModel {
             }
         };
         if n >= 8 {
-            let rows = u8_task_rows(n, u8_block(level));
+            let rows = u8_task_rows(n, self.quant.block(level));
             queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
-                || (U8Scratch::default(), vec![0f32; rows * l]),
+                || (dot_q::Scratch::default(), vec![0f32; rows * l]),
                 |(scratch, y), (q, o)| {
                     let y = &mut y[..q.len() / m * l];
                     self.project_u8_batch(level, q, y, scratch);

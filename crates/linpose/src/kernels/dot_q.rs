@@ -15,8 +15,8 @@
 //! 64 pixels of one row take 3 instructions where f32 fused multiply-adds take 4 and a widening
 //! pass. Without VNNI the same integers are summed digit by digit in i32 per tile (the portable
 //! body, compiled for AVX2 where the CPU has it). Every path is exact, so every path gives the
-//! same bits (tested), but only the VNNI path is fast ([`fast`]): callers use
-//! [`super::dot_u8`]'s f32 products elsewhere. A step of 64 black pixels adds nothing and is
+//! same bits (tested), but only the VNNI path is fast ([`fast`]): models hold a [`FastRows`],
+//! which falls back to [`super::dot_u8`]'s f32 products elsewhere. A step of 64 black pixels adds nothing and is
 //! skipped.
 
 use super::Level;
@@ -180,6 +180,61 @@ fn sums_portable(x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
             tot += d(0) + 256 * d(1) + 65_536 * d(2);
         }
         *s = tot;
+    }
+}
+
+/// The fixed-point copy of a model's weight rows, made where the integer kernel is [`fast`] at
+/// the detected level, and the one place that chooses between the two 8-bit kernels: with the
+/// copy and VNNI at the query's level, this module's exact sums; otherwise
+/// [`super::dot_u8`]'s f32 products of the f32 rows the caller passes (the same rows the copy
+/// was made from).
+#[derive(Debug, Clone)]
+pub struct FastRows(Option<QuantRows>);
+
+/// The buffers of [`FastRows::dots_batch`], one per parallel task.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    f32s: Vec<f32>,
+    i32s: Vec<i32>,
+}
+
+impl FastRows {
+    /// The copy of `w` (rows of `m`), or none where [`fast`] does not hold for
+    /// [`Level::detect`].
+    pub fn new(w: &[f32], m: usize) -> FastRows {
+        FastRows(fast(Level::detect()).then(|| QuantRows::new(w, m)))
+    }
+
+    fn at(&self, level: Level) -> Option<&QuantRows> {
+        self.0.as_ref().filter(|_| fast(level))
+    }
+
+    /// Images per block the batch kernel at `level` wants: a group here, a register block of
+    /// [`super::dot_u8::dots_batch`] otherwise.
+    pub fn block(&self, level: Level) -> usize {
+        if self.at(level).is_some() {
+            GROUP * BLOCK
+        } else {
+            super::dot_u8::BATCH_IMAGES
+        }
+    }
+
+    /// The products of `x` with every row of `w` (rows of `x.len()`) into `out`.
+    pub fn dots(&self, level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
+        match self.at(level) {
+            Some(q) => dots(level, x, q, out),
+            None => super::dot_u8::dots(level, x, w, out),
+        }
+    }
+
+    /// [`FastRows::dots`] for the `xs.len() / m` images of `xs`, with each image's exact sum of
+    /// squares into `energy`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn dots_batch(&self, level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Scratch) {
+        match self.at(level) {
+            Some(q) => dots_batch(level, xs, q, out, energy, &mut scratch.i32s),
+            None => super::dot_u8::dots_batch(level, xs, m, w, out, energy, &mut scratch.f32s),
+        }
     }
 }
 

@@ -367,7 +367,7 @@ pub struct RefinedModel {
     rows: AlignedF32,
     /// The product rows ([`Self::product_rows`] of `rows`) in 24-bit fixed point, for 8-bit
     /// queries where [`dot_q::fast`] (derived, not stored in the file).
-    quant: dot_q::QuantRows,
+    quant: dot_q::FastRows,
     /// M, the pixels of an image.
     m: usize,
     mean_proj: Vec<f32>,
@@ -593,7 +593,7 @@ impl RefinedModel {
         let start_boxes = if lattice.is_some() { Vec::new() } else { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) };
         let rows = [basis, mean].concat();
         // The product rows: the mean's only when the residual is used (as `product_rows`).
-        let quant = dot_q::QuantRows::new(&rows[..(l + uses_residual(&settings) as usize) * m], m);
+        let quant = dot_q::FastRows::new(&rows[..(l + uses_residual(&settings) as usize) * m], m);
         Ok(RefinedModel {
             meta,
             settings,
@@ -681,8 +681,8 @@ impl RefinedModel {
     }
 
     /// As [`Self::project_f32`] for 8-bit images given as raw pixel values (n of them): the
-    /// products by [`dot_q::dots_batch`] where [`dot_q::fast`], else [`dot_u8::dots_batch`], from
-    /// 8 queries on (one at a time below), the energy exact in integers, the pixel noise by
+    /// products by [`dot_q::FastRows::dots_batch`] (the integer kernel where it is fast, else
+    /// [`dot_u8::dots_batch`]) from 8 queries on (one at a time below), the energy exact in integers, the pixel noise by
     /// [`pixel_variance_u8`], all in pixel values: the 1 / 255 of the features cancels in each
     /// ratio.
     fn project_u8(&self, level: Level, queries: &[u8], want_noise: bool, s: &mut QueryScratch) {
@@ -696,18 +696,12 @@ impl RefinedModel {
         for (c, xq) in queries.chunks(NOISE_SUB_U8 * m).enumerate() {
             let (i0, nn) = (c * NOISE_SUB_U8, xq.len() / m);
             let (raw, energy) = (&mut s.raw[i0 * k..(i0 + nn) * k], &mut s.energy[i0..i0 + nn]);
-            match (n >= 8, dot_q::fast(level)) {
-                (true, true) => dot_q::dots_batch(level, xq, &self.quant, raw, energy, &mut s.lanes),
-                (true, false) => dot_u8::dots_batch(level, xq, m, rows, raw, energy, &mut s.block),
-                (false, fast) => {
-                    for ((x, r), e) in xq.chunks_exact(m).zip(raw.chunks_exact_mut(k)).zip(energy.iter_mut()) {
-                        if fast {
-                            dot_q::dots(level, x, &self.quant, r);
-                        } else {
-                            dot_u8::dots(level, x, rows, r);
-                        }
-                        *e = dot_u8::sum_squares(x);
-                    }
+            if n >= 8 {
+                self.quant.dots_batch(level, xq, m, rows, raw, energy, &mut s.products);
+            } else {
+                for ((x, r), e) in xq.chunks_exact(m).zip(raw.chunks_exact_mut(k)).zip(energy.iter_mut()) {
+                    self.quant.dots(level, x, rows, r);
+                    *e = dot_u8::sum_squares(x);
                 }
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
@@ -1309,7 +1303,7 @@ thread_local! {
 
 /// A query task's buffers: coordinates (rows of L), residuals and noise, the products (rows of
 /// [`RefinedModel::product_rows`]), the 8-bit queries' energies and
-/// [`dot_u8::dots_batch`]'s blocks or [`dot_q::dots_batch`]'s lane sums.
+/// the 8-bit products' buffers.
 #[derive(Default)]
 struct QueryScratch {
     y: Vec<f32>,
@@ -1317,8 +1311,7 @@ struct QueryScratch {
     noise: Vec<f64>,
     raw: Vec<f32>,
     energy: Vec<u64>,
-    block: Vec<f32>,
-    lanes: Vec<i32>,
+    products: dot_q::Scratch,
     rows_u8: Option<RowsU8>,
     rows_f32: Option<RowsF32>,
 }
@@ -1385,7 +1378,7 @@ impl PoseModel for RefinedModel {
         let (m, p) = (self.m, self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let (level, want_noise) = (Level::detect(), self.settings.noise_threshold > 0.0);
-        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, crate::eigenspace::u8_block(level)) } else { n };
+        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, self.quant.block(level)) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             self.project_u8(level, q, want_noise, s);
             self.poses_of(s, o);
