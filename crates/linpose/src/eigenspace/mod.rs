@@ -14,9 +14,10 @@
 //! (N_dense x L) are stored as f32, and a query's projection is an f32 product. The f32 rounding
 //! of a projection, about sqrt(M) * eps_f32 relative (1e-5 for M = 19,200), is far below the
 //! distance between manifold points 0.5 degrees apart, so f32 serving returns the same manifold
-//! point as f64 would except on exact near-ties; tests that compare the two therefore check
-//! poses, and identities on the f64 fit (back-projection, knots) use tolerances of a few eps
-//! times the size of the sums involved.
+//! point as f64 would except on exact near-ties; so do 8-bit queries through the 16-bit
+//! fixed-point weights of [`crate::kernels::dot_q`], whose error is of the same order. Tests that
+//! compare them therefore check poses, and identities on the f64 fit (back-projection, knots) use
+//! tolerances of a few eps times the size of the sums involved.
 //!
 //! ```
 //! use linpose::{Dataset, EigenspaceParams, Estimator, Manifest, Param, PoseModel, PoseSpace};
@@ -219,7 +220,7 @@ pub struct EigenspaceModel {
     /// Sample positions per pose parameter.
     axes: Vec<Vec<f64>>,
     index: NearestIndex,
-    /// The basis in 24-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived, not
+    /// The basis in 16-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived, not
     /// stored in the file).
     quant: dot_q::FastRows,
 }
@@ -293,10 +294,10 @@ impl EigenspaceModel {
     }
 
     /// As [`EigenspaceModel::project_into`] for 8-bit images given as raw pixel values: with
-    /// AVX-512 VNNI the L products are summed exactly in integers against the basis in 24-bit
-    /// fixed point ([`crate::kernels::dot_q`]; its one rounding is as fine as the f32 basis's
-    /// own), elsewhere in f32 lanes by [`crate::kernels::dot_u8`] (the integer sums without VNNI
-    /// measured 3.5x slower on AVX2); the two agree to f32 rounding. The energy is summed exactly
+    /// AVX-512 VNNI the L products are summed exactly in integers against the basis in 16-bit
+    /// fixed point ([`crate::kernels::dot_q`]: each weight within half a step of 1 / 32,639 of
+    /// its row's largest), elsewhere in f32 lanes by [`crate::kernels::dot_u8`] (the integer
+    /// sums without VNNI measured 3.5x slower on AVX2); the two agree within that quantisation. The energy is summed exactly
     /// (the 1 / 255 of the features cancels in the unit-energy scaling).
     pub fn project_u8_into(&self, queries: &[u8], out: &mut [f32]) -> Result<()> {
         let (l, m) = (self.components(), self.mean.len());

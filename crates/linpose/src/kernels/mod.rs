@@ -1,7 +1,7 @@
 //! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
 //! ([`syrk`]; [`gram`] drives it for X X^T in memory, [`gram8`] for 8-bit features in exact
 //! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`] in f32; [`dot_q`] exact
-//! in integers against weights in 24-bit fixed point, for the eigenspace where AVX-512 VNNI runs
+//! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI runs
 //! it) and the refined eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in

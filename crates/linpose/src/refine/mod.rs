@@ -365,7 +365,7 @@ pub struct RefinedModel {
     /// products with both (the mean's for its residual) are one pass over it; 64-byte aligned,
     /// so the 8-bit products read it in place.
     rows: AlignedF32,
-    /// The product rows ([`Self::product_rows`] of `rows`) in 24-bit fixed point, for 8-bit
+    /// The product rows ([`Self::product_rows`] of `rows`) in 16-bit fixed point, for 8-bit
     /// queries where [`dot_q::fast`] (derived, not stored in the file).
     quant: dot_q::FastRows,
     /// M, the pixels of an image.
@@ -1371,9 +1371,9 @@ impl PoseModel for RefinedModel {
         no_black_query(out, p)
     }
 
-    /// 8-bit queries: the projection by the 8-bit kernel [`dot_u8::dots_batch`], then
-    /// the search; the estimates of [`PoseModel::predict_into`] on the same images as features
-    /// up to f32 rounding.
+    /// 8-bit queries: the projection by [`dot_q::FastRows`] (16-bit fixed point where VNNI runs
+    /// it, else [`dot_u8::dots_batch`]), then the search; the estimates of
+    /// [`PoseModel::predict_into`] on the same images as features but for near ties.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let (m, p) = (self.m, self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
