@@ -297,8 +297,9 @@ impl EigenspaceModel {
     /// AVX-512 VNNI the L products are summed exactly in integers against the basis in 16-bit
     /// fixed point ([`crate::kernels::dot_q`]: each weight within half a step of 1 / 32,639 of
     /// its row's largest), elsewhere in f32 lanes by [`crate::kernels::dot_u8`] (the integer
-    /// sums without VNNI measured 3.5x slower on AVX2); the two agree within that quantisation. The energy is summed exactly
-    /// (the 1 / 255 of the features cancels in the unit-energy scaling).
+    /// sums without VNNI measured 3.5x slower on AVX2); the two agree within that quantisation.
+    /// The energy is summed exactly (the 1 / 255 of the features cancels in the unit-energy
+    /// scaling).
     pub fn project_u8_into(&self, queries: &[u8], out: &mut [f32]) -> Result<()> {
         let (l, m) = (self.components(), self.mean.len());
         let n = batch_len(m, queries.len(), out.len(), l)?;

@@ -11,9 +11,10 @@
 //! per object, the eigenspace's and the refined eigenspace's estimates from 8-bit images through
 //! this kernel differ from their estimates of the same images as f32 features on 9 of 55,680
 //! queries (near ties between two lattice poses: a rendered object's mean error moved by at most
-//! 0.0003 degrees, COIL-16's refined by 0.007, one view of 72 by 0.5). Three digits (24-bit fixed point, as fine as the f32 basis) differed on 2, but cost
-//! 3 instructions a step where two take 2: the eigenspace's batch of dense images took 4.5-5.5
-//! us a query against 3.2-3.3 us with two (BENCHMARKS.md, issue 7).
+//! 0.0003 degrees, COIL-16's refined by 0.007, one view of 72 by 0.5). Three digits (24-bit
+//! fixed point, as fine as the f32 basis) differed on 2, but take 3 instructions a step instead
+//! of 2: the eigenspace's batch of dense images took 4.5-5.5 us a query against 3.2-3.3 us with
+//! two (BENCHMARKS.md, issue 7).
 //!
 //! v is held as [`DIGITS`] balanced base-256 digits, v = d1 256 + d0 with each d in [-128, 127],
 //! one byte each, tile by tile (every row's digit rows of [`CHUNK`] steps of 64 pixels together,
@@ -32,6 +33,8 @@ use super::Level;
 pub const DIGITS: usize = 2;
 /// Largest stored integer: [`DIGITS`] balanced base-256 digits of at most 127.
 pub const VMAX: i32 = 127 * ((1 << (8 * DIGITS)) - 1) / 255;
+// The integers and their digit sums fit i32 (and VMAX's formula) up to three digits.
+const _: () = assert!(DIGITS >= 1 && DIGITS <= 3);
 
 /// 256^k, the weight of digit k.
 const fn radix(k: usize) -> i64 {
@@ -267,8 +270,8 @@ const _: () = assert!(CHUNK <= 32);
 /// prefetcher follows: software prefetching measured slower), [`CHUNK`] steps at a time: the
 /// chunk's pixels are copied to 64-byte boundaries while their squares and the mask of nonzero
 /// steps are summed, then each row in turn passes over the steps in the mask, in registers of 8
-/// images by [`DIGITS`] digits. `scratch` holds the lane sums between chunks. Images past the last whole
-/// block go one at a time.
+/// images by [`DIGITS`] digits. `scratch` holds the lane sums between chunks. Images past the
+/// last whole block go one at a time.
 #[track_caller]
 pub fn dots_batch(level: Level, xs: &[u8], q: &QuantRows, out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<i32>) {
     let m = q.m;
