@@ -96,6 +96,11 @@ impl KdTree {
         at
     }
 
+    /// Bytes held: nodes, leaves and indices.
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>() + self.leaves.len() * 4 + self.items.len() * 4
+    }
+
     /// The index of the point nearest to `q` (`dim` coordinates): brute force's answer, the
     /// least squared distance summed coordinate by coordinate, ties to the lower index; 0 when
     /// no distance compares (a query with a NaN), as brute force gives.

@@ -44,7 +44,13 @@
 //!    distance to the spline curve is a polynomial in the pose on each knot interval, and
 //!    [`lattice::Lattice`] finds its least over every lattice pose exactly (on COIL-20 the same
 //!    estimates as the local search; perf of obj5's 8-bit queries on one thread, the search's
-//!    samples over the product kernel's: 0.15-0.17, the local search's about 0.24).
+//!    samples over the product kernel's: 0.15-0.17, the local search's about 0.24). With two or
+//!    more, a clean query reported on a lattice skips them too ([`CoarseTree`]): the nearest of
+//!    the surface's points on the lattice of twice the step (a k-d tree in the coordinates, which
+//!    carry the weights of nu = 0), then [`Surface::climb`] on the reporting lattice with the
+//!    query's own weights. The local search from coarse starts had ended in a worse basin on
+//!    some views: twin clean 8.79 -> 6.86 degrees, duck 0.047 -> 0.044, cap 0.104 -> 0.101,
+//!    pot 0.463 -> 0.464, column 2.575 -> 2.577 (BENCHMARKS.md).
 //!
 //! Every hyper-parameter is chosen from the training data alone ([`select`]): the number of
 //! eigenimages L (among 8, 12, 16, 20: no more than the eigenspace's 20, so a query costs no
@@ -397,6 +403,58 @@ pub struct RefinedModel {
     /// The exact lattice search of a clean query on a one-parameter manifold (reported on a
     /// lattice): it replaces the coarse scan and the local search there.
     lattice: Option<lattice::Lattice>,
+    /// The clean query's search on a manifold of more parameters (reported on a lattice): it
+    /// replaces the coarse scan and the local search there.
+    tree: Option<CoarseTree>,
+}
+
+/// The start of a clean query's search on a manifold of two or more parameters reported on a
+/// lattice: a k-d tree over the surface at every pose of the lattice of twice the reporting
+/// step, in the search's L_s coordinates. A clean query's coordinates are scaled by the weights
+/// of nu = 0, so the tree's nearest point is the closest such pose in that metric; from it
+/// [`Surface::climb`] walks the reporting lattice with the query's own weights.
+#[derive(Debug, Clone)]
+struct CoarseTree {
+    tree: crate::eigenspace::kdtree::KdTree,
+    /// The lattice's poses (n x D).
+    poses: Vec<f64>,
+}
+
+/// Most poses of a [`CoarseTree`].
+const MAX_TREE_POSES: usize = 1 << 20;
+
+impl CoarseTree {
+    /// The tree over `surface` on the lattice of `step` degrees anchored at each axis's first
+    /// knot, in the first `ls` coordinates; None for one parameter, more than
+    /// [`crate::eigenspace::kdtree::MAX_DIM`] coordinates or more than [`MAX_TREE_POSES`] poses.
+    fn new(surface: &Surface, space: &crate::PoseSpace, axes: &[Vec<f64>], ls: usize, step: f64) -> Option<CoarseTree> {
+        let d = axes.len();
+        if !(2..=8).contains(&d) || !(1..=crate::eigenspace::kdtree::MAX_DIM).contains(&ls) || step <= 0.0 {
+            return None;
+        }
+        let counts: Vec<f64> =
+            axes.iter().zip(space.params()).map(|(a, p)| crate::eigenspace::manifold::sample_count(a, p.period, step)).collect();
+        if counts.iter().product::<f64>() > MAX_TREE_POSES as f64 {
+            return None;
+        }
+        let at: Vec<Vec<f64>> =
+            axes.iter().zip(space.params()).map(|(a, p)| crate::eigenspace::manifold::sample_positions(a, p.period, step)).collect();
+        let n: usize = at.iter().map(Vec::len).product();
+        let (mut poses, mut points) = (Vec::with_capacity(n * d), Vec::with_capacity(n * ls));
+        let mut f = vec![0.0; ls];
+        let mut t = vec![0.0; d];
+        for mut k in 0..n {
+            // The first axis varies slowest.
+            for j in (0..d).rev() {
+                t[j] = at[j][k % at[j].len()];
+                k /= at[j].len();
+            }
+            surface.eval(&t, &mut f, None);
+            poses.extend_from_slice(&t);
+            points.extend(f.iter().map(|&v| v as f32));
+        }
+        Some(CoarseTree { tree: crate::eigenspace::kdtree::KdTree::new(&points, ls), poses })
+    }
 }
 
 /// The coarse scan of the noisy match: the affine fit of [`surface::affine_fit`] at every coarse
@@ -590,6 +648,7 @@ impl RefinedModel {
             .line_parts()
             .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
+        let tree = if lattice.is_none() { CoarseTree::new(&surface, &meta.space, &axes, ls, 2.0 * step) } else { None };
         let start_boxes = if lattice.is_some() { Vec::new() } else { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) };
         let rows = [basis, mean].concat();
         // The product rows: the mean's only when the residual is used (as `product_rows`).
@@ -615,6 +674,7 @@ impl RefinedModel {
             start_shape,
             noise_scan: NoiseScan::default(),
             lattice,
+            tree,
         })
         .map(|mut m: RefinedModel| {
             let w0 = m.noise_weights(0.0);
@@ -756,6 +816,13 @@ impl RefinedModel {
             if let Some(lat) = &self.lattice {
                 let uniform = wt[..ls].iter().all(|&w| w == wt[0]).then_some(wt[0]);
                 t[0] = lat.nearest(y, wt, uniform, buf);
+                return;
+            }
+            if let Some(c) = &self.tree {
+                let i = c.tree.nearest(&y[..ls]);
+                t[..d].copy_from_slice(&c.poses[i * d..(i + 1) * d]);
+                buf.resize(l, 0.0);
+                self.surface.climb(y, wt, &mut t[..d], self.settings.params.resolution, &mut buf[..l]);
                 return;
             }
             w32.clear();
@@ -1387,7 +1454,8 @@ impl PoseModel for RefinedModel {
     }
 
     /// Everything held to serve queries: basis, mean and their projections, the surface's knot
-    /// values and slopes (2^D N L), the coarse start points with their poses, the knot positions.
+    /// values and slopes (2^D N L), the coarse start points with their poses, the knot positions,
+    /// the lattice search or the coarse tree with its poses.
     fn model_bytes(&self) -> usize {
         (self.rows.len()
             + self.mean_proj.len()
@@ -1399,6 +1467,7 @@ impl PoseModel for RefinedModel {
             * 4
             + self.noise_scan.len() * 8
             + self.lattice.as_ref().map_or(0, lattice::Lattice::bytes)
+            + self.tree.as_ref().map_or(0, |c| c.tree.bytes() + c.poses.len() * 8)
             + (self.start_poses.len() + self.axes.iter().map(Vec::len).sum::<usize>()) * 8
     }
 

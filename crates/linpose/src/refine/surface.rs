@@ -455,6 +455,70 @@ impl Surface {
     }
 }
 
+impl Surface {
+    /// Moves `t`, a pose on the lattice of `step` degrees anchored at the first knot of each axis,
+    /// to a local least over that lattice of the distance to `y` (weighted by `wt`): to the best
+    /// of its 3^D - 1 neighbours (a circular axis wraps, a linear one ends at its last lattice
+    /// point) as long as one is closer; returns its squared distance. Every move lowers the
+    /// distance, so no pose is visited twice and the walk ends (from the coarse tree's point it
+    /// takes a step or two). `f` holds L values of scratch.
+    pub fn climb(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
+        let d = self.params();
+        let mut cost = |idx: &[i64; 8], pose: &mut [f64; 8]| {
+            for j in 0..d {
+                pose[j] = self.splines[j].span().0 + idx[j] as f64 * step;
+            }
+            self.eval(&pose[..d], f, None);
+            y.iter().zip(&*f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum::<f64>()
+        };
+        // Lattice indices and, per axis, the count of a circular one or the last of a linear one.
+        let (mut idx, mut count, mut circ) = ([0i64; 8], [0i64; 8], [false; 8]);
+        for j in 0..d {
+            let (lo, hi) = self.splines[j].span();
+            idx[j] = ((t[j] - lo) / step).round() as i64;
+            (count[j], circ[j]) = match self.periods[j] {
+                Some(p) => ((p / step).round() as i64, true),
+                None => (((hi - lo) / step + 1e-9).floor() as i64, false),
+            };
+            idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
+        }
+        let mut pose = [0f64; 8];
+        let mut best = cost(&idx, &mut pose);
+        let mut best_pose = pose;
+        loop {
+            let mut moved = None;
+            let mut cand = [0i64; 8];
+            'next: for code in 0..3usize.pow(d as u32) {
+                let mut c = code;
+                for j in 0..d {
+                    let k = idx[j] + (c % 3) as i64 - 1;
+                    c /= 3;
+                    cand[j] = if circ[j] {
+                        k.rem_euclid(count[j].max(1))
+                    } else if (0..=count[j]).contains(&k) {
+                        k
+                    } else {
+                        continue 'next;
+                    };
+                }
+                if cand[..d] == idx[..d] {
+                    continue;
+                }
+                let v = cost(&cand, &mut pose);
+                if v < best {
+                    (best, best_pose, moved) = (v, pose, Some(cand));
+                }
+            }
+            match moved {
+                Some(c) => idx = c,
+                None => break,
+            }
+        }
+        t.copy_from_slice(&best_pose[..d]);
+        best
+    }
+}
+
 /// One corner's term of [`Surface::eval`]: its values `c` (at least `f.len()`) times `weight`
 /// into `f`, and times each `gw[k]` into the Jacobian rows when asked for; one pass over `c`
 /// (D = 1 and 2 spelled out so the loop vectorises).

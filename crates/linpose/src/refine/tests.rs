@@ -443,3 +443,64 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     assert_eq!(select::separating(4e-4, f64::INFINITY), 4e-4);
     assert_eq!(select::separating(0.0, 1e-3), 0.0);
 }
+
+/// The weighted squared distance from `y` to the surface at pose `t` (the first `wt.len()`
+/// coordinates).
+fn dist_at(s: &Surface, y: &[f32], wt: &[f64], t: &[f64]) -> f64 {
+    let mut f = vec![0.0; y.len()];
+    s.eval(t, &mut f, None);
+    y.iter().zip(&f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum()
+}
+
+#[test]
+fn the_climb_ends_on_the_lattice_at_a_local_least() {
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let (s, l) = (&model.surface, model.components());
+    let wt: Vec<f64> = (0..l).map(|c| 1.0 / (1.0 + c as f64)).collect();
+    let mut f = vec![0.0; l];
+    let step = 0.5;
+    for (k, q) in [[33.3, 17.2], [50.0, 359.9], [68.8, 181.0], [30.0, 0.0], [70.0, 90.25]].iter().enumerate() {
+        // A query off the lattice: the surface at a pose between lattice points, perturbed.
+        s.eval(q, &mut f, None);
+        let y: Vec<f32> = f.iter().enumerate().map(|(c, &v)| (v + 1e-3 * ((c + k) % 3) as f64) as f32).collect();
+        for start in [[30.0, 0.0], [45.5, 12.0], [70.0, 359.5], [q[0] - q[0] % 0.5, q[1] - q[1] % 0.5]] {
+            let mut t = start;
+            let got = s.climb(&y, &wt, &mut t, step, &mut f);
+            assert_eq!(got, dist_at(s, &y, &wt, &t), "start {start:?}");
+            assert!(t.iter().all(|v| (v / step).fract() == 0.0), "on the lattice: {t:?}");
+            assert!((30.0..=70.0).contains(&t[0]) && (0.0..360.0).contains(&t[1]), "in the domain: {t:?}");
+            // No neighbour (azimuth wrapping, elevation inside its range) is closer.
+            for de in [-step, 0.0, step] {
+                for da in [-step, 0.0, step] {
+                    let n = [t[0] + de, (t[1] + da).rem_euclid(360.0)];
+                    if (30.0..=70.0).contains(&n[0]) {
+                        assert!(dist_at(s, &y, &wt, &n) >= got, "start {start:?}: {t:?} has a closer neighbour {n:?}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_clean_two_parameter_search_starts_from_the_coarse_tree() {
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let c = model.tree.as_ref().expect("two parameters reported on a lattice");
+    // The lattice of twice the reporting step, anchored at the first knots: 41 elevations of
+    // 30..70 by 1, 360 azimuths.
+    assert_eq!(c.poses.len(), 41 * 360 * 2);
+    assert_eq!((&c.poses[..2], &c.poses[c.poses.len() - 2..]), (&[30.0, 0.0][..], &[70.0, 359.0][..]));
+    // Each coarse pose's point is the surface there, so a query at a coarse pose finds it.
+    let ls = model.settings().search();
+    let mut f = vec![0.0; ls];
+    for i in [0, 7, 360 * 20 + 123, c.poses.len() / 2 - 1] {
+        model.surface.eval(&c.poses[2 * i..2 * i + 2], &mut f, None);
+        let y: Vec<f32> = f.iter().map(|&v| v as f32).collect();
+        assert_eq!(c.tree.nearest(&y), i);
+    }
+    // Continuous estimates and turntables keep their own searches.
+    assert!(RefinedParams::default().components(8).resolution(0.0).fit(&d).unwrap().tree.is_none());
+    assert!(RefinedParams::default().components(8).fit(&turntable(&(0..24).map(|k| 15.0 * k as f64).collect::<Vec<_>>())).unwrap().tree.is_none());
+}
