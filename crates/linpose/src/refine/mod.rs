@@ -649,7 +649,9 @@ impl RefinedModel {
             .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
         let tree = if lattice.is_none() { CoarseTree::new(&surface, &meta.space, &axes, ls, 2.0 * step) } else { None };
-        let start_boxes = if lattice.is_some() { Vec::new() } else { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) };
+        // Only the clean coarse scan reads the boxes; the lattice and the tree replace it.
+        let scanned = lattice.is_none() && tree.is_none();
+        let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };
         let rows = [basis, mean].concat();
         // The product rows: the mean's only when the residual is used (as `product_rows`).
         let quant = dot_q::FastRows::new(&rows[..(l + uses_residual(&settings) as usize) * m], m);
