@@ -443,12 +443,11 @@ impl CoarseTree {
         let (mut poses, mut points) = (Vec::with_capacity(n * d), Vec::with_capacity(n * ls));
         let mut f = vec![0.0; ls];
         let mut t = vec![0.0; d];
-        for mut k in 0..n {
-            // The first axis varies slowest.
-            for j in (0..d).rev() {
-                t[j] = at[j][k % at[j].len()];
-                k /= at[j].len();
-            }
+        for k in 0..n {
+            // The eigenspace manifold's order (the last axis fastest), its circular values
+            // wrapped into [0, period) and brought back into the surface's domain.
+            crate::eigenspace::manifold::pose_of(&at, space, k, &mut t);
+            surface.clamp(&mut t);
             surface.eval(&t, &mut f, None);
             poses.extend_from_slice(&t);
             points.extend(f.iter().map(|&v| v as f32));
