@@ -105,15 +105,67 @@ impl KdTree {
     /// least squared distance summed coordinate by coordinate, ties to the lower index; 0 when
     /// no distance compares (a query with a NaN), as brute force gives.
     pub fn nearest(&self, q: &[f32]) -> usize {
+        self.nearest_with_distance(q).0
+    }
+
+    /// [`KdTree::nearest`] with its squared distance (infinite when no distance compares).
+    pub fn nearest_with_distance(&self, q: &[f32]) -> (usize, f32) {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
         let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
         self.visit(0, 0.0, &mut off, q, &mut best, simd);
         if best.1 == u32::MAX {
-            0
+            (0, f32::INFINITY)
         } else {
-            best.1 as usize
+            (best.1 as usize, best.0)
+        }
+    }
+
+    /// The index of the point nearest to `q` among those `keep` accepts and at squared distance
+    /// at most `within`, with that distance (None when there is none): the same search, the
+    /// leaves scored point by point, the cells beyond `within` never visited.
+    pub fn nearest_where(&self, q: &[f32], within: f32, keep: &impl Fn(usize) -> bool) -> Option<(usize, f32)> {
+        assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
+        let mut best = (within, u32::MAX);
+        let mut off = [0f32; MAX_DIM];
+        self.visit_where(0, 0.0, &mut off, q, &mut best, keep);
+        (best.1 != u32::MAX).then_some((best.1 as usize, best.0))
+    }
+
+    fn visit_where(&self, node: u32, bound: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), keep: &impl Fn(usize) -> bool) {
+        let nd = self.nodes[node as usize];
+        if nd.dim == IS_LEAF {
+            let leaf = nd.a as usize;
+            let (rows, items) = (&self.leaves[leaf * self.dim * LEAF..][..self.dim * LEAF], &self.items[leaf * LEAF..][..LEAF]);
+            let mut acc = [0f32; LEAF];
+            #[cfg(target_arch = "x86_64")]
+            if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+                // SAFETY: the CPU supports AVX-512F (detected); `rows` holds q.len() rows of LEAF.
+                unsafe { x86::distances_avx512(rows, q, &mut acc) };
+            } else {
+                distances(rows, q, &mut acc);
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            distances(rows, q, &mut acc);
+            for (&a, &i) in acc.iter().zip(items) {
+                // At most the bound (`better` asks for less when no point is held yet).
+                if (a < best.0 || (a == best.0 && i < best.1)) && i != u32::MAX && keep(i as usize) {
+                    *best = (a, i);
+                }
+            }
+            return;
+        }
+        let l = nd.dim as usize;
+        let d = q[l] - nd.split;
+        let (near, far) = if d <= 0.0 { (nd.a, nd.b) } else { (nd.b, nd.a) };
+        self.visit_where(near, bound, off, q, best, keep);
+        let old = off[l];
+        let far_bound = bound - old * old + d * d;
+        if far_bound <= best.0 {
+            off[l] = d;
+            self.visit_where(far, far_bound, off, q, best, keep);
+            off[l] = old;
         }
     }
 
@@ -167,6 +219,17 @@ fn scan(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
     }
 }
 
+/// One leaf's squared distances into `acc`, each summed over the coordinates in order.
+#[inline(always)]
+fn distances(rows: &[f32], q: &[f32], acc: &mut [f32; LEAF]) {
+    for (row, &ql) in rows.chunks_exact(LEAF).zip(q) {
+        for (a, &v) in acc.iter_mut().zip(row) {
+            let d = v - ql;
+            *a += d * d;
+        }
+    }
+}
+
 /// Whether point `i` at squared distance `a` replaces `best`: a lesser distance, or the same
 /// distance and a lower index; an infinite distance never does (brute force starts from an
 /// infinite best and keeps the first strictly lesser one).
@@ -179,6 +242,15 @@ fn better(a: f32, i: u32, best: (f32, u32)) -> bool {
 mod x86 {
     use super::LEAF;
     use std::arch::x86_64::*;
+
+    /// [`super::distances`] compiled for AVX-512 (the same operations, so the same bits).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn distances_avx512(rows: &[f32], q: &[f32], acc: &mut [f32; LEAF]) {
+        super::distances(rows, q, acc)
+    }
 
     /// [`super::scan`] in one AVX-512 vector per coordinate: the same subtractions, products and
     /// sums in the same order (no fused multiply-add), so the same bits.

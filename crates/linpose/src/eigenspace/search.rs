@@ -228,6 +228,45 @@ mod tests {
         }
     }
 
+    /// The filtered search is brute force over the points kept within the bound: the least
+    /// distance, ties to the lower index, None when no kept point lies within it; with every
+    /// point kept and no bound it is the plain search.
+    #[test]
+    fn the_filtered_tree_search_is_brute_force_over_the_kept_points() {
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {
+            let points: Vec<f32> = (0..n)
+                .flat_map(|k| {
+                    let t = k as f32 * 0.01;
+                    (0..dim).map(move |l| (t * (l as f32 + 1.0)).sin()).collect::<Vec<_>>()
+                })
+                .map(|v| v + rng.random_range(-1e-3..1e-3))
+                .collect();
+            let tree = KdTree::new(&points, dim);
+            for k in 0..100 {
+                let q: Vec<f32> = if k % 2 == 0 {
+                    (0..dim).map(|_| rng.random_range(-1.2..1.2)).collect()
+                } else {
+                    let at = rng.random_range(0..n);
+                    points[at * dim..(at + 1) * dim].iter().map(|v| v + rng.random_range(-0.05..0.05)).collect()
+                };
+                // Keep the points outside a window of indices around the nearest one (as the
+                // refined search keeps the poses away from its first start).
+                let (first, d1) = tree.nearest_with_distance(&q);
+                assert_eq!((first, d1), (tree.nearest(&q), dist(&points[first * dim..(first + 1) * dim], &q)));
+                let keep = |i: usize| i.abs_diff(first) > 40;
+                for within in [2.0 * d1, f32::INFINITY] {
+                    let brute = (0..n).filter(|&i| keep(i)).map(|i| (dist(&points[i * dim..(i + 1) * dim], &q), i)).filter(|&(d, _)| d <= within).fold(None, |b: Option<(f32, usize)>, (d, i)| match b {
+                        Some((bd, _)) if bd <= d => b,
+                        _ => Some((d, i)),
+                    });
+                    assert_eq!(tree.nearest_where(&q, within, &keep), brute.map(|(d, i)| (i, d)), "dim {dim}, query {k}, within {within}");
+                }
+                assert_eq!(tree.nearest_where(&q, f32::INFINITY, &|_| true), Some((first, d1)));
+            }
+        }
+    }
+
     /// Exact ties go to the lower index, as under brute force: repeated points, a grid of
     /// points with queries on the cell centres (equidistant from several points), a query with
     /// a NaN (no distance compares: point 0) and one so far away that every distance is

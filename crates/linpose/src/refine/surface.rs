@@ -148,6 +148,14 @@ impl Surface {
     #[inline(always)]
     fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<Other<'_>>) {
         let d = self.params();
+        if d == 2 && jac.is_none() && other.as_ref().is_none_or(|o| o.2.is_none()) {
+            #[cfg(target_arch = "x86_64")]
+            if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+                // SAFETY: the CPU supports AVX-512F (detected).
+                return unsafe { simd::values2_avx512(self, t, f, other.map(|(o, g, _)| (o, g))) };
+            }
+            return self.values2(t, f, other.map(|(o, g, _)| (o, g)));
+        }
         let n = self.shape.iter().product::<usize>();
         debug_assert!(f.len() <= self.dim);
         let mut w = [[0f64; 4]; 8];
@@ -186,6 +194,41 @@ impl Surface {
             if let Some((o, g, jg)) = other.as_mut() {
                 corner_term(&o.coef[row * o.dim..], d, weight, &gw, g, jg.as_deref_mut());
             }
+        }
+    }
+
+    /// The 16 terms of [`Surface::eval_body`] for D = 2 at `t`, in its order: each one's offset
+    /// into `coef` (a multiple of L) and its weight.
+    #[inline(always)]
+    fn terms2(&self, t: &[f64]) -> ([usize; 16], [f64; 16]) {
+        let n = self.shape[0] * self.shape[1];
+        let (w0, _, a0, b0) = self.splines[0].weights_d(t[0]);
+        let (w1, _, a1, b1) = self.splines[1].weights_d(t[1]);
+        let (k0, k1) = ([a0 * self.stride[0], b0 * self.stride[0]], [a1 * self.stride[1], b1 * self.stride[1]]);
+        let (mut at, mut wt) = ([0usize; 16], [0f64; 16]);
+        for combo in 0..16 {
+            let (p, q) = (combo & 3, combo >> 2);
+            at[combo] = (((p & 1) | (q & 1) << 1) * n + k0[p >> 1] + k1[q >> 1]) * self.dim;
+            wt[combo] = 1.0 * w0[p] * w1[q];
+        }
+        (at, wt)
+    }
+
+    /// The values of [`Surface::eval_body`] for D = 2 without derivatives (and of `other`'s,
+    /// into its slice): the same 16 terms in the same order, the same products and sums, so the
+    /// same bits, without the general loop's bookkeeping.
+    #[inline(always)]
+    fn values2(&self, t: &[f64], f: &mut [f64], other: Option<(&Surface, &mut [f64])>) {
+        let (at, wt) = self.terms2(t);
+        let sum = |acc: &mut [f64], coef: &[f32]| {
+            acc.fill(0.0);
+            for (&a, &w) in at.iter().zip(&wt) {
+                acc.iter_mut().zip(&coef[a..]).for_each(|(v, &x)| *v += w * x as f64);
+            }
+        };
+        sum(f, &self.coef);
+        if let Some((o, g)) = other {
+            sum(g, &o.coef);
         }
     }
 
@@ -343,6 +386,67 @@ pub fn affine_fit(z: &[f64], c: &[f64], wt: &[f64], f: &[f64], g: &[f64]) -> (f6
     affine_solve(zz, [a, b, cc, u, v])
 }
 
+/// [`affine_fit`]'s residual for many surface points against one query: z, c and the weights
+/// held in lanes of 8 (zero beyond the coordinates used), each sum taken lane by lane and the
+/// lanes added at the end, so the products vectorise (the sums are taken in another order than
+/// [`affine_fit`]'s: equal to rounding).
+pub struct AffineQuery {
+    lanes: usize,
+    /// w z, c and w per coordinate.
+    wz: [f64; BLOCK_DIM],
+    c: [f64; BLOCK_DIM],
+    w: [f64; BLOCK_DIM],
+    zz: f64,
+}
+
+impl AffineQuery {
+    /// The query `z`, the mean's coordinates `c` and the weights `wt` (at most 32
+    /// coordinates, all of the same length).
+    pub fn new(z: &[f64], c: &[f64], wt: &[f64]) -> AffineQuery {
+        let n = z.len();
+        assert!(n <= BLOCK_DIM && c.len() == n && wt.len() == n);
+        let mut q = AffineQuery { lanes: n.div_ceil(8) * 8, wz: [0.0; BLOCK_DIM], c: [0.0; BLOCK_DIM], w: [0.0; BLOCK_DIM], zz: 0.0 };
+        for i in 0..n {
+            (q.wz[i], q.c[i], q.w[i]) = (wt[i] * z[i], c[i], wt[i]);
+            q.zz += wt[i] * z[i] * z[i];
+        }
+        q
+    }
+
+    /// The residual at the surface point `f` with offset `g` (the query's coordinates; values
+    /// beyond them are ignored).
+    pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            // SAFETY: the CPU supports AVX-512F (detected).
+            return unsafe { simd::affine_residual_avx512(self, f, g) };
+        }
+        self.residual_body(f, g)
+    }
+
+    #[inline(always)]
+    fn residual_body(&self, f: &[f64], g: &[f64]) -> f64 {
+        let n = f.len().min(g.len());
+        let (mut fb, mut gb) = ([0f64; BLOCK_DIM], [0f64; BLOCK_DIM]);
+        fb[..n].copy_from_slice(&f[..n]);
+        gb[..n].copy_from_slice(&g[..n]);
+        let mut acc = [[0f64; 8]; 5];
+        for k in (0..self.lanes).step_by(8) {
+            for i in k..k + 8 {
+                let m = fb[i] + self.c[i];
+                let (wm, wg) = (self.w[i] * m, self.w[i] * gb[i]);
+                acc[0][i - k] += wm * m;
+                acc[1][i - k] += wm * gb[i];
+                acc[2][i - k] += wg * gb[i];
+                acc[3][i - k] += self.wz[i] * m;
+                acc[4][i - k] += self.wz[i] * gb[i];
+            }
+        }
+        affine_solve(self.zz, acc.map(|a| a.iter().sum()))
+            .0
+    }
+}
+
 /// The residual of [`affine_fit`] from its weighted sums `s` = (m.m, m.g, g.g, z.m, z.g), m = f + c,
 /// and z.z.
 pub fn affine_residual(zz: f64, s: [f64; 5]) -> f64 {
@@ -461,15 +565,23 @@ impl Surface {
     /// of its 3^D - 1 neighbours (a circular axis wraps, a linear one ends at its last lattice
     /// point) as long as one is closer; returns its squared distance. Every move lowers the
     /// distance, so no pose is visited twice and the walk ends (from the coarse tree's point it
-    /// takes a step or two). `f` holds L values of scratch.
-    pub fn climb(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
+    /// takes a step or two).
+    pub fn climb(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64) -> f64 {
+        // Coordinates of zero weight add nothing.
+        let lo = wt.iter().rposition(|&w| w != 0.0).map_or(0, |i| i + 1).min(y.len());
+        self.climb_pair(None, lo, t, step, |f, _| y.iter().zip(f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum::<f64>())
+    }
+
+    /// [`Surface::climb`] on any `cost` of the pose (which evaluates what it needs at the pose
+    /// it is given): `t` moves to a local least of it over the lattice of `step` degrees, which
+    /// is returned.
+    pub fn climb_by(&self, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64]) -> f64) -> f64 {
         let d = self.params();
-        let mut cost = |idx: &[i64; 8], pose: &mut [f64; 8]| {
+        let mut at = |idx: &[i64; 8], pose: &mut [f64; 8]| {
             for j in 0..d {
                 pose[j] = self.splines[j].span().0 + idx[j] as f64 * step;
             }
-            self.eval(&pose[..d], f, None);
-            y.iter().zip(&*f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum::<f64>()
+            cost(&pose[..d])
         };
         // Lattice indices and, per axis, the count of a circular one or the last of a linear one.
         let (mut idx, mut count, mut circ) = ([0i64; 8], [0i64; 8], [false; 8]);
@@ -483,7 +595,7 @@ impl Surface {
             idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
         }
         let mut pose = [0f64; 8];
-        let mut best = cost(&idx, &mut pose);
+        let mut best = at(&idx, &mut pose);
         let mut best_pose = pose;
         loop {
             let mut moved = None;
@@ -504,7 +616,7 @@ impl Surface {
                 if cand[..d] == idx[..d] {
                     continue;
                 }
-                let v = cost(&cand, &mut pose);
+                let v = at(&cand, &mut pose);
                 if v < best {
                     (best, best_pose, moved) = (v, pose, Some(cand));
                 }
@@ -516,6 +628,167 @@ impl Surface {
         }
         t.copy_from_slice(&best_pose[..d]);
         best
+    }
+}
+
+/// Most coordinates [`Surface::climb_pair`] evaluates in blocks (more go point by point).
+const BLOCK_DIM: usize = 32;
+
+impl Surface {
+    /// [`Surface::climb_by`] on a cost of the surface's values (the first `lo` coordinates) and,
+    /// with `other` (a surface on the same knots), of its values at the same pose:
+    /// `cost(f, g)` (`g` empty without `other`). With two parameters the 3 x 3 lattice points
+    /// around the walk's pose are evaluated together (`Surface::block2`): the sums along the
+    /// second axis are shared by the three points along the first, about 84 vector terms for
+    /// the 9 points instead of 144 (their values agree with [`Surface::eval`]'s to rounding; the
+    /// sums are taken in another order). The walk is [`Surface::climb_by`]'s: the same
+    /// neighbours in the same order, to the best one while it is closer.
+    pub fn climb_pair(&self, other: Option<&Surface>, lo: usize, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
+        let d = self.params();
+        if d != 2 || lo > BLOCK_DIM {
+            let (mut f, mut g) = (vec![0.0; lo], vec![0.0; if other.is_some() { lo } else { 0 }]);
+            return self.climb_by(t, step, |pose| {
+                match other {
+                    Some(o) => self.eval_pair(o, pose, &mut f, None, &mut g, None),
+                    None => self.eval(pose, &mut f, None),
+                }
+                cost(&f, &g)
+            });
+        }
+        let (mut idx, mut count, mut circ) = ([0i64; 2], [0i64; 2], [false; 2]);
+        for j in 0..2 {
+            let (lo_j, hi) = self.splines[j].span();
+            idx[j] = ((t[j] - lo_j) / step).round() as i64;
+            (count[j], circ[j]) = match self.periods[j] {
+                Some(p) => ((p / step).round() as i64, true),
+                None => (((hi - lo_j) / step + 1e-9).floor() as i64, false),
+            };
+            idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
+        }
+        let gl = if other.is_some() { lo } else { 0 };
+        let mut fv = [[0f64; BLOCK_DIM]; 9];
+        let mut gv = [[0f64; BLOCK_DIM]; 9];
+        let mut best = f64::NAN;
+        let mut first = true;
+        loop {
+            // The 3 lattice indices along each axis (None outside a linear axis).
+            let mut at = [[None; 3]; 2];
+            for j in 0..2 {
+                for (s3, slot) in at[j].iter_mut().enumerate() {
+                    let k = idx[j] + s3 as i64 - 1;
+                    *slot = if circ[j] {
+                        Some(k.rem_euclid(count[j].max(1)))
+                    } else {
+                        (0..=count[j]).contains(&k).then_some(k)
+                    };
+                }
+            }
+            let pos = |j: usize, k: i64| self.splines[j].span().0 + k as f64 * step;
+            let p0 = at[0].map(|k| k.map(|k| pos(0, k)));
+            let p1 = at[1].map(|k| k.map(|k| pos(1, k)));
+            self.block2(other, lo, &p0, &p1, &mut fv, &mut gv);
+            if first {
+                best = cost(&fv[4][..lo], &gv[4][..gl]);
+                first = false;
+            }
+            // climb_by's order: the first axis fastest.
+            let mut moved = None;
+            for code in 0..9 {
+                let (a, b) = (code % 3, code / 3);
+                if code == 4 || at[0][a].is_none() || at[1][b].is_none() {
+                    continue;
+                }
+                let v = cost(&fv[code][..lo], &gv[code][..gl]);
+                if v < best {
+                    (best, moved) = (v, Some([at[0][a].unwrap(), at[1][b].unwrap()]));
+                }
+            }
+            match moved {
+                Some(c) => idx = c,
+                None => break,
+            }
+        }
+        for j in 0..2 {
+            t[j] = self.splines[j].span().0 + idx[j] as f64 * step;
+        }
+        best
+    }
+
+    /// For D = 2: the first `lo` values of this surface (into `fv`) and of `other` (into `gv`)
+    /// at the 3 x 3 poses (p0[a], p1[b]), point a + 3 b; a None position is skipped. For each
+    /// position b and each knot interval of the first axis among the p0, the 4 sums along the
+    /// second axis (value and slope at the interval's two knots) are formed once; each point
+    /// then sums those 4 with its first-axis weights.
+    fn block2(&self, other: Option<&Surface>, lo: usize, p0: &[Option<f64>; 3], p1: &[Option<f64>; 3], fv: &mut [[f64; BLOCK_DIM]; 9], gv: &mut [[f64; BLOCK_DIM]; 9]) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            // SAFETY: the CPU supports AVX-512F (detected).
+            return unsafe { simd::block2_avx512(self, other, lo, p0, p1, fv, gv) };
+        }
+        self.block2_body(other, lo, p0, p1, fv, gv)
+    }
+
+    #[inline(always)]
+    fn block2_body(&self, other: Option<&Surface>, lo: usize, p0: &[Option<f64>; 3], p1: &[Option<f64>; 3], fv: &mut [[f64; BLOCK_DIM]; 9], gv: &mut [[f64; BLOCK_DIM]; 9]) {
+        let n = self.shape[0] * self.shape[1];
+        let w0: [Option<([f64; 4], usize, usize)>; 3] = p0.map(|p| p.map(|t| {
+            let (w, _, i, j) = self.splines[0].weights_d(t);
+            (w, i, j)
+        }));
+        let w1: [Option<([f64; 4], usize, usize)>; 3] = p1.map(|p| p.map(|t| {
+            let (w, _, i, j) = self.splines[1].weights_d(t);
+            (w, i, j)
+        }));
+        // h[p][..lo]: sum over q of w1[q] coef[row(p, q)], for one interval and one b.
+        let mut h = [[0f64; BLOCK_DIM]; 4];
+        let mut hg = [[0f64; BLOCK_DIM]; 4];
+        for (b, w1b) in w1.iter().enumerate() {
+            let Some((wq, i1, j1)) = *w1b else { continue };
+            let k1 = [i1 * self.stride[1], j1 * self.stride[1]];
+            let mut done = [false; 3];
+            for a in 0..3 {
+                let Some((_, i0, j0)) = w0[a] else { continue };
+                if done[a] {
+                    continue;
+                }
+                let k0 = [i0 * self.stride[0], j0 * self.stride[0]];
+                for p in 0..4 {
+                    let sum = |acc: &mut [f64; BLOCK_DIM], coef: &[f32], dim: usize| {
+                        let acc = &mut acc[..lo];
+                        acc.fill(0.0);
+                        for q in 0..4 {
+                            let row = (((p & 1) | (q & 1) << 1) * n + k0[p >> 1] + k1[q >> 1]) * dim;
+                            let w = wq[q];
+                            acc.iter_mut().zip(&coef[row..row + lo]).for_each(|(v, &x)| *v += w * x as f64);
+                        }
+                    };
+                    sum(&mut h[p], &self.coef, self.dim);
+                    if let Some(o) = other {
+                        sum(&mut hg[p], &o.coef, o.dim);
+                    }
+                }
+                // Every first-axis position in this interval takes its point from these sums.
+                for a2 in a..3 {
+                    let Some((wp, i2, _)) = w0[a2] else { continue };
+                    if i2 != i0 {
+                        continue;
+                    }
+                    done[a2] = true;
+                    let point = |out: &mut [f64; BLOCK_DIM], h: &[[f64; BLOCK_DIM]; 4]| {
+                        let out = &mut out[..lo];
+                        out.fill(0.0);
+                        for (p, hp) in h.iter().enumerate() {
+                            let w = wp[p];
+                            out.iter_mut().zip(&hp[..lo]).for_each(|(v, &x)| *v += w * x);
+                        }
+                    };
+                    point(&mut fv[a2 + 3 * b], &h);
+                    if other.is_some() {
+                        point(&mut gv[a2 + 3 * b], &hg);
+                    }
+                }
+            }
+        }
     }
 }
 
@@ -556,7 +829,120 @@ fn corner_term(c: &[f32], d: usize, weight: f64, gw: &[f64; 8], f: &mut [f64], j
 
 #[cfg(target_arch = "x86_64")]
 mod simd {
-    use super::Surface;
+    use super::{Surface, BLOCK_DIM};
+    use std::arch::x86_64::*;
+
+    /// [`super::AffineQuery::residual`] compiled for AVX-512.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn affine_residual_avx512(q: &super::AffineQuery, f: &[f64], g: &[f64]) -> f64 {
+        q.residual_body(f, g)
+    }
+
+    /// [`Surface::block2`] with each run of 8 coordinates of the 4 sums along the second axis
+    /// held in registers and each point summed from them.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn block2_avx512(s: &Surface, other: Option<&Surface>, lo: usize, p0: &[Option<f64>; 3], p1: &[Option<f64>; 3], fv: &mut [[f64; BLOCK_DIM]; 9], gv: &mut [[f64; BLOCK_DIM]; 9]) {
+        let n = s.shape[0] * s.shape[1];
+        assert!(lo <= BLOCK_DIM && lo <= s.dim && other.is_none_or(|o| lo <= o.dim && o.coef.len() == s.coef.len() * o.dim / s.dim));
+        let w0 = p0.map(|p| p.map(|t| s.splines[0].weights_d(t)));
+        let w1 = p1.map(|p| p.map(|t| s.splines[1].weights_d(t)));
+        for (b, w1b) in w1.iter().enumerate() {
+            let Some((wq, _, i1, j1)) = *w1b else { continue };
+            let k1 = [i1 * s.stride[1], j1 * s.stride[1]];
+            let mut done = [false; 3];
+            for a in 0..3 {
+                let Some((_, _, i0, j0)) = w0[a] else { continue };
+                if done[a] {
+                    continue;
+                }
+                let k0 = [i0 * s.stride[0], j0 * s.stride[0]];
+                // The points of this interval: their first-axis weights.
+                let mut pts = [(0usize, [0f64; 4]); 3];
+                let mut np = 0;
+                for a2 in a..3 {
+                    if let Some((wp, _, i2, _)) = w0[a2] {
+                        if i2 == i0 {
+                            done[a2] = true;
+                            pts[np] = (a2 + 3 * b, wp);
+                            np += 1;
+                        }
+                    }
+                }
+                let mut rows = [0usize; 16];
+                for (pq, r) in rows.iter_mut().enumerate() {
+                    let (p, q) = (pq >> 2, pq & 3);
+                    *r = ((p & 1) | (q & 1) << 1) * n + k0[p >> 1] + k1[q >> 1];
+                }
+                let one = |coef: &[f32], dim: usize, out: &mut [[f64; BLOCK_DIM]; 9]| {
+                    assert!(rows.iter().all(|&r| (r + 1) * dim <= coef.len()));
+                    let mut c = 0;
+                    while c < lo {
+                        let m8 = if lo - c >= 8 { 0xffu8 } else { (1u8 << (lo - c)) - 1 };
+                        let mut h = [_mm512_setzero_pd(); 4];
+                        for (pq, &r) in rows.iter().enumerate() {
+                            // SAFETY: lanes c .. min(c + 8, lo) of row r lie within `coef`
+                            // (asserted: lo <= dim); the masked load reads no others.
+                            let x = _mm512_castps512_ps256(unsafe { _mm512_maskz_loadu_ps(m8 as u16, coef.as_ptr().add(r * dim + c)) });
+                            let hp = &mut h[pq >> 2];
+                            *hp = _mm512_add_pd(*hp, _mm512_mul_pd(_mm512_set1_pd(wq[pq & 3]), _mm512_cvtps_pd(x)));
+                        }
+                        for &(at, wp) in &pts[..np] {
+                            let mut v = _mm512_mul_pd(_mm512_set1_pd(wp[0]), h[0]);
+                            for p in 1..4 {
+                                v = _mm512_add_pd(v, _mm512_mul_pd(_mm512_set1_pd(wp[p]), h[p]));
+                            }
+                            // SAFETY: lanes c .. min(c + 8, lo) of a row of BLOCK_DIM >= lo.
+                            unsafe { _mm512_mask_storeu_pd(out[at].as_mut_ptr().add(c), m8, v) };
+                        }
+                        c += 8;
+                    }
+                };
+                one(&s.coef, s.dim, fv);
+                if let Some(o) = other {
+                    one(&o.coef, o.dim, gv);
+                }
+            }
+        }
+    }
+
+    /// [`Surface::values2`] with each run of 8 coordinates summed over the 16 terms in one
+    /// register: the same products and sums in the same order (no fused multiply-add), so the
+    /// same bits.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn values2_avx512(s: &Surface, t: &[f64], f: &mut [f64], other: Option<(&Surface, &mut [f64])>) {
+        let (at, wt) = s.terms2(t);
+        let sum = |acc: &mut [f64], coef: &[f32], dim: usize| {
+            let lo = acc.len();
+            assert!(lo <= dim && at.iter().all(|&a| a + dim <= coef.len()));
+            let mut q = 0;
+            while q < lo {
+                let m8 = if lo - q >= 8 { 0xff } else { (1u8 << (lo - q)) - 1 };
+                let mut v = _mm512_setzero_pd();
+                for (&a, &w) in at.iter().zip(&wt) {
+                    // SAFETY: lanes q .. min(q + 8, lo) of the term's row lie within `coef`
+                    // (asserted); the masked load reads no others.
+                    let x = _mm512_castps512_ps256(unsafe { _mm512_maskz_loadu_ps(m8 as u16, coef.as_ptr().add(a + q)) });
+                    v = _mm512_add_pd(v, _mm512_mul_pd(_mm512_set1_pd(w), _mm512_cvtps_pd(x)));
+                }
+                // SAFETY: lanes q .. min(q + 8, lo) of `acc`.
+                unsafe { _mm512_mask_storeu_pd(acc.as_mut_ptr().add(q), m8, v) };
+                q += 8;
+            }
+        };
+        sum(f, &s.coef, s.dim);
+        if let Some((o, g)) = other {
+            sum(g, &o.coef, o.dim);
+        }
+    }
 
     /// # Safety
     /// The CPU must support AVX-512F.

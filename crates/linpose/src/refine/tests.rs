@@ -350,7 +350,8 @@ fn the_8_bit_pixel_variance_is_exact() {
 fn the_noisy_scan_keeps_every_point_within_twice_the_least() {
     let d = train_set();
     let model = RefinedParams::default().components(12).fit(&d).unwrap();
-    let ns = &model.noise_scan;
+    // The scan of a model without the noisy tree (this one has it: two parameters on a lattice).
+    let ns = &NoiseScan::new(&model, &model.noise_weights(0.0));
     let ln = ns.w0.len();
     assert!(ns.split > 0 && ns.split < ln, "split {} of {ln}", ns.split);
     let n = model.start_len();
@@ -466,8 +467,10 @@ fn the_climb_ends_on_the_lattice_at_a_local_least() {
         let y: Vec<f32> = f.iter().enumerate().map(|(c, &v)| (v + 1e-3 * ((c + k) % 3) as f64) as f32).collect();
         for start in [[30.0, 0.0], [45.5, 12.0], [70.0, 359.5], [q[0] - q[0] % 0.5, q[1] - q[1] % 0.5]] {
             let mut t = start;
-            let got = s.climb(&y, &wt, &mut t, step, &mut f);
-            assert_eq!(got, dist_at(s, &y, &wt, &t), "start {start:?}");
+            let got = s.climb(&y, &wt, &mut t, step);
+            // The climb sums the surface in another order than eval: equal to rounding.
+            let at = dist_at(s, &y, &wt, &t);
+            assert!((got - at).abs() <= 1e-12 * at, "start {start:?}: {got} against {at}");
             assert!(t.iter().all(|v| (v / step).fract() == 0.0), "on the lattice: {t:?}");
             assert!((30.0..=70.0).contains(&t[0]) && (0.0..360.0).contains(&t[1]), "in the domain: {t:?}");
             // No neighbour (azimuth wrapping, elevation inside its range) is closer.
@@ -475,7 +478,7 @@ fn the_climb_ends_on_the_lattice_at_a_local_least() {
                 for da in [-step, 0.0, step] {
                     let n = [t[0] + de, (t[1] + da).rem_euclid(360.0)];
                     if (30.0..=70.0).contains(&n[0]) {
-                        assert!(dist_at(s, &y, &wt, &n) >= got, "start {start:?}: {t:?} has a closer neighbour {n:?}");
+                        assert!(dist_at(s, &y, &wt, &n) >= got * (1.0 - 1e-12), "start {start:?}: {t:?} has a closer neighbour {n:?}");
                     }
                 }
             }
@@ -503,4 +506,79 @@ fn a_clean_two_parameter_search_starts_from_the_coarse_tree() {
     // Continuous estimates and turntables keep their own searches.
     assert!(RefinedParams::default().components(8).resolution(0.0).fit(&d).unwrap().tree.is_none());
     assert!(RefinedParams::default().components(8).fit(&turntable(&(0..24).map(|k| 15.0 * k as f64).collect::<Vec<_>>())).unwrap().tree.is_none());
+}
+
+#[test]
+fn the_block_climb_walks_as_the_point_by_point_climb() {
+    // Surface::climb_pair evaluates 3 x 3 lattice points at a time, summed in another order
+    // than eval: the same walk, to the same lattice point, at the same cost to rounding, on a
+    // plain distance and on the affine match of a pair of surfaces.
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let (s, bg, l) = (&model.surface, &model.bg_surface, model.components());
+    let wt: Vec<f64> = (0..l).map(|c| 1.0 / (1.0 + c as f64)).collect();
+    let c: Vec<f64> = model.mean_proj.iter().map(|&v| v as f64).collect();
+    let (mut f, mut g) = (vec![0.0; l], vec![0.0; l]);
+    for (k, q) in [[33.3, 17.2], [50.0, 359.9], [68.8, 181.0], [30.0, 0.0], [70.0, 90.25]].iter().enumerate() {
+        s.eval_pair(bg, q, &mut f, None, &mut g, None);
+        let y: Vec<f32> = f.iter().enumerate().map(|(i, &v)| (v + 1e-3 * ((i + k) % 3) as f64) as f32).collect();
+        let z: Vec<f64> = (0..l).map(|i| 0.8 * (f[i] + c[i]) + 0.05 * g[i] + 1e-3 * ((i + k) % 3) as f64).collect();
+        let aq = surface::AffineQuery::new(&z, &c, &wt);
+        for start in [[30.0, 0.0], [45.5, 12.0], [70.0, 359.5], [q[0] - q[0] % 0.5, q[1] - q[1] % 0.5]] {
+            let (mut a, mut b) = (start, start);
+            let ca = s.climb(&y, &wt, &mut a, 0.5);
+            let cb = s.climb_by(&mut b, 0.5, |t| dist_at(s, &y, &wt, t));
+            assert_eq!(a, b, "plain, start {start:?}");
+            assert!((ca - cb).abs() <= 1e-12 * cb, "{ca} against {cb}");
+            let (mut a, mut b) = (start, start);
+            let ca = s.climb_pair(Some(bg), l, &mut a, 0.5, |fv, gv| aq.residual(fv, gv));
+            let cb = s.climb_by(&mut b, 0.5, |t| {
+                s.eval_pair(bg, t, &mut f, None, &mut g, None);
+                surface::affine_fit(&z, &c, &wt, &f, &g).0
+            });
+            assert_eq!(a, b, "affine, start {start:?}");
+            // The residual is z.z less the fit: rounding relative to z.z.
+            let zz: f64 = z.iter().zip(&wt).map(|(v, w)| w * v * v).sum();
+            assert!((ca - cb).abs() <= 1e-12 * zz, "{ca} against {cb} (z.z {zz})");
+        }
+    }
+}
+
+#[test]
+fn a_noisy_two_parameter_query_starts_from_the_noisy_tree() {
+    // With two parameters on a lattice the noisy match starts from its own tree: a surface
+    // point at a coarse pose, with a gain and an offset along g, starts at that pose or next to
+    // it (the tree removes the offset's mean direction, not g at the pose) and the climb ends
+    // there; on
+    // a query halfway between two poses a half turn apart both basins are climbed.
+    let d = train_set();
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let (nt, ct) = (model.noisy_tree.as_ref().expect("noisy tree"), model.tree.as_ref().unwrap());
+    assert!(model.noise_scan.w0.is_empty(), "the coarse scan is not built beside the tree");
+    let ln = nt.scale.len();
+    let c: Vec<f64> = model.mean_proj[..ln].iter().map(|&v| v as f64).collect();
+    let (mut f, mut g) = (vec![0.0; ln], vec![0.0; ln]);
+    let n = ct.poses.len() / 2;
+    for i in [0, n / 7, n / 2, n - 1] {
+        let t = &ct.poses[2 * i..2 * i + 2];
+        model.surface.eval_pair(&model.bg_surface, t, &mut f, None, &mut g, None);
+        let z: Vec<f64> = (0..ln).map(|q| 0.85 * (f[q] + c[q]) + 0.04 * g[q]).collect();
+        let (start, _) = nt.starts(&z, &ct.poses).unwrap();
+        let st = &ct.poses[2 * start..2 * start + 2];
+        assert!(d.space().error_deg(t, st) <= 1.5, "coarse pose {t:?}: start {st:?}");
+        // Through the whole noisy path (coordinates without the mean).
+        let y: Vec<f32> = (0..model.components()).map(|q| if q < ln { (z[q] - c[q]) as f32 } else { 0.0 }).collect();
+        let mut out = [0.0; 2];
+        model.pose_of_noisy(&y, 0.0, &mut out);
+        assert!(d.space().error_deg(t, &out) <= 0.5, "coarse pose {t:?}: {out:?}");
+    }
+    // The average of the points at two poses a half turn apart lies as close to both.
+    let (mut f2, mut g2) = (vec![0.0; ln], vec![0.0; ln]);
+    model.surface.eval_pair(&model.bg_surface, &[50.0, 40.0], &mut f, None, &mut g, None);
+    model.surface.eval_pair(&model.bg_surface, &[50.0, 220.0], &mut f2, None, &mut g2, None);
+    let z: Vec<f64> = (0..ln).map(|q| 0.5 * (f[q] + f2[q]) + c[q]).collect();
+    let (first, second) = nt.starts(&z, &ct.poses).unwrap();
+    let second = second.expect("a second basin within twice the distance");
+    let gap = (ct.poses[2 * first + 1] - ct.poses[2 * second + 1]).abs();
+    assert!(gap.min(360.0 - gap) > nt.apart[1] || (ct.poses[2 * first] - ct.poses[2 * second]).abs() > nt.apart[0], "{first} and {second} apart");
 }
