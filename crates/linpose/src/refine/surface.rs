@@ -413,8 +413,8 @@ impl AffineQuery {
         q
     }
 
-    /// The residual at the surface point `f` with offset `g` (the query's coordinates; values
-    /// beyond them are ignored).
+    /// The residual at the surface point `f` with offset `g`: the query's coordinates rounded up
+    /// to a multiple of 8 values (as [`Surface::climb_pair`] gives them), zero beyond.
     pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
@@ -426,25 +426,47 @@ impl AffineQuery {
 
     #[inline(always)]
     fn residual_body(&self, f: &[f64], g: &[f64]) -> f64 {
-        let n = f.len().min(g.len());
-        let (mut fb, mut gb) = ([0f64; BLOCK_DIM], [0f64; BLOCK_DIM]);
-        fb[..n].copy_from_slice(&f[..n]);
-        gb[..n].copy_from_slice(&g[..n]);
+        let n = self.lanes;
+        assert!(f.len() >= n && g.len() >= n, "{n} values, zero beyond the coordinates");
         let mut acc = [[0f64; 8]; 5];
-        for k in (0..self.lanes).step_by(8) {
+        for k in (0..n).step_by(8) {
             for i in k..k + 8 {
-                let m = fb[i] + self.c[i];
-                let (wm, wg) = (self.w[i] * m, self.w[i] * gb[i]);
+                let m = f[i] + self.c[i];
+                let (wm, wg) = (self.w[i] * m, self.w[i] * g[i]);
                 acc[0][i - k] += wm * m;
-                acc[1][i - k] += wm * gb[i];
-                acc[2][i - k] += wg * gb[i];
+                acc[1][i - k] += wm * g[i];
+                acc[2][i - k] += wg * g[i];
                 acc[3][i - k] += self.wz[i] * m;
-                acc[4][i - k] += self.wz[i] * gb[i];
+                acc[4][i - k] += self.wz[i] * g[i];
             }
         }
-        affine_solve(self.zz, acc.map(|a| a.iter().sum()))
-            .0
+        affine_solve(self.zz, acc.map(|a| a.iter().sum())).0
     }
+}
+
+/// The weighted squared distance sum w (y - f)^2 over values given in multiples of 8 (zero
+/// weight beyond the coordinates), summed 8 lanes at a time.
+fn lane_distance(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        // SAFETY: the CPU supports AVX-512F (detected).
+        return unsafe { simd::lane_distance_avx512(y, w, f) };
+    }
+    lane_distance_body(y, w, f)
+}
+
+#[inline(always)]
+fn lane_distance_body(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
+    let n = f.len() / 8 * 8;
+    let (y, w, f) = (&y[..n], &w[..n], &f[..n]);
+    let mut acc = [0f64; 8];
+    for k in (0..n).step_by(8) {
+        for i in k..k + 8 {
+            let e = y[i] - f[i];
+            acc[i - k] += w[i] * e * e;
+        }
+    }
+    acc.iter().sum()
 }
 
 /// The residual of [`affine_fit`] from its weighted sums `s` = (m.m, m.g, g.g, z.m, z.g), m = f + c,
@@ -569,7 +591,11 @@ impl Surface {
     pub fn climb(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64) -> f64 {
         // Coordinates of zero weight add nothing.
         let lo = wt.iter().rposition(|&w| w != 0.0).map_or(0, |i| i + 1).min(y.len());
-        self.climb_pair(None, lo, t, step, |f, _| y.iter().zip(f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum::<f64>())
+        let lanes = lo.div_ceil(8) * 8;
+        let (mut y64, mut w64) = (vec![0.0; lanes], vec![0.0; lanes]);
+        y64[..lo].iter_mut().zip(y).for_each(|(o, &v)| *o = v as f64);
+        w64[..lo].copy_from_slice(&wt[..lo]);
+        self.climb_pair(None, lo, t, step, |f, _| lane_distance(&y64, &w64, f))
     }
 
     /// [`Surface::climb`] on any `cost` of the pose (which evaluates what it needs at the pose
@@ -637,7 +663,8 @@ const BLOCK_DIM: usize = 32;
 impl Surface {
     /// [`Surface::climb_by`] on a cost of the surface's values (the first `lo` coordinates) and,
     /// with `other` (a surface on the same knots), of its values at the same pose:
-    /// `cost(f, g)` (`g` empty without `other`). With two parameters the 3 x 3 lattice points
+    /// `cost(f, g)`, each given in `lo` rounded up to a multiple of 8 values, zero beyond `lo`
+    /// (`g` all zero without `other`), so that the cost can sum them 8 lanes at a time. With two parameters the 3 x 3 lattice points
     /// around the walk's pose are evaluated together (`Surface::block2`): the sums along the
     /// second axis are shared by the three points along the first, about 84 vector terms for
     /// the 9 points instead of 144 (their values agree with [`Surface::eval`]'s to rounding; the
@@ -645,12 +672,13 @@ impl Surface {
     /// neighbours in the same order, to the best one while it is closer.
     pub fn climb_pair(&self, other: Option<&Surface>, lo: usize, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
         let d = self.params();
+        let lanes = lo.div_ceil(8) * 8;
         if d != 2 || lo > BLOCK_DIM {
-            let (mut f, mut g) = (vec![0.0; lo], vec![0.0; if other.is_some() { lo } else { 0 }]);
+            let (mut f, mut g) = (vec![0.0; lanes], vec![0.0; lanes]);
             return self.climb_by(t, step, |pose| {
                 match other {
-                    Some(o) => self.eval_pair(o, pose, &mut f, None, &mut g, None),
-                    None => self.eval(pose, &mut f, None),
+                    Some(o) => self.eval_pair(o, pose, &mut f[..lo], None, &mut g[..lo], None),
+                    None => self.eval(pose, &mut f[..lo], None),
                 }
                 cost(&f, &g)
             });
@@ -665,7 +693,7 @@ impl Surface {
             };
             idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
         }
-        let gl = if other.is_some() { lo } else { 0 };
+        // Lanes from lo on stay zero: block2 writes the first lo.
         let mut fv = [[0f64; BLOCK_DIM]; 9];
         let mut gv = [[0f64; BLOCK_DIM]; 9];
         let mut best = f64::NAN;
@@ -688,7 +716,7 @@ impl Surface {
             let p1 = at[1].map(|k| k.map(|k| pos(1, k)));
             self.block2(other, lo, &p0, &p1, &mut fv, &mut gv);
             if first {
-                best = cost(&fv[4][..lo], &gv[4][..gl]);
+                best = cost(&fv[4][..lanes], &gv[4][..lanes]);
                 first = false;
             }
             // climb_by's order: the first axis fastest.
@@ -698,7 +726,7 @@ impl Surface {
                 if code == 4 || at[0][a].is_none() || at[1][b].is_none() {
                     continue;
                 }
-                let v = cost(&fv[code][..lo], &gv[code][..gl]);
+                let v = cost(&fv[code][..lanes], &gv[code][..lanes]);
                 if v < best {
                     (best, moved) = (v, Some([at[0][a].unwrap(), at[1][b].unwrap()]));
                 }
@@ -832,13 +860,63 @@ mod simd {
     use super::{Surface, BLOCK_DIM};
     use std::arch::x86_64::*;
 
+    /// [`super::lane_distance`] compiled for AVX-512.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn lane_distance_avx512(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
+        let n = f.len() / 8 * 8;
+        assert!(y.len() >= n && w.len() >= n);
+        let mut acc = _mm512_setzero_pd();
+        for k in (0..n).step_by(8) {
+            // SAFETY: k + 8 <= n, within the three slices (asserted).
+            let (yk, wk, fk) = unsafe { (_mm512_loadu_pd(y.as_ptr().add(k)), _mm512_loadu_pd(w.as_ptr().add(k)), _mm512_loadu_pd(f.as_ptr().add(k))) };
+            let e = _mm512_sub_pd(yk, fk);
+            acc = _mm512_add_pd(acc, _mm512_mul_pd(_mm512_mul_pd(wk, e), e));
+        }
+        lanes_sum(acc)
+    }
+
+    /// The 8 lanes summed in order, as the portable code sums its lane array.
+    #[target_feature(enable = "avx512f")]
+    fn lanes_sum(v: __m512d) -> f64 {
+        let mut a = [0f64; 8];
+        // SAFETY: 8 values into an array of 8.
+        unsafe { _mm512_storeu_pd(a.as_mut_ptr(), v) };
+        a.iter().sum()
+    }
+
     /// [`super::AffineQuery::residual`] compiled for AVX-512.
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
     pub unsafe fn affine_residual_avx512(q: &super::AffineQuery, f: &[f64], g: &[f64]) -> f64 {
-        q.residual_body(f, g)
+        let n = q.lanes;
+        assert!(f.len() >= n && g.len() >= n && n <= BLOCK_DIM, "{n} values, zero beyond the coordinates");
+        let mut acc = [_mm512_setzero_pd(); 5];
+        for k in (0..n).step_by(8) {
+            // SAFETY: k + 8 <= n, within f, g and the query's arrays of BLOCK_DIM (asserted).
+            let (fk, gk, c, w, wz) = unsafe {
+                (
+                    _mm512_loadu_pd(f.as_ptr().add(k)),
+                    _mm512_loadu_pd(g.as_ptr().add(k)),
+                    _mm512_loadu_pd(q.c.as_ptr().add(k)),
+                    _mm512_loadu_pd(q.w.as_ptr().add(k)),
+                    _mm512_loadu_pd(q.wz.as_ptr().add(k)),
+                )
+            };
+            // The portable body's operations, lane by lane.
+            let m = _mm512_add_pd(fk, c);
+            let (wm, wg) = (_mm512_mul_pd(w, m), _mm512_mul_pd(w, gk));
+            acc[0] = _mm512_add_pd(acc[0], _mm512_mul_pd(wm, m));
+            acc[1] = _mm512_add_pd(acc[1], _mm512_mul_pd(wm, gk));
+            acc[2] = _mm512_add_pd(acc[2], _mm512_mul_pd(wg, gk));
+            acc[3] = _mm512_add_pd(acc[3], _mm512_mul_pd(wz, m));
+            acc[4] = _mm512_add_pd(acc[4], _mm512_mul_pd(wz, gk));
+        }
+        super::affine_solve(q.zz, acc.map(|v| lanes_sum(v))).0
     }
 
     /// [`Surface::block2`] with each run of 8 coordinates of the 4 sums along the second axis
