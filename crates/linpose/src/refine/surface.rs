@@ -930,28 +930,40 @@ mod simd {
         assert!(lo <= BLOCK_DIM && lo <= s.dim && other.is_none_or(|o| lo <= o.dim && o.coef.len() == s.coef.len() * o.dim / s.dim));
         let w0 = p0.map(|p| p.map(|t| s.splines[0].weights_d(t)));
         let w1 = p1.map(|p| p.map(|t| s.splines[1].weights_d(t)));
-        for (b, w1b) in w1.iter().enumerate() {
-            let Some((wq, _, i1, j1)) = *w1b else { continue };
-            let k1 = [i1 * s.stride[1], j1 * s.stride[1]];
-            let mut done = [false; 3];
+        // The points in groups of one knot cell (usually all 9): the 16 coefficient rows of the
+        // cell are read once for every point of the group.
+        let mut done = [[false; 3]; 3];
+        for b in 0..3 {
             for a in 0..3 {
-                let Some((_, _, i0, j0)) = w0[a] else { continue };
-                if done[a] {
+                let (Some((_, _, i0, j0)), Some((_, _, i1, j1))) = (w0[a], w1[b]) else { continue };
+                if done[b][a] {
                     continue;
                 }
-                let k0 = [i0 * s.stride[0], j0 * s.stride[0]];
-                // The points of this interval: their first-axis weights.
-                let mut pts = [(0usize, [0f64; 4]); 3];
-                let mut np = 0;
-                for a2 in a..3 {
-                    if let Some((wp, _, i2, _)) = w0[a2] {
+                // The cell's positions along each axis.
+                let (mut as_, mut bs) = ([(0usize, [0f64; 4]); 3], [(0usize, [0f64; 4]); 3]);
+                let (mut na, mut nb) = (0, 0);
+                for (a2, w) in w0.iter().enumerate() {
+                    if let Some((wp, _, i2, _)) = *w {
                         if i2 == i0 {
-                            done[a2] = true;
-                            pts[np] = (a2 + 3 * b, wp);
-                            np += 1;
+                            as_[na] = (a2, wp);
+                            na += 1;
                         }
                     }
                 }
+                for (b2, w) in w1.iter().enumerate() {
+                    if let Some((wq, _, i2, _)) = *w {
+                        if i2 == i1 {
+                            bs[nb] = (b2, wq);
+                            nb += 1;
+                        }
+                    }
+                }
+                for &(b2, _) in &bs[..nb] {
+                    for &(a2, _) in &as_[..na] {
+                        done[b2][a2] = true;
+                    }
+                }
+                let (k0, k1) = ([i0 * s.stride[0], j0 * s.stride[0]], [i1 * s.stride[1], j1 * s.stride[1]]);
                 let mut rows = [0usize; 16];
                 for (pq, r) in rows.iter_mut().enumerate() {
                     let (p, q) = (pq >> 2, pq & 3);
@@ -962,21 +974,27 @@ mod simd {
                     let mut c = 0;
                     while c < lo {
                         let m8 = if lo - c >= 8 { 0xffu8 } else { (1u8 << (lo - c)) - 1 };
-                        let mut h = [_mm512_setzero_pd(); 4];
-                        for (pq, &r) in rows.iter().enumerate() {
+                        let mut x = [_mm512_setzero_pd(); 16];
+                        for (xv, &r) in x.iter_mut().zip(&rows) {
                             // SAFETY: lanes c .. min(c + 8, lo) of row r lie within `coef`
                             // (asserted: lo <= dim); the masked load reads no others.
-                            let x = _mm512_castps512_ps256(unsafe { _mm512_maskz_loadu_ps(m8 as u16, coef.as_ptr().add(r * dim + c)) });
-                            let hp = &mut h[pq >> 2];
-                            *hp = _mm512_add_pd(*hp, _mm512_mul_pd(_mm512_set1_pd(wq[pq & 3]), _mm512_cvtps_pd(x)));
+                            *xv = _mm512_cvtps_pd(_mm512_castps512_ps256(unsafe { _mm512_maskz_loadu_ps(m8 as u16, coef.as_ptr().add(r * dim + c)) }));
                         }
-                        for &(at, wp) in &pts[..np] {
-                            let mut v = _mm512_mul_pd(_mm512_set1_pd(wp[0]), h[0]);
-                            for p in 1..4 {
-                                v = _mm512_add_pd(v, _mm512_mul_pd(_mm512_set1_pd(wp[p]), h[p]));
+                        for &(b2, wq) in &bs[..nb] {
+                            // The sums along the second axis, q in order.
+                            let mut h = [_mm512_setzero_pd(); 4];
+                            for (pq, xv) in x.iter().enumerate() {
+                                let hp = &mut h[pq >> 2];
+                                *hp = _mm512_add_pd(*hp, _mm512_mul_pd(_mm512_set1_pd(wq[pq & 3]), *xv));
                             }
-                            // SAFETY: lanes c .. min(c + 8, lo) of a row of BLOCK_DIM >= lo.
-                            unsafe { _mm512_mask_storeu_pd(out[at].as_mut_ptr().add(c), m8, v) };
+                            for &(a2, wp) in &as_[..na] {
+                                let mut v = _mm512_mul_pd(_mm512_set1_pd(wp[0]), h[0]);
+                                for p in 1..4 {
+                                    v = _mm512_add_pd(v, _mm512_mul_pd(_mm512_set1_pd(wp[p]), h[p]));
+                                }
+                                // SAFETY: lanes c .. min(c + 8, lo) of a row of BLOCK_DIM >= lo.
+                                unsafe { _mm512_mask_storeu_pd(out[a2 + 3 * b2].as_mut_ptr().add(c), m8, v) };
+                            }
                         }
                         c += 8;
                     }
