@@ -85,8 +85,12 @@
 //! below; every point within twice the least is still scored exactly); and Levenberg-Marquardt
 //! from the distinct closest ones only (a start next to a closer one on the coarse grid shares
 //! its basin), the noisy match evaluating its two surfaces together
-//! ([`surface::Surface::eval_pair`]). bench/beyond_compare.py measures it against the
-//! eigenspace; BENCHMARKS.md holds the figures.
+//! ([`surface::Surface::eval_pair`]). That scan and search serve only where no lattice search
+//! or tree does: a resolution of 0 or a manifold too large for them. On a turntable the lattice
+//! search replaces both; with more parameters the two trees give the starts and the climb
+//! ([`surface::Surface::climb_pair`]) evaluates 3 x 3 lattice points at a time, the noisy
+//! match's residual and the clean distance summed 8 coordinates a vector.
+//! bench/beyond_compare.py measures it against the eigenspace; BENCHMARKS.md holds the figures.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
@@ -475,7 +479,7 @@ impl CoarseTree {
 /// length. The affine match fits z by alpha m(t) + beta g(t); `dir` is the offset surface's mean
 /// direction over the lattice, so a fixed beta dir stands for beta g(t) and the unit length for
 /// the gain: the tree's nearest point to the query's z, treated the same way, is the pose of
-/// least angle between the two off `dir`. From it [`Surface::climb_by`] walks the reporting
+/// least angle between the two off `dir`. From it [`Surface::climb_pair`] walks the reporting
 /// lattice on the affine match itself, with the query's own weights.
 #[derive(Debug, Clone)]
 struct NoisyTree {
