@@ -171,7 +171,10 @@ impl Lattice {
                 ps[k] += w * a * b;
                 ss[k] += w * b * b;
             }
-            for k in 0..c - 1 {
+            // Intervals start in the first c - 9 columns at most (see new): c - 8, a multiple
+            // of 8, covers them with whole vectors (the columns past it stay 0, as the padding's
+            // products are).
+            for k in 0..c - 8 {
                 let (a, b, a1, b1) = (v[k] as f64, s[k] as f64, v[k + 1] as f64, s[k + 1] as f64);
                 pp1[k] += w * a * a1;
                 ps1[k] += w * a * b1;
