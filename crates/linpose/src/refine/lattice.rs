@@ -207,6 +207,9 @@ impl Lattice {
         let (cs, scratch2) = rest.split_at_mut(c);
         match uniform {
             Some(w) => g.iter_mut().zip(&self.unit).for_each(|(o, &u)| *o = w * u),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
+            None if avx512 => unsafe { simd::pairs_avx512(self, wt, g) },
             None => self.pairs(wt, g),
         }
         // cp = sum_l a_l values_l, cs = sum_l a_l slopes_l (a = wt y), 8 columns at a time
@@ -464,6 +467,49 @@ mod simd {
     #[target_feature(enable = "avx512f")]
     pub unsafe fn nearest_avx512(s: &Lattice, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
         s.nearest_body(y, wt, uniform, scratch, true)
+    }
+
+    /// [`Lattice::pairs`] 8 columns at a time, the seven sums over the coordinates in registers
+    /// (the same products and sums, each column's over l in increasing order: the same bits).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn pairs_avx512(s: &Lattice, wt: &[f64], g: &mut [f64]) {
+        use std::arch::x86_64::*;
+        let c = s.cols;
+        assert!(c.is_multiple_of(8) && c >= 16 && g.len() >= super::PAIRS * c && s.values.len() >= s.ls * c && s.slopes.len() >= s.ls * c && wt.len() >= s.ls);
+        for k0 in (0..c).step_by(8) {
+            // The neighbour products for the columns before c - 8 (see Lattice::pairs).
+            let next = k0 + 8 < c;
+            let mut acc = [_mm512_setzero_pd(); super::PAIRS];
+            for (l, &w) in wt[..s.ls].iter().enumerate() {
+                if w == 0.0 {
+                    continue;
+                }
+                let wv = _mm512_set1_pd(w);
+                let at = l * c + k0;
+                // SAFETY: columns k0 .. k0 + 8 of row l (and k0 + 1 .. k0 + 9 when k0 + 8 < c)
+                // lie within the row (asserted lengths).
+                let (a, b) = unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(at))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(at)))) };
+                let (wa, wb) = (_mm512_mul_pd(wv, a), _mm512_mul_pd(wv, b));
+                acc[0] = _mm512_add_pd(acc[0], _mm512_mul_pd(wa, a));
+                acc[1] = _mm512_add_pd(acc[1], _mm512_mul_pd(wa, b));
+                acc[2] = _mm512_add_pd(acc[2], _mm512_mul_pd(wb, b));
+                if next {
+                    // SAFETY: as above.
+                    let (a1, b1) = unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(at + 1))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(at + 1)))) };
+                    acc[3] = _mm512_add_pd(acc[3], _mm512_mul_pd(wa, a1));
+                    acc[4] = _mm512_add_pd(acc[4], _mm512_mul_pd(wa, b1));
+                    acc[5] = _mm512_add_pd(acc[5], _mm512_mul_pd(wb, a1));
+                    acc[6] = _mm512_add_pd(acc[6], _mm512_mul_pd(wb, b1));
+                }
+            }
+            for (q, v) in acc.iter().enumerate() {
+                // SAFETY: columns k0 .. k0 + 8 of product q (g holds PAIRS x c).
+                unsafe { _mm512_storeu_pd(g.as_mut_ptr().add(q * c + k0), *v) };
+            }
+        }
     }
 
     /// [`super::least`] in AVX-512 registers (the same operations: multiply, then add).
