@@ -214,7 +214,12 @@ impl Lattice {
         }
         // cp = sum_l a_l values_l, cs = sum_l a_l slopes_l (a = wt y), 8 columns at a time
         // summed over l in registers, l in increasing order.
-        for k0 in (0..c).step_by(8) {
+        #[cfg(target_arch = "x86_64")]
+        if avx512 {
+            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
+            unsafe { simd::products_avx512(self, y, wt, cp, cs) };
+        }
+        for k0 in (0..c).step_by(8).filter(|_| !(avx512 && cfg!(target_arch = "x86_64"))) {
             let (mut sp, mut ss) = ([0f64; 8], [0f64; 8]);
             for l in 0..self.ls {
                 let a = wt[l] * y[l] as f64;
@@ -508,6 +513,37 @@ mod simd {
             for (q, v) in acc.iter().enumerate() {
                 // SAFETY: columns k0 .. k0 + 8 of product q (g holds PAIRS x c).
                 unsafe { _mm512_storeu_pd(g.as_mut_ptr().add(q * c + k0), *v) };
+            }
+        }
+    }
+
+    /// The products cp and cs of [`Lattice::nearest_body`] in AVX-512 registers (the same
+    /// operations in the same order: the same bits).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn products_avx512(s: &Lattice, y: &[f32], wt: &[f64], cp: &mut [f64], cs: &mut [f64]) {
+        use std::arch::x86_64::*;
+        let c = s.cols;
+        assert!(c.is_multiple_of(8) && cp.len() >= c && cs.len() >= c && s.values.len() >= s.ls * c && s.slopes.len() >= s.ls * c && wt.len() >= s.ls && y.len() >= s.ls);
+        for k0 in (0..c).step_by(8) {
+            let (mut sp, mut ss) = (_mm512_setzero_pd(), _mm512_setzero_pd());
+            for l in 0..s.ls {
+                let a = wt[l] * y[l] as f64;
+                if a == 0.0 {
+                    continue;
+                }
+                let av = _mm512_set1_pd(a);
+                // SAFETY: columns k0 .. k0 + 8 of row l (asserted lengths).
+                let (v, sl) = unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(l * c + k0))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(l * c + k0)))) };
+                sp = _mm512_add_pd(sp, _mm512_mul_pd(av, v));
+                ss = _mm512_add_pd(ss, _mm512_mul_pd(av, sl));
+            }
+            // SAFETY: columns k0 .. k0 + 8 of cp and cs (asserted).
+            unsafe {
+                _mm512_storeu_pd(cp.as_mut_ptr().add(k0), sp);
+                _mm512_storeu_pd(cs.as_mut_ptr().add(k0), ss);
             }
         }
     }
