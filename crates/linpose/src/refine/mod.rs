@@ -1187,52 +1187,6 @@ mod simd {
         super::immerkaer(x, w, h, ch, rows)
     }
 
-    /// [`super::RowsU8`]'s row sum, 32 values a step: the differences across the rows as 16-bit
-    /// integers, then across the columns, their absolute values masked and added in pairs
-    /// (`vpmaddwd`) into the first 16 lanes of the accumulator: the same integers summed, so the
-    /// same total.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512 F and BW.
-    #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn row_sum_u8_avx512(r: &mut super::RowsU8, a: &[u8], b: &[u8], c: &[u8]) {
-        use std::arch::x86_64::*;
-        let (row, ch, n32) = (a.len(), r.ch, r.keep.len());
-        assert!(b.len() == row && c.len() == row && r.dy.len() >= row && r.dy.len() >= n32 + 2 * ch && n32.is_multiple_of(32));
-        let mut k = 0;
-        while k < row {
-            let m = if row - k >= 32 { u32::MAX } else { (1u32 << (row - k)) - 1 };
-            // SAFETY: lanes k .. min(k + 32, row) of a, b, c and dy (asserted lengths).
-            unsafe {
-                let p = _mm512_cvtepu8_epi16(_mm256_maskz_loadu_epi8(m, a.as_ptr().add(k) as *const i8));
-                let q = _mm512_cvtepu8_epi16(_mm256_maskz_loadu_epi8(m, b.as_ptr().add(k) as *const i8));
-                let s = _mm512_cvtepu8_epi16(_mm256_maskz_loadu_epi8(m, c.as_ptr().add(k) as *const i8));
-                let d = _mm512_add_epi16(_mm512_sub_epi16(p, _mm512_add_epi16(q, q)), s);
-                _mm512_mask_storeu_epi16(r.dy.as_mut_ptr().add(k), m, d);
-            }
-            k += 32;
-        }
-        let ones = _mm512_set1_epi16(1);
-        // SAFETY: the first 16 of the 32 lanes.
-        let mut acc = unsafe { _mm512_loadu_si512(r.acc.as_ptr() as *const _) };
-        for k in (0..n32).step_by(32) {
-            // SAFETY: k + 2 ch + 32 <= dy.len() and k + 32 <= keep.len() (asserted).
-            let (d0, d1, d2, keep) = unsafe {
-                (
-                    _mm512_loadu_si512(r.dy.as_ptr().add(k) as *const _),
-                    _mm512_loadu_si512(r.dy.as_ptr().add(k + ch) as *const _),
-                    _mm512_loadu_si512(r.dy.as_ptr().add(k + 2 * ch) as *const _),
-                    _mm512_loadu_si512(r.keep.as_ptr().add(k) as *const _),
-                )
-            };
-            let lap = _mm512_add_epi16(_mm512_sub_epi16(d0, _mm512_add_epi16(d1, d1)), d2);
-            let v = _mm512_and_si512(_mm512_abs_epi16(lap), keep);
-            acc = _mm512_add_epi32(acc, _mm512_madd_epi16(v, ones));
-        }
-        // SAFETY: back into the first 16 lanes.
-        unsafe { _mm512_storeu_si512(r.acc.as_mut_ptr() as *mut _, acc) };
-    }
-
     /// # Safety
     /// The CPU must support AVX-512 F and BW.
     #[target_feature(enable = "avx512f,avx512bw")]
@@ -1364,9 +1318,7 @@ impl RowsU8 {
         let n32 = n.div_ceil(32) * 32;
         let mut keep = vec![0u16; n32];
         keep[..n].fill(u16::MAX);
-        // A lane takes at most 2040 a step of 32 values (two of them, 4080, in the AVX-512
-        // row sum, which adds pairs into 16 lanes).
-        let flush_every = (u32::MAX as usize / ((n32 / 32).max(1) * 4080)).max(1);
+        let flush_every = (u32::MAX as usize / ((n32 / 32).max(1) * 2040)).max(1);
         RowsU8 { dy: vec![0i16; n32 + 2 * ch], keep, acc: [0; 32], rows: 0, flush_every, total: 0, ch }
     }
 
@@ -1380,16 +1332,6 @@ impl RowsU8 {
 impl MaskRows<u8> for RowsU8 {
     #[inline(always)]
     fn row_sum(&mut self, a: &[u8], b: &[u8], c: &[u8]) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        if Level::detect() == Level::Avx512 {
-            // SAFETY: the CPU supports AVX-512 F and BW (detected).
-            unsafe { simd::row_sum_u8_avx512(self, a, b, c) };
-            self.rows += 1;
-            if self.rows == self.flush_every {
-                self.flush();
-            }
-            return 0.0;
-        }
         let ch = self.ch;
         self.dy.iter_mut().zip(a.iter().zip(b).zip(c)).for_each(|(d, ((&p, &q), &r))| *d = p as i16 - 2 * q as i16 + r as i16);
         let n32 = self.keep.len();
