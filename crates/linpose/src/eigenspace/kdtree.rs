@@ -75,11 +75,18 @@ impl KdTree {
             return at;
         }
         let coord = |i: u32, l: usize| points[i as usize * dim + l];
+        // Every coordinate's range in one pass over the node's points (row by row).
+        let (mut lo, mut hi) = ([f32::INFINITY; MAX_DIM], [f32::NEG_INFINITY; MAX_DIM]);
+        for &i in ids.iter() {
+            let p = &points[i as usize * dim..][..dim];
+            for l in 0..dim {
+                (lo[l], hi[l]) = (lo[l].min(p[l]), hi[l].max(p[l]));
+            }
+        }
         let mut widest = (f32::NEG_INFINITY, 0);
         for l in 0..dim {
-            let (lo, hi) = ids.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &i| (lo.min(coord(i, l)), hi.max(coord(i, l))));
-            if hi - lo > widest.0 {
-                widest = (hi - lo, l);
+            if hi[l] - lo[l] > widest.0 {
+                widest = (hi[l] - lo[l], l);
             }
         }
         let l = widest.1;
