@@ -121,7 +121,16 @@ impl KdTree {
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
         let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
-        self.visit(0, 0.0, &mut off, q, &mut best, simd);
+        self.visit(0, 0.0, &mut off, q, &mut best, &mut |rows, items, best| {
+            #[cfg(target_arch = "x86_64")]
+            if simd {
+                // SAFETY: `simd` is true only when Level::detect() found AVX-512F; `rows` holds
+                // q.len() rows of LEAF values.
+                return unsafe { x86::scan_avx512(rows, items, q, best) };
+            }
+            let _ = simd;
+            scan(rows, items, q, best)
+        });
         if best.1 == u32::MAX {
             (0, f32::INFINITY)
         } else {
@@ -136,19 +145,12 @@ impl KdTree {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         let mut best = (within, u32::MAX);
         let mut off = [0f32; MAX_DIM];
-        self.visit_where(0, 0.0, &mut off, q, &mut best, keep);
-        (best.1 != u32::MAX).then_some((best.1 as usize, best.0))
-    }
-
-    fn visit_where(&self, node: u32, bound: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), keep: &impl Fn(usize) -> bool) {
-        let nd = self.nodes[node as usize];
-        if nd.dim == IS_LEAF {
-            let leaf = nd.a as usize;
-            let (rows, items) = (&self.leaves[leaf * self.dim * LEAF..][..self.dim * LEAF], &self.items[leaf * LEAF..][..LEAF]);
+        let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
+        self.visit(0, 0.0, &mut off, q, &mut best, &mut |rows, items, best| {
             let mut acc = [0f32; LEAF];
             #[cfg(target_arch = "x86_64")]
-            if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
-                // SAFETY: the CPU supports AVX-512F (detected); `rows` holds q.len() rows of LEAF.
+            if simd {
+                // SAFETY: as in nearest_with_distance.
                 unsafe { x86::distances_avx512(rows, q, &mut acc) };
             } else {
                 distances(rows, q, &mut acc);
@@ -161,48 +163,28 @@ impl KdTree {
                     *best = (a, i);
                 }
             }
-            return;
-        }
-        let l = nd.dim as usize;
-        let d = q[l] - nd.split;
-        let (near, far) = if d <= 0.0 { (nd.a, nd.b) } else { (nd.b, nd.a) };
-        self.visit_where(near, bound, off, q, best, keep);
-        let old = off[l];
-        let far_bound = bound - old * old + d * d;
-        if far_bound <= best.0 {
-            off[l] = d;
-            self.visit_where(far, far_bound, off, q, best, keep);
-            off[l] = old;
-        }
+        });
+        (best.1 != u32::MAX).then_some((best.1 as usize, best.0))
     }
 
-    fn visit(&self, node: u32, bound: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), simd: bool) {
+    /// The branch and bound from `node`: `leaf` scores a leaf's rows and items into `best`.
+    fn visit(&self, node: u32, bound: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32))) {
         let nd = self.nodes[node as usize];
         if nd.dim == IS_LEAF {
-            let leaf = nd.a as usize;
-            let (rows, items) = (&self.leaves[leaf * self.dim * LEAF..][..self.dim * LEAF], &self.items[leaf * LEAF..][..LEAF]);
-            #[cfg(target_arch = "x86_64")]
-            if simd {
-                // SAFETY: `simd` is true only when Level::detect() found AVX-512F; `rows` holds
-                // q.len() rows of LEAF values.
-                unsafe { x86::scan_avx512(rows, items, q, best) };
-                return;
-            }
-            let _ = simd;
-            scan(rows, items, q, best);
-            return;
+            let at = nd.a as usize;
+            return leaf(&self.leaves[at * self.dim * LEAF..][..self.dim * LEAF], &self.items[at * LEAF..][..LEAF], best);
         }
         let l = nd.dim as usize;
         let d = q[l] - nd.split;
         let (near, far) = if d <= 0.0 { (nd.a, nd.b) } else { (nd.b, nd.a) };
-        self.visit(near, bound, off, q, best, simd);
+        self.visit(near, bound, off, q, best, leaf);
         // The far cell lies beyond the split in coordinate l: its squared distance from q is at
         // least the bound with that coordinate's offset replaced by d.
         let old = off[l];
         let far_bound = bound - old * old + d * d;
         if far_bound <= best.0 {
             off[l] = d;
-            self.visit(far, far_bound, off, q, best, simd);
+            self.visit(far, far_bound, off, q, best, leaf);
             off[l] = old;
         }
     }
