@@ -194,20 +194,24 @@ mod tests {
         p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum()
     }
 
+    /// `n` points of `dim` coordinates on a curve (like a manifold) plus noise.
+    fn curve_points(rng: &mut ChaCha8Rng, dim: usize, n: usize) -> Vec<f32> {
+        (0..n)
+            .flat_map(|k| {
+                let t = k as f32 * 0.01;
+                (0..dim).map(move |l| (t * (l as f32 + 1.0)).sin()).collect::<Vec<_>>()
+            })
+            .map(|v| v + rng.random_range(-1e-3..1e-3))
+            .collect()
+    }
+
     /// The tree finds brute force's point, for every padding class of brute force and beyond the
     /// tree's dimensions (where Auto takes brute force).
     #[test]
     fn tree_and_brute_agree() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         for (dim, n) in [(1, 300), (3, 20_000), (5, 2000), (12, 3000), (20, 5000), (27, 1500), (40, 500)] {
-            // Points on a curve (like a manifold) plus noise.
-            let points: Vec<f32> = (0..n)
-                .flat_map(|k| {
-                    let t = k as f32 * 0.01;
-                    (0..dim).map(move |l| (t * (l as f32 + 1.0)).sin()).collect::<Vec<_>>()
-                })
-                .map(|v| v + rng.random_range(-1e-3..1e-3))
-                .collect();
+            let points = curve_points(&mut rng, dim, n);
             let brute = NearestIndex::new(&points, dim, SearchKind::Brute).unwrap();
             let tree = NearestIndex::new(&points, dim, if dim <= MAX_TREE_DIM { SearchKind::KdTree } else { SearchKind::Auto }).unwrap();
             for _ in 0..200 {
@@ -235,13 +239,7 @@ mod tests {
     fn the_filtered_tree_search_is_brute_force_over_the_kept_points() {
         let mut rng = ChaCha8Rng::seed_from_u64(13);
         for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {
-            let points: Vec<f32> = (0..n)
-                .flat_map(|k| {
-                    let t = k as f32 * 0.01;
-                    (0..dim).map(move |l| (t * (l as f32 + 1.0)).sin()).collect::<Vec<_>>()
-                })
-                .map(|v| v + rng.random_range(-1e-3..1e-3))
-                .collect();
+            let points = curve_points(&mut rng, dim, n);
             let tree = KdTree::new(&points, dim);
             for k in 0..100 {
                 let q: Vec<f32> = if k % 2 == 0 {

@@ -598,6 +598,24 @@ impl Surface {
         self.climb_pair(None, lo, t, step, |f, _| lane_distance(&y64, &w64, f))
     }
 
+    /// The lattice of `step` degrees at `t` (anchored at each axis's first knot): per axis the
+    /// index of the lattice point nearest to t (wrapped on a circular axis, kept in the domain
+    /// on a linear one), the count of a circular axis's points or the last index of a linear
+    /// one's, and whether the axis is circular.
+    fn lattice_at(&self, t: &[f64], step: f64) -> ([i64; 8], [i64; 8], [bool; 8]) {
+        let (mut idx, mut count, mut circ) = ([0i64; 8], [0i64; 8], [false; 8]);
+        for j in 0..self.params() {
+            let (lo, hi) = self.splines[j].span();
+            idx[j] = ((t[j] - lo) / step).round() as i64;
+            (count[j], circ[j]) = match self.periods[j] {
+                Some(p) => ((p / step).round() as i64, true),
+                None => (((hi - lo) / step + 1e-9).floor() as i64, false),
+            };
+            idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
+        }
+        (idx, count, circ)
+    }
+
     /// [`Surface::climb`] on any `cost` of the pose (which evaluates what it needs at the pose
     /// it is given): `t` moves to a local least of it over the lattice of `step` degrees, which
     /// is returned.
@@ -609,17 +627,7 @@ impl Surface {
             }
             cost(&pose[..d])
         };
-        // Lattice indices and, per axis, the count of a circular one or the last of a linear one.
-        let (mut idx, mut count, mut circ) = ([0i64; 8], [0i64; 8], [false; 8]);
-        for j in 0..d {
-            let (lo, hi) = self.splines[j].span();
-            idx[j] = ((t[j] - lo) / step).round() as i64;
-            (count[j], circ[j]) = match self.periods[j] {
-                Some(p) => ((p / step).round() as i64, true),
-                None => (((hi - lo) / step + 1e-9).floor() as i64, false),
-            };
-            idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
-        }
+        let (mut idx, count, circ) = self.lattice_at(t, step);
         let mut pose = [0f64; 8];
         let mut best = at(&idx, &mut pose);
         let mut best_pose = pose;
@@ -683,16 +691,8 @@ impl Surface {
                 cost(&f, &g)
             });
         }
-        let (mut idx, mut count, mut circ) = ([0i64; 2], [0i64; 2], [false; 2]);
-        for j in 0..2 {
-            let (lo_j, hi) = self.splines[j].span();
-            idx[j] = ((t[j] - lo_j) / step).round() as i64;
-            (count[j], circ[j]) = match self.periods[j] {
-                Some(p) => ((p / step).round() as i64, true),
-                None => (((hi - lo_j) / step + 1e-9).floor() as i64, false),
-            };
-            idx[j] = if circ[j] { idx[j].rem_euclid(count[j].max(1)) } else { idx[j].clamp(0, count[j]) };
-        }
+        let (idx8, count, circ) = self.lattice_at(t, step);
+        let mut idx = [idx8[0], idx8[1]];
         // Lanes from lo on stay zero: block2 writes the first lo.
         let mut fv = [[0f64; BLOCK_DIM]; 9];
         let mut gv = [[0f64; BLOCK_DIM]; 9];
