@@ -796,8 +796,12 @@ impl RefinedModel {
             noisy_tree: None,
         })
         .map(|mut m: RefinedModel| {
-            let (ln, weighted) = (m.settings.noise_components, m.settings.noise_weighted);
-            m.set_noise_match(ln, weighted);
+            // Only a model that detects noisy queries routes any to the noisy match (the
+            // automatic choice sets it on its candidates itself, `set_noise_match`).
+            if m.settings.noise_threshold > 0.0 {
+                let (ln, weighted) = (m.settings.noise_components, m.settings.noise_weighted);
+                m.set_noise_match(ln, weighted);
+            }
             m
         })
     }
@@ -1479,6 +1483,7 @@ impl RefinedModel {
     /// Estimates a batch (rows of M) through the noisy match whatever the queries' noise: how
     /// the automatic choice scores its candidates.
     pub(crate) fn predict_noisy(&self, queries: &[f32]) -> Result<Vec<f64>> {
+        assert!(self.noisy_tree.is_some() || !self.noise_scan.w0.is_empty(), "the noisy match is set (set_noise_match)");
         let (l, m, p) = (self.components(), self.m, self.meta.space.len());
         let n = queries.len() / m;
         let mut out = vec![0.0; n * p];

@@ -195,12 +195,18 @@ pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap:
         if coord_variance.is_some() {
             cands.extend(cands.clone().into_iter().map(|(c, _)| (c, true)));
         }
-        for &level in NOISE_LEVELS {
-            let mut q = test.features().to_vec();
-            crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED)?;
-            for &(c, w) in &cands {
-                model.set_noise_match(c, w);
-                let est = model.predict_noisy(&q)?;
+        let noisy: Vec<Vec<f32>> = NOISE_LEVELS
+            .iter()
+            .map(|&level| {
+                let mut q = test.features().to_vec();
+                crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED).map(|_| q)
+            })
+            .collect::<Result<_>>()?;
+        // Each candidate's match (its tables or tree) is set once for every noise level.
+        for &(c, w) in &cands {
+            model.set_noise_match(c, w);
+            for q in &noisy {
+                let est = model.predict_noisy(q)?;
                 // Capped: a gross failure (wrong knot interval) weighs as much as half an
                 // interval, so the rare ones of the sparse fold do not decide the choice.
                 let err: f64 = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d]).min(cap)).sum();
