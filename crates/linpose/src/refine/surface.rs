@@ -637,15 +637,10 @@ impl Surface {
             'next: for code in 0..3usize.pow(d as u32) {
                 let mut c = code;
                 for j in 0..d {
-                    let k = idx[j] + (c % 3) as i64 - 1;
+                    let k = lattice_step(idx[j] + (c % 3) as i64 - 1, count[j], circ[j]);
                     c /= 3;
-                    cand[j] = if circ[j] {
-                        k.rem_euclid(count[j].max(1))
-                    } else if (0..=count[j]).contains(&k) {
-                        k
-                    } else {
-                        continue 'next;
-                    };
+                    let Some(k) = k else { continue 'next };
+                    cand[j] = k;
                 }
                 if cand[..d] == idx[..d] {
                     continue;
@@ -662,6 +657,16 @@ impl Surface {
         }
         t.copy_from_slice(&best_pose[..d]);
         best
+    }
+}
+
+/// Lattice index `k` along an axis of [`Surface::lattice_at`]'s `count` and `circ`: wrapped on
+/// a circular axis, None past either end of a linear one.
+fn lattice_step(k: i64, count: i64, circ: bool) -> Option<i64> {
+    if circ {
+        Some(k.rem_euclid(count.max(1)))
+    } else {
+        (0..=count).contains(&k).then_some(k)
     }
 }
 
@@ -703,12 +708,7 @@ impl Surface {
             let mut at = [[None; 3]; 2];
             for j in 0..2 {
                 for (s3, slot) in at[j].iter_mut().enumerate() {
-                    let k = idx[j] + s3 as i64 - 1;
-                    *slot = if circ[j] {
-                        Some(k.rem_euclid(count[j].max(1)))
-                    } else {
-                        (0..=count[j]).contains(&k).then_some(k)
-                    };
+                    *slot = lattice_step(idx[j] + s3 as i64 - 1, count[j], circ[j]);
                 }
             }
             let pos = |j: usize, k: i64| self.splines[j].span().0 + k as f64 * step;
