@@ -9,19 +9,27 @@
 //!   sum_l wt_l (y_l - f_l(u))^2 = ||y||^2_wt - 2 sum_a H_a(u) c_a + sum_{a,b} H_a(u) H_b(u) G_ab
 //!
 //! with c_a = sum_l wt_l y_l v_al and G_ab = sum_l wt_l v_al v_bl: a polynomial of degree 6 in
-//! u whose 7 coefficients come from the 4 + 10 numbers c, G. Per query that is two products per
-//! knot (c) and, when the weights are not uniform, seven per knot (G; uniform weights scale
-//! sums kept in the model), then the coefficients of each interval. When the knots are evenly
-//! spaced on the lattice (a turntable: every interval holds the lattice at the same offsets u_j),
-//! intervals go 8 to a vector: a lower bound of each on [0, 1] (its least Bernstein coefficient)
-//! and the distance at its first offset come first, then the groups in increasing bound get a
-//! Horner evaluation at every offset, until a group's bound exceeds the least distance found
-//! (on COIL-20 about one group of the five is evaluated). Otherwise each interval is evaluated
-//! at its own lattice poses. Either way the result is the least over the whole lattice (720
-//! poses at 0.5 degrees), where the eigenspace keeps the 720 points and searches a k-d tree and
-//! the local search needed starts, a spline evaluation per step and a snap. The distance at a
-//! lattice pose is the one [`super::surface::Surface::snap`] measures there, up to rounding (it
-//! is expanded, not summed from the residuals); ties go to the lowest lattice pose.
+//! u whose 7 coefficients come from the 4 + 10 numbers c, G.
+//!
+//! When the knots are evenly spaced on the lattice (a turntable: every interval holds the
+//! lattice at the same offsets u_j), the model keeps ||f||^2 at every lattice pose (720 f32 at
+//! 0.5 degrees, 2.9 KB; the eigenspace keeps the 720 points) and a query takes the unweighted
+//! distance ||y||^2 + ||f||^2 - 2 sum_a H_a(u_j) c_a at all of them from two products per knot
+//! (c with unit weights), in f32, 16 poses a vector. The weighted distance lies between w_min
+//! and w_max times it (the extreme weights), so only the poses whose lower bound (less the f32
+//! rounding) is within the least upper bound can hold the least; those alone are measured
+//! exactly in f64, and a single one is the answer unmeasured. On COIL-20's 72 views per object
+//! (f32 and 8-bit, 2,880 searches) one pose was left for 2,210, two to six for the rest (the
+//! query's own weights are close to uniform), and the search went from 0.65-0.95 us to about
+//! 0.25-0.33 us (objects 5 and 2, one thread) (the lower bounds of 8 intervals' polynomials it replaced:
+//! its Bernstein coefficients, then Horner at each offset of the groups that could hold the
+//! least). Otherwise each interval's polynomial is evaluated at its own lattice poses, per
+//! query two products per knot (c) and, when the weights are not uniform, seven (G; uniform
+//! weights scale sums kept in the model). Either way the result is the least over the whole
+//! lattice, where the eigenspace keeps the lattice's points and searches a k-d tree and the
+//! local search needed starts, a spline evaluation per step and a snap. The distance at a
+//! lattice pose is the one [`super::surface::Surface::snap`] measures there, up to rounding;
+//! ties go to the lowest lattice pose.
 
 /// The lattice search of one model's curve (see the module doc).
 #[derive(Debug, Clone, Default)]
@@ -50,11 +58,42 @@ pub struct Lattice {
     /// evenly spaced on the lattice, as on a turntable): those offsets u_j, so that each u_j is
     /// evaluated on 8 intervals at once.
     even: Vec<f64>,
+    /// For an even lattice: per offset u_j the Hermite weights of the value and slope columns,
+    /// (h00, h h10, h01, h h11) at u_j.
+    herm: Vec<[f32; 4]>,
+    /// For an even lattice: the curve's squared norm over the searched coordinates at each
+    /// lattice pose, [offset j][interval] in rows of the intervals rounded up to 8 (+inf past
+    /// the last interval), rows of the intervals rounded up to 16.
+    norms: Vec<f32>,
+    /// The largest of the norms, and of ||value|| + ||h slope|| over the knots (bounds of the
+    /// f32 rounding in [`Lattice::nearest_even`]).
+    norm_max: f64,
+    span_max: f64,
+}
+
+/// [`Lattice::nearest_even`]'s buffers: the products and distances, and the poses left.
+type EvenScratch = (Vec<f32>, Vec<(usize, usize)>);
+
+thread_local! {
+    static EVEN_SCRATCH: std::cell::RefCell<EvenScratch> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
 /// Products per knot k of [`Lattice::pairs`]: p_k p_k, p_k s_k, s_k s_k, p_k p_{k+1},
 /// p_k s_{k+1}, s_k p_{k+1}, s_k s_{k+1}.
 const PAIRS: usize = 7;
+
+/// The indices of the values of `d` no more than `cut`, in increasing order, into `hits` (as
+/// (index, 0)).
+fn under(d: &[f32], cut: f32, hits: &mut Vec<(usize, usize)>) {
+    hits.extend(d.iter().enumerate().filter(|p| *p.1 <= cut).map(|p| (p.0, 0)));
+}
+
+/// The Hermite weights of the knot values and slopes at u of an interval of length `h`:
+/// (h00, h h10, h01, h h11), each slope carrying h.
+fn hermite(u: f64, h: f64) -> [f64; 4] {
+    let (u2, u3) = (u * u, u * u * u);
+    [2.0 * u3 - 3.0 * u2 + 1.0, h * (u3 - 2.0 * u2 + u), -2.0 * u3 + 3.0 * u2, h * (u3 - u2)]
+}
 
 /// The (a, b) of the 10 products H_a H_b.
 const PAIR_ORDER: [(usize, usize); 10] = [(0, 0), (0, 1), (1, 1), (2, 2), (2, 3), (3, 3), (0, 2), (0, 3), (1, 2), (1, 3)];
@@ -137,16 +176,34 @@ impl Lattice {
         let offset = |c: &(f64, f64, i64, usize)| lo + c.2 as f64 * step - c.0;
         let even = cells.iter().all(|c| (c.1 - h0).abs() <= 1e-9 * h0 && c.3 == c0 && (offset(c) - offset(&cells[0])).abs() <= 1e-9 * step);
         let even = if even { (0..c0).map(|j| (lo + (cells[0].2 + j as i64) as f64 * step - cells[0].0) / h0).collect() } else { Vec::new() };
-        let mut out = Lattice { ls, cols, values: v, slopes: s, unit: Vec::new(), cells, lo, step, end, even };
-        let mut unit = vec![0.0; PAIRS * cols];
-        out.pairs(&vec![1.0; ls], &mut unit);
-        out.unit = unit;
+        let mut out = Lattice { ls, cols, values: v, slopes: s, unit: Vec::new(), cells, lo, step, end, even, herm: Vec::new(), norms: Vec::new(), norm_max: 0.0, span_max: 0.0 };
+        if out.even.is_empty() {
+            let mut unit = vec![0.0; PAIRS * cols];
+            out.pairs(&vec![1.0; ls], &mut unit);
+            out.unit = unit;
+        } else {
+            let herm: Vec<[f64; 4]> = out.even.iter().map(|&u| hermite(u, h0)).collect();
+            out.herm = herm.iter().map(|h| h.map(|v| v as f32)).collect();
+            let np = intervals.div_ceil(16) * 16;
+            out.norms = vec![f32::INFINITY; out.even.len() * np];
+            for (j, &h) in herm.iter().enumerate() {
+                for i in 0..intervals {
+                    let norm = out.exact(&vec![0.0; ls], &vec![1.0; ls], i, h);
+                    out.norms[j * np + i] = norm as f32;
+                    out.norm_max = out.norm_max.max(norm);
+                }
+            }
+            for i in 0..intervals {
+                let norm = |v: &[f32]| (0..ls).map(|l| (v[l * cols + i] as f64).powi(2)).sum::<f64>().sqrt();
+                out.span_max = out.span_max.max(norm(&out.values) + h0 * norm(&out.slopes));
+            }
+        }
         out
     }
 
     /// Bytes held (the interval table counted as four 8-byte numbers an interval).
     pub fn bytes(&self) -> usize {
-        (self.values.len() + self.slopes.len()) * 4 + (self.unit.len() + 4 * self.cells.len() + self.even.len()) * 8
+        (self.values.len() + self.slopes.len() + 4 * self.herm.len() + self.norms.len()) * 4 + (self.unit.len() + 4 * self.cells.len() + self.even.len() + 2) * 8
     }
 
     /// The seven weighted products per knot, [product][column] into `g` (PAIRS x cols).
@@ -192,34 +249,137 @@ impl Lattice {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::nearest_avx512(self, y, wt, uniform, scratch) };
         }
-        self.nearest_body(y, wt, uniform, scratch, false)
+        if self.even.is_empty() {
+            self.nearest_body(y, wt, uniform, scratch, false)
+        } else {
+            self.nearest_even(y, wt, false)
+        }
     }
 
-    /// The body of [`Lattice::nearest`]: the same operations on every build (no fused
-    /// multiply-adds), so the AVX-512 build (`avx512`) gives the same bits.
+    /// [`Lattice::nearest`] on an even lattice. The unweighted distance d at every lattice pose
+    /// is ||y||^2 + ||f||^2 - 2 y.f, from the stored norms and y.f, a cubic in u per interval of
+    /// two products per knot; it is computed in f32 (16 poses a vector), within `slack` of d.
+    /// The weighted distance lies between w_min d and w_max d (the extreme weights of the
+    /// searched coordinates), so only the poses whose lower bound is within the least upper
+    /// bound can hold the least, and only those are measured exactly, in f64 (none when one
+    /// alone is left). The same pose as measuring every lattice pose exactly, up to the f64
+    /// rounding of near ties; the same operations on every build (no fused multiply-adds), so
+    /// the AVX-512 build (`avx512`) gives the same bits.
     #[inline(always)]
-    fn nearest_body(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>, avx512: bool) -> f64 {
-        let c = self.cols;
-        let groups = self.cells.len().div_ceil(8);
-        scratch.resize((PAIRS + 2) * c + groups * 57, 0.0);
-        let (g, rest) = scratch.split_at_mut(PAIRS * c);
-        let (cp, rest) = rest.split_at_mut(c);
-        let (cs, scratch2) = rest.split_at_mut(c);
-        match uniform {
-            Some(w) => g.iter_mut().zip(&self.unit).for_each(|(o, &u)| *o = w * u),
+    fn nearest_even(&self, y: &[f32], wt: &[f64], avx512: bool) -> f64 {
+        let (c, ls, nj) = (self.cols, self.ls, self.even.len());
+        let np = self.norms.len() / nj;
+        let (mut wmin, mut wmax) = (f64::INFINITY, 0f64);
+        for &w in &wt[..ls] {
+            wmin = wmin.min(w);
+            wmax = wmax.max(w);
+        }
+        let yy: f64 = y[..ls].iter().map(|&v| v as f64 * v as f64).sum();
+        EVEN_SCRATCH.with_borrow_mut(|(buf, hits)| {
+            // cp and cs, each with a vector of zeros past it (the last group reads column np);
+            // every other number is written before it is read.
+            if buf.len() != 2 * (c + 16) + nj * np {
+                buf.clear();
+                buf.resize(2 * (c + 16) + nj * np, 0.0);
+            }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-            None if avx512 => unsafe { simd::pairs_avx512(self, wt, g) },
-            None => self.pairs(wt, g),
+            let least = if avx512 { unsafe { simd::even_avx512(self, y, yy as f32, buf) } } else { self.even_distances(y, yy as f32, buf) };
+            #[cfg(not(target_arch = "x86_64"))]
+            let least = self.even_distances(y, yy as f32, buf);
+            let d = &buf[2 * (c + 16)..];
+            // The f32 rounding of d: the products' (up to 40 terms of |y_l| |v_l|, bounded by
+            // ||y|| ||v||, in the knots' values and slopes) and the sums' (of ||y||^2 and the
+            // norms), each well below 1e-5 of these magnitudes.
+            let slack = 1e-5 * (1.0 + yy + self.norm_max + yy.sqrt() * self.span_max);
+            let cut = (wmax * (least as f64 + slack)) / wmin.max(f64::MIN_POSITIVE) + slack;
+            // In f32, rounded up.
+            let cut = if (cut as f32 as f64) < cut { (cut as f32).next_up() } else { cut as f32 };
+            hits.clear();
+            #[cfg(target_arch = "x86_64")]
+            if avx512 {
+                // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
+                unsafe { simd::under_avx512(d, cut, hits) };
+            }
+            if !(avx512 && cfg!(target_arch = "x86_64")) {
+                under(d, cut, hits);
+            }
+            for at in hits.iter_mut() {
+                *at = (at.0 % np, at.0 / np);
+            }
+            // In increasing lattice pose: ties go to the lowest.
+            hits.sort_unstable();
+            let (mut best, mut best_at) = (f64::INFINITY, hits.first().copied().unwrap_or((0, 0)));
+            if hits.len() > 1 || self.end.is_some() {
+                let h = self.cells[0].1;
+                for &(i, j) in hits.iter() {
+                    let v = self.exact(y, wt, i, hermite(self.even[j], h));
+                    if v < best {
+                        (best, best_at) = (v, (i, j));
+                    }
+                }
+            }
+            let mut t = self.lo + (self.cells[best_at.0].2 + best_at.1 as i64) as f64 * self.step;
+            if let Some(e) = self.end {
+                // The end of a linear axis: u = 1 in the last interval, the next knot's value.
+                if self.exact(y, wt, self.cells.len() - 1, [0.0, 0.0, 1.0, 0.0]) < best {
+                    t = e;
+                }
+            }
+            t
+        })
+    }
+
+    /// The weighted squared distance from `y` to the curve on interval `i` at Hermite weights
+    /// `h` (see [`hermite`]), in f64.
+    fn exact(&self, y: &[f32], wt: &[f64], i: usize, h: [f64; 4]) -> f64 {
+        let c = self.cols;
+        (0..self.ls)
+            .map(|l| {
+                let (v, s) = (&self.values[l * c..], &self.slopes[l * c..]);
+                let f = h[0] * v[i] as f64 + h[1] * s[i] as f64 + h[2] * v[i + 1] as f64 + h[3] * s[i + 1] as f64;
+                wt[l] * (y[l] as f64 - f).powi(2)
+            })
+            .sum()
+    }
+
+    /// The f32 distances of [`Lattice::nearest_even`] into `buf` (cp, cs, each `cols` + 16
+    /// long, then d laid out as `norms`): cp = sum_l y_l values_l and cs = sum_l y_l slopes_l
+    /// (l in increasing order), then d = (yy + norm) - 2 y.f with y.f = ((h0 cp_i + h1 cs_i) +
+    /// h2 cp_i+1) + h3 cs_i+1; returns the least d. [`simd::even_avx512`]'s operations.
+    fn even_distances(&self, y: &[f32], yy: f32, buf: &mut [f32]) -> f32 {
+        let (c, nj) = (self.cols, self.even.len());
+        let np = self.norms.len() / nj;
+        let (cp, rest) = buf.split_at_mut(c + 16);
+        let (cs, d) = rest.split_at_mut(c + 16);
+        cp[..c].fill(0.0);
+        cs[..c].fill(0.0);
+        for (l, &a) in y[..self.ls].iter().enumerate() {
+            let (v, s) = (&self.values[l * c..(l + 1) * c], &self.slopes[l * c..(l + 1) * c]);
+            for k in 0..c {
+                cp[k] += a * v[k];
+                cs[k] += a * s[k];
+            }
         }
-        // cp = sum_l a_l values_l, cs = sum_l a_l slopes_l (a = wt y), 8 columns at a time
-        // summed over l in registers, l in increasing order.
-        #[cfg(target_arch = "x86_64")]
-        if avx512 {
-            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-            unsafe { simd::products_avx512(self, y, wt, cp, cs) };
+        let mut least = f32::INFINITY;
+        for j in 0..nj {
+            let [h0, h1, h2, h3] = self.herm[j];
+            for i in 0..np {
+                let dot = h0 * cp[i] + h1 * cs[i] + h2 * cp[i + 1] + h3 * cs[i + 1];
+                let v = (yy + self.norms[j * np + i]) - 2.0 * dot;
+                d[j * np + i] = v;
+                least = if v < least { v } else { least };
+            }
         }
-        for k0 in (0..c).step_by(8).filter(|_| !(avx512 && cfg!(target_arch = "x86_64"))) {
+        least
+    }
+
+    /// cp = sum_l a_l values_l, cs = sum_l a_l slopes_l (a = wt y), 8 columns at a time summed
+    /// over l in registers, l in increasing order ([`simd::products_avx512`]'s operations).
+    #[inline(always)]
+    fn products(&self, y: &[f32], wt: &[f64], cp: &mut [f64], cs: &mut [f64]) {
+        let c = self.cols;
+        for k0 in (0..c).step_by(8) {
             let (mut sp, mut ss) = ([0f64; 8], [0f64; 8]);
             for l in 0..self.ls {
                 let a = wt[l] * y[l] as f64;
@@ -235,84 +395,51 @@ impl Lattice {
             cp[k0..k0 + 8].copy_from_slice(&sp);
             cs[k0..k0 + 8].copy_from_slice(&ss);
         }
+    }
+
+    /// The body of [`Lattice::nearest`]: the same operations on every build (no fused
+    /// multiply-adds), so the AVX-512 build (`avx512`) gives the same bits.
+    #[inline(always)]
+    fn nearest_body(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>, avx512: bool) -> f64 {
+        let c = self.cols;
+        scratch.resize((PAIRS + 2) * c, 0.0);
+        let (g, rest) = scratch.split_at_mut(PAIRS * c);
+        let (cp, cs) = rest.split_at_mut(c);
+        match uniform {
+            Some(w) => g.iter_mut().zip(&self.unit).for_each(|(o, &u)| *o = w * u),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
+            None if avx512 => unsafe { simd::pairs_avx512(self, wt, g) },
+            None => self.pairs(wt, g),
+        }
+        #[cfg(target_arch = "x86_64")]
+        if avx512 {
+            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
+            unsafe { simd::products_avx512(self, y, wt, cp, cs) };
+        }
+        if !(avx512 && cfg!(target_arch = "x86_64")) {
+            self.products(y, wt, cp, cs);
+        }
         let (g, cp, cs) = (&*g, &*cp, &*cs);
         let ni = self.cells.len();
         let (mut best, mut best_t) = (f64::INFINITY, self.lo);
-        if self.even.is_empty() {
-            let mut vals = [0f64; 64];
-            for (i, &(x0, h, first, count)) in self.cells.iter().enumerate() {
-                let poly = self.poly(i, h, g, cp, cs);
-                let mut j = 0;
-                while j < count {
-                    let take = (count - j).min(vals.len());
-                    for (o, v) in vals[..take].iter_mut().enumerate() {
-                        let u = (self.lo + (first + (j + o) as i64) as f64 * self.step - x0) / h;
-                        *v = horner(&poly, u);
-                    }
-                    for (o, &v) in vals[..take].iter().enumerate() {
-                        if v < best {
-                            (best, best_t) = (v, self.lo + (first + (j + o) as i64) as f64 * self.step);
-                        }
-                    }
-                    j += take;
+        debug_assert!(self.even.is_empty(), "an even lattice takes nearest_even");
+        let mut vals = [0f64; 64];
+        for (i, &(x0, h, first, count)) in self.cells.iter().enumerate() {
+            let poly = self.poly(i, h, g, cp, cs);
+            let mut j = 0;
+            while j < count {
+                let take = (count - j).min(vals.len());
+                for (o, v) in vals[..take].iter_mut().enumerate() {
+                    let u = (self.lo + (first + (j + o) as i64) as f64 * self.step - x0) / h;
+                    *v = horner(&poly, u);
                 }
-            }
-        } else {
-            // 8 intervals at a time: their polynomials' coefficients (padding lanes get an
-            // infinite constant, so they never hold the least) and a lower bound of each on
-            // [0, 1] (its least Bernstein coefficient); the first offset on every interval gives
-            // a distance reached; then the groups of 8 in increasing bound, every offset u_j on
-            // all 8 (each keeping its least), until a group's bound exceeds the least found.
-            // Ties go to the lowest lattice pose, as in a scan in order.
-            let h = self.cells[0].1;
-            let groups = ni.div_ceil(8);
-            let (polys, bounds) = scratch2.split_at_mut(groups * 56);
-            let mut best_at = (usize::MAX, 0usize);
-            for (gi, i0) in (0..ni).step_by(8).enumerate() {
-                let p = self.polys8(i0, h, g, cp, cs);
-                let lanes = bernstein_min(&p);
-                let first = horner8(&p, self.even[0]);
-                let mut lb = f64::INFINITY;
-                for k in 0..8.min(ni - i0) {
-                    lb = lb.min(lanes[k]);
-                    let v = first[k];
+                for (o, &v) in vals[..take].iter().enumerate() {
                     if v < best {
-                        (best, best_at) = (v, (i0 + k, 0));
+                        (best, best_t) = (v, self.lo + (first + (j + o) as i64) as f64 * self.step);
                     }
                 }
-                bounds[gi] = lb;
-                for q in 0..7 {
-                    polys[gi * 56 + q * 8..gi * 56 + q * 8 + 8].copy_from_slice(&p[q]);
-                }
-            }
-            while let Some(gi) = (0..groups).filter(|&gi| !bounds[gi].is_nan()).min_by(|&a, &b| bounds[a].total_cmp(&bounds[b])) {
-                // The bound is exact up to rounding: rule a group out only past a margin.
-                if bounds[gi] - best > 1e-9 * (bounds[gi].abs() + best.abs()) {
-                    break;
-                }
-                bounds[gi] = f64::NAN;
-                let p: [[f64; 8]; 7] = std::array::from_fn(|q| polys[gi * 56 + q * 8..gi * 56 + q * 8 + 8].try_into().expect("8 lanes"));
-                let (bv, bj) = if avx512 {
-                    #[cfg(target_arch = "x86_64")]
-                    // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-                    unsafe {
-                        simd::least_avx512(&p, &self.even)
-                    }
-                    #[cfg(not(target_arch = "x86_64"))]
-                    least(&p, &self.even)
-                } else {
-                    least(&p, &self.even)
-                };
-                let i0 = 8 * gi;
-                for k in 0..8.min(ni - i0) {
-                    let at = (i0 + k, bj[k] as usize);
-                    if bv[k] < best || (bv[k] == best && at < best_at) {
-                        (best, best_at) = (bv[k], at);
-                    }
-                }
-            }
-            if let Some(cell) = self.cells.get(best_at.0) {
-                best_t = self.lo + (cell.2 + best_at.1 as i64) as f64 * self.step;
+                j += take;
             }
         }
         if let Some(t) = self.end {
@@ -380,79 +507,6 @@ impl Lattice {
     }
 }
 
-/// For 8 intervals at once (`p`: their polynomials' coefficients by degree), the least value
-/// over the offsets `even` and the first offset index (as f64) where each is reached.
-#[inline(always)]
-fn least(p: &[[f64; 8]; 7], even: &[f64]) -> ([f64; 8], [f64; 8]) {
-    let (mut bv, mut bj) = ([f64::INFINITY; 8], [0f64; 8]);
-    for (j, &u) in even.iter().enumerate() {
-        let r = horner8(p, u);
-        for k in 0..8 {
-            if r[k] < bv[k] {
-                (bv[k], bj[k]) = (r[k], j as f64);
-            }
-        }
-    }
-    (bv, bj)
-}
-
-/// 8 polynomials (coefficients by degree) at `u`: [`least`]'s operations.
-#[inline(always)]
-fn horner8(p: &[[f64; 8]; 7], u: f64) -> [f64; 8] {
-    let mut r = p[6];
-    for q in (0..6).rev() {
-        for k in 0..8 {
-            r[k] = r[k] * u + p[q][k];
-        }
-    }
-    r
-}
-
-/// b_i = sum_{k <= i} C(i, k) / C(6, k) a_k: the Bernstein coefficients on [0, 1] of the
-/// degree-6 polynomial of power coefficients a.
-const BERNSTEIN: [[f64; 7]; 7] = {
-    let mut out = [[0f64; 7]; 7];
-    let mut i = 0;
-    while i < 7 {
-        let mut k = 0;
-        while k <= i {
-            out[i][k] = binomial(i, k) / binomial(6, k);
-            k += 1;
-        }
-        i += 1;
-    }
-    out
-};
-
-const fn binomial(n: usize, k: usize) -> f64 {
-    let mut r = 1.0;
-    let mut j = 0;
-    while j < k {
-        r = r * (n - j) as f64 / (j + 1) as f64;
-        j += 1;
-    }
-    r
-}
-
-/// A lower bound of each lane's polynomial on [0, 1]: its least Bernstein coefficient (the
-/// polynomial is a convex combination of them there).
-#[inline(always)]
-fn bernstein_min(p: &[[f64; 8]; 7]) -> [f64; 8] {
-    let mut lo = [f64::INFINITY; 8];
-    for row in &BERNSTEIN {
-        let mut b = [0f64; 8];
-        for q in 0..7 {
-            for k in 0..8 {
-                b[k] += row[q] * p[q][k];
-            }
-        }
-        for k in 0..8 {
-            lo[k] = if b[k] < lo[k] { b[k] } else { lo[k] };
-        }
-    }
-    lo
-}
-
 /// The degree-6 polynomial `p` (coefficients from degree 0) at `u`.
 #[inline(always)]
 fn horner(p: &[f64; 7], u: f64) -> f64 {
@@ -471,7 +525,80 @@ mod simd {
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
     pub unsafe fn nearest_avx512(s: &Lattice, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
-        s.nearest_body(y, wt, uniform, scratch, true)
+        if s.even.is_empty() {
+            s.nearest_body(y, wt, uniform, scratch, true)
+        } else {
+            s.nearest_even(y, wt, true)
+        }
+    }
+
+    /// [`Lattice::even_distances`] 16 columns or poses a vector (the same products and sums in
+    /// the same order; the least is the same whatever the order).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn even_avx512(s: &Lattice, y: &[f32], yy: f32, buf: &mut [f32]) -> f32 {
+        use std::arch::x86_64::*;
+        let (c, nj) = (s.cols, s.even.len());
+        let np = s.norms.len() / nj;
+        assert!(c.is_multiple_of(16) && np.is_multiple_of(16) && np <= c && buf.len() >= 2 * (c + 16) + nj * np);
+        assert!(y.len() >= s.ls && s.values.len() >= s.ls * c && s.slopes.len() >= s.ls * c && s.herm.len() == nj);
+        let base = buf.as_mut_ptr();
+        // SAFETY: within buf (asserted length).
+        let (cp, cs, d) = unsafe { (base, base.add(c + 16), base.add(2 * (c + 16))) };
+        for k0 in (0..c).step_by(16) {
+            let (mut sp, mut ss) = (_mm512_setzero_ps(), _mm512_setzero_ps());
+            for (l, &yl) in y[..s.ls].iter().enumerate() {
+                let a = _mm512_set1_ps(yl);
+                // SAFETY: columns k0 .. k0 + 16 of row l (asserted lengths).
+                let (v, sl) = unsafe { (_mm512_loadu_ps(s.values.as_ptr().add(l * c + k0)), _mm512_loadu_ps(s.slopes.as_ptr().add(l * c + k0))) };
+                sp = _mm512_add_ps(sp, _mm512_mul_ps(a, v));
+                ss = _mm512_add_ps(ss, _mm512_mul_ps(a, sl));
+            }
+            // SAFETY: columns k0 .. k0 + 16 of cp and cs (asserted).
+            unsafe {
+                _mm512_storeu_ps(cp.add(k0), sp);
+                _mm512_storeu_ps(cs.add(k0), ss);
+            }
+        }
+        let (mut mins, yv, two) = (_mm512_set1_ps(f32::INFINITY), _mm512_set1_ps(yy), _mm512_set1_ps(2.0));
+        for j in 0..nj {
+            let hj = s.herm[j];
+            let h = [_mm512_set1_ps(hj[0]), _mm512_set1_ps(hj[1]), _mm512_set1_ps(hj[2]), _mm512_set1_ps(hj[3])];
+            for i0 in (0..np).step_by(16) {
+                // SAFETY: columns i0 .. i0 + 17 of cp and cs (cols + 16 each, np <= cols), poses
+                // j np + i0 .. + 16 (asserted).
+                unsafe {
+                    let (c0, c1) = (_mm512_loadu_ps(cp.add(i0)), _mm512_loadu_ps(cp.add(i0 + 1)));
+                    let (s0, s1) = (_mm512_loadu_ps(cs.add(i0)), _mm512_loadu_ps(cs.add(i0 + 1)));
+                    let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], c0), _mm512_mul_ps(h[1], s0)), _mm512_mul_ps(h[2], c1)), _mm512_mul_ps(h[3], s1));
+                    let v = _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norms.as_ptr().add(j * np + i0))), _mm512_mul_ps(two, dot));
+                    _mm512_storeu_ps(d.add(j * np + i0), v);
+                    mins = _mm512_min_ps(v, mins);
+                }
+            }
+        }
+        _mm512_reduce_min_ps(mins)
+    }
+
+    /// [`super::under`] 16 values a comparison (`d` in whole vectors).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn under_avx512(d: &[f32], cut: f32, hits: &mut Vec<(usize, usize)>) {
+        use std::arch::x86_64::*;
+        assert!(d.len().is_multiple_of(16), "whole rows of 16");
+        let cv = _mm512_set1_ps(cut);
+        for b in (0..d.len()).step_by(16) {
+            // SAFETY: values b .. b + 16 of d.
+            let mut m = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(unsafe { _mm512_loadu_ps(d.as_ptr().add(b)) }, cv);
+            while m != 0 {
+                hits.push((b + m.trailing_zeros() as usize, 0));
+                m &= m - 1;
+            }
+        }
     }
 
     /// [`Lattice::pairs`] 8 columns at a time, the seven sums over the coordinates in registers
@@ -547,31 +674,6 @@ mod simd {
             }
         }
     }
-
-    /// [`super::least`] in AVX-512 registers (the same operations: multiply, then add).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn least_avx512(p: &[[f64; 8]; 7], even: &[f64]) -> ([f64; 8], [f64; 8]) {
-        use std::arch::x86_64::*;
-        let pv: [__m512d; 7] = std::array::from_fn(|q| _mm512_loadu_pd(p[q].as_ptr()));
-        let (mut bv, mut bj) = (_mm512_set1_pd(f64::INFINITY), _mm512_setzero_pd());
-        for (j, &u) in even.iter().enumerate() {
-            let uv = _mm512_set1_pd(u);
-            let mut r = pv[6];
-            for q in (0..6).rev() {
-                r = _mm512_add_pd(_mm512_mul_pd(r, uv), pv[q]);
-            }
-            let k = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(r, bv);
-            bv = _mm512_mask_mov_pd(bv, k, r);
-            bj = _mm512_mask_mov_pd(bj, k, _mm512_set1_pd(j as f64));
-        }
-        let (mut v, mut jj) = ([0f64; 8], [0f64; 8]);
-        _mm512_storeu_pd(v.as_mut_ptr(), bv);
-        _mm512_storeu_pd(jj.as_mut_ptr(), bj);
-        (v, jj)
-    }
 }
 
 #[cfg(test)]
@@ -641,7 +743,7 @@ mod tests {
                 let uniform = q % 2 == 0;
                 let wt: Vec<f64> = (0..dim).map(|l| if l >= ls { 0.0 } else if uniform { 0.7 } else { 0.2 + rng.next().abs() }).collect();
                 let got = lat.nearest(&y, &wt, uniform.then_some(0.7), &mut scratch);
-                let portable = lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false);
+                let portable = if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
                 assert_eq!(got.to_bits(), portable.to_bits(), "the AVX-512 build gives the portable one's pose");
                 let all = brute(&s, &y, &wt, 0.5);
                 let least = all.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
