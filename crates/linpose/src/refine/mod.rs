@@ -1184,11 +1184,97 @@ mod simd {
         super::immerkaer(x, w, h, ch, rows)
     }
 
+    /// [`super::pixel_variance_u8`] in AVX-512 BW registers, whole image in one call (a call
+    /// per row cost as much as the row's 4 vectors at 128 pixels): per sampled row, the
+    /// differences across its rows, 32 pixels a vector in i16 (0 past the row), the next
+    /// vector's too, and from the two the differences at offsets ch and 2 ch (a permutation
+    /// across both: written out and read back at those offsets, each load waited on the
+    /// store); the mask's responses' absolute values (0 past the row's responses) widened into
+    /// 32 u32 lanes (lane l taking pixel l of each vector, as the portable body does), flushed
+    /// to u64 as often as `rows` says. The same integer sum, so the same value.
+    ///
     /// # Safety
-    /// The CPU must support AVX-512 F and BW.
-    #[target_feature(enable = "avx512f,avx512bw")]
+    /// The CPU must support AVX-512 F, BW and VL.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl")]
     pub unsafe fn pixel_variance_u8_avx512(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut super::RowsU8) -> f64 {
-        super::immerkaer(x, w, h, ch, rows)
+        use std::arch::x86_64::*;
+        let row = w * ch;
+        if w < 3 || h < 3 || 2 * ch > 32 || x.len() < row * h {
+            return super::immerkaer(x, w, h, ch, rows);
+        }
+        // (Macros, not closures: a closure does not take the function's target features, and
+        // its intrinsics were called, not inlined.)
+        macro_rules! diff {
+            ($a:expr, $b:expr, $c:expr, $p:expr) => {{
+                let p: usize = $p;
+                let m = if p >= row { 0 } else { u32::MAX >> (32 - (row - p).min(32)) };
+                let at = p.min(row);
+                // SAFETY: masked to the row's pixels.
+                let (av, bv, cv) = unsafe {
+                    (
+                        _mm512_cvtepu8_epi16(_mm256_maskz_loadu_epi8(m, $a.add(at) as *const i8)),
+                        _mm512_cvtepu8_epi16(_mm256_maskz_loadu_epi8(m, $b.add(at) as *const i8)),
+                        _mm512_cvtepu8_epi16(_mm256_maskz_loadu_epi8(m, $c.add(at) as *const i8)),
+                    )
+                };
+                _mm512_sub_epi16(_mm512_add_epi16(av, cv), _mm512_add_epi16(bv, bv))
+            }};
+        }
+        // Lane j of the shifted vectors: lane j + s of [cur, next] (a constant: an index array
+        // written on the stack stalled the vector load of it).
+        static IDX: [i16; 64] = {
+            let mut v = [0i16; 64];
+            let mut j = 0;
+            while j < 64 {
+                v[j] = j as i16;
+                j += 1;
+            }
+            v
+        };
+        // SAFETY: ch + 32 and 2 ch + 32 are within IDX (2 ch <= 32).
+        let (i1, i2) = unsafe { (_mm512_loadu_si512(IDX.as_ptr().add(ch) as *const _), _mm512_loadu_si512(IDX.as_ptr().add(2 * ch) as *const _)) };
+        let n32 = rows.keep.len();
+        assert!(n32 >= row - 2 * ch && n32.is_multiple_of(32));
+        let (mut lo, mut hi) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+        let (mut total, mut since, mut count) = (0u64, 0usize, 0usize);
+        let xp = x.as_ptr();
+        if let Some(second) = x.get(super::NOISE_ROW_STEP * row..((super::NOISE_ROW_STEP + 3) * row).min(x.len())) {
+            super::prefetch(second);
+        }
+        for yy in (1..h - 1).step_by(super::NOISE_ROW_STEP) {
+            if let Some(next) = x.get((yy + 2 * super::NOISE_ROW_STEP - 1) * row..((yy + 2 * super::NOISE_ROW_STEP + 2) * row).min(x.len())) {
+                super::prefetch(next);
+            }
+            // SAFETY: rows yy - 1 .. yy + 2 lie within x (x.len() >= row h checked).
+            let (a, b, c) = unsafe { (xp.add((yy - 1) * row), xp.add(yy * row), xp.add((yy + 1) * row)) };
+            let mut cur = diff!(a, b, c, 0);
+            for q in (0..n32).step_by(32) {
+                let next = diff!(a, b, c, q + 32);
+                let d1 = _mm512_permutex2var_epi16(cur, i1, next);
+                let d2 = _mm512_permutex2var_epi16(cur, i2, next);
+                let v = _mm512_abs_epi16(_mm512_sub_epi16(_mm512_add_epi16(cur, d2), _mm512_add_epi16(d1, d1)));
+                // SAFETY: q + 32 <= n32 = keep.len().
+                let v = _mm512_and_si512(v, unsafe { _mm512_loadu_si512(rows.keep.as_ptr().add(q) as *const _) });
+                lo = _mm512_add_epi32(lo, _mm512_cvtepu16_epi32(_mm512_castsi512_si256(v)));
+                hi = _mm512_add_epi32(hi, _mm512_cvtepu16_epi32(_mm512_extracti64x4_epi64::<1>(v)));
+                cur = next;
+            }
+            count += 1;
+            since += 1;
+            if since == rows.flush_every {
+                total += lanes_u64(lo) + lanes_u64(hi);
+                (lo, hi, since) = (_mm512_setzero_si512(), _mm512_setzero_si512(), 0);
+            }
+        }
+        total += lanes_u64(lo) + lanes_u64(hi);
+        super::variance_from(total as f64, count, row, ch)
+    }
+
+    /// The sum of 16 u32 lanes.
+    #[target_feature(enable = "avx512f")]
+    fn lanes_u64(v: std::arch::x86_64::__m512i) -> u64 {
+        use std::arch::x86_64::*;
+        _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(v))) as u64 + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(v))) as u64
     }
 
     /// # Safety
@@ -1222,6 +1308,12 @@ fn immerkaer<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, rows: &m
         count += 1;
     }
     sum += rows.total();
+    variance_from(sum, count, row, ch)
+}
+
+/// Immerkaer's variance from the sum of the mask's absolute responses over `count` rows of
+/// `row` values of `ch` channels (less `ch` at each end).
+fn variance_from(sum: f64, count: usize, row: usize, ch: usize) -> f64 {
     let total = ((row - 2 * ch) * count) as f64;
     let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum / (6.0 * total);
     sigma * sigma
@@ -1372,8 +1464,8 @@ pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
 /// batch allocates them once.
 fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if Level::detect() == Level::Avx512 {
-        // SAFETY: the CPU supports AVX-512 F/BW (detected).
+    if Level::detect() == Level::Avx512 && std::arch::is_x86_feature_detected!("avx512vl") {
+        // SAFETY: the CPU supports AVX-512 F/BW/VL (detected).
         return unsafe { simd::pixel_variance_u8_avx512(x, w, h, ch, rows) };
     }
     immerkaer(x, w, h, ch, rows)
