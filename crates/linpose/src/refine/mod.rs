@@ -1177,11 +1177,79 @@ fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF3
 /// AVX-512 (the same operations in the same order: the same bits, in wider vectors).
 #[cfg(target_arch = "x86_64")]
 mod simd {
+    /// [`super::pixel_variance`] in AVX-512 registers, whole image in one call, with the
+    /// portable body's bits: per sampled row the differences across its rows, 16 pixels a
+    /// vector, the next vector's too, and from the two the differences at offsets ch and 2 ch
+    /// (a permutation across both, as in [`pixel_variance_u8_avx512`]); the responses'
+    /// absolute values summed in 16 f32 lanes (lane l taking response l of each vector, the
+    /// last one partial, as [`super::RowsF32`] does), the lanes then added in f64.
+    ///
     /// # Safety
     /// The CPU must support AVX-512 F and BW.
     #[target_feature(enable = "avx512f,avx512bw")]
     pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut super::RowsF32) -> f64 {
-        super::immerkaer(x, w, h, ch, rows)
+        use std::arch::x86_64::*;
+        let row = w * ch;
+        if w < 3 || h < 3 || 2 * ch > 16 || x.len() < row * h {
+            return super::immerkaer(x, w, h, ch, rows);
+        }
+        let two = _mm512_set1_ps(2.0);
+        macro_rules! diff {
+            ($a:expr, $b:expr, $c:expr, $p:expr) => {{
+                let p: usize = $p;
+                let m = if p >= row { 0 } else { u16::MAX >> (16 - (row - p).min(16)) };
+                let at = p.min(row);
+                // SAFETY: masked to the row's values.
+                let (av, bv, cv) = unsafe { (_mm512_maskz_loadu_ps(m, $a.add(at)), _mm512_maskz_loadu_ps(m, $b.add(at)), _mm512_maskz_loadu_ps(m, $c.add(at))) };
+                _mm512_add_ps(_mm512_sub_ps(av, _mm512_mul_ps(two, bv)), cv)
+            }};
+        }
+        static IDX: [i32; 32] = {
+            let mut v = [0i32; 32];
+            let mut j = 0;
+            while j < 32 {
+                v[j] = j as i32;
+                j += 1;
+            }
+            v
+        };
+        // SAFETY: ch + 16 and 2 ch + 16 are within IDX (2 ch <= 16).
+        let (i1, i2) = unsafe { (_mm512_loadu_si512(IDX.as_ptr().add(ch) as *const _), _mm512_loadu_si512(IDX.as_ptr().add(2 * ch) as *const _)) };
+        let n = row - 2 * ch;
+        let (mut sum, mut count) = (0.0f64, 0usize);
+        let xp = x.as_ptr();
+        if let Some(second) = x.get(super::NOISE_ROW_STEP * row..((super::NOISE_ROW_STEP + 3) * row).min(x.len())) {
+            super::prefetch(second);
+        }
+        for yy in (1..h - 1).step_by(super::NOISE_ROW_STEP) {
+            if let Some(next) = x.get((yy + 2 * super::NOISE_ROW_STEP - 1) * row..((yy + 2 * super::NOISE_ROW_STEP + 2) * row).min(x.len())) {
+                super::prefetch(next);
+            }
+            // SAFETY: rows yy - 1 .. yy + 2 lie within x (x.len() >= row h checked).
+            let (a, b, c) = unsafe { (xp.add((yy - 1) * row), xp.add(yy * row), xp.add((yy + 1) * row)) };
+            let mut acc = _mm512_setzero_ps();
+            let mut cur = diff!(a, b, c, 0);
+            for q in (0..n).step_by(16) {
+                let next = diff!(a, b, c, q + 16);
+                let d1 = _mm512_permutex2var_ps(cur, i1, next);
+                let d2 = _mm512_permutex2var_ps(cur, i2, next);
+                let v = _mm512_add_ps(_mm512_sub_ps(cur, _mm512_mul_ps(two, d1)), d2);
+                // The last vector's responses past n are 0 (adding 0 leaves a lane's sum).
+                let keep = if q + 16 <= n { u16::MAX } else { u16::MAX >> (16 - (n - q)) };
+                acc = _mm512_add_ps(acc, _mm512_maskz_mov_ps(keep, _mm512_abs_ps(v)));
+                cur = next;
+            }
+            let mut lanes = [0f32; 16];
+            // SAFETY: 16 f32.
+            unsafe { _mm512_storeu_ps(lanes.as_mut_ptr(), acc) };
+            let mut lane_sum = -0.0f64;
+            for v in lanes {
+                lane_sum += v as f64;
+            }
+            sum += lane_sum;
+            count += 1;
+        }
+        super::variance_from(sum, count, row, ch)
     }
 
     /// [`super::pixel_variance_u8`] in AVX-512 BW registers, whole image in one call (a call
@@ -1189,9 +1257,9 @@ mod simd {
     /// differences across its rows, 32 pixels a vector in i16 (0 past the row), the next
     /// vector's too, and from the two the differences at offsets ch and 2 ch (a permutation
     /// across both: written out and read back at those offsets, each load waited on the
-    /// store); the mask's responses' absolute values (0 past the row's responses) widened into
-    /// 32 u32 lanes (lane l taking pixel l of each vector, as the portable body does), flushed
-    /// to u64 as often as `rows` says. The same integer sum, so the same value.
+    /// store); the mask's responses' absolute values (0 past the row's responses) summed in
+    /// pairs into 16 u32 lanes, flushed to u64 twice as often as `rows` says for its 32 lanes.
+    /// The same integer sum, so the same value.
     ///
     /// # Safety
     /// The CPU must support AVX-512 F, BW and VL.
@@ -1235,7 +1303,8 @@ mod simd {
         let (i1, i2) = unsafe { (_mm512_loadu_si512(IDX.as_ptr().add(ch) as *const _), _mm512_loadu_si512(IDX.as_ptr().add(2 * ch) as *const _)) };
         let n32 = rows.keep.len();
         assert!(n32 >= row - 2 * ch && n32.is_multiple_of(32));
-        let (mut lo, mut hi) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+        // Each lane takes two responses a vector, twice the portable lanes' bound.
+        let (mut acc, ones, flush_every) = (_mm512_setzero_si512(), _mm512_set1_epi16(1), (rows.flush_every / 2).max(1));
         let (mut total, mut since, mut count) = (0u64, 0usize, 0usize);
         let xp = x.as_ptr();
         if let Some(second) = x.get(super::NOISE_ROW_STEP * row..((super::NOISE_ROW_STEP + 3) * row).min(x.len())) {
@@ -1255,18 +1324,18 @@ mod simd {
                 let v = _mm512_abs_epi16(_mm512_sub_epi16(_mm512_add_epi16(cur, d2), _mm512_add_epi16(d1, d1)));
                 // SAFETY: q + 32 <= n32 = keep.len().
                 let v = _mm512_and_si512(v, unsafe { _mm512_loadu_si512(rows.keep.as_ptr().add(q) as *const _) });
-                lo = _mm512_add_epi32(lo, _mm512_cvtepu16_epi32(_mm512_castsi512_si256(v)));
-                hi = _mm512_add_epi32(hi, _mm512_cvtepu16_epi32(_mm512_extracti64x4_epi64::<1>(v)));
+                // Pairs of responses summed into i32 lanes (at most 4080 a vector).
+                acc = _mm512_add_epi32(acc, _mm512_madd_epi16(v, ones));
                 cur = next;
             }
             count += 1;
             since += 1;
-            if since == rows.flush_every {
-                total += lanes_u64(lo) + lanes_u64(hi);
-                (lo, hi, since) = (_mm512_setzero_si512(), _mm512_setzero_si512(), 0);
+            if since == flush_every {
+                total += lanes_u64(acc);
+                (acc, since) = (_mm512_setzero_si512(), 0);
             }
         }
-        total += lanes_u64(lo) + lanes_u64(hi);
+        total += lanes_u64(acc);
         super::variance_from(total as f64, count, row, ch)
     }
 
@@ -1346,7 +1415,8 @@ trait MaskRows<T> {
     }
 }
 
-/// f32 rows: the differences across rows into `dy`, then 16 lane sums so the loop vectorises.
+/// f32 rows: the differences across rows into `dy`, then 16 lane sums so the loop vectorises
+/// (the row's last responses into the first lanes, as a partial vector).
 struct RowsF32 {
     dy: Vec<f32>,
     ch: usize,
@@ -1372,13 +1442,21 @@ impl MaskRows<f32> for RowsF32 {
         let (d0, d1, d2) = (&dy[..n], &dy[ch..ch + n], &dy[2 * ch..2 * ch + n]);
         let mut lanes = [0f32; 16];
         let (c0, c1, c2) = (d0.chunks_exact(16), d1.chunks_exact(16), d2.chunks_exact(16));
-        let tail: f32 = c0.remainder().iter().zip(c1.remainder()).zip(c2.remainder()).map(|((&p, &q), &r)| (p - 2.0 * q + r).abs()).sum();
+        let (t0, t1, t2) = (c0.remainder(), c1.remainder(), c2.remainder());
         for ((p, q), r) in c0.zip(c1).zip(c2) {
             for l in 0..16 {
                 lanes[l] += (p[l] - 2.0 * q[l] + r[l]).abs();
             }
         }
-        lanes.iter().map(|&v| v as f64).sum::<f64>() + tail as f64
+        // The rest into the first lanes (as a last, partial vector).
+        for l in 0..t0.len() {
+            lanes[l] += (t0[l] - 2.0 * t1[l] + t2[l]).abs();
+        }
+        let mut sum = -0.0f64;
+        for v in lanes {
+            sum += v as f64;
+        }
+        sum
     }
 }
 

@@ -344,6 +344,25 @@ fn the_8_bit_pixel_variance_is_exact() {
     }
 }
 
+/// The f32 pixel-noise estimate gives its portable body's bits on every build (the AVX-512 one
+/// sums the same lanes in the same order), on random images of several shapes: rows of whole
+/// vectors, with a tail, narrower than a vector, and of 1 to 3 channels.
+#[test]
+fn the_f32_pixel_variance_gives_the_portable_bits() {
+    let mut state = 11u64;
+    for &(w, h, ch) in &[(160usize, 120usize, 1usize), (128, 128, 1), (37, 21, 3), (3, 3, 1), (1000, 9, 1), (17, 5, 2), (9, 40, 1)] {
+        let x: Vec<f32> = (0..w * h * ch)
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (state >> 40) as f32 / (1u64 << 24) as f32
+            })
+            .collect();
+        let portable = super::immerkaer(&x, w, h, ch, &mut super::RowsF32 { dy: vec![0f32; w * ch], ch });
+        assert_eq!(super::pixel_variance(&x, w, h, ch).to_bits(), portable.to_bits(), "{w} x {h} x {ch}");
+        assert!(portable > 0.0);
+    }
+}
+
 /// The noisy scan's pruned pass gives the full pass's bits at every coarse point within twice
 /// the least residual (the only ones the starts are taken from), and rules most others out.
 #[test]
