@@ -592,10 +592,19 @@ impl Surface {
         // Coordinates of zero weight add nothing.
         let lo = wt.iter().rposition(|&w| w != 0.0).map_or(0, |i| i + 1).min(y.len());
         let lanes = lo.div_ceil(8) * 8;
-        let (mut y64, mut w64) = (vec![0.0; lanes], vec![0.0; lanes]);
+        // On the stack up to the block climb's width (a query's only allocation otherwise).
+        let (mut stack, mut heap) = ([0f64; 2 * BLOCK_DIM], Vec::new());
+        let both = if 2 * lanes <= stack.len() {
+            &mut stack[..2 * lanes]
+        } else {
+            heap.resize(2 * lanes, 0.0);
+            &mut heap[..]
+        };
+        let (y64, w64) = both.split_at_mut(lanes);
         y64[..lo].iter_mut().zip(y).for_each(|(o, &v)| *o = v as f64);
         w64[..lo].copy_from_slice(&wt[..lo]);
-        self.climb_pair(None, lo, t, step, |f, _| lane_distance(&y64, &w64, f))
+        let (y64, w64) = (&*y64, &*w64);
+        self.climb_pair(None, lo, t, step, |f, _| lane_distance(y64, w64, f))
     }
 
     /// The lattice of `step` degrees at `t` (anchored at each axis's first knot): per axis the
@@ -682,7 +691,9 @@ impl Surface {
     /// second axis are shared by the three points along the first, about 84 vector terms for
     /// the 9 points instead of 144 (their values agree with [`Surface::eval`]'s to rounding; the
     /// sums are taken in another order). The walk is [`Surface::climb_by`]'s: the same
-    /// neighbours in the same order, to the best one while it is closer.
+    /// neighbours in the same order, to the best one while it is closer. After a move the
+    /// points the new block shares with the last keep their costs: 3 new points after a move
+    /// along one axis, 5 after a diagonal one, instead of 9.
     pub fn climb_pair(&self, other: Option<&Surface>, lo: usize, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
         let d = self.params();
         let lanes = lo.div_ceil(8) * 8;
@@ -702,7 +713,10 @@ impl Surface {
         let mut fv = [[0f64; BLOCK_DIM]; 9];
         let mut gv = [[0f64; BLOCK_DIM]; 9];
         let mut best = f64::NAN;
-        let mut first = true;
+        // The last block's lattice indices and costs: after a move, the points the new block
+        // shares with it keep their costs (a point's values do not depend on the others
+        // evaluated with it), and only the new row and column are evaluated.
+        let mut last: Option<([[Option<i64>; 3]; 2], [f64; 9])> = None;
         loop {
             // The 3 lattice indices along each axis (None outside a linear axis).
             let mut at = [[None; 3]; 2];
@@ -712,12 +726,42 @@ impl Surface {
                 }
             }
             let pos = |j: usize, k: i64| self.splines[j].span().0 + k as f64 * step;
-            let p0 = at[0].map(|k| k.map(|k| pos(0, k)));
-            let p1 = at[1].map(|k| k.map(|k| pos(1, k)));
-            self.block2(other, lo, &p0, &p1, &mut fv, &mut gv);
-            if first {
-                best = cost(&fv[4][..lanes], &gv[4][..lanes]);
-                first = false;
+            let mut costs = [f64::NAN; 9];
+            // Per axis, where each position stood in the last block (None: new).
+            let mut was = [[None; 3]; 2];
+            if let Some((old_at, old_costs)) = &last {
+                for j in 0..2 {
+                    for s3 in 0..3 {
+                        was[j][s3] = at[j][s3].and_then(|k| old_at[j].iter().position(|&o| o == Some(k)));
+                    }
+                }
+                for code in 0..9 {
+                    if let (Some(a), Some(b)) = (was[0][code % 3], was[1][code / 3]) {
+                        costs[code] = old_costs[a + 3 * b];
+                    }
+                }
+            }
+            // The points not kept, as at most two grids: the new positions along the first
+            // axis at every second-axis position, then the kept ones at the new second-axis
+            // positions.
+            let fresh0 = std::array::from_fn::<_, 3, _>(|s3| was[0][s3].is_none());
+            let fresh1 = std::array::from_fn::<_, 3, _>(|s3| was[1][s3].is_none());
+            let grid = |sel0: [bool; 3], sel1: [bool; 3]| {
+                (std::array::from_fn::<_, 3, _>(|s3| if sel0[s3] { at[0][s3].map(|k| pos(0, k)) } else { None }), std::array::from_fn::<_, 3, _>(|s3| if sel1[s3] { at[1][s3].map(|k| pos(1, k)) } else { None }))
+            };
+            for (sel0, sel1) in [(fresh0, [true; 3]), (fresh0.map(|f| !f), fresh1)] {
+                let (p0, p1) = grid(sel0, sel1);
+                if p0.iter().any(Option::is_some) && p1.iter().any(Option::is_some) {
+                    self.block2(other, lo, &p0, &p1, &mut fv, &mut gv);
+                    for code in 0..9 {
+                        if p0[code % 3].is_some() && p1[code / 3].is_some() {
+                            costs[code] = cost(&fv[code][..lanes], &gv[code][..lanes]);
+                        }
+                    }
+                }
+            }
+            if last.is_none() {
+                best = costs[4];
             }
             // climb_by's order: the first axis fastest.
             let mut moved = None;
@@ -726,7 +770,7 @@ impl Surface {
                 if code == 4 || at[0][a].is_none() || at[1][b].is_none() {
                     continue;
                 }
-                let v = cost(&fv[code][..lanes], &gv[code][..lanes]);
+                let v = costs[code];
                 if v < best {
                     (best, moved) = (v, Some([at[0][a].unwrap(), at[1][b].unwrap()]));
                 }
@@ -735,6 +779,7 @@ impl Surface {
                 Some(c) => idx = c,
                 None => break,
             }
+            last = Some((at, costs));
         }
         for j in 0..2 {
             t[j] = self.splines[j].span().0 + idx[j] as f64 * step;
