@@ -679,6 +679,9 @@ fn lattice_step(k: i64, count: i64, circ: bool) -> Option<i64> {
     }
 }
 
+/// The lattice indices of a 3 x 3 block along each axis (None past a linear axis's end).
+type BlockAt = [[Option<i64>; 3]; 2];
+
 /// Most coordinates [`Surface::climb_pair`] evaluates in blocks (more go point by point).
 const BLOCK_DIM: usize = 32;
 
@@ -716,7 +719,7 @@ impl Surface {
         // The last block's lattice indices and costs: after a move, the points the new block
         // shares with it keep their costs (a point's values do not depend on the others
         // evaluated with it), and only the new row and column are evaluated.
-        let mut last: Option<([[Option<i64>; 3]; 2], [f64; 9])> = None;
+        let mut last: Option<(BlockAt, [f64; 9])> = None;
         loop {
             // The 3 lattice indices along each axis (None outside a linear axis).
             let mut at = [[None; 3]; 2];
@@ -765,12 +768,11 @@ impl Surface {
             }
             // climb_by's order: the first axis fastest.
             let mut moved = None;
-            for code in 0..9 {
+            for (code, &v) in costs.iter().enumerate() {
                 let (a, b) = (code % 3, code / 3);
                 if code == 4 || at[0][a].is_none() || at[1][b].is_none() {
                     continue;
                 }
-                let v = costs[code];
                 if v < best {
                     (best, moved) = (v, Some([at[0][a].unwrap(), at[1][b].unwrap()]));
                 }
