@@ -44,7 +44,7 @@
 //!    distance to the spline curve is a polynomial in the pose on each knot interval, and
 //!    [`lattice::Lattice`] finds its least over every lattice pose exactly (on COIL-20 the same
 //!    estimates as the local search; perf of obj5's 8-bit queries on one thread, the search's
-//!    samples over the product kernel's: 0.15-0.17, the local search's about 0.24). With two or
+//!    samples over the product kernel's: 0.12, the k-d tree of the eigenspace's 0.07). With two or
 //!    more, a clean query reported on a lattice skips them too ([`CoarseTree`]): the nearest of
 //!    the surface's points on the lattice of twice the step (a k-d tree in the coordinates, which
 //!    carry the weights of nu = 0), then [`Surface::climb`] on the reporting lattice with the
@@ -88,8 +88,9 @@
 //! ([`surface::Surface::eval_pair`]). That scan and search serve only where no lattice search
 //! or tree does: a resolution of 0 or a manifold too large for them. On a turntable the lattice
 //! search replaces both; with more parameters the two trees give the starts and the climb
-//! ([`surface::Surface::climb_pair`]) evaluates 3 x 3 lattice points at a time, the noisy
-//! match's residual and the clean distance summed 8 coordinates a vector.
+//! ([`surface::Surface::climb_pair`]) evaluates 3 x 3 lattice points at a time (after a move
+//! only those the last block did not hold), the noisy match's residual and the clean distance
+//! summed 8 coordinates a vector.
 //! bench/beyond_compare.py measures it against the eigenspace; BENCHMARKS.md holds the figures.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
