@@ -1205,29 +1205,13 @@ mod simd {
                 _mm512_add_ps(_mm512_sub_ps(av, _mm512_mul_ps(two, bv)), cv)
             }};
         }
-        static IDX: [i32; 32] = {
-            let mut v = [0i32; 32];
-            let mut j = 0;
-            while j < 32 {
-                v[j] = j as i32;
-                j += 1;
-            }
-            v
-        };
-        // SAFETY: ch + 16 and 2 ch + 16 are within IDX (2 ch <= 16).
-        let (i1, i2) = unsafe { (_mm512_loadu_si512(IDX.as_ptr().add(ch) as *const _), _mm512_loadu_si512(IDX.as_ptr().add(2 * ch) as *const _)) };
+        // Lane j of the shifted vectors: lane j + s of [cur, next].
+        // SAFETY: 16 bytes from ch and from 2 ch lie within IOTA (2 ch <= 16).
+        let (i1, i2) = unsafe { (_mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(ch) as *const _)), _mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(2 * ch) as *const _))) };
         let n = row - 2 * ch;
         let (mut sum, mut count) = (0.0f64, 0usize);
-        let xp = x.as_ptr();
-        if let Some(second) = x.get(super::NOISE_ROW_STEP * row..((super::NOISE_ROW_STEP + 3) * row).min(x.len())) {
-            super::prefetch(second);
-        }
-        for yy in (1..h - 1).step_by(super::NOISE_ROW_STEP) {
-            if let Some(next) = x.get((yy + 2 * super::NOISE_ROW_STEP - 1) * row..((yy + 2 * super::NOISE_ROW_STEP + 2) * row).min(x.len())) {
-                super::prefetch(next);
-            }
-            // SAFETY: rows yy - 1 .. yy + 2 lie within x (x.len() >= row h checked).
-            let (a, b, c) = unsafe { (xp.add((yy - 1) * row), xp.add(yy * row), xp.add((yy + 1) * row)) };
+        for (a, b, c) in super::SampledRows::new(x, row, h) {
+            let (a, b, c) = (a.as_ptr(), b.as_ptr(), c.as_ptr());
             let mut acc = _mm512_setzero_ps();
             let mut cur = diff!(a, b, c, 0);
             for q in (0..n).step_by(16) {
@@ -1289,34 +1273,17 @@ mod simd {
                 _mm512_sub_epi16(_mm512_add_epi16(av, cv), _mm512_add_epi16(bv, bv))
             }};
         }
-        // Lane j of the shifted vectors: lane j + s of [cur, next] (a constant: an index array
-        // written on the stack stalled the vector load of it).
-        static IDX: [i16; 64] = {
-            let mut v = [0i16; 64];
-            let mut j = 0;
-            while j < 64 {
-                v[j] = j as i16;
-                j += 1;
-            }
-            v
-        };
-        // SAFETY: ch + 32 and 2 ch + 32 are within IDX (2 ch <= 32).
-        let (i1, i2) = unsafe { (_mm512_loadu_si512(IDX.as_ptr().add(ch) as *const _), _mm512_loadu_si512(IDX.as_ptr().add(2 * ch) as *const _)) };
+        // Lane j of the shifted vectors: lane j + s of [cur, next] (from a constant: an index
+        // array written on the stack stalled the vector load of it).
+        // SAFETY: 32 bytes from ch and from 2 ch lie within IOTA (2 ch <= 32).
+        let (i1, i2) = unsafe { (_mm512_cvtepu8_epi16(_mm256_loadu_si256(super::IOTA.as_ptr().add(ch) as *const _)), _mm512_cvtepu8_epi16(_mm256_loadu_si256(super::IOTA.as_ptr().add(2 * ch) as *const _))) };
         let n32 = rows.keep.len();
         assert!(n32 >= row - 2 * ch && n32.is_multiple_of(32));
         // Each lane takes two responses a vector, twice the portable lanes' bound.
         let (mut acc, ones, flush_every) = (_mm512_setzero_si512(), _mm512_set1_epi16(1), (rows.flush_every / 2).max(1));
         let (mut total, mut since, mut count) = (0u64, 0usize, 0usize);
-        let xp = x.as_ptr();
-        if let Some(second) = x.get(super::NOISE_ROW_STEP * row..((super::NOISE_ROW_STEP + 3) * row).min(x.len())) {
-            super::prefetch(second);
-        }
-        for yy in (1..h - 1).step_by(super::NOISE_ROW_STEP) {
-            if let Some(next) = x.get((yy + 2 * super::NOISE_ROW_STEP - 1) * row..((yy + 2 * super::NOISE_ROW_STEP + 2) * row).min(x.len())) {
-                super::prefetch(next);
-            }
-            // SAFETY: rows yy - 1 .. yy + 2 lie within x (x.len() >= row h checked).
-            let (a, b, c) = unsafe { (xp.add((yy - 1) * row), xp.add(yy * row), xp.add((yy + 1) * row)) };
+        for (a, b, c) in super::SampledRows::new(x, row, h) {
+            let (a, b, c) = (a.as_ptr(), b.as_ptr(), c.as_ptr());
             let mut cur = diff!(a, b, c, 0);
             for q in (0..n32).step_by(32) {
                 let next = diff!(a, b, c, q + 32);
@@ -1365,21 +1332,65 @@ fn immerkaer<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, rows: &m
     }
     let row = w * ch;
     let (mut sum, mut count) = (0.0f64, 0usize);
-    if let Some(second) = x.get(NOISE_ROW_STEP * row..((NOISE_ROW_STEP + 3) * row).min(x.len())) {
-        prefetch(second);
-    }
-    for yy in (1..h - 1).step_by(NOISE_ROW_STEP) {
-        // The next sampled rows' cache lines, asked for while these are summed: the rows are
-        // too far apart for the hardware prefetcher.
-        if let Some(next) = x.get((yy + 2 * NOISE_ROW_STEP - 1) * row..((yy + 2 * NOISE_ROW_STEP + 2) * row).min(x.len())) {
-            prefetch(next);
-        }
-        sum += rows.row_sum(&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]);
+    for (a, b, c) in SampledRows::new(x, row, h) {
+        sum += rows.row_sum(a, b, c);
         count += 1;
     }
     sum += rows.total();
     variance_from(sum, count, row, ch)
 }
+
+/// The rows [`immerkaer`] samples, every [`NOISE_ROW_STEP`]-th from the second, each with the
+/// rows above and below it (an image of `row` values a row, at least 3 rows); the next sample's
+/// cache lines are asked for while one is summed (they are too far apart for the hardware
+/// prefetcher).
+struct SampledRows<'a, T> {
+    x: &'a [T],
+    row: usize,
+    yy: usize,
+    last: usize,
+}
+
+impl<'a, T> SampledRows<'a, T> {
+    #[inline(always)]
+    fn new(x: &'a [T], row: usize, h: usize) -> Self {
+        assert!(h >= 3 && x.len() >= row * h, "an image of at least 3 rows of {row} values");
+        if let Some(second) = x.get(NOISE_ROW_STEP * row..((NOISE_ROW_STEP + 3) * row).min(x.len())) {
+            prefetch(second);
+        }
+        SampledRows { x, row, yy: 1, last: h - 2 }
+    }
+}
+
+impl<'a, T> Iterator for SampledRows<'a, T> {
+    type Item = (&'a [T], &'a [T], &'a [T]);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<Self::Item> {
+        let (x, row, yy) = (self.x, self.row, self.yy);
+        if yy > self.last {
+            return None;
+        }
+        if let Some(next) = x.get((yy + 2 * NOISE_ROW_STEP - 1) * row..((yy + 2 * NOISE_ROW_STEP + 2) * row).min(x.len())) {
+            prefetch(next);
+        }
+        self.yy += NOISE_ROW_STEP;
+        Some((&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]))
+    }
+}
+
+/// 0, 1, .., 63: the permutation indices of [`simd`]'s shifted vectors, widened to each
+/// lane's width where they are loaded.
+#[cfg(target_arch = "x86_64")]
+static IOTA: [u8; 64] = {
+    let mut v = [0u8; 64];
+    let mut j = 0;
+    while j < 64 {
+        v[j] = j as u8;
+        j += 1;
+    }
+    v
+};
 
 /// Immerkaer's variance from the sum of the mask's absolute responses over `count` rows of
 /// `row` values of `ch` channels (less `ch` at each end).
