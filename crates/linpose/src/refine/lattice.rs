@@ -20,10 +20,10 @@
 //! rounding) is within the least upper bound can hold the least; those alone are measured
 //! exactly in f64, and a single one is the answer unmeasured. On COIL-20's 72 views per object
 //! (f32 and 8-bit, 2,880 searches) one pose was left for 2,210, two to six for the rest (the
-//! query's own weights are close to uniform), and the search went from 0.65-0.95 us to about
-//! 0.25-0.33 us (objects 5 and 2, one thread) (the lower bounds of 8 intervals' polynomials it replaced:
-//! its Bernstein coefficients, then Horner at each offset of the groups that could hold the
-//! least). Otherwise each interval's polynomial is evaluated at its own lattice poses, per
+//! query's own weights are close to uniform). The search went from 0.65-0.95 us to about
+//! 0.25-0.33 us (objects 5 and 2, one thread) against the lower bounds it replaced: each of 8
+//! intervals' polynomials bounded by its Bernstein coefficients, then Horner at each offset of
+//! the groups that could hold the least. Otherwise each interval's polynomial is evaluated at its own lattice poses, per
 //! query two products per knot (c) and, when the weights are not uniform, seven (G; uniform
 //! weights scale sums kept in the model). Either way the result is the least over the whole
 //! lattice, where the eigenspace keeps the lattice's points and searches a k-d tree and the
@@ -56,14 +56,14 @@ pub struct Lattice {
     end: Option<f64>,
     /// When every interval has the same length and holds the lattice at the same offsets (knots
     /// evenly spaced on the lattice, as on a turntable): those offsets u_j, so that each u_j is
-    /// evaluated on 8 intervals at once.
+    /// evaluated on 16 intervals at once.
     even: Vec<f64>,
     /// For an even lattice: per offset u_j the Hermite weights of the value and slope columns,
     /// (h00, h h10, h01, h h11) at u_j.
     herm: Vec<[f32; 4]>,
     /// For an even lattice: the curve's squared norm over the searched coordinates at each
-    /// lattice pose, [offset j][interval] in rows of the intervals rounded up to 8 (+inf past
-    /// the last interval), rows of the intervals rounded up to 16.
+    /// lattice pose, [offset j][interval] in rows of the intervals rounded up to 16 (+inf past
+    /// the last interval).
     norms: Vec<f32>,
     /// The largest of the norms, and of ||value|| + ||h slope|| over the knots (bounds of the
     /// f32 rounding in [`Lattice::nearest_even`]).
@@ -82,10 +82,10 @@ thread_local! {
 /// p_k s_{k+1}, s_k p_{k+1}, s_k s_{k+1}.
 const PAIRS: usize = 7;
 
-/// The indices of the values of `d` no more than `cut`, in increasing order, into `hits` (as
-/// (index, 0)).
-fn under(d: &[f32], cut: f32, hits: &mut Vec<(usize, usize)>) {
-    hits.extend(d.iter().enumerate().filter(|p| *p.1 <= cut).map(|p| (p.0, 0)));
+/// The places of the values of `d` (rows of `np`) no more than `cut`, in increasing order, into
+/// `hits` as (column, row).
+fn under(d: &[f32], np: usize, cut: f32, hits: &mut Vec<(usize, usize)>) {
+    hits.extend(d.iter().enumerate().filter(|p| *p.1 <= cut).map(|p| (p.0 % np, p.0 / np)));
 }
 
 /// The Hermite weights of the knot values and slopes at u of an interval of length `h`:
@@ -186,9 +186,10 @@ impl Lattice {
             out.herm = herm.iter().map(|h| h.map(|v| v as f32)).collect();
             let np = intervals.div_ceil(16) * 16;
             out.norms = vec![f32::INFINITY; out.even.len() * np];
+            let (origin, unit) = (vec![0f32; ls], vec![1.0; ls]);
             for (j, &h) in herm.iter().enumerate() {
                 for i in 0..intervals {
-                    let norm = out.exact(&vec![0.0; ls], &vec![1.0; ls], i, h);
+                    let norm = out.exact(&origin, &unit, i, h);
                     out.norms[j * np + i] = norm as f32;
                     out.norm_max = out.norm_max.max(norm);
                 }
@@ -299,13 +300,10 @@ impl Lattice {
             #[cfg(target_arch = "x86_64")]
             if avx512 {
                 // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-                unsafe { simd::under_avx512(d, cut, hits) };
+                unsafe { simd::under_avx512(d, np, cut, hits) };
             }
             if !(avx512 && cfg!(target_arch = "x86_64")) {
-                under(d, cut, hits);
-            }
-            for at in hits.iter_mut() {
-                *at = (at.0 % np, at.0 / np);
+                under(d, np, cut, hits);
             }
             // In increasing lattice pose: ties go to the lowest.
             hits.sort_unstable();
@@ -587,7 +585,7 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn under_avx512(d: &[f32], cut: f32, hits: &mut Vec<(usize, usize)>) {
+    pub unsafe fn under_avx512(d: &[f32], np: usize, cut: f32, hits: &mut Vec<(usize, usize)>) {
         use std::arch::x86_64::*;
         assert!(d.len().is_multiple_of(16), "whole rows of 16");
         let cv = _mm512_set1_ps(cut);
@@ -595,7 +593,8 @@ mod simd {
             // SAFETY: values b .. b + 16 of d.
             let mut m = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(unsafe { _mm512_loadu_ps(d.as_ptr().add(b)) }, cv);
             while m != 0 {
-                hits.push((b + m.trailing_zeros() as usize, 0));
+                let at = b + m.trailing_zeros() as usize;
+                hits.push((at % np, at / np));
                 m &= m - 1;
             }
         }
@@ -726,12 +725,16 @@ mod tests {
         let even36: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
         let uneven: Vec<f64> = (0..20).map(|k| 18.0 * k as f64 + if k % 3 == 1 { 4.3 } else { 0.0 }).collect();
         let linear: Vec<f64> = (0..12).map(|k| 20.0 + 5.0 * k as f64 + if k == 11 { 0.3 } else { 0.0 }).collect();
-        let cases: [(&[f64], bool, usize, usize); 4] = [(&even36, true, 20, 20), (&even36, true, 12, 8), (&uneven, true, 9, 9), (&linear, false, 6, 6)];
+        // One interval off the lattice's step: even, with its end off the lattice.
+        let single = [20.0, 25.3];
+        let cases: [(&[f64], bool, usize, usize); 5] = [(&even36, true, 20, 20), (&even36, true, 12, 8), (&uneven, true, 9, 9), (&linear, false, 6, 6), (&single, false, 5, 5)];
         for (at, circular, dim, ls) in cases {
             let s = curve(at, dim, circular, &mut rng);
             let (knots, period, v, sl, d) = s.line_parts().unwrap();
             let lat = Lattice::new(knots, period, v, sl, d, ls, 0.5);
-            assert_eq!(lat.even.is_empty(), !std::ptr::eq(at, &even36[..]), "evenly spaced knots take the grouped search");
+            let even = std::ptr::eq(at, &even36[..]) || std::ptr::eq(at, &single[..]);
+            assert_eq!(lat.even.is_empty(), !even, "evenly spaced knots take the bounded search");
+            assert_eq!(lat.end.is_some(), std::ptr::eq(at, &single[..]) || std::ptr::eq(at, &linear[..]));
             let mut scratch = Vec::new();
             let mut f = vec![0.0; dim];
             for q in 0..60 {
