@@ -1241,8 +1241,9 @@ mod simd {
     /// per row cost as much as the row's 4 vectors at 128 pixels): per sampled row, the
     /// differences across its rows, 32 pixels a vector in i16 (0 past the row), the next
     /// vector's too, and from the two the differences at offsets ch and 2 ch (a permutation
-    /// across both: written out and read back at those offsets, each load waited on the
-    /// store); the mask's responses' absolute values (0 past the row's responses) summed in
+    /// across both, in registers; written out and read back at those offsets, as the portable
+    /// body does, each load waited on the store); the mask's responses' absolute values (0 past
+    /// the row's responses) summed in
     /// pairs into 16 u32 lanes, flushed to u64 twice as often as `rows` says for its 32 lanes.
     /// The same integer sum, so the same value.
     ///
