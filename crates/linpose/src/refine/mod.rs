@@ -45,7 +45,7 @@
 //!    [`lattice::Lattice`] finds its least over every lattice pose exactly (on COIL-20 the same
 //!    estimates as the local search; perf of obj5's 8-bit queries on one thread, the search's
 //!    samples over the product kernel's: 0.12, the k-d tree of the eigenspace's 0.07). With two or
-//!    more, a clean query reported on a lattice skips them too ([`CoarseTree`]): the nearest of
+//!    more, a clean query reported on a lattice skips them too (`CoarseTree`): the nearest of
 //!    the surface's points on the lattice of twice the step (a k-d tree in the coordinates, which
 //!    carry the weights of nu = 0), then [`Surface::climb`] on the reporting lattice with the
 //!    query's own weights. The local search from coarse starts had ended in a worse basin on
