@@ -451,55 +451,35 @@ impl Lattice {
     }
 
     /// The distance (less ||y||^2) on interval `i` (of length `h`) as a polynomial in u
-    /// (coefficients from degree 0): lane 0 of [`Lattice::polys8`] from `i`.
-    #[inline(always)]
+    /// (coefficients from degree 0). The 14 factors of the terms in the order of [`TERMS`]: the
+    /// products H_a H_b (those off the diagonal twice; each slope carries h), then the linear
+    /// terms times -2.
     fn poly(&self, i: usize, h: f64, g: &[f64], cp: &[f64], cs: &[f64]) -> [f64; 7] {
-        self.polys8(i, h, g, cp, cs).map(|lanes| lanes[0])
-    }
-
-    /// The distance (less ||y||^2) on intervals i0 to i0 + 7 (all of length `h`) as polynomials
-    /// in u, [degree][lane]; lanes past the last interval get an infinite constant. The 14
-    /// factors of the terms in the order of [`TERMS`]: the products H_a H_b (those off the
-    /// diagonal twice; each slope carries h), then the linear terms times -2.
-    #[inline(always)]
-    fn polys8(&self, i0: usize, h: f64, g: &[f64], cp: &[f64], cs: &[f64]) -> [[f64; 8]; 7] {
         let c = self.cols;
-        let row = |v: &[f64], off: usize| -> [f64; 8] { v[off..off + 8].try_into().expect("8 lanes") };
-        let scaled = |r: [f64; 8], k: f64| r.map(|x| k * x);
         let h2 = h * h;
-        let f: [[f64; 8]; 14] = [
-            row(g, i0),
-            scaled(row(g, c + i0), 2.0 * h),
-            scaled(row(g, 2 * c + i0), h2),
-            row(g, i0 + 1),
-            scaled(row(g, c + i0 + 1), 2.0 * h),
-            scaled(row(g, 2 * c + i0 + 1), h2),
-            scaled(row(g, 3 * c + i0), 2.0),
-            scaled(row(g, 4 * c + i0), 2.0 * h),
-            scaled(row(g, 5 * c + i0), 2.0 * h),
-            scaled(row(g, 6 * c + i0), 2.0 * h2),
-            scaled(row(cp, i0), -2.0),
-            scaled(row(cs, i0), -2.0 * h),
-            scaled(row(cp, i0 + 1), -2.0),
-            scaled(row(cs, i0 + 1), -2.0 * h),
+        let f: [f64; 14] = [
+            g[i],
+            2.0 * h * g[c + i],
+            h2 * g[2 * c + i],
+            g[i + 1],
+            2.0 * h * g[c + i + 1],
+            h2 * g[2 * c + i + 1],
+            2.0 * g[3 * c + i],
+            2.0 * h * g[4 * c + i],
+            2.0 * h * g[5 * c + i],
+            2.0 * h2 * g[6 * c + i],
+            -2.0 * cp[i],
+            -2.0 * h * cs[i],
+            -2.0 * cp[i + 1],
+            -2.0 * h * cs[i + 1],
         ];
-        let mut p = [[0f64; 8]; 7];
-        // Term by term with the term's index a constant, so its zero coefficients drop out at
-        // compile time and p stays in registers (a loop over the terms kept p in memory).
-        macro_rules! add_term {
-            ($($t:literal)*) => {$(
-                for q in 0..7 {
-                    if TERMS[$t][q] != 0.0 {
-                        for k in 0..8 {
-                            p[q][k] += f[$t][k] * TERMS[$t][q];
-                        }
-                    }
+        let mut p = [0f64; 7];
+        for (ft, term) in f.iter().zip(&TERMS) {
+            for (pq, &tq) in p.iter_mut().zip(term) {
+                if tq != 0.0 {
+                    *pq += ft * tq;
                 }
-            )*};
-        }
-        add_term!(0 1 2 3 4 5 6 7 8 9 10 11 12 13);
-        for lane in p[0].iter_mut().skip(self.cells.len() - i0) {
-            *lane = f64::INFINITY;
+            }
         }
         p
     }
