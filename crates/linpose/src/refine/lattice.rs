@@ -20,7 +20,7 @@
 //! rounding) is within the least upper bound can hold the least; those alone are measured
 //! exactly in f64, and a single one is the answer unmeasured. On COIL-20's 72 views per object
 //! (f32 and 8-bit, 2,880 searches) one pose was left for 2,210, two to six for the rest (the
-//! query's own weights are close to uniform). The search went from 0.65-0.95 us to about
+//! query's own weights are close to uniform). The search went from 0.66-1.03 us to about
 //! 0.25-0.33 us (objects 5 and 2, one thread) against the lower bounds it replaced: each of 8
 //! intervals' polynomials bounded by its Bernstein coefficients, then Horner at each offset of
 //! the groups that could hold the least. Otherwise each interval's polynomial is evaluated at its own lattice poses, per
