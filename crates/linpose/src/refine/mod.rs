@@ -842,9 +842,10 @@ impl RefinedModel {
     /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
     /// (rows of L), `s.resid` and `s.noise`: the products with the eigenimages and the mean as one
     /// sequential f32 product into `s.raw` (rayon splits the batch, see [`chunk_rows`]), then each
-    /// query's energy and, when `want_noise`, its pixel noise ([`pixel_variance`]), as
-    /// [`Self::finish_query`] takes them.
-    fn project_f32(&self, queries: &[f32], want_noise: bool, s: &mut QueryScratch) {
+    /// query's energy and, when `noise` says so, its pixel noise ([`pixel_variance`], staged
+    /// at `early` times the noise threshold, see [`NoiseWant`]), as [`Self::finish_query`]
+    /// takes them.
+    fn project_f32(&self, queries: &[f32], noise: NoiseWant, s: &mut QueryScratch) {
         let (l, m, k) = (self.components(), self.m, self.product_rows());
         let n = queries.len() / m;
         let spec = self.meta.spec;
@@ -858,7 +859,10 @@ impl RefinedModel {
             matmul(MatMut::from_row_major_slice_mut(&mut s.raw[i0 * k..(i0 + nn) * k], nn, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 let energy = crate::linalg::energy(x);
-                let pv = if want_noise { pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch)) } else { 0.0 };
+                let pv = match self.early(noise, energy) {
+                    Some(early) => pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch), early),
+                    None => 0.0,
+                };
                 (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
             }
         }
@@ -869,7 +873,7 @@ impl RefinedModel {
     /// [`dot_u8::dots_batch`]) from 8 queries on (one at a time below), the energy exact in integers, the pixel noise by
     /// [`pixel_variance_u8`], all in pixel values: the 1 / 255 of the features cancels in each
     /// ratio.
-    fn project_u8(&self, level: Level, queries: &[u8], want_noise: bool, s: &mut QueryScratch) {
+    fn project_u8(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
         let (l, m, k) = (self.components(), self.m, self.product_rows());
         let n = queries.len() / m;
         let spec = self.meta.spec;
@@ -889,9 +893,24 @@ impl RefinedModel {
                 }
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
-                let pv = if want_noise { pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch)) } else { 0.0 };
+                let pv = match self.early(noise, s.energy[i] as f64) {
+                    Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch), early),
+                    None => 0.0,
+                };
                 (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, pv, &mut s.y[i * l..(i + 1) * l]);
             }
+        }
+    }
+
+    /// The `early` of the staged pixel-noise estimate of a query of energy `energy` (in the
+    /// estimate's units), `None` for no estimate. The route compares the estimate times M /
+    /// energy with the threshold ([`Self::poses_of`]).
+    #[inline]
+    fn early(&self, noise: NoiseWant, energy: f64) -> Option<f64> {
+        match noise {
+            NoiseWant::None => None,
+            NoiseWant::Full => Some(0.0),
+            NoiseWant::Route => Some(NOISE_EARLY * self.settings.noise_threshold * energy / self.m as f64),
         }
     }
 
@@ -1161,17 +1180,37 @@ pub fn pixel_noise(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
 
 /// Immerkaer's estimate of the variance of an image's white noise (see [`pixel_noise`]).
 pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
-    pixel_variance_in(x, w, h, ch, &mut RowsF32 { dy: vec![0f32; w * ch], ch })
+    pixel_variance_in(x, w, h, ch, &mut RowsF32::new(w * ch, h, ch), 0.0)
 }
 
-/// [`pixel_variance`] with the row buffer `rows` (of w x ch values), so a batch allocates it once.
-fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if Level::detect() == Level::Avx512 {
-        // SAFETY: the CPU supports AVX-512 F/BW (detected).
-        return unsafe { simd::pixel_variance_avx512(x, w, h, ch, rows) };
-    }
-    immerkaer(x, w, h, ch, rows)
+/// [`pixel_variance`] with the row buffer `rows` (of w x ch values), so a batch allocates it
+/// once. With `early` > 0 it is staged: the estimate from the first quarter of the sampled rows
+/// ([`Pass::First`]) when that is under `early` (the query is clearly clean: see
+/// [`NOISE_EARLY`]), else the estimate from every sampled row, the same bits as unstaged.
+fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32, early: f64) -> f64 {
+    let pass = |rows: &mut RowsF32, pass: Pass| {
+        #[cfg(target_arch = "x86_64")]
+        if Level::detect() == Level::Avx512 {
+            // SAFETY: the CPU supports AVX-512 F/BW (detected).
+            return unsafe { simd::pixel_variance_avx512(x, w, h, ch, rows, pass) };
+        }
+        immerkaer_pass(x, w, h, ch, rows, pass)
+    };
+    let n = sampled_rows(h);
+    rows.sums.resize(n, 0.0);
+    let (sum, count) = if early > 0.0 && n >= 2 * FIRST_EVERY {
+        let (first, count) = pass(rows, Pass::First);
+        let v = variance_from(first, count, w * ch, ch);
+        if v < early {
+            return v;
+        }
+        pass(rows, Pass::Rest);
+        // Every sampled row's sum, added in the order of one pass over them all.
+        (rows.sums.iter().fold(0.0, |s, &v| s + v), n)
+    } else {
+        pass(rows, Pass::All)
+    };
+    variance_from(sum, count, w * ch, ch)
 }
 
 /// The bodies of [`pixel_variance`], [`pixel_variance_u8`] and [`smallest`] compiled for
@@ -1188,11 +1227,11 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512 F and BW.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut super::RowsF32) -> f64 {
+    pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut super::RowsF32, pass: super::Pass) -> (f64, usize) {
         use std::arch::x86_64::*;
         let row = w * ch;
         if w < 3 || h < 3 || 2 * ch > 16 || x.len() < row * h {
-            return super::immerkaer(x, w, h, ch, rows);
+            return super::immerkaer_pass(x, w, h, ch, rows, pass);
         }
         let two = _mm512_set1_ps(2.0);
         macro_rules! diff {
@@ -1210,7 +1249,7 @@ mod simd {
         let (i1, i2) = unsafe { (_mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(ch) as *const _)), _mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(2 * ch) as *const _))) };
         let n = row - 2 * ch;
         let (mut sum, mut count) = (0.0f64, 0usize);
-        for (a, b, c) in super::SampledRows::new(x, row, h) {
+        for (k, a, b, c) in super::SampledRows::new(x, row, h, pass) {
             let (a, b, c) = (a.as_ptr(), b.as_ptr(), c.as_ptr());
             let mut acc = _mm512_setzero_ps();
             let mut cur = diff!(a, b, c, 0);
@@ -1231,10 +1270,11 @@ mod simd {
             for v in lanes {
                 lane_sum += v as f64;
             }
+            rows.sums[k] = lane_sum;
             sum += lane_sum;
             count += 1;
         }
-        super::variance_from(sum, count, row, ch)
+        (sum, count)
     }
 
     /// [`super::pixel_variance_u8`] in AVX-512 BW registers, whole image in one call (a call
@@ -1250,11 +1290,11 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512 F, BW and VL.
     #[target_feature(enable = "avx512f,avx512bw,avx512vl")]
-    pub unsafe fn pixel_variance_u8_avx512(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut super::RowsU8) -> f64 {
+    pub unsafe fn pixel_variance_u8_avx512(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut super::RowsU8, pass: super::Pass) -> (f64, usize) {
         use std::arch::x86_64::*;
         let row = w * ch;
         if w < 3 || h < 3 || 2 * ch > 32 || x.len() < row * h {
-            return super::immerkaer(x, w, h, ch, rows);
+            return super::immerkaer_pass(x, w, h, ch, rows, pass);
         }
         // (Macros, not closures: a closure does not take the function's target features, and
         // its intrinsics were called, not inlined.)
@@ -1283,7 +1323,7 @@ mod simd {
         // Each lane takes two responses a vector, twice the portable lanes' bound.
         let (mut acc, ones, flush_every) = (_mm512_setzero_si512(), _mm512_set1_epi16(1), (rows.flush_every / 2).max(1));
         let (mut total, mut since, mut count) = (0u64, 0usize, 0usize);
-        for (a, b, c) in super::SampledRows::new(x, row, h) {
+        for (_, a, b, c) in super::SampledRows::new(x, row, h, pass) {
             let (a, b, c) = (a.as_ptr(), b.as_ptr(), c.as_ptr());
             let mut cur = diff!(a, b, c, 0);
             for q in (0..n32).step_by(32) {
@@ -1305,7 +1345,7 @@ mod simd {
             }
         }
         total += lanes_u64(acc);
-        super::variance_from(total as f64, count, row, ch)
+        (total as f64, count)
     }
 
     /// The sum of 16 u32 lanes.
@@ -1326,57 +1366,124 @@ mod simd {
 /// Immerkaer's estimate (see [`pixel_noise`]) from every [`NOISE_ROW_STEP`]-th row of an image
 /// of `w` pixels of `ch` channels per row: the estimate is a mean over pixels, and a sample of
 /// rows costs less than the projection. `rows` sums the absolute mask responses along each.
-#[inline(always)]
+#[cfg(test)]
 fn immerkaer<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, rows: &mut R) -> f64 {
+    let (sum, count) = immerkaer_pass(x, w, h, ch, rows, Pass::All);
+    variance_from(sum, count, w * ch, ch)
+}
+
+/// The sum of the absolute mask responses along the sampled rows `pass` takes, and how many
+/// rows those are (none in an image of fewer than 3 rows or columns).
+#[inline(always)]
+fn immerkaer_pass<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, rows: &mut R, pass: Pass) -> (f64, usize) {
     if w < 3 || h < 3 {
-        return 0.0;
+        return (0.0, 0);
     }
-    let row = w * ch;
     let (mut sum, mut count) = (0.0f64, 0usize);
-    for (a, b, c) in SampledRows::new(x, row, h) {
-        sum += rows.row_sum(a, b, c);
+    for (k, a, b, c) in SampledRows::new(x, w * ch, h, pass) {
+        let s = rows.row_sum(a, b, c);
+        rows.keep(k, s);
+        sum += s;
         count += 1;
     }
     sum += rows.total();
-    variance_from(sum, count, row, ch)
+    (sum, count)
 }
 
-/// The rows [`immerkaer`] samples, every [`NOISE_ROW_STEP`]-th from the second, each with the
-/// rows above and below it (an image of `row` values a row, at least 3 rows); the next sample's
-/// cache lines are asked for while one is summed (they are too far apart for the hardware
-/// prefetcher).
+/// How many rows [`immerkaer`] samples in an image of `h` rows: rows 1, 1 + [`NOISE_ROW_STEP`],
+/// .. up to h - 2.
+fn sampled_rows(h: usize) -> usize {
+    if h < 3 {
+        0
+    } else {
+        (h - 3) / NOISE_ROW_STEP + 1
+    }
+}
+
+/// Which of the sampled rows a pass of the noise estimate sums: all of them, or, for a query
+/// that may be clearly clean ([`pixel_variance_in`]'s `early`), first every [`FIRST_EVERY`]-th
+/// (from sampled row [`FIRST_AT`]) and then, unless those settle it, the rest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pass {
+    All,
+    First,
+    Rest,
+}
+
+/// The first pass of a staged noise estimate takes every this many sampled rows...
+const FIRST_EVERY: usize = 4;
+/// ... from this one (rows 17, 49, 81, 113 of a 128-row image: away from the top edge, which on a
+/// turntable is background).
+const FIRST_AT: usize = 2;
+
+impl Pass {
+    /// Whether this pass sums sampled row `k`.
+    #[inline(always)]
+    fn takes(self, k: usize) -> bool {
+        match self {
+            Pass::All => true,
+            Pass::First => k % FIRST_EVERY == FIRST_AT,
+            Pass::Rest => k % FIRST_EVERY != FIRST_AT,
+        }
+    }
+
+    /// The first sampled row after `k` this pass sums (`None`: the first of all).
+    #[inline(always)]
+    fn after(self, k: Option<usize>) -> usize {
+        let mut k = k.map_or(0, |k| k + 1);
+        while !self.takes(k) {
+            k += 1;
+        }
+        k
+    }
+}
+
+/// The rows [`immerkaer`] samples that a [`Pass`] sums, each as its index among the sampled
+/// rows with the rows above and below it (an image of `row` values a row, at least 3 rows); the
+/// next sample's cache lines are asked for while one is summed (they are too far apart for the
+/// hardware prefetcher).
 struct SampledRows<'a, T> {
     x: &'a [T],
     row: usize,
-    yy: usize,
-    last: usize,
+    /// The next sampled row to give, and how many there are.
+    k: usize,
+    n: usize,
+    pass: Pass,
 }
 
 impl<'a, T> SampledRows<'a, T> {
     #[inline(always)]
-    fn new(x: &'a [T], row: usize, h: usize) -> Self {
+    fn new(x: &'a [T], row: usize, h: usize, pass: Pass) -> Self {
         assert!(h >= 3 && x.len() >= row * h, "an image of at least 3 rows of {row} values");
-        if let Some(second) = x.get(NOISE_ROW_STEP * row..((NOISE_ROW_STEP + 3) * row).min(x.len())) {
-            prefetch(second);
+        let k = pass.after(None);
+        let rows = SampledRows { x, row, k, n: sampled_rows(h), pass };
+        rows.prefetch(pass.after(Some(k)));
+        rows
+    }
+
+    /// Asks for the cache lines of sampled row `k` and its neighbours (if there is such a row).
+    #[inline(always)]
+    fn prefetch(&self, k: usize) {
+        if k < self.n {
+            let yy = 1 + NOISE_ROW_STEP * k;
+            prefetch(&self.x[(yy - 1) * self.row..(yy + 2) * self.row]);
         }
-        SampledRows { x, row, yy: 1, last: h - 2 }
     }
 }
 
 impl<'a, T> Iterator for SampledRows<'a, T> {
-    type Item = (&'a [T], &'a [T], &'a [T]);
+    type Item = (usize, &'a [T], &'a [T], &'a [T]);
 
     #[inline(always)]
     fn next(&mut self) -> Option<Self::Item> {
-        let (x, row, yy) = (self.x, self.row, self.yy);
-        if yy > self.last {
+        let (x, row, k) = (self.x, self.row, self.k);
+        if k >= self.n {
             return None;
         }
-        if let Some(next) = x.get((yy + 2 * NOISE_ROW_STEP - 1) * row..((yy + 2 * NOISE_ROW_STEP + 2) * row).min(x.len())) {
-            prefetch(next);
-        }
-        self.yy += NOISE_ROW_STEP;
-        Some((&x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]))
+        self.k = self.pass.after(Some(k));
+        self.prefetch(self.pass.after(Some(self.k)));
+        let yy = 1 + NOISE_ROW_STEP * k;
+        Some((k, &x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]))
     }
 }
 
@@ -1394,8 +1501,11 @@ static IOTA: [u8; 64] = {
 };
 
 /// Immerkaer's variance from the sum of the mask's absolute responses over `count` rows of
-/// `row` values of `ch` channels (less `ch` at each end).
+/// `row` values of `ch` channels (less `ch` at each end); 0 without any.
 fn variance_from(sum: f64, count: usize, row: usize, ch: usize) -> f64 {
+    if count == 0 || row <= 2 * ch {
+        return 0.0;
+    }
     let total = ((row - 2 * ch) * count) as f64;
     let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum / (6.0 * total);
     sigma * sigma
@@ -1422,6 +1532,10 @@ fn prefetch<T>(v: &[T]) {
 /// AVX-512 builds of [`pixel_variance`] and [`pixel_variance_u8`] compile it for AVX-512 too.
 trait MaskRows<T> {
     fn row_sum(&mut self, a: &[T], b: &[T], c: &[T]) -> f64;
+    /// Keeps sampled row `k`'s sum `s` (as returned by `row_sum`) where the rows are summed
+    /// again in their order (nothing by default).
+    #[inline(always)]
+    fn keep(&mut self, _k: usize, _s: f64) {}
     /// What the rows summed without returning it (0 when each row returns its own).
     fn total(&mut self) -> f64 {
         0.0
@@ -1429,17 +1543,24 @@ trait MaskRows<T> {
 }
 
 /// f32 rows: the differences across rows into `dy`, then 16 lane sums so the loop vectorises
-/// (the row's last responses into the first lanes, as a partial vector).
+/// (the row's last responses into the first lanes, as a partial vector); each sampled row's sum
+/// kept in `sums`, so a staged estimate adds them up in one pass's order.
 struct RowsF32 {
     dy: Vec<f32>,
+    sums: Vec<f64>,
     ch: usize,
 }
 
 impl RowsF32 {
+    /// Made for an image of `h` rows of `row` values of `ch` channels.
+    fn new(row: usize, h: usize, ch: usize) -> RowsF32 {
+        RowsF32 { dy: vec![0f32; row], sums: vec![0.0; sampled_rows(h)], ch }
+    }
+
     /// The buffer in `slot` (new if none) made for rows of `row` values of `ch` channels (every
     /// row overwrites it whole).
     fn reuse(slot: &mut Option<RowsF32>, row: usize, ch: usize) -> &mut RowsF32 {
-        let r = slot.get_or_insert_with(|| RowsF32 { dy: Vec::new(), ch });
+        let r = slot.get_or_insert_with(|| RowsF32::new(row, 0, ch));
         r.ch = ch;
         r.dy.resize(row, 0.0);
         r
@@ -1447,6 +1568,11 @@ impl RowsF32 {
 }
 
 impl MaskRows<f32> for RowsF32 {
+    #[inline(always)]
+    fn keep(&mut self, k: usize, s: f64) {
+        self.sums[k] = s;
+    }
+
     #[inline(always)]
     fn row_sum(&mut self, a: &[f32], b: &[f32], c: &[f32]) -> f64 {
         let (dy, ch) = (&mut self.dy, self.ch);
@@ -1548,18 +1674,33 @@ impl MaskRows<u8> for RowsU8 {
 /// that of its features, pixel / 255): the same mask and rows, summed exactly in integers (the
 /// f32 path rounds, so the two agree to about 1e-6 relative).
 pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
-    pixel_variance_u8_in(x, w, h, ch, &mut RowsU8::new(w * ch, ch))
+    pixel_variance_u8_in(x, w, h, ch, &mut RowsU8::new(w * ch, ch), 0.0)
 }
 
 /// [`pixel_variance_u8`] with the row buffers `rows` (made for rows of w x ch values), so a
-/// batch allocates them once.
-fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if Level::detect() == Level::Avx512 && std::arch::is_x86_feature_detected!("avx512vl") {
-        // SAFETY: the CPU supports AVX-512 F/BW/VL (detected).
-        return unsafe { simd::pixel_variance_u8_avx512(x, w, h, ch, rows) };
-    }
-    immerkaer(x, w, h, ch, rows)
+/// batch allocates them once; staged when `early` > 0, as [`pixel_variance_in`] (the two
+/// passes' integer sums add up to the one pass's exactly).
+fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8, early: f64) -> f64 {
+    let pass = |rows: &mut RowsU8, pass: Pass| {
+        #[cfg(target_arch = "x86_64")]
+        if Level::detect() == Level::Avx512 && std::arch::is_x86_feature_detected!("avx512vl") {
+            // SAFETY: the CPU supports AVX-512 F/BW/VL (detected).
+            return unsafe { simd::pixel_variance_u8_avx512(x, w, h, ch, rows, pass) };
+        }
+        immerkaer_pass(x, w, h, ch, rows, pass)
+    };
+    let (sum, count) = if early > 0.0 && sampled_rows(h) >= 2 * FIRST_EVERY {
+        let (first, count) = pass(rows, Pass::First);
+        let v = variance_from(first, count, w * ch, ch);
+        if v < early {
+            return v;
+        }
+        let (rest, more) = pass(rows, Pass::Rest);
+        (first + rest, count + more)
+    } else {
+        pass(rows, Pass::All)
+    };
+    variance_from(sum, count, w * ch, ch)
 }
 
 /// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
@@ -1610,6 +1751,30 @@ pub const MAX_LATTICE: usize = 16_384;
 
 /// Rows sampled by [`pixel_noise`].
 const NOISE_ROW_STEP: usize = 8;
+
+/// What a query's projection computes of its pixel noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum NoiseWant {
+    /// Nothing (a model without the noisy match).
+    None,
+    /// The whole estimate: the noisy match weights its coordinates by it.
+    Full,
+    /// Enough to route the query: staged, a query whose first pass is under [`NOISE_EARLY`]
+    /// times the threshold is clean without the rest.
+    Route,
+}
+
+/// Where a staged pixel-noise estimate stops, relative to the model's noise threshold: a query
+/// whose estimate from the first quarter of the sampled rows ([`Pass::First`]) is under half
+/// the threshold is taken as clean without the rest (the estimate from every sampled row, as
+/// unstaged, decides every other). The first quarter's estimate of a noisy image is near the
+/// whole's: on the rendered objects' views (every 4th) and COIL-20's 72 per object under
+/// simulated +-5% and +-10% noise, at least 1.06 times the threshold (COIL-9, whose least whole
+/// estimate is 1.06 times it too), so half leaves a margin of 2. It stops at least 92% of the
+/// clean views of 18 of those 25 objects, 88% of COIL-20's 1440 clean views in all, the least
+/// COIL-17's 53% (whose clean views come to 0.45 times the threshold). (A numpy replica of the
+/// 8-bit estimate on the image files; BENCHMARKS.md, fifteenth session.)
+const NOISE_EARLY: f64 = 0.5;
 
 /// The `k` smallest of `dist` no more than twice the smallest (the only ones
 /// [`RefinedModel::distinct_starts`] keeps), with their indices, in increasing order (ties: the
@@ -1672,7 +1837,7 @@ impl RefinedModel {
         let mut out = vec![0.0; n * p];
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
-            self.project_f32(q, true, s);
+            self.project_f32(q, NoiseWant::Full, s);
             for ((c, o), &nu) in s.y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&s.noise) {
                 if c[0].is_nan() {
                     o.fill(f64::NAN);
@@ -1753,36 +1918,57 @@ impl RefinedModel {
     }
 }
 
+impl RefinedModel {
+    /// What a query's projection computes of its pixel noise: enough to route it, when the
+    /// model has the noisy match.
+    fn noise_want(&self) -> NoiseWant {
+        if self.settings.noise_threshold > 0.0 {
+            NoiseWant::Route
+        } else {
+            NoiseWant::None
+        }
+    }
+
+    /// [`PoseModel::predict_into`], computing `noise` of each query's pixel noise.
+    fn predict_with(&self, queries: &[f32], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
+        let (m, p) = (self.m, self.meta.space.len());
+        let n = batch_len(m, queries.len(), out.len(), p)?;
+        let rows = chunk_rows(n);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            self.project_f32(q, noise, s);
+            self.poses_of(s, o);
+        });
+        no_black_query(out, p)
+    }
+
+    /// [`PoseModel::predict_u8_into`], computing `noise` of each query's pixel noise.
+    fn predict_u8_with(&self, queries: &[u8], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
+        let (m, p) = (self.m, self.meta.space.len());
+        let n = batch_len(m, queries.len(), out.len(), p)?;
+        let level = Level::detect();
+        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, self.quant.block(level)) } else { n };
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            self.project_u8(level, q, noise, s);
+            self.poses_of(s, o);
+        });
+        no_black_query(out, p)
+    }
+}
+
 impl PoseModel for RefinedModel {
     fn meta(&self) -> &ModelMeta {
         &self.meta
     }
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
-        let (m, p) = (self.m, self.meta.space.len());
-        let n = batch_len(m, queries.len(), out.len(), p)?;
-        let rows = chunk_rows(n);
-        let want_noise = self.settings.noise_threshold > 0.0;
-        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
-            self.project_f32(q, want_noise, s);
-            self.poses_of(s, o);
-        });
-        no_black_query(out, p)
+        self.predict_with(queries, self.noise_want(), out)
     }
 
     /// 8-bit queries: the projection by [`dot_q::FastRows`] (16-bit fixed point where VNNI runs
     /// it, else [`dot_u8::dots_batch`]), then the search; the estimates of
     /// [`PoseModel::predict_into`] on the same images as features but for near ties.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
-        let (m, p) = (self.m, self.meta.space.len());
-        let n = batch_len(m, queries.len(), out.len(), p)?;
-        let (level, want_noise) = (Level::detect(), self.settings.noise_threshold > 0.0);
-        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, self.quant.block(level)) } else { n };
-        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
-            self.project_u8(level, q, want_noise, s);
-            self.poses_of(s, o);
-        });
-        no_black_query(out, p)
+        self.predict_u8_with(queries, self.noise_want(), out)
     }
 
     /// Everything held to serve queries: basis, mean and their projections, the surface's knot

@@ -8,16 +8,24 @@ use crate::{Manifest, Param, PoseSpace};
 use crate::eigenspace::tests::{image, H, W};
 
 fn grid(elev: &[f64], azim: &[f64]) -> Dataset {
+    grid_tiled(elev, azim, 1)
+}
+
+/// [`grid`] with each image `tiles` times as tall (repeated below itself).
+fn grid_tiled(elev: &[f64], azim: &[f64], tiles: usize) -> Dataset {
     let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
     let (mut poses, mut names, mut f) = (Vec::new(), Vec::new(), Vec::new());
     for &e in elev {
         for &a in azim {
             poses.extend([e, a]);
             names.push(format!("{e}_{a}.png"));
-            f.extend(image(e, a));
+            let x = image(e, a);
+            for _ in 0..tiles {
+                f.extend_from_slice(&x);
+            }
         }
     }
-    let spec = ImageSpec { width: W as u32, height: H as u32, color: ColorMode::Gray };
+    let spec = ImageSpec { width: W as u32, height: (H * tiles) as u32, color: ColorMode::Gray };
     Dataset::from_features(Manifest::new(".", space, names, poses).unwrap(), spec, f).unwrap()
 }
 
@@ -338,8 +346,8 @@ fn the_8_bit_pixel_variance_is_exact() {
         for x in [&random, &checker] {
             let (got, want) = (super::pixel_variance_u8(x, w, h, ch), reference(x, w, h, ch));
             assert_eq!(got, want, "{w} x {h} x {ch}");
-            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, super::RowsU8::reuse(&mut slot, w * ch, ch)), want, "reused, {w} x {h} x {ch}");
-            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, &mut flushing), want, "flushed, {w} x {h} x {ch}");
+            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, super::RowsU8::reuse(&mut slot, w * ch, ch), 0.0), want, "reused, {w} x {h} x {ch}");
+            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, &mut flushing, 0.0), want, "flushed, {w} x {h} x {ch}");
         }
     }
 }
@@ -357,7 +365,7 @@ fn the_f32_pixel_variance_gives_the_portable_bits() {
                 (state >> 40) as f32 / (1u64 << 24) as f32
             })
             .collect();
-        let portable = super::immerkaer(&x, w, h, ch, &mut super::RowsF32 { dy: vec![0f32; w * ch], ch });
+        let portable = super::immerkaer(&x, w, h, ch, &mut super::RowsF32::new(w * ch, h, ch));
         assert_eq!(super::pixel_variance(&x, w, h, ch).to_bits(), portable.to_bits(), "{w} x {h} x {ch}");
         assert!(portable > 0.0);
     }
@@ -600,4 +608,86 @@ fn a_noisy_two_parameter_query_starts_from_the_noisy_tree() {
     let second = second.expect("a second basin within twice the distance");
     let gap = (ct.poses[2 * first + 1] - ct.poses[2 * second + 1]).abs();
     assert!(gap.min(360.0 - gap) > nt.apart[1] || (ct.poses[2 * first] - ct.poses[2 * second]).abs() > nt.apart[0], "{first} and {second} apart");
+}
+
+/// The staged pixel-noise estimate stops on its first pass exactly when that pass's estimate is
+/// under `early`, and otherwise gives the whole estimate's bits, f32 and 8-bit, on random
+/// images of several shapes (one of fewer than 2 x 4 sampled rows is never staged).
+#[test]
+fn the_staged_pixel_variance_stops_only_under_its_early_level() {
+    let mut state = 5u64;
+    for &(w, h, ch) in &[(160usize, 120usize, 1usize), (128, 128, 1), (37, 64, 3), (9, 40, 1)] {
+        let x8: Vec<u8> = (0..w * h * ch)
+            .map(|_| {
+                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (state >> 56) as u8
+            })
+            .collect();
+        let xf: Vec<f32> = x8.iter().map(|&v| v as f32 / 255.0).collect();
+        let staged = super::sampled_rows(h) >= 2 * super::FIRST_EVERY;
+        // f32: the first pass's estimate from the portable body.
+        let mut rows = super::RowsF32::new(w * ch, h, ch);
+        let (s, c) = super::immerkaer_pass(&xf, w, h, ch, &mut rows, super::Pass::First);
+        let first = super::variance_from(s, c, w * ch, ch);
+        let whole = super::pixel_variance(&xf, w, h, ch);
+        assert!(first > 0.0 && first != whole, "{w} x {h} x {ch}");
+        let mut slot = None;
+        let mut at = |early: f64| super::pixel_variance_in(&xf, w, h, ch, super::RowsF32::reuse(&mut slot, w * ch, ch), early).to_bits();
+        assert_eq!(at(first.next_up()), if staged { first } else { whole }.to_bits(), "f32 {w} x {h} x {ch}: stops");
+        assert_eq!(at(first), whole.to_bits(), "f32 {w} x {h} x {ch}: goes on");
+        assert_eq!(at(0.0), whole.to_bits());
+        // 8-bit.
+        let mut rows = super::RowsU8::new(w * ch, ch);
+        let (s, c) = super::immerkaer_pass(&x8, w, h, ch, &mut rows, super::Pass::First);
+        let first = super::variance_from(s, c, w * ch, ch);
+        let whole = super::pixel_variance_u8(&x8, w, h, ch);
+        let mut slot = None;
+        let mut at = |early: f64| super::pixel_variance_u8_in(&x8, w, h, ch, super::RowsU8::reuse(&mut slot, w * ch, ch), early);
+        assert_eq!(at(first.next_up()), if staged { first } else { whole }, "8-bit {w} x {h} x {ch}: stops");
+        assert_eq!(at(first), whole, "8-bit {w} x {h} x {ch}: goes on");
+    }
+}
+
+/// A query routed by the staged pixel-noise estimate gets the pose the whole estimate gives it
+/// (f32 and 8-bit, clean and under +-5% and +-10% noise), and clean queries do stop after the
+/// first pass: images 6 times as tall as the others here, so that 9 rows are sampled.
+#[test]
+fn the_staged_noise_estimate_routes_queries_as_the_whole_one() {
+    let azim: Vec<f64> = (0..24).map(|k| 15.0 * k as f64).collect();
+    let d = grid_tiled(&[30.0, 40.0, 50.0, 60.0, 70.0], &azim, 6);
+    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    let t = model.settings().noise_threshold;
+    assert!(t > 0.0);
+    let test = grid_tiled(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5], 6);
+    let spec = test.spec();
+    let (w, h, m) = (spec.width as usize, spec.height as usize, test.n_features());
+    assert!(super::sampled_rows(h) >= 2 * super::FIRST_EVERY);
+    let mut stopped = 0;
+    for a in [0.0, 0.05, 0.1] {
+        let mut q = test.features().to_vec();
+        crate::eval::add_uniform_noise(&mut q, m, a, 3).unwrap();
+        let q8: Vec<u8> = q.iter().map(|&v| (v * 255.0).round() as u8).collect();
+        let p = test.space().len();
+        let (mut route, mut whole) = (vec![0.0; test.len() * p], vec![0.0; test.len() * p]);
+        model.predict_with(&q, NoiseWant::Route, &mut route).unwrap();
+        model.predict_with(&q, NoiseWant::Full, &mut whole).unwrap();
+        assert_eq!(route, whole, "f32 at +-{a}");
+        model.predict_u8_with(&q8, NoiseWant::Route, &mut route).unwrap();
+        model.predict_u8_with(&q8, NoiseWant::Full, &mut whole).unwrap();
+        assert_eq!(route, whole, "8-bit at +-{a}");
+        for x in q.chunks_exact(m) {
+            let energy = crate::linalg::energy(x);
+            let early = model.early(NoiseWant::Route, energy).unwrap();
+            let staged = super::pixel_variance_in(x, w, h, 1, &mut super::RowsF32::new(w, h, 1), early);
+            let full = super::pixel_variance(x, w, h, 1);
+            // The route's comparison: noise per unit energy times M against the threshold.
+            let noisy = full * m as f64 / energy > t;
+            assert_eq!(noisy, a > 0.0, "+-{a}: the whole estimate routes it");
+            if staged != full {
+                assert!(!noisy && staged < early, "+-{a}: only a clean query stops, under its early level");
+                stopped += 1;
+            }
+        }
+    }
+    assert!(stopped > 0, "some clean queries stop after the first pass");
 }
