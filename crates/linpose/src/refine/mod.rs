@@ -78,7 +78,9 @@
 //! residual), by the eigenspace's own kernels (one f32 product per sub-chunk of a batch; for
 //! 8-bit images [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same
 //! pass), in sub-chunks small enough that the images are still cached for the sampled pixel-noise
-//! pass ([`pixel_variance`], [`pixel_variance_u8`]); a scan of the coarse points in register
+//! pass ([`pixel_variance`], [`pixel_variance_u8`]; staged for routing: a query whose estimate
+//! from a quarter of the sampled rows is under half the threshold is clean without the rest,
+//! see `NOISE_EARLY`); a scan of the coarse points in register
 //! blocks ([`crate::kernels::scan`]) that rules most of them out on the leading coordinates first
 //! (the distance to bounding boxes of 16 coarse points in the first 8 coordinates, or for a
 //! noisy query the affine fit on the first half of 16 or more coordinates, bounds the whole from
