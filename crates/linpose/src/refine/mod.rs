@@ -1199,17 +1199,24 @@ fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF3
         }
         immerkaer_pass(x, w, h, ch, rows, pass)
     };
-    let n = sampled_rows(h);
-    rows.sums.resize(n, 0.0);
-    let (sum, count) = if early > 0.0 && n >= 2 * FIRST_EVERY {
+    rows.sums.resize(sampled_rows(h), 0.0);
+    staged(w, h, ch, rows, early, pass)
+}
+
+/// Immerkaer's variance from `pass` (a body summing the sampled rows a [`Pass`] takes, and
+/// counting them), staged when `early` > 0 and at least two rows would be in the first pass:
+/// the first pass's estimate when under `early`, else the whole sum from the first pass's and
+/// the rest's ([`MaskRows::whole`]).
+#[inline(always)]
+fn staged<T, R: MaskRows<T>>(w: usize, h: usize, ch: usize, rows: &mut R, early: f64, pass: impl Fn(&mut R, Pass) -> (f64, usize)) -> f64 {
+    let (sum, count) = if early > 0.0 && sampled_rows(h) >= 2 * FIRST_EVERY {
         let (first, count) = pass(rows, Pass::First);
         let v = variance_from(first, count, w * ch, ch);
         if v < early {
             return v;
         }
-        pass(rows, Pass::Rest);
-        // Every sampled row's sum, added in the order of one pass over them all.
-        (rows.sums.iter().fold(0.0, |s, &v| s + v), n)
+        let (rest, more) = pass(rows, Pass::Rest);
+        (rows.whole(first, rest), count + more)
     } else {
         pass(rows, Pass::All)
     };
@@ -1539,6 +1546,12 @@ trait MaskRows<T> {
     /// again in their order (nothing by default).
     #[inline(always)]
     fn keep(&mut self, _k: usize, _s: f64) {}
+    /// The sum over every sampled row from a staged estimate's two passes' sums (their sum by
+    /// default: exact for integer sums).
+    #[inline(always)]
+    fn whole(&self, first: f64, rest: f64) -> f64 {
+        first + rest
+    }
     /// What the rows summed without returning it (0 when each row returns its own).
     fn total(&mut self) -> f64 {
         0.0
@@ -1574,6 +1587,13 @@ impl MaskRows<f32> for RowsF32 {
     #[inline(always)]
     fn keep(&mut self, k: usize, s: f64) {
         self.sums[k] = s;
+    }
+
+    /// Every sampled row's kept sum, added in the order of one pass over them all (the same
+    /// bits as unstaged).
+    #[inline(always)]
+    fn whole(&self, _first: f64, _rest: f64) -> f64 {
+        self.sums.iter().fold(0.0, |s, &v| s + v)
     }
 
     #[inline(always)]
@@ -1692,18 +1712,7 @@ fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut Rows
         }
         immerkaer_pass(x, w, h, ch, rows, pass)
     };
-    let (sum, count) = if early > 0.0 && sampled_rows(h) >= 2 * FIRST_EVERY {
-        let (first, count) = pass(rows, Pass::First);
-        let v = variance_from(first, count, w * ch, ch);
-        if v < early {
-            return v;
-        }
-        let (rest, more) = pass(rows, Pass::Rest);
-        (first + rest, count + more)
-    } else {
-        pass(rows, Pass::All)
-    };
-    variance_from(sum, count, w * ch, ch)
+    staged(w, h, ch, rows, early, pass)
 }
 
 /// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
