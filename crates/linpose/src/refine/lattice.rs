@@ -65,11 +65,24 @@ pub struct Lattice {
     /// lattice pose, [offset j][interval] in rows of the intervals rounded up to 16 (+inf past
     /// the last interval).
     norms: Vec<f32>,
+    /// For an even lattice, what the pruned scan reads ([`simd::pruned_avx512`]): the norms
+    /// again as [interval][offset] in rows of the offsets rounded up to 16 (+inf past the last
+    /// offset), the Hermite weights as [weight][offset] (0 past it), each interval's least norm
+    /// (rows of `norms`' length, +inf past the last interval), and the largest h h10 and
+    /// -h h11 over the offsets.
+    norms_t: Vec<f32>,
+    herm_t: Vec<f32>,
+    norm_min: Vec<f32>,
+    slope_max: [f32; 2],
     /// The largest of the norms, and of ||value|| + ||h slope|| over the knots (bounds of the
     /// f32 rounding in [`Lattice::nearest_even`]).
     norm_max: f64,
     span_max: f64,
 }
+
+/// Most intervals the pruned scan of an even lattice evaluates; with more left it scans every
+/// pose (a query with very unequal weights bounds little).
+const PRUNE_MAX: usize = 8;
 
 /// [`Lattice::nearest_even`]'s buffers: the products and distances, and the poses left.
 type EvenScratch = (Vec<f32>, Vec<(usize, usize)>);
@@ -176,7 +189,26 @@ impl Lattice {
         let offset = |c: &(f64, f64, i64, usize)| lo + c.2 as f64 * step - c.0;
         let even = cells.iter().all(|c| (c.1 - h0).abs() <= 1e-9 * h0 && c.3 == c0 && (offset(c) - offset(&cells[0])).abs() <= 1e-9 * step);
         let even = if even { (0..c0).map(|j| (lo + (cells[0].2 + j as i64) as f64 * step - cells[0].0) / h0).collect() } else { Vec::new() };
-        let mut out = Lattice { ls, cols, values: v, slopes: s, unit: Vec::new(), cells, lo, step, end, even, herm: Vec::new(), norms: Vec::new(), norm_max: 0.0, span_max: 0.0 };
+        let mut out = Lattice {
+            ls,
+            cols,
+            values: v,
+            slopes: s,
+            unit: Vec::new(),
+            cells,
+            lo,
+            step,
+            end,
+            even,
+            herm: Vec::new(),
+            norms: Vec::new(),
+            norms_t: Vec::new(),
+            herm_t: Vec::new(),
+            norm_min: Vec::new(),
+            slope_max: [0.0; 2],
+            norm_max: 0.0,
+            span_max: 0.0,
+        };
         if out.even.is_empty() {
             let mut unit = vec![0.0; PAIRS * cols];
             out.pairs(&vec![1.0; ls], &mut unit);
@@ -198,13 +230,29 @@ impl Lattice {
                 let norm = |v: &[f32]| (0..ls).map(|l| (v[l * cols + i] as f64).powi(2)).sum::<f64>().sqrt();
                 out.span_max = out.span_max.max(norm(&out.values) + h0 * norm(&out.slopes));
             }
+            let (nj, npo) = (out.even.len(), out.even.len().div_ceil(16) * 16);
+            out.norms_t = vec![f32::INFINITY; intervals * npo];
+            out.herm_t = vec![0.0; 4 * npo];
+            out.norm_min = vec![f32::INFINITY; np];
+            for j in 0..nj {
+                for a in 0..4 {
+                    out.herm_t[a * npo + j] = out.herm[j][a];
+                }
+                out.slope_max = [out.slope_max[0].max(out.herm[j][1]), out.slope_max[1].max(-out.herm[j][3])];
+                for i in 0..intervals {
+                    let v = out.norms[j * np + i];
+                    out.norms_t[i * npo + j] = v;
+                    out.norm_min[i] = out.norm_min[i].min(v);
+                }
+            }
         }
         out
     }
 
     /// Bytes held (the interval table counted as four 8-byte numbers an interval).
     pub fn bytes(&self) -> usize {
-        (self.values.len() + self.slopes.len() + 4 * self.herm.len() + self.norms.len()) * 4 + (self.unit.len() + 4 * self.cells.len() + self.even.len() + 2) * 8
+        (self.values.len() + self.slopes.len() + 4 * self.herm.len() + self.norms.len() + self.norms_t.len() + self.herm_t.len() + self.norm_min.len() + 2) * 4
+            + (self.unit.len() + 4 * self.cells.len() + self.even.len() + 2) * 8
     }
 
     /// The seven weighted products per knot, [product][column] into `g` (PAIRS x cols).
@@ -276,34 +324,44 @@ impl Lattice {
             wmax = wmax.max(w);
         }
         let yy: f64 = y[..ls].iter().map(|&v| v as f64 * v as f64).sum();
-        EVEN_SCRATCH.with_borrow_mut(|(buf, hits)| {
-            // cp and cs, each with a vector of zeros past it (the last group reads column np);
-            // every other number is written before it is read.
-            if buf.len() != 2 * (c + 16) + nj * np {
-                buf.clear();
-                buf.resize(2 * (c + 16) + nj * np, 0.0);
-            }
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-            let least = if avx512 { unsafe { simd::even_avx512(self, y, yy as f32, buf) } } else { self.even_distances(y, yy as f32, buf) };
-            #[cfg(not(target_arch = "x86_64"))]
-            let least = self.even_distances(y, yy as f32, buf);
-            let d = &buf[2 * (c + 16)..];
-            // The f32 rounding of d: the products' (up to 40 terms of |y_l| |v_l|, bounded by
-            // ||y|| ||v||, in the knots' values and slopes) and the sums' (of ||y||^2 and the
-            // norms), each well below 1e-5 of these magnitudes.
-            let slack = 1e-5 * (1.0 + yy + self.norm_max + yy.sqrt() * self.span_max);
+        // The f32 rounding of d: the products' (up to 40 terms of |y_l| |v_l|, bounded by
+        // ||y|| ||v||, in the knots' values and slopes) and the sums' (of ||y||^2 and the
+        // norms), each well below 1e-5 of these magnitudes.
+        let slack = 1e-5 * (1.0 + yy + self.norm_max + yy.sqrt() * self.span_max);
+        // The cut from the least d, in f32, rounded up.
+        let cut_of = |least: f32| {
             let cut = (wmax * (least as f64 + slack)) / wmin.max(f64::MIN_POSITIVE) + slack;
-            // In f32, rounded up.
-            let cut = if (cut as f32 as f64) < cut { (cut as f32).next_up() } else { cut as f32 };
+            if (cut as f32 as f64) < cut {
+                (cut as f32).next_up()
+            } else {
+                cut as f32
+            }
+        };
+        let npo = self.herm_t.len() / 4;
+        EVEN_SCRATCH.with_borrow_mut(|(buf, hits)| {
+            // cp and cs, each with a vector of zeros past it (the last group reads column np),
+            // then d (or the pruned scan's bounds and distances); every other number is written
+            // before it is read.
+            let len = 2 * (c + 16) + (nj * np).max(np + PRUNE_MAX * npo);
+            if buf.len() != len {
+                buf.clear();
+                buf.resize(len, 0.0);
+            }
             hits.clear();
             #[cfg(target_arch = "x86_64")]
             if avx512 {
                 // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-                unsafe { simd::under_avx512(d, np, cut, hits) };
+                unsafe {
+                    simd::even_products_avx512(self, y, buf);
+                    if !simd::pruned_avx512(self, yy as f32, slack, &cut_of, buf, hits) {
+                        let least = simd::even_poses_avx512(self, yy as f32, buf);
+                        simd::under_avx512(&buf[2 * (c + 16)..2 * (c + 16) + nj * np], np, cut_of(least), hits);
+                    }
+                }
             }
             if !(avx512 && cfg!(target_arch = "x86_64")) {
-                under(d, np, cut, hits);
+                let least = self.even_distances(y, yy as f32, buf);
+                under(&buf[2 * (c + 16)..2 * (c + 16) + nj * np], np, cut_of(least), hits);
             }
             // In increasing lattice pose: ties go to the lowest.
             hits.sort_unstable();
@@ -510,21 +568,20 @@ mod simd {
         }
     }
 
-    /// [`Lattice::even_distances`] 16 columns or poses a vector (the same products and sums in
-    /// the same order; the least is the same whatever the order).
+    /// The products of [`Lattice::even_distances`] (cp and cs into `buf`), 16 columns a vector
+    /// (the same products and sums in the same order).
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn even_avx512(s: &Lattice, y: &[f32], yy: f32, buf: &mut [f32]) -> f32 {
+    pub unsafe fn even_products_avx512(s: &Lattice, y: &[f32], buf: &mut [f32]) {
         use std::arch::x86_64::*;
-        let (c, nj) = (s.cols, s.even.len());
-        let np = s.norms.len() / nj;
-        assert!(c.is_multiple_of(16) && np.is_multiple_of(16) && np <= c && buf.len() >= 2 * (c + 16) + nj * np);
-        assert!(y.len() >= s.ls && s.values.len() >= s.ls * c && s.slopes.len() >= s.ls * c && s.herm.len() == nj);
+        let c = s.cols;
+        assert!(c.is_multiple_of(16) && buf.len() >= 2 * (c + 16));
+        assert!(y.len() >= s.ls && s.values.len() >= s.ls * c && s.slopes.len() >= s.ls * c);
         let base = buf.as_mut_ptr();
         // SAFETY: within buf (asserted length).
-        let (cp, cs, d) = unsafe { (base, base.add(c + 16), base.add(2 * (c + 16))) };
+        let (cp, cs) = unsafe { (base, base.add(c + 16)) };
         for k0 in (0..c).step_by(16) {
             let (mut sp, mut ss) = (_mm512_setzero_ps(), _mm512_setzero_ps());
             for (l, &yl) in y[..s.ls].iter().enumerate() {
@@ -540,6 +597,23 @@ mod simd {
                 _mm512_storeu_ps(cs.add(k0), ss);
             }
         }
+    }
+
+    /// The distances of [`Lattice::even_distances`] at every lattice pose from the products in
+    /// `buf` ([`even_products_avx512`]), 16 poses a vector (the same operations: the same bits);
+    /// returns the least.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn even_poses_avx512(s: &Lattice, yy: f32, buf: &mut [f32]) -> f32 {
+        use std::arch::x86_64::*;
+        let (c, nj) = (s.cols, s.even.len());
+        let np = s.norms.len() / nj;
+        assert!(c.is_multiple_of(16) && np.is_multiple_of(16) && np <= c && buf.len() >= 2 * (c + 16) + nj * np && s.herm.len() == nj);
+        let base = buf.as_mut_ptr();
+        // SAFETY: within buf (asserted length).
+        let (cp, cs, d) = unsafe { (base, base.add(c + 16), base.add(2 * (c + 16))) };
         let (mut mins, yv, two) = (_mm512_set1_ps(f32::INFINITY), _mm512_set1_ps(yy), _mm512_set1_ps(2.0));
         for j in 0..nj {
             let hj = s.herm[j];
@@ -558,6 +632,99 @@ mod simd {
             }
         }
         _mm512_reduce_min_ps(mins)
+    }
+
+    /// The poses of [`Lattice::nearest_even`] within the cut (`cut_of` the least distance) into
+    /// `hits`, from the products in `buf` ([`even_products_avx512`]), evaluating only the
+    /// intervals that can hold one: per interval a lower bound of d over its poses,
+    /// ||y||^2 + min ||f||^2 - 2 (max(cp_i, cp_i+1) + max h h10 max(cs_i, 0) + max -h h11
+    /// max(-cs_i+1, 0)) (h00 + h01 = 1, h10 >= 0 >= h11), against the cut of the least d at
+    /// the intervals' first poses. An interval whose bound, less twice `slack` (its f32
+    /// rounding and d's), is above that cut holds no pose within the final cut, which is no
+    /// larger; the others are evaluated with the full scan's operations on the same numbers, so
+    /// the least, the cut and the poses are the full scan's. With more than [`super::PRUNE_MAX`]
+    /// intervals left, returns false (and leaves `hits` empty) for the full scan.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn pruned_avx512(s: &Lattice, yy: f32, slack: f64, cut_of: &dyn Fn(f32) -> f32, buf: &mut [f32], hits: &mut Vec<(usize, usize)>) -> bool {
+        use std::arch::x86_64::*;
+        let (c, nj) = (s.cols, s.even.len());
+        let (np, npo) = (s.norms.len() / nj, s.herm_t.len() / 4);
+        let intervals = s.norms_t.len() / npo;
+        assert!(np.is_multiple_of(16) && npo.is_multiple_of(16) && np <= c && s.norm_min.len() == np && intervals <= np);
+        assert!(buf.len() >= 2 * (c + 16) + np + super::PRUNE_MAX * npo && s.herm.len() == nj && nj <= npo);
+        let base = buf.as_mut_ptr();
+        // SAFETY: within buf (asserted length): cp, cs, then the bounds and the distances.
+        let (cp, cs, lb, dd) = unsafe { (base, base.add(c + 16), base.add(2 * (c + 16)), base.add(2 * (c + 16) + np)) };
+        let (yv, two, zero) = (_mm512_set1_ps(yy), _mm512_set1_ps(2.0), _mm512_setzero_ps());
+        let h = s.herm[0];
+        let h = [_mm512_set1_ps(h[0]), _mm512_set1_ps(h[1]), _mm512_set1_ps(h[2]), _mm512_set1_ps(h[3])];
+        let (m1, m3) = (_mm512_set1_ps(s.slope_max[0]), _mm512_set1_ps(s.slope_max[1]));
+        let mut first = _mm512_set1_ps(f32::INFINITY);
+        for i0 in (0..np).step_by(16) {
+            // SAFETY: columns i0 .. i0 + 17 of cp and cs (cols + 16 each, np <= cols), bounds
+            // i0 .. i0 + 16 (asserted).
+            unsafe {
+                let (c0, c1) = (_mm512_loadu_ps(cp.add(i0)), _mm512_loadu_ps(cp.add(i0 + 1)));
+                let (s0, s1) = (_mm512_loadu_ps(cs.add(i0)), _mm512_loadu_ps(cs.add(i0 + 1)));
+                // The first pose of each interval, as the full scan computes it.
+                let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], c0), _mm512_mul_ps(h[1], s0)), _mm512_mul_ps(h[2], c1)), _mm512_mul_ps(h[3], s1));
+                first = _mm512_min_ps(_mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norms.as_ptr().add(i0))), _mm512_mul_ps(two, dot)), first);
+                let most = _mm512_add_ps(_mm512_add_ps(_mm512_max_ps(c0, c1), _mm512_mul_ps(m1, _mm512_max_ps(s0, zero))), _mm512_mul_ps(m3, _mm512_max_ps(_mm512_sub_ps(zero, s1), zero)));
+                _mm512_storeu_ps(lb.add(i0), _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norm_min.as_ptr().add(i0))), _mm512_mul_ps(two, most)));
+            }
+        }
+        // Bounds above this cannot hold a pose within the cut.
+        let limit = _mm512_set1_ps((cut_of(_mm512_reduce_min_ps(first)) as f64 + 2.0 * slack) as f32);
+        let mut left = [0usize; super::PRUNE_MAX];
+        let mut n = 0;
+        for i0 in (0..np).step_by(16) {
+            // SAFETY: bounds i0 .. i0 + 16 (asserted); +inf past the last interval.
+            let mut m = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(unsafe { _mm512_loadu_ps(lb.add(i0)) }, limit);
+            while m != 0 {
+                if n == super::PRUNE_MAX {
+                    return false;
+                }
+                left[n] = i0 + m.trailing_zeros() as usize;
+                n += 1;
+                m &= m - 1;
+            }
+        }
+        let mut mins = _mm512_set1_ps(f32::INFINITY);
+        for (slot, &i) in left[..n].iter().enumerate() {
+            // SAFETY: columns i and i + 1 of cp and cs, interval i's row of norms_t and the
+            // slot's row of distances (asserted lengths).
+            unsafe {
+                let (c0, c1, s0, s1) = (_mm512_set1_ps(*cp.add(i)), _mm512_set1_ps(*cp.add(i + 1)), _mm512_set1_ps(*cs.add(i)), _mm512_set1_ps(*cs.add(i + 1)));
+                for o in (0..npo).step_by(16) {
+                    // (A macro, not a closure: a closure does not take the function's target
+                    // features.)
+                    macro_rules! hv {
+                        ($a:expr) => {
+                            _mm512_loadu_ps(s.herm_t.as_ptr().add($a * npo + o))
+                        };
+                    }
+                    let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(hv!(0), c0), _mm512_mul_ps(hv!(1), s0)), _mm512_mul_ps(hv!(2), c1)), _mm512_mul_ps(hv!(3), s1));
+                    let v = _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norms_t.as_ptr().add(i * npo + o))), _mm512_mul_ps(two, dot));
+                    _mm512_storeu_ps(dd.add(slot * npo + o), v);
+                    mins = _mm512_min_ps(v, mins);
+                }
+            }
+        }
+        let cut = _mm512_set1_ps(cut_of(_mm512_reduce_min_ps(mins)));
+        for (slot, &i) in left[..n].iter().enumerate() {
+            for o in (0..npo).step_by(16) {
+                // SAFETY: the slot's distances o .. o + 16 (written above).
+                let mut m = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(unsafe { _mm512_loadu_ps(dd.add(slot * npo + o)) }, cut);
+                while m != 0 {
+                    hits.push((i, o + m.trailing_zeros() as usize));
+                    m &= m - 1;
+                }
+            }
+        }
+        true
     }
 
     /// [`super::under`] 16 values a comparison (`d` in whole vectors).
@@ -708,6 +875,7 @@ mod tests {
         // One interval off the lattice's step: even, with its end off the lattice.
         let single = [20.0, 25.3];
         let cases: [(&[f64], bool, usize, usize); 5] = [(&even36, true, 20, 20), (&even36, true, 12, 8), (&uneven, true, 9, 9), (&linear, false, 6, 6), (&single, false, 5, 5)];
+        let mut pruned = 0;
         for (at, circular, dim, ls) in cases {
             let s = curve(at, dim, circular, &mut rng);
             let (knots, period, v, sl, d) = s.line_parts().unwrap();
@@ -728,6 +896,10 @@ mod tests {
                 let got = lat.nearest(&y, &wt, uniform.then_some(0.7), &mut scratch);
                 let portable = if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
                 assert_eq!(got.to_bits(), portable.to_bits(), "the AVX-512 build gives the portable one's pose");
+                #[cfg(target_arch = "x86_64")]
+                if !lat.even.is_empty() && crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+                    pruned += pruned_as_full(&lat, &y, &wt) as usize;
+                }
                 let all = brute(&s, &y, &wt, 0.5);
                 let least = all.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
                 let at_got = all.iter().find(|p| (p.0 - got).abs() < 1e-9).unwrap_or_else(|| panic!("{got} is not a lattice pose"));
@@ -735,5 +907,40 @@ mod tests {
                 assert!(at_got.1 <= least + 1e-12 * (1.0 + least), "query {q}: {got} at {} against the least {least}", at_got.1);
             }
         }
+        #[cfg(target_arch = "x86_64")]
+        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            assert!(pruned >= 20, "the uniform queries near the curve take the pruned scan: {pruned}");
+        }
+    }
+
+    /// Whether the pruned scan of an even lattice ran for `y` (else it left the full scan to
+    /// run), asserting that it found the full scan's poses within the cut.
+    #[cfg(target_arch = "x86_64")]
+    fn pruned_as_full(lat: &Lattice, y: &[f32], wt: &[f64]) -> bool {
+        let ls = lat.ls;
+        let (wmin, wmax) = wt[..ls].iter().fold((f64::INFINITY, 0f64), |(a, b), &w| (a.min(w), b.max(w)));
+        let yy: f64 = y[..ls].iter().map(|&v| v as f64 * v as f64).sum();
+        let slack = 1e-5 * (1.0 + yy + lat.norm_max + yy.sqrt() * lat.span_max);
+        let cut_of = |least: f32| ((wmax * (least as f64 + slack)) / wmin + slack) as f32;
+        let (c, nj) = (lat.cols, lat.even.len());
+        let np = lat.norms.len() / nj;
+        let mut buf = vec![0f32; 2 * (c + 16) + (nj * np).max(np + PRUNE_MAX * lat.herm_t.len() / 4)];
+        let (mut full, mut pruned) = (Vec::new(), Vec::new());
+        // SAFETY: AVX-512F (detected by the caller).
+        unsafe {
+            simd::even_products_avx512(lat, y, &mut buf);
+            let ran = simd::pruned_avx512(lat, yy as f32, slack, &cut_of, &mut buf, &mut pruned);
+            let least = simd::even_poses_avx512(lat, yy as f32, &mut buf);
+            simd::under_avx512(&buf[2 * (c + 16)..2 * (c + 16) + nj * np], np, cut_of(least), &mut full);
+            if !ran {
+                assert!(pruned.is_empty());
+                return false;
+            }
+        }
+        pruned.sort_unstable();
+        full.sort_unstable();
+        assert!(!full.is_empty());
+        assert_eq!(pruned, full, "the pruned scan's poses are the full scan's");
+        true
     }
 }
