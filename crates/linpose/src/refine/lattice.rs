@@ -26,8 +26,9 @@
 //! and its least ||f||^2, and compared with the cut of the least distance at the intervals'
 //! first poses. On COIL-20 (f32 and 8-bit, 2,880 searches, a throwaway counter) 2,872 were
 //! left with at most 8 of the 36 intervals and evaluate 2 vectors an interval instead of 60 for
-//! all; 4 views of COIL-19 (twice) take the full scan (perf of COIL-5's 8-bit queries: the
-//! search 624 -> 384 samples, the eigenspace's k-d tree 245). The search went from 0.66-1.03 us to about
+//! all; 4 views of COIL-19 (twice) take the full scan (perf of COIL-5's 8-bit queries on one
+//! thread: the search 579-659 -> 377-442 samples, the eigenspace's k-d tree 272-307;
+//! BENCHMARKS.md). The search went from 0.66-1.03 us to about
 //! 0.25-0.33 us (objects 5 and 2, one thread) against the lower bounds it replaced: each of 8
 //! intervals' polynomials bounded by its Bernstein coefficients, then Horner at each offset of
 //! the groups that could hold the least. Otherwise each interval's polynomial is evaluated at its own lattice poses, per
