@@ -622,7 +622,7 @@ mod simd {
         let base = buf.as_mut_ptr();
         // SAFETY: within buf (asserted length).
         let (cp, cs, d) = unsafe { (base, base.add(c + 16), base.add(2 * (c + 16))) };
-        let (mut mins, yv, two) = (_mm512_set1_ps(f32::INFINITY), _mm512_set1_ps(yy), _mm512_set1_ps(2.0));
+        let (mut mins, yv) = (_mm512_set1_ps(f32::INFINITY), _mm512_set1_ps(yy));
         for j in 0..nj {
             let hj = s.herm[j];
             let h = [_mm512_set1_ps(hj[0]), _mm512_set1_ps(hj[1]), _mm512_set1_ps(hj[2]), _mm512_set1_ps(hj[3])];
@@ -632,8 +632,7 @@ mod simd {
                 unsafe {
                     let (c0, c1) = (_mm512_loadu_ps(cp.add(i0)), _mm512_loadu_ps(cp.add(i0 + 1)));
                     let (s0, s1) = (_mm512_loadu_ps(cs.add(i0)), _mm512_loadu_ps(cs.add(i0 + 1)));
-                    let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], c0), _mm512_mul_ps(h[1], s0)), _mm512_mul_ps(h[2], c1)), _mm512_mul_ps(h[3], s1));
-                    let v = _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norms.as_ptr().add(j * np + i0))), _mm512_mul_ps(two, dot));
+                    let v = distance(yv, _mm512_loadu_ps(s.norms.as_ptr().add(j * np + i0)), h, [c0, s0, c1, s1]);
                     _mm512_storeu_ps(d.add(j * np + i0), v);
                     mins = _mm512_min_ps(v, mins);
                 }
@@ -678,8 +677,7 @@ mod simd {
                 let (c0, c1) = (_mm512_loadu_ps(cp.add(i0)), _mm512_loadu_ps(cp.add(i0 + 1)));
                 let (s0, s1) = (_mm512_loadu_ps(cs.add(i0)), _mm512_loadu_ps(cs.add(i0 + 1)));
                 // The first pose of each interval, as the full scan computes it.
-                let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], c0), _mm512_mul_ps(h[1], s0)), _mm512_mul_ps(h[2], c1)), _mm512_mul_ps(h[3], s1));
-                first = _mm512_min_ps(_mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norms.as_ptr().add(i0))), _mm512_mul_ps(two, dot)), first);
+                first = _mm512_min_ps(distance(yv, _mm512_loadu_ps(s.norms.as_ptr().add(i0)), h, [c0, s0, c1, s1]), first);
                 let most = _mm512_add_ps(_mm512_add_ps(_mm512_max_ps(c0, c1), _mm512_mul_ps(m1, _mm512_max_ps(s0, zero))), _mm512_mul_ps(m3, _mm512_max_ps(_mm512_sub_ps(zero, s1), zero)));
                 _mm512_storeu_ps(lb.add(i0), _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norm_min.as_ptr().add(i0))), _mm512_mul_ps(two, most)));
             }
@@ -702,20 +700,15 @@ mod simd {
         }
         let mut mins = _mm512_set1_ps(f32::INFINITY);
         for (slot, &i) in left[..n].iter().enumerate() {
-            // SAFETY: columns i and i + 1 of cp and cs, interval i's row of norms_t and the
-            // slot's row of distances (asserted lengths).
+            // SAFETY: columns i and i + 1 of cp and cs, interval i's row of norms_t, the Hermite
+            // weights' rows of herm_t (4 of npo) and the slot's row of distances (asserted
+            // lengths).
             unsafe {
                 let (c0, c1, s0, s1) = (_mm512_set1_ps(*cp.add(i)), _mm512_set1_ps(*cp.add(i + 1)), _mm512_set1_ps(*cs.add(i)), _mm512_set1_ps(*cs.add(i + 1)));
                 for o in (0..npo).step_by(16) {
-                    // (A macro, not a closure: a closure does not take the function's target
-                    // features.)
-                    macro_rules! hv {
-                        ($a:expr) => {
-                            _mm512_loadu_ps(s.herm_t.as_ptr().add($a * npo + o))
-                        };
-                    }
-                    let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(hv!(0), c0), _mm512_mul_ps(hv!(1), s0)), _mm512_mul_ps(hv!(2), c1)), _mm512_mul_ps(hv!(3), s1));
-                    let v = _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norms_t.as_ptr().add(i * npo + o))), _mm512_mul_ps(two, dot));
+                    let hp = s.herm_t.as_ptr().add(o);
+                    let h = [_mm512_loadu_ps(hp), _mm512_loadu_ps(hp.add(npo)), _mm512_loadu_ps(hp.add(2 * npo)), _mm512_loadu_ps(hp.add(3 * npo))];
+                    let v = distance(yv, _mm512_loadu_ps(s.norms_t.as_ptr().add(i * npo + o)), h, [c0, s0, c1, s1]);
                     _mm512_storeu_ps(dd.add(slot * npo + o), v);
                     mins = _mm512_min_ps(v, mins);
                 }
@@ -733,6 +726,21 @@ mod simd {
             }
         }
         true
+    }
+
+    /// The f32 distance yy + norm - 2 y.f with y.f = ((h0 cp_i + h1 cs_i) + h2 cp_i+1) + h3 cs_i+1
+    /// (`k` = [cp_i, cs_i, cp_i+1, cs_i+1]) in 16 lanes: the one sequence of operations of every
+    /// scan of [`Lattice::nearest_even`] (the portable [`Lattice::even_distances`] too), so each
+    /// gives a pose the same bits.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    unsafe fn distance(yy: std::arch::x86_64::__m512, norm: std::arch::x86_64::__m512, h: [std::arch::x86_64::__m512; 4], k: [std::arch::x86_64::__m512; 4]) -> std::arch::x86_64::__m512 {
+        use std::arch::x86_64::*;
+        let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], k[0]), _mm512_mul_ps(h[1], k[1])), _mm512_mul_ps(h[2], k[2])), _mm512_mul_ps(h[3], k[3]));
+        _mm512_sub_ps(_mm512_add_ps(yy, norm), _mm512_mul_ps(_mm512_set1_ps(2.0), dot))
     }
 
     /// [`super::under`] 16 values a comparison (`d` in whole vectors).
