@@ -26,7 +26,7 @@ Rendered turntables: `linpose synth --object duck --azimuth 0:359:5 --elevation 
 --peer-cache: beyond_compare.py's cache, whose peer/<key>-0.0.json give the peer's unseen error
 (key: the folder's name, objN -> coilN).
 """
-import argparse, json, os, sys
+import argparse, csv, json, os, sys
 
 import numpy as np
 from PIL import Image
@@ -42,10 +42,11 @@ a = ap.parse_args()
 
 
 def load(d):
-    lines = open(os.path.join(d, "poses.csv")).read().split()
-    head = lines[0].split(",")
+    with open(os.path.join(d, "poses.csv"), newline="") as f:
+        head, *rows = list(csv.reader(f))
+    if "azimuth" not in head:
+        sys.exit(f"{d}/poses.csv: no azimuth column in {head}")
     col = head.index("azimuth")
-    rows = [l.split(",") for l in lines[1:]]
     x = np.stack([np.asarray(Image.open(os.path.join(d, r[0])).convert("L"), dtype=np.float64).ravel() / 255 for r in rows])
     return x / np.linalg.norm(x, axis=1, keepdims=True), np.array([float(r[col]) for r in rows])
 
