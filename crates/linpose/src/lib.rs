@@ -28,6 +28,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
+pub mod binning;
 pub mod dataset;
 pub mod eigenspace;
 pub mod error;

@@ -63,6 +63,10 @@ pub struct TrainArgs {
     /// step; 0 = the continuous estimate).
     #[arg(long, value_name = "D")]
     pub resolution: Option<f64>,
+    /// Refined: bin the images by B (each pixel the mean of a B x B block) before fitting and
+    /// before each query; 1 (the default) keeps them as given.
+    #[arg(long, value_name = "B")]
+    pub bin: Option<usize>,
     /// Linear model: read the images from disk in blocks instead of all at once, for training
     /// sets larger than memory. With N <= M images this is the usual minimum-norm fit; with
     /// N > M it is least squares / ridge through X^T X (M x M), which needs --ridge when some
@@ -141,6 +145,9 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
             }
             if let Some(r) = a.resolution {
                 p = p.resolution(r);
+            }
+            if let Some(b) = a.bin {
+                p = p.bin(b);
             }
             p.fit(&train)?.into()
         }

@@ -102,6 +102,7 @@ pub mod lattice;
 pub mod select;
 pub mod surface;
 
+use crate::binning::Binning;
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
@@ -131,6 +132,14 @@ pub struct RefinedParams {
     per_cell: usize,
     weighted: bool,
     resolution: f64,
+    /// Images binned by this factor before anything else ([`crate::binning`]); 1: as given.
+    #[serde(default = "one")]
+    bin: usize,
+}
+
+/// The binning factor of models written before it existed.
+fn one() -> usize {
+    1
 }
 
 /// The weight floor, relative to the mean interpolation variance.
@@ -138,7 +147,7 @@ pub const WEIGHT_FLOOR: f64 = 0.01;
 
 impl Default for RefinedParams {
     fn default() -> Self {
-        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5 }
+        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: 1 }
     }
 }
 
@@ -181,6 +190,19 @@ impl RefinedParams {
         self
     }
 
+    /// Bin the images by `factor` (each pixel the mean of a factor x factor block,
+    /// [`crate::binning`]) before fitting and before each query; 1 (the default) keeps them as
+    /// given. Noise is simulated on the images as given, then binned, as a query's would be.
+    pub fn bin(mut self, factor: usize) -> Self {
+        self.bin = factor;
+        self
+    }
+
+    /// The binning factor.
+    pub fn bin_factor(&self) -> usize {
+        self.bin
+    }
+
     /// The fixed L asked for (None: chosen from the data).
     pub fn fixed_components(&self) -> Option<usize> {
         self.components
@@ -198,6 +220,9 @@ impl RefinedParams {
         }
         if !(1..=16).contains(&self.per_cell) {
             return Err(Error::invalid("per cell", self.per_cell, "must be 1 to 16"));
+        }
+        if !(1..=crate::binning::MAX_FACTOR).contains(&self.bin) {
+            return Err(Error::invalid("bin", self.bin, format!("must be 1 to {}", crate::binning::MAX_FACTOR)));
         }
         Ok(())
     }
@@ -276,13 +301,23 @@ pub const NOISE_COMPONENTS: usize = 20;
 impl Estimator for RefinedParams {
     type Model = RefinedModel;
 
-    fn fit(&self, train: &Dataset) -> Result<RefinedModel> {
+    fn fit(&self, full: &Dataset) -> Result<RefinedModel> {
         self.validate()?;
+        let views = Views { full, binning: Binning::new(full.spec(), self.bin)? };
+        // Everything is fitted on the binned images; the held-out fits take them as given (bin 1).
+        let binned;
+        let train = if views.binning.bins() {
+            binned = Dataset::from_features(full.manifest().clone(), views.binning.spec(), views.binning.apply_all(full.features()))?;
+            &binned
+        } else {
+            full
+        };
+        let inner = RefinedParams { bin: 1, ..*self };
         let space = train.space();
         let grid = Grid::new(space, train.poses(), train.manifest().images(), train.manifest().root())?;
         let (l_max, selection, plain_error) = match self.components {
             Some(l) => (l, Vec::new(), None),
-            None => select::choose(train, &grid, self)?,
+            None => select::choose(train, &grid, &inner)?,
         };
         // The plain metric wins when it scored better on the held-out views than every weighted L.
         let best_weighted = selection.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
@@ -294,7 +329,7 @@ impl Estimator for RefinedParams {
         let mut pca = pca::fit(train, Dimension::Fixed(l_store))?;
         let l_search = l_max.min(pca.dim());
         // The match of noisy queries, chosen on held-out views under simulated noise.
-        let (noise_components, noise_weighted, noise_selection) = match select::choose_noise(train, &grid, self, pca.dim())? {
+        let (noise_components, noise_weighted, noise_selection) = match select::choose_noise(train, views, &grid, &inner, pca.dim())? {
             Some(chosen) => chosen,
             None => (NOISE_COMPONENTS.min(pca.dim()), false, Vec::new()),
         };
@@ -310,7 +345,7 @@ impl Estimator for RefinedParams {
         let coord_variance = select::interpolation_variance(train, &grid, &pca.coords, l)?;
         let sigma2 = if weighted { coord_variance.as_ref().map(|s| s[..l_search].to_vec()) } else { None };
         let scale = search_scale(sigma2.as_deref(), l_search, l);
-        let noise_threshold = select::noise_threshold(train)?.threshold;
+        let noise_threshold = select::noise_threshold(views)?.threshold;
         let mut knots = Vec::with_capacity(grid.sample_at.len() * l);
         for &i in &grid.sample_at {
             knots.extend(pca.coords[i * l..(i + 1) * l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
@@ -320,7 +355,7 @@ impl Estimator for RefinedParams {
         for (c, &w) in scale.iter().enumerate() {
             basis[c * m..(c + 1) * m].iter_mut().for_each(|v| *v *= w);
         }
-        let background = background_knots(train, &grid.sample_at, &basis, l);
+        let background = background_knots(views, &grid.sample_at, &basis, l);
         let settings = RefinedSettings {
             params: *self,
             components: l,
@@ -339,7 +374,7 @@ impl Estimator for RefinedParams {
         };
         let meta = ModelMeta {
             method: METHOD.into(),
-            spec: train.spec(),
+            spec: full.spec(),
             space: space.clone(),
             train_poses: train.poses().to_vec(),
             settings: serde_json::Value::Null,
@@ -363,18 +398,44 @@ pub fn clip_bias_shape(v: f32) -> f32 {
     lo * lo - hi * hi
 }
 
-/// The offset direction of each knot: the training image's [`clip_bias_shape`] projected on
-/// `basis` (L rows of M, as stored), in the knots' order.
-pub(crate) fn background_knots(train: &Dataset, sample_at: &[usize], basis: &[f64], l: usize) -> Vec<f32> {
-    let m = train.n_features();
+/// The offset direction of each knot: the training image's [`clip_bias_shape`] (of its pixels
+/// as given, then binned: the bias of a binned pixel is the mean of its pixels' biases) projected
+/// on `basis` (L rows of the binned M, as stored), in the knots' order.
+pub(crate) fn background_knots(views: Views, sample_at: &[usize], basis: &[f64], l: usize) -> Vec<f32> {
+    let m = views.binning.spec().features();
     let per: Vec<Vec<f32>> = sample_at
         .par_iter()
-        .map(|&i| {
-            let b: Vec<f64> = train.row(i).iter().map(|&v| clip_bias_shape(v) as f64).collect();
+        .map_init(Vec::new, |acc, &i| {
+            let shape: Vec<f32> = views.full.row(i).iter().map(|&v| clip_bias_shape(v)).collect();
+            let b: Vec<f64> = if views.binning.bins() {
+                let mut out = vec![0.0; m];
+                views.binning.apply(&shape, &mut out, acc);
+                out.iter().map(|&v| v as f64).collect()
+            } else {
+                shape.iter().map(|&v| v as f64).collect()
+            };
             (0..l).map(|c| basis[c * m..(c + 1) * m].iter().zip(&b).map(|(u, v)| u * v).sum::<f64>() as f32).collect()
         })
         .collect();
     per.concat()
+}
+
+/// The training views as given and the binning the model applies to them: what simulated noise
+/// is added to (then binned, as a query's noise would be).
+#[derive(Clone, Copy)]
+pub(crate) struct Views<'a> {
+    pub full: &'a Dataset,
+    pub binning: Binning,
+}
+
+impl Views<'_> {
+    /// Rows of images as given (`rows`) with simulated uniform noise of +-`level` (clipped, from
+    /// `seed`, [`crate::eval::add_uniform_noise`]), binned.
+    pub fn noisy(&self, rows: &[f32], level: f64, seed: u64) -> Result<Vec<f32>> {
+        let mut q = rows.to_vec();
+        crate::eval::add_uniform_noise(&mut q, self.full.n_features(), level, seed)?;
+        Ok(if self.binning.bins() { self.binning.apply_all(&q) } else { q })
+    }
 }
 
 /// A fitted refined eigenspace: L eigenimages, the mean image, the spline surface through the
@@ -390,8 +451,12 @@ pub struct RefinedModel {
     /// The product rows ([`Self::product_rows`] of `rows`) in 16-bit fixed point, for 8-bit
     /// queries where [`dot_q::fast`] (derived, not stored in the file).
     quant: dot_q::FastRows,
-    /// M, the pixels of an image.
+    /// M, the pixels of an image (binned).
     m: usize,
+    /// The binning of the images the model takes ([`ModelMeta::spec`]) into those it works on.
+    binning: Binning,
+    /// The binned rows the pixel-noise estimate reads ([`noise_rows`]).
+    noise_rows: Vec<bool>,
     mean_proj: Vec<f32>,
     /// ||mean||^2.
     mean_sq: f64,
@@ -736,6 +801,8 @@ impl RefinedModel {
         axes: Vec<Vec<f64>>,
     ) -> Result<Self> {
         let (l, m) = (settings.components, mean.len());
+        let binning = Binning::new(meta.spec, settings.params.bin)?;
+        assert_eq!(binning.spec().features(), m, "a mean image of the binned size");
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
         let surface = Surface::new(&meta.space, &axes, &k64, l)?;
@@ -780,6 +847,8 @@ impl RefinedModel {
             quant,
             rows: AlignedF32::new(&rows),
             m,
+            noise_rows: noise_rows(binning.spec().height as usize),
+            binning,
             mean_proj,
             mean_sq,
             inv_weight,
@@ -850,7 +919,7 @@ impl RefinedModel {
     fn project_f32(&self, queries: &[f32], noise: NoiseWant, s: &mut QueryScratch) {
         let (l, m, k) = (self.components(), self.m, self.product_rows());
         let n = queries.len() / m;
-        let spec = self.meta.spec;
+        let spec = self.binning.spec();
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
         s.resize(n, l, k);
         let ut = MatRef::from_column_major_slice(&self.rows[..k * m], m, k);
@@ -879,7 +948,7 @@ impl RefinedModel {
     fn project_u8(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
         let (l, m, k) = (self.components(), self.m, self.product_rows());
         let n = queries.len() / m;
-        let spec = self.meta.spec;
+        let spec = self.binning.spec();
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
         s.resize(n, l, k);
         let rows = &self.rows[..k * m];
@@ -1123,7 +1192,8 @@ impl RefinedModel {
         let bad = |e: String| t.error(format!("damaged refined-eigenspace settings: {e}"));
         let settings: RefinedSettings = serde_json::from_value(meta.settings.clone()).map_err(|e| bad(e.to_string()))?;
         settings.params.validate().map_err(|e| bad(e.to_string()))?;
-        let (l, m, d) = (settings.components, meta.spec.features(), meta.space.len());
+        let binning = Binning::new(meta.spec, settings.params.bin).map_err(|e| bad(e.to_string()))?;
+        let (l, m, d) = (settings.components, binning.spec().features(), meta.space.len());
         if l == 0 || settings.knot_shape.len() != d || settings.knot_shape.iter().any(|&c| c == 0 || c > 1 << 16) {
             return Err(bad(format!("{l} components, knot shape {:?}", settings.knot_shape)));
         }
@@ -1398,6 +1468,16 @@ fn immerkaer_pass<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, row
     }
     sum += rows.total();
     (sum, count)
+}
+
+/// Which of an image's `h` rows [`immerkaer`] reads: each sampled row and its two neighbours.
+fn noise_rows(h: usize) -> Vec<bool> {
+    let mut rows = vec![false; h];
+    for k in 0..sampled_rows(h) {
+        let y = 1 + NOISE_ROW_STEP * k;
+        rows[y - 1..=y + 1].iter_mut().for_each(|r| *r = true);
+    }
+    rows
 }
 
 /// How many rows [`immerkaer`] samples in an image of `h` rows: rows 1, 1 + [`NOISE_ROW_STEP`],
@@ -1849,12 +1929,12 @@ impl RefinedModel {
     /// the automatic choice scores its candidates.
     pub(crate) fn predict_noisy(&self, queries: &[f32]) -> Result<Vec<f64>> {
         assert!(self.noisy_tree.is_some() || !self.noise_scan.w0.is_empty(), "the noisy match is set (set_noise_match)");
-        let (l, m, p) = (self.components(), self.m, self.meta.space.len());
+        let (l, m, p) = (self.components(), self.meta.spec.features(), self.meta.space.len());
         let n = queries.len() / m;
         let mut out = vec![0.0; n * p];
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
-            self.project_f32(q, NoiseWant::Full, s);
+            self.project_binned(q, NoiseWant::Full, s);
             for ((c, o), &nu) in s.y.chunks_exact(l).zip(o.chunks_exact_mut(p)).zip(&s.noise) {
                 if c[0].is_nan() {
                     o.fill(f64::NAN);
@@ -1895,6 +1975,27 @@ struct QueryScratch {
     products: dot_q::Scratch,
     rows_u8: Option<RowsU8>,
     rows_f32: Option<RowsF32>,
+    /// Binned f32 queries and the binning's scratch, when the model bins.
+    binned: Vec<f32>,
+    bin_acc: Vec<f32>,
+}
+
+/// A thread's buffers for binned 8-bit queries ([`RefinedModel::project_u8_binned`]): the digit
+/// planes of a task's images, one image's block sums, the binning's scratch, one image's sums
+/// as f32, the planes' products and sums of squares. Per thread, not per task, so that the
+/// planes are not allocated and cleared for every task.
+#[derive(Default)]
+struct BinScratch {
+    planes: Vec<u8>,
+    sums: Vec<u16>,
+    acc: Vec<u16>,
+    f: Vec<f32>,
+    raw: Vec<f32>,
+    energy: Vec<u64>,
+}
+
+thread_local! {
+    static BIN_SCRATCH: std::cell::RefCell<BinScratch> = std::cell::RefCell::new(BinScratch::default());
 }
 
 impl QueryScratch {
@@ -1946,26 +2047,90 @@ impl RefinedModel {
         }
     }
 
+    /// [`Self::project_f32`] of f32 queries as given: binned first when the model bins.
+    fn project_binned(&self, queries: &[f32], noise: NoiseWant, s: &mut QueryScratch) {
+        if !self.binning.bins() {
+            return self.project_f32(queries, noise, s);
+        }
+        let mut binned = std::mem::take(&mut s.binned);
+        let (m, mb) = (self.meta.spec.features(), self.m);
+        binned.resize(queries.len() / m * mb, 0.0);
+        for (x, o) in queries.chunks_exact(m).zip(binned.chunks_exact_mut(mb)) {
+            self.binning.apply(x, o, &mut s.bin_acc);
+        }
+        self.project_f32(&binned, noise, s);
+        s.binned = binned;
+    }
+
     /// [`PoseModel::predict_into`], computing `noise` of each query's pixel noise.
     fn predict_with(&self, queries: &[f32], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
-        let (m, p) = (self.m, self.meta.space.len());
+        let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
-            self.project_f32(q, noise, s);
+            self.project_binned(q, noise, s);
             self.poses_of(s, o);
         });
         no_black_query(out, p)
     }
 
+    /// [`Self::project_u8`] for a model that bins: each image's block sums, exact in integers
+    /// (at most 65,280), are split into two 8-bit digit planes, low and high, which the 8-bit
+    /// products take as two images (a zero step of the high plane, the blocks darker than 256 /
+    /// b^2 on average, is skipped); a query's products are low + 256 high, its energy the
+    /// sums' exact sum of squares, its pixel noise that of the sums as f32 (all in units of the
+    /// block sums: the scale cancels in each ratio, as in [`Self::project_u8`]).
+    fn project_u8_binned(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
+        let (l, mb, k) = (self.components(), self.m, self.product_rows());
+        let m = self.meta.spec.features();
+        let n = queries.len() / m;
+        let spec = self.binning.spec();
+        let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
+        s.resize(n, l, k);
+        BIN_SCRATCH.with_borrow_mut(|b| {
+            let BinScratch { planes, sums, acc, f, raw, energy } = b;
+            planes.resize(2 * n * mb, 0);
+            f.resize(mb, 0.0);
+            // Each image's digits, and its pixel noise (in s.noise until finish_query) while
+            // its sums are at hand.
+            for (i, x) in queries.chunks_exact(m).enumerate() {
+                let (lo, hi) = planes[2 * i * mb..2 * (i + 1) * mb].split_at_mut(mb);
+                s.energy[i] = self.binning.digits_u8(level, x, lo, hi, f, &self.noise_rows, sums, acc);
+                s.noise[i] = match self.early(noise, s.energy[i] as f64) {
+                    Some(early) => pixel_variance_in(f, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch), early),
+                    None => 0.0,
+                };
+            }
+            let rows = &self.rows[..k * mb];
+            raw.resize(2 * n * k, 0.0);
+            energy.resize(2 * n, 0);
+            if 2 * n >= 8 {
+                self.quant.dots_batch(level, &planes[..2 * n * mb], mb, rows, raw, energy, &mut s.products);
+            } else {
+                for (x, r) in planes[..2 * n * mb].chunks_exact(mb).zip(raw.chunks_exact_mut(k)) {
+                    self.quant.dots(level, x, rows, r);
+                }
+            }
+            for i in 0..n {
+                let (lo, hi) = raw[2 * i * k..2 * (i + 1) * k].split_at(k);
+                s.raw[i * k..(i + 1) * k].iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
+                (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, s.noise[i], &mut s.y[i * l..(i + 1) * l]);
+            }
+        });
+    }
+
     /// [`PoseModel::predict_u8_into`], computing `noise` of each query's pixel noise.
     fn predict_u8_with(&self, queries: &[u8], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
-        let (m, p) = (self.m, self.meta.space.len());
+        let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
         let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, self.quant.block(level)) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
-            self.project_u8(level, q, noise, s);
+            if self.binning.bins() {
+                self.project_u8_binned(level, q, noise, s);
+            } else {
+                self.project_u8(level, q, noise, s);
+            }
             self.poses_of(s, o);
         });
         no_black_query(out, p)

@@ -11,7 +11,7 @@
 //! When no axis has enough knots (fewer than 4), L falls back to [`FALLBACK_COMPONENTS`], the
 //! eigenspace's default.
 
-use super::{RefinedModel, RefinedParams, RefinedSettings, MAX_AUTO_COMPONENTS, METHOD};
+use super::{RefinedModel, RefinedParams, RefinedSettings, Views, MAX_AUTO_COMPONENTS, METHOD};
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
@@ -167,13 +167,13 @@ pub const NOISE_SEED: u64 = 0x5e1ec7;
 /// [`NOISE_LEVELS`] (clipped, fixed seed) and are estimated with every candidate, L among
 /// [`CANDIDATES`] up to `l_cap`, weighted or plain; the least mean pose error wins (a tie goes
 /// to the smaller L, then to the plain metric). None when no fold is possible.
-pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
+pub(crate) fn choose_noise(train: &Dataset, views: Views, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);
     }
     let space = train.space();
-    let (m, d) = (train.n_features(), space.len());
+    let d = space.len();
     let l_fit = super::NOISE_COMPONENTS.min(l_cap);
     let mut scores: Vec<(usize, bool, f64, usize)> = Vec::new();
     let cap = error_cap(grid);
@@ -183,7 +183,8 @@ pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap:
         let l = pca.dim();
         let coord_variance = interpolation_variance(&fit, &sub_grid, &pca.coords, l)?;
         let knots: Vec<f32> = sub_grid.sample_at.iter().flat_map(|&i| pca.coords[i * l..(i + 1) * l].iter().map(|&v| v as f32)).collect();
-        let background = super::background_knots(&fit, &sub_grid.sample_at, &pca.basis, l);
+        let fit_full = views.full.subset(keep)?;
+        let background = super::background_knots(Views { full: &fit_full, ..views }, &sub_grid.sample_at, &pca.basis, l);
         let settings = RefinedSettings { coord_variance: coord_variance.clone().unwrap_or_default(), ..fold_settings(params, l, sub_grid.shape()) };
         let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
@@ -195,13 +196,10 @@ pub fn choose_noise(train: &Dataset, grid: &Grid, params: &RefinedParams, l_cap:
         if coord_variance.is_some() {
             cands.extend(cands.clone().into_iter().map(|(c, _)| (c, true)));
         }
-        let noisy: Vec<Vec<f32>> = NOISE_LEVELS
-            .iter()
-            .map(|&level| {
-                let mut q = test.features().to_vec();
-                crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED).map(|_| q)
-            })
-            .collect::<Result<_>>()?;
+        // The held-out views' noise is simulated on them as given, then binned.
+        let held: Vec<bool> = keep.iter().map(|k| !k).collect();
+        let test_full = views.full.subset(&held)?;
+        let noisy: Vec<Vec<f32>> = NOISE_LEVELS.iter().map(|&level| views.noisy(test_full.features(), level, NOISE_SEED)).collect::<Result<_>>()?;
         // Each candidate's match (its tables or tree) is set once for every noise level.
         for &(c, w) in &cands {
             model.set_noise_match(c, w);
@@ -238,16 +236,24 @@ const NOISE_BLOCK: usize = 64;
 /// be the noisiest of the N + 1, so it exceeds the training maximum with probability 1 / (N +
 /// 1), and about one clean query in N + 1 would take the noisy match, whose free gain and
 /// offset cost precision. The midpoint keeps every simulated noisy training view above it.
-pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
-    let spec = train.spec();
-    let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), train.n_features());
+pub(crate) fn noise_threshold(views: Views) -> Result<NoiseThreshold> {
+    let spec = views.binning.spec();
+    let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), spec.features());
     let noise = |x: &[f32]| super::pixel_noise(x, w, h, ch);
-    let clean = (0..train.len()).into_par_iter().map(|i| noise(train.row(i))).reduce(|| 0.0, f64::max);
     let level = NOISE_LEVELS.iter().copied().fold(f64::INFINITY, f64::min);
-    let mut noisy = f64::INFINITY;
-    for (b, block) in train.features().chunks(NOISE_BLOCK * m).enumerate() {
-        let mut q = block.to_vec();
-        crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED.wrapping_add(b as u64))?;
+    let (mut clean, mut noisy) = (0.0f64, f64::INFINITY);
+    let m_full = views.full.n_features();
+    // The training images as given and with simulated noise, both binned, a block at a time.
+    for (b, block) in views.full.features().chunks(NOISE_BLOCK * m_full).enumerate() {
+        let binned;
+        let x = if views.binning.bins() {
+            binned = views.binning.apply_all(block);
+            &binned[..]
+        } else {
+            block
+        };
+        clean = clean.max(x.par_chunks(m).map(noise).reduce(|| 0.0, f64::max));
+        let q = views.noisy(block, level, NOISE_SEED.wrapping_add(b as u64))?;
         noisy = noisy.min(q.par_chunks(m).map(noise).reduce(|| f64::INFINITY, f64::min));
     }
     Ok(NoiseThreshold { clean, noisy, threshold: separating(clean, noisy) })

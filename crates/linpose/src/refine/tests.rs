@@ -449,7 +449,7 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     let d = train_set();
     let spec = d.spec();
     let (w, h, m) = (spec.width as usize, spec.height as usize, d.n_features());
-    let t = select::noise_threshold(&d).unwrap();
+    let t = select::noise_threshold(super::Views { full: &d, binning: crate::binning::Binning::none(d.spec()) }).unwrap();
     let clean = (0..d.len()).map(|i| super::pixel_noise(d.row(i), w, h, 1)).fold(0.0, f64::max);
     assert_eq!(t.clean, clean, "the noisiest clean training view");
     assert!(t.noisy > 2.0 * t.clean, "simulated +-5% noise stands well above the clean views: {t:?}");
@@ -690,4 +690,112 @@ fn the_staged_noise_estimate_routes_queries_as_the_whole_one() {
         }
     }
     assert!(stopped > 0, "some clean queries stop after the first pass");
+}
+
+/// `d`'s images binned by `b`, as a data set of its own.
+fn binned(d: &Dataset, b: usize) -> Dataset {
+    let bin = crate::binning::Binning::new(d.spec(), b).unwrap();
+    Dataset::from_features(d.manifest().clone(), bin.spec(), bin.apply_all(d.features())).unwrap()
+}
+
+/// `x` with uniform noise of +-`a` (clipped to [0, 1]) from the tests' LCG.
+fn with_noise(x: &[f32], a: f32, seed: u64) -> Vec<f32> {
+    let mut state = seed;
+    x.iter()
+        .map(|&v| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (v + a * (2.0 * (state >> 40) as f32 / (1u64 << 24) as f32 - 1.0)).clamp(0.0, 1.0)
+        })
+        .collect()
+}
+
+#[test]
+fn a_binned_model_searches_as_a_model_of_the_binned_images() {
+    // Clean queries: the same eigenspace of the same binned images, so the same poses as a
+    // model fitted on images binned beforehand, given the images as they are.
+    let d = train_set();
+    let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
+    let a = RefinedParams::default().components(8).bin(2).fit(&d).unwrap();
+    let b = RefinedParams::default().components(8).fit(&binned(&d, 2)).unwrap();
+    assert_eq!(a.meta().spec, d.spec(), "the model takes images as given");
+    assert_eq!(a.settings().params.bin_factor(), 2);
+    assert_eq!(a.predict(test.features()).unwrap(), b.predict(binned(&test, 2).features()).unwrap());
+    // Its noise is simulated on the images as given, then binned: binning averages it, so
+    // the noisy training views sit lower and the threshold with them.
+    let (ta, tb) = (a.settings().noise_threshold, b.settings().noise_threshold);
+    assert!(ta > 0.0 && ta < tb, "threshold {ta} (noise before binning) against {tb} (after)");
+    // Noise of +-5% on the images as given still routes every query to the noisy match.
+    let q = with_noise(test.features(), 0.05, 11);
+    let bin = crate::binning::Binning::new(d.spec(), 2).unwrap();
+    let s = bin.spec();
+    for x in bin.apply_all(&q).chunks_exact(s.features()) {
+        assert!(super::pixel_noise(x, s.width as usize, s.height as usize, 1) > ta);
+    }
+    let est = a.predict(&q).unwrap();
+    for i in 0..test.len() {
+        let e = test.space().error_deg(test.pose(i), &est[2 * i..2 * i + 2]);
+        assert!(e < 5.0, "noisy view {i}: error {e}");
+    }
+    // Training poses are recovered.
+    let own = a.predict(d.features()).unwrap();
+    for i in 0..d.len() {
+        assert!(d.space().error_deg(d.pose(i), &own[2 * i..2 * i + 2]) < 1e-6, "training view {i}");
+    }
+}
+
+#[test]
+fn binned_u8_queries_match_f32_queries() {
+    // The 8-bit path's block sums in two digit planes against the f32 path's binned features,
+    // clean and noisy, in batches of every size the product paths take, by 2 (the AVX-512 path
+    // where there is one) and by 3 (the portable one).
+    let d = train_set();
+    let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
+    let m = test.n_features();
+    let mut q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    for (i, x) in q8.chunks_exact_mut(m).enumerate().step_by(2) {
+        let noisy = with_noise(&x.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(), 0.1, 5 + i as u64);
+        x.iter_mut().zip(noisy).for_each(|(v, f)| *v = (f * 255.0).round() as u8);
+    }
+    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
+    let n = test.len();
+    for b in [2, 3] {
+        let model = RefinedParams::default().components(8).bin(b).fit(&d).unwrap();
+        let pf = model.predict(&qf).unwrap();
+        for k in [1, 3, 4, 8, n] {
+            let mut p8 = vec![0.0; k * 2];
+            model.predict_u8_into(&q8[..k * m], &mut p8).unwrap();
+            for i in 0..k {
+                let e = test.space().error_deg(&pf[2 * i..2 * i + 2], &p8[2 * i..2 * i + 2]);
+                assert!(e < 1e-3, "by {b}, batch of {k}, view {i}: {:?} vs {:?}", &p8[2 * i..2 * i + 2], &pf[2 * i..2 * i + 2]);
+            }
+        }
+        let mut one = [0.0; 2];
+        assert!(model.predict_u8_into(&vec![0u8; m], &mut one).is_err(), "a black image is refused");
+        assert!(model.predict_u8_into(&q8[..m - 1], &mut one).is_err(), "a short image is refused");
+        assert!(model.predict(&qf[..m / 4]).is_err(), "a binned-size image is refused");
+    }
+}
+
+#[test]
+fn the_binning_factor_is_checked_and_kept_in_the_file() {
+    let d = train_set();
+    for b in [0, 5, 17] {
+        let e = RefinedParams::default().components(8).bin(b).fit(&d).unwrap_err().to_string();
+        assert!(e.contains("bin") && e.contains(&b.to_string()), "{e}");
+    }
+    let model = RefinedParams::default().components(8).bin(4).fit(&d).unwrap();
+    let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
+    let est = model.predict(test.features()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.safetensors");
+    let any: crate::AnyModel = model.clone().into();
+    crate::model_file::save(&any, &path).unwrap();
+    let back = crate::model_file::load(&path).unwrap();
+    assert_eq!(back.meta().settings["params"]["bin"], 4);
+    assert_eq!(back.predict(test.features()).unwrap(), est);
+    // A model written before binning existed has no factor: it takes images as they are.
+    let mut settings = model.meta().settings.clone();
+    settings["params"].as_object_mut().unwrap().remove("bin");
+    let old: RefinedSettings = serde_json::from_value(settings).unwrap();
+    assert_eq!(old.params.bin_factor(), 1);
 }

@@ -1,0 +1,355 @@
+//! Box-filter downsampling ("binning"): each output pixel the mean of a b x b block of input
+//! pixels, channel by channel; the last `width % b` columns and `height % b` rows are left out.
+//!
+//! A binned image keeps the low spatial frequencies that change smoothly with pose and drops
+//! the fine detail (stripes, edges, texture) whose appearance aliases between training views, so
+//! a spline through binned training views interpolates the unseen ones better. Averaging b^2
+//! pixels also divides independent pixel noise's variance by b^2, and every product with an
+//! eigenimage costs b^2 times less.
+//!
+//! The sums are taken in one fixed order (the b rows of a block added down each column, then
+//! the b columns across), then scaled by 1 / b^2, so an image binned here has the same bits
+//! however it reached the function (features of an image file, or its 8-bit values times the
+//! feature scale first).
+
+use crate::image_io::ImageSpec;
+use crate::kernels::Level;
+use crate::{Error, Result};
+use rayon::prelude::*;
+
+/// Largest binning factor.
+pub const MAX_FACTOR: usize = 16;
+
+/// Binning by `factor` of images of the spec `full`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Binning {
+    factor: usize,
+    full: ImageSpec,
+}
+
+impl Binning {
+    /// Binning of `full` images by `factor` (1 to [`MAX_FACTOR`]); a factor above 1 must leave
+    /// at least 3 x 3 pixels (the pixel-noise estimate's mask).
+    pub fn new(full: ImageSpec, factor: usize) -> Result<Self> {
+        if !(1..=MAX_FACTOR).contains(&factor) {
+            return Err(Error::invalid("bin", factor, format!("must be 1 to {MAX_FACTOR}")));
+        }
+        let b = Binning { factor, full };
+        let s = b.spec();
+        if factor > 1 && (s.width < 3 || s.height < 3) {
+            return Err(Error::invalid(
+                "bin",
+                factor,
+                format!("{}x{} images binned by {factor} leave {}x{} pixels, fewer than 3x3", full.width, full.height, s.width, s.height),
+            ));
+        }
+        Ok(b)
+    }
+
+    /// No binning: images of `full` as given.
+    pub fn none(full: ImageSpec) -> Self {
+        Binning { factor: 1, full }
+    }
+
+    /// The factor b.
+    pub fn factor(&self) -> usize {
+        self.factor
+    }
+
+    /// Whether images are binned at all (b > 1).
+    pub fn bins(&self) -> bool {
+        self.factor > 1
+    }
+
+    /// The spec of the images binned.
+    pub fn full(&self) -> ImageSpec {
+        self.full
+    }
+
+    /// The spec of a binned image.
+    pub fn spec(&self) -> ImageSpec {
+        let b = self.factor as u32;
+        ImageSpec { width: self.full.width / b, height: self.full.height / b, color: self.full.color }
+    }
+
+    /// Bins one image `x` (features of [`Self::full`]) into `out` (features of [`Self::spec`]),
+    /// with `acc` as scratch.
+    pub fn apply(&self, x: &[f32], out: &mut [f32], acc: &mut Vec<f32>) {
+        let ch = self.full.color.channels();
+        let (w, b) = (self.full.width as usize, self.factor);
+        let s = self.spec();
+        let (wb, hb) = (s.width as usize, s.height as usize);
+        assert_eq!(x.len(), self.full.features(), "an image of {} features", self.full.features());
+        assert_eq!(out.len(), s.features(), "a binned image of {} features", s.features());
+        let (row, span, orow) = (w * ch, wb * b * ch, wb * ch);
+        let scale = 1.0 / (b * b) as f32;
+        acc.resize(span, 0.0);
+        for (yo, o) in out.chunks_exact_mut(orow).enumerate().take(hb) {
+            let top = yo * b * row;
+            acc.copy_from_slice(&x[top..top + span]);
+            for r in 1..b {
+                let src = &x[top + r * row..top + r * row + span];
+                acc.iter_mut().zip(src).for_each(|(a, &v)| *a += v);
+            }
+            if ch == 1 && b == 2 {
+                o.iter_mut().zip(acc.chunks_exact(2)).for_each(|(o, p)| *o = (p[0] + p[1]) * scale);
+            } else {
+                for (xo, px) in o.chunks_exact_mut(ch).enumerate() {
+                    for (c, v) in px.iter_mut().enumerate() {
+                        let mut sum = acc[xo * b * ch + c];
+                        for k in 1..b {
+                            sum += acc[(xo * b + k) * ch + c];
+                        }
+                        *v = sum * scale;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The block sums (not means) of an 8-bit image `x` (raw values, [`Self::full`]'s layout)
+    /// into `out` (one per binned value, exact: at most 255 x 16^2 = 65,280), with `acc` as
+    /// scratch; returns their exact sum of squares.
+    pub fn sums_u8(&self, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> u64 {
+        let ch = self.full.color.channels();
+        let (w, b) = (self.full.width as usize, self.factor);
+        let s = self.spec();
+        let (wb, hb) = (s.width as usize, s.height as usize);
+        assert_eq!(x.len(), self.full.features(), "an image of {} values", self.full.features());
+        assert_eq!(out.len(), s.features(), "a binned image of {} values", s.features());
+        let (row, span, orow) = (w * ch, wb * b * ch, wb * ch);
+        acc.resize(span, 0);
+        let mut energy = 0u64;
+        for (yo, o) in out.chunks_exact_mut(orow).enumerate().take(hb) {
+            let top = yo * b * row;
+            acc.iter_mut().zip(&x[top..top + span]).for_each(|(a, &v)| *a = v as u16);
+            for r in 1..b {
+                let src = &x[top + r * row..top + r * row + span];
+                acc.iter_mut().zip(src).for_each(|(a, &v)| *a += v as u16);
+            }
+            if ch == 1 && b == 2 {
+                o.iter_mut().zip(acc.chunks_exact(2)).for_each(|(o, p)| *o = p[0] + p[1]);
+            } else {
+                for (xo, px) in o.chunks_exact_mut(ch).enumerate() {
+                    for (c, v) in px.iter_mut().enumerate() {
+                        *v = (0..b).map(|k| acc[(xo * b + k) * ch + c]).sum();
+                    }
+                }
+            }
+            energy += o.iter().map(|&v| v as u64 * v as u64).sum::<u64>();
+        }
+        energy
+    }
+
+    /// [`Self::sums_u8`] of `x` as the 8-bit query path takes them: each block sum's low and
+    /// high bytes into the planes `lo` and `hi`, and its value into `f` on the binned rows where
+    /// `f_rows` is true (the others of `f` are left as they were); returns their sum of squares.
+    /// `sums` and `acc` are scratch. Gray images binned by 2 go through AVX-512 BW where `level`
+    /// allows (the same integers).
+    #[allow(clippy::too_many_arguments)]
+    pub fn digits_u8(&self, level: Level, x: &[u8], lo: &mut [u8], hi: &mut [u8], f: &mut [f32], f_rows: &[bool], sums: &mut Vec<u16>, acc: &mut Vec<u16>) -> u64 {
+        let s = self.spec();
+        let mb = s.features();
+        assert!(x.len() == self.full.features() && lo.len() == mb && hi.len() == mb && f.len() == mb && f_rows.len() == s.height as usize);
+        #[cfg(target_arch = "x86_64")]
+        if level == Level::Avx512 && self.factor == 2 && self.full.color.channels() == 1 {
+            // SAFETY: AVX-512 F/BW detected (Level::Avx512); the slices hold the full and binned
+            // images (asserted above).
+            return unsafe { simd::digits_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi, f, f_rows) };
+        }
+        let _ = level;
+        sums.resize(mb, 0);
+        let energy = self.sums_u8(x, sums, acc);
+        let row = mb / s.height as usize;
+        for (y, ((sums, f), (lo, hi))) in sums.chunks_exact(row).zip(f.chunks_exact_mut(row)).zip(lo.chunks_exact_mut(row).zip(hi.chunks_exact_mut(row))).enumerate() {
+            for ((&v, lo), hi) in sums.iter().zip(lo).zip(hi) {
+                (*lo, *hi) = (v as u8, (v >> 8) as u8);
+            }
+            if f_rows[y] {
+                f.iter_mut().zip(sums).for_each(|(f, &v)| *f = v as f32);
+            }
+        }
+        energy
+    }
+
+    /// Bins every image of `xs` (rows of [`Self::full`]'s features), in parallel; a copy when
+    /// b = 1.
+    pub fn apply_all(&self, xs: &[f32]) -> Vec<f32> {
+        if !self.bins() {
+            return xs.to_vec();
+        }
+        let (m, mb) = (self.full.features(), self.spec().features());
+        let mut out = vec![0.0; xs.len() / m * mb];
+        out.par_chunks_mut(mb).zip(xs.par_chunks_exact(m)).for_each_init(Vec::new, |acc, (o, x)| self.apply(x, o, acc));
+        out
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    use std::arch::x86_64::*;
+
+    /// [`super::Binning::digits_u8`] of a gray image of width `w` binned by 2 into `wb` x `hb`:
+    /// per binned row, 64 pixels of each of its two rows a step, their adjacent pairs summed by
+    /// `maddubs` (at most 510 in i16), the two rows' pair sums added (32 block sums of at most
+    /// 1,020), written out as low bytes, high bytes and f32, and squared in pairs into i32 lanes
+    /// (at most 2,080,800 a lane a step), flushed to u64 each row (at most 1,024 steps a row
+    /// before a lane could overflow: asserted).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F and BW; `x` holds at least (2 hb) rows of `w` pixels, `w
+    /// >= 2 wb`, and `lo`, `hi`, `f` hold `wb` x `hb` values.
+    #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn digits_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8], f: &mut [f32], f_rows: &[bool]) -> u64 {
+        let span = 2 * wb;
+        assert!(w >= span && x.len() >= 2 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb && f.len() >= wb * hb && f_rows.len() >= hb);
+        assert!(span.div_ceil(64) <= 1024, "a row of at most 65,536 pixels");
+        let ones = _mm512_set1_epi8(1);
+        let mut energy = 0u64;
+        for yo in 0..hb {
+            let (r0, r1) = (x.as_ptr().add(2 * yo * w), x.as_ptr().add((2 * yo + 1) * w));
+            let (lo_row, hi_row, f_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb), f.as_mut_ptr().add(yo * wb));
+            let mut sq = _mm512_setzero_si512();
+            let with_f = f_rows[yo];
+            let mut p = 0;
+            while p < span {
+                // Pixels p.. of the step (64 or fewer), outputs p / 2.. (32 or fewer).
+                let n = (span - p).min(64);
+                let mask_in = if n == 64 { u64::MAX } else { (1u64 << n) - 1 };
+                let mask_out = if n == 64 { u32::MAX } else { (1u32 << (n / 2)) - 1 };
+                let a = _mm512_maskz_loadu_epi8(mask_in, r0.add(p) as *const i8);
+                let b = _mm512_maskz_loadu_epi8(mask_in, r1.add(p) as *const i8);
+                let s = _mm512_add_epi16(_mm512_maddubs_epi16(a, ones), _mm512_maddubs_epi16(b, ones));
+                let o = p / 2;
+                // (512-bit stores of the low halves: the 256-bit masked store needs AVX-512 VL.)
+                _mm512_mask_storeu_epi8(lo_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi256_si512(_mm512_cvtepi16_epi8(s)));
+                _mm512_mask_storeu_epi8(hi_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi256_si512(_mm512_cvtepi16_epi8(_mm512_srli_epi16::<8>(s))));
+                if with_f {
+                    let s0 = _mm512_cvtepu16_epi32(_mm512_castsi512_si256(s));
+                    let s1 = _mm512_cvtepu16_epi32(_mm512_extracti64x4_epi64::<1>(s));
+                    _mm512_mask_storeu_ps(f_row.add(o), mask_out as u16, _mm512_cvtepi32_ps(s0));
+                    _mm512_mask_storeu_ps(f_row.add(o + 16), (mask_out >> 16) as u16, _mm512_cvtepi32_ps(s1));
+                }
+                // Lanes past the row's outputs hold 0 (masked loads), so they add nothing.
+                sq = _mm512_add_epi32(sq, _mm512_madd_epi16(s, s));
+                p += 64;
+            }
+            energy += _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(sq))) as u64
+                + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(sq))) as u64;
+        }
+        energy
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image_io::ColorMode;
+
+    fn spec(w: u32, h: u32, color: ColorMode) -> ImageSpec {
+        ImageSpec { width: w, height: h, color }
+    }
+
+    #[test]
+    fn a_block_becomes_its_mean_and_the_remainder_is_left_out() {
+        // 7 x 6 gray, binned by 2: 3 x 3, the last column left out.
+        let s = spec(7, 6, ColorMode::Gray);
+        let x: Vec<f32> = (0..42).map(|i| i as f32).collect();
+        let b = Binning::new(s, 2).unwrap();
+        assert_eq!(b.spec(), spec(3, 3, ColorMode::Gray));
+        let out = b.apply_all(&x);
+        // Block (0, 0): pixels 0, 1, 7, 8.
+        assert_eq!(out[0], (0.0 + 1.0 + 7.0 + 8.0) / 4.0);
+        // Block (row 2, col 2): rows 4, 5, columns 4, 5.
+        assert_eq!(out[8], (32.0 + 33.0 + 39.0 + 40.0) / 4.0);
+        // Factor 1 is the identity.
+        assert_eq!(Binning::new(s, 1).unwrap().apply_all(&x), x);
+    }
+
+    /// Each binned value by its definition, in f64: the mean of its block's values of its
+    /// channel.
+    fn naive(x: &[f32], s: ImageSpec, b: usize) -> Vec<f64> {
+        let (w, ch) = (s.width as usize, s.color.channels());
+        let (wb, hb) = (s.width as usize / b, s.height as usize / b);
+        let mut out = Vec::new();
+        for yo in 0..hb {
+            for xo in 0..wb {
+                for c in 0..ch {
+                    let sum: f64 = (0..b).flat_map(|r| (0..b).map(move |k| ((yo * b + r) * w + xo * b + k) * ch + c)).map(|i| x[i] as f64).sum();
+                    out.push(sum / (b * b) as f64);
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn colour_channels_are_binned_apart() {
+        for (w, h, b) in [(10, 9, 3), (9, 7, 2), (33, 16, 4)] {
+            let s = spec(w, h, ColorMode::Rgb);
+            let x: Vec<f32> = (0..s.features()).map(|i| (i % 3) as f32 * 0.25 + ((i / 3) % 17) as f32 / 17.0).collect();
+            let out = Binning::new(s, b).unwrap().apply_all(&x);
+            let want = naive(&x, s, b);
+            assert_eq!(out.len(), want.len());
+            for (j, (&v, &e)) in out.iter().zip(&want).enumerate() {
+                assert!((v as f64 - e).abs() < 1e-6, "{w}x{h} by {b}, value {j}: {v} against {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn eight_bit_sums_are_the_means_times_the_block() {
+        for (w, h, color, b) in [(9, 7, ColorMode::Gray, 2), (10, 9, ColorMode::Gray, 3), (8, 8, ColorMode::Rgb, 2), (64, 48, ColorMode::Gray, 16)] {
+            let s = spec(w, h, color);
+            let bin = Binning::new(s, b).unwrap();
+            let x: Vec<u8> = (0..s.features()).map(|i| (i * 37 % 256) as u8).collect();
+            let mut sums = vec![0u16; bin.spec().features()];
+            let energy = bin.sums_u8(&x, &mut sums, &mut Vec::new());
+            let f: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+            for (&sum, &mean) in sums.iter().zip(&naive(&f, s, b)) {
+                assert_eq!(sum as f64, mean * (b * b) as f64, "{w}x{h} by {b}");
+            }
+            assert_eq!(energy, sums.iter().map(|&v| v as u64 * v as u64).sum::<u64>());
+        }
+    }
+
+    #[test]
+    fn the_digit_planes_are_the_sums_on_every_path() {
+        // Widths around the 64-pixel steps, odd ones leaving a column out, and images that
+        // reach the largest sums.
+        for (w, h) in [(128, 6), (160, 7), (7, 6), (129, 7), (62, 6), (200, 9)] {
+            let s = spec(w, h, ColorMode::Gray);
+            let bin = Binning::new(s, 2).unwrap();
+            let mb = bin.spec().features();
+            for fill in [None, Some(255u8), Some(0u8)] {
+                let x: Vec<u8> = (0..s.features()).map(|i| fill.unwrap_or(((i * 91 + i / 7) % 256) as u8)).collect();
+                let mut sums = vec![0u16; mb];
+                let energy = bin.sums_u8(&x, &mut sums, &mut Vec::new());
+                let hb = bin.spec().height as usize;
+                // Every row as f32, and every third (the others left at -1).
+                for f_rows in [vec![true; hb], (0..hb).map(|y| y % 3 == 1).collect()] {
+                    for level in Level::supported() {
+                        let (mut lo, mut hi, mut f) = (vec![0u8; mb], vec![0u8; mb], vec![-1f32; mb]);
+                        let e = bin.digits_u8(level, &x, &mut lo, &mut hi, &mut f, &f_rows, &mut Vec::new(), &mut Vec::new());
+                        assert_eq!(e, energy, "{w}x{h} {level:?}");
+                        for (j, &v) in sums.iter().enumerate() {
+                            let want_f = if f_rows[j / (mb / hb)] { v as f32 } else { -1.0 };
+                            assert_eq!((lo[j] as u16 | (hi[j] as u16) << 8, f[j]), (v, want_f), "{w}x{h} {level:?} value {j}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_factor_that_leaves_too_little_is_refused_by_name() {
+        let s = spec(20, 15, ColorMode::Gray);
+        assert!(Binning::new(s, 5).is_ok());
+        let e = Binning::new(s, 6).unwrap_err().to_string();
+        assert!(e.contains("bin") && e.contains("3x2"), "{e}");
+        assert!(Binning::new(s, 0).unwrap_err().to_string().contains("bin"));
+        assert!(Binning::new(s, 17).unwrap_err().to_string().contains("1 to 16"));
+    }
+}
