@@ -212,6 +212,14 @@ mod simd {
             let (lo_row, hi_row, f_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb), f.as_mut_ptr().add(yo * wb));
             let mut sq = _mm512_setzero_si512();
             let with_f = f_rows[yo];
+            // The rows 12 blocks down asked for now: one image is one stream, too slow for the
+            // hardware prefetcher alone when images come from memory.
+            if yo + 12 < hb {
+                let ahead = x.as_ptr().add((2 * yo + 24) * w);
+                for off in (0..2 * w).step_by(64) {
+                    _mm_prefetch::<_MM_HINT_T0>(ahead.add(off) as *const i8);
+                }
+            }
             let mut p = 0;
             while p < span {
                 // Pixels p.. of the step (64 or fewer), outputs p / 2.. (32 or fewer).
