@@ -412,7 +412,7 @@ pub fn clip_bias_shape(v: f32) -> f32 {
 /// The offset direction of each knot: the training image's [`clip_bias_shape`] (of its pixels
 /// as given, then binned: the bias of a binned pixel is the mean of its pixels' biases) projected
 /// on `basis` (L rows of the binned M, as stored), in the knots' order.
-pub(crate) fn background_knots(views: Views, sample_at: &[usize], basis: &[f64], l: usize) -> Vec<f32> {
+pub(crate) fn background_knots(views: Views<'_>, sample_at: &[usize], basis: &[f64], l: usize) -> Vec<f32> {
     let m = views.binning.spec().features();
     let per: Vec<Vec<f32>> = sample_at
         .par_iter()
@@ -433,9 +433,11 @@ pub(crate) fn background_knots(views: Views, sample_at: &[usize], basis: &[f64],
 
 /// The training views as given and the binning the model applies to them: what simulated noise
 /// is added to (then binned, as a query's noise would be).
-#[derive(Clone, Copy)]
-pub(crate) struct Views<'a> {
+#[derive(Debug, Clone, Copy)]
+pub struct Views<'a> {
+    /// The training views as given.
     pub full: &'a Dataset,
+    /// The binning of the model.
     pub binning: Binning,
 }
 

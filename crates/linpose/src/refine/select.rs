@@ -166,8 +166,10 @@ pub const NOISE_SEED: u64 = 0x5e1ec7;
 /// alone: on the folds of [`choose`], the held-out views get simulated uniform noise at each of
 /// [`NOISE_LEVELS`] (clipped, fixed seed) and are estimated with every candidate, L among
 /// [`CANDIDATES`] up to `l_cap`, weighted or plain; the least mean pose error wins (a tie goes
-/// to the smaller L, then to the plain metric). None when no fold is possible.
-pub(crate) fn choose_noise(train: &Dataset, views: Views, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
+/// to the smaller L, then to the plain metric). None when no fold is possible. `train` is what
+/// the model is fitted on (binned); the noise goes on the same views as given (`views`), then
+/// they are binned.
+pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);
@@ -230,13 +232,14 @@ const NOISE_BLOCK: usize = 64;
 /// images alone: `clean`, the largest [`super::pixel_noise`] of a training image, and `noisy`,
 /// the smallest of the same images with simulated uniform noise at the smallest of
 /// [`NOISE_LEVELS`] (clipped, fixed seed). When they separate, the threshold is their geometric
-/// mean, the same factor from each; otherwise `clean`.
+/// mean, the same factor from each; otherwise `clean`. Both are measured on the images binned
+/// as the model bins them (`views`), the noise added before binning.
 ///
 /// Why not `clean` itself: a fresh clean view is as likely as any of the N training views to
 /// be the noisiest of the N + 1, so it exceeds the training maximum with probability 1 / (N +
 /// 1), and about one clean query in N + 1 would take the noisy match, whose free gain and
 /// offset cost precision. The midpoint keeps every simulated noisy training view above it.
-pub(crate) fn noise_threshold(views: Views) -> Result<NoiseThreshold> {
+pub fn noise_threshold(views: Views<'_>) -> Result<NoiseThreshold> {
     let spec = views.binning.spec();
     let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), spec.features());
     let noise = |x: &[f32]| super::pixel_noise(x, w, h, ch);
