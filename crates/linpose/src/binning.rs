@@ -142,32 +142,24 @@ impl Binning {
     }
 
     /// [`Self::sums_u8`] of `x` as the 8-bit query path takes them: each block sum's low and
-    /// high bytes into the planes `lo` and `hi`, and its value into `f` on the binned rows where
-    /// `f_rows` is true (the others of `f` are left as they were); returns their sum of squares.
-    /// `sums` and `acc` are scratch. Gray images binned by 2 go through AVX-512 BW where `level`
-    /// allows (the same integers).
-    #[allow(clippy::too_many_arguments)]
-    pub fn digits_u8(&self, level: Level, x: &[u8], lo: &mut [u8], hi: &mut [u8], f: &mut [f32], f_rows: &[bool], sums: &mut Vec<u16>, acc: &mut Vec<u16>) -> u64 {
+    /// high bytes into the planes `lo` and `hi`; returns their sum of squares. `sums` and `acc`
+    /// are scratch. Gray images binned by 2 go through AVX-512 BW where `level` allows (the same
+    /// integers).
+    pub fn digits_u8(&self, level: Level, x: &[u8], lo: &mut [u8], hi: &mut [u8], sums: &mut Vec<u16>, acc: &mut Vec<u16>) -> u64 {
         let s = self.spec();
         let mb = s.features();
-        assert!(x.len() == self.full.features() && lo.len() == mb && hi.len() == mb && f.len() == mb && f_rows.len() == s.height as usize);
+        assert!(x.len() == self.full.features() && lo.len() == mb && hi.len() == mb);
         #[cfg(target_arch = "x86_64")]
         if level == Level::Avx512 && self.factor == 2 && self.full.color.channels() == 1 {
             // SAFETY: AVX-512 F/BW detected (Level::Avx512); the slices hold the full and binned
             // images (asserted above).
-            return unsafe { simd::digits_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi, f, f_rows) };
+            return unsafe { simd::digits_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi) };
         }
         let _ = level;
         sums.resize(mb, 0);
         let energy = self.sums_u8(x, sums, acc);
-        let row = mb / s.height as usize;
-        for (y, ((sums, f), (lo, hi))) in sums.chunks_exact(row).zip(f.chunks_exact_mut(row)).zip(lo.chunks_exact_mut(row).zip(hi.chunks_exact_mut(row))).enumerate() {
-            for ((&v, lo), hi) in sums.iter().zip(lo).zip(hi) {
-                (*lo, *hi) = (v as u8, (v >> 8) as u8);
-            }
-            if f_rows[y] {
-                f.iter_mut().zip(sums).for_each(|(f, &v)| *f = v as f32);
-            }
+        for ((&v, lo), hi) in sums.iter().zip(lo).zip(hi) {
+            (*lo, *hi) = (v as u8, (v >> 8) as u8);
         }
         energy
     }
@@ -192,26 +184,24 @@ mod simd {
     /// [`super::Binning::digits_u8`] of a gray image of width `w` binned by 2 into `wb` x `hb`:
     /// per binned row, 64 pixels of each of its two rows a step, their adjacent pairs summed by
     /// `maddubs` (at most 510 in i16), the two rows' pair sums added (32 block sums of at most
-    /// 1,020), written out as low bytes, high bytes and f32, and squared in pairs into i32 lanes
+    /// 1,020), written out as low and high bytes, and squared in pairs into i32 lanes
     /// (at most 2,080,800 a lane a step), flushed to u64 each row (at most 1,024 steps a row
     /// before a lane could overflow: asserted).
     ///
     /// # Safety
     /// The CPU must support AVX-512 F and BW; `x` holds at least (2 hb) rows of `w` pixels, `w
-    /// >= 2 wb`, and `lo`, `hi`, `f` hold `wb` x `hb` values.
-    #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+    /// >= 2 wb`, and `lo`, `hi` hold `wb` x `hb` values.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn digits_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8], f: &mut [f32], f_rows: &[bool]) -> u64 {
+    pub unsafe fn digits_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8]) -> u64 {
         let span = 2 * wb;
-        assert!(w >= span && x.len() >= 2 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb && f.len() >= wb * hb && f_rows.len() >= hb);
+        assert!(w >= span && x.len() >= 2 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb);
         assert!(span.div_ceil(64) <= 1024, "a row of at most 65,536 pixels");
         let ones = _mm512_set1_epi8(1);
         let mut energy = 0u64;
         for yo in 0..hb {
             let (r0, r1) = (x.as_ptr().add(2 * yo * w), x.as_ptr().add((2 * yo + 1) * w));
-            let (lo_row, hi_row, f_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb), f.as_mut_ptr().add(yo * wb));
+            let (lo_row, hi_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb));
             let mut sq = _mm512_setzero_si512();
-            let with_f = f_rows[yo];
             // The rows 12 blocks down asked for now: one image is one stream, too slow for the
             // hardware prefetcher alone when images come from memory.
             if yo + 12 < hb {
@@ -233,12 +223,6 @@ mod simd {
                 // (512-bit stores of the low halves: the 256-bit masked store needs AVX-512 VL.)
                 _mm512_mask_storeu_epi8(lo_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi256_si512(_mm512_cvtepi16_epi8(s)));
                 _mm512_mask_storeu_epi8(hi_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi256_si512(_mm512_cvtepi16_epi8(_mm512_srli_epi16::<8>(s))));
-                if with_f {
-                    let s0 = _mm512_cvtepu16_epi32(_mm512_castsi512_si256(s));
-                    let s1 = _mm512_cvtepu16_epi32(_mm512_extracti64x4_epi64::<1>(s));
-                    _mm512_mask_storeu_ps(f_row.add(o), mask_out as u16, _mm512_cvtepi32_ps(s0));
-                    _mm512_mask_storeu_ps(f_row.add(o + 16), (mask_out >> 16) as u16, _mm512_cvtepi32_ps(s1));
-                }
                 // Lanes past the row's outputs hold 0 (masked loads), so they add nothing.
                 sq = _mm512_add_epi32(sq, _mm512_madd_epi16(s, s));
                 p += 64;
@@ -334,17 +318,12 @@ mod tests {
                 let x: Vec<u8> = (0..s.features()).map(|i| fill.unwrap_or(((i * 91 + i / 7) % 256) as u8)).collect();
                 let mut sums = vec![0u16; mb];
                 let energy = bin.sums_u8(&x, &mut sums, &mut Vec::new());
-                let hb = bin.spec().height as usize;
-                // Every row as f32, and every third (the others left at -1).
-                for f_rows in [vec![true; hb], (0..hb).map(|y| y % 3 == 1).collect()] {
-                    for level in Level::supported() {
-                        let (mut lo, mut hi, mut f) = (vec![0u8; mb], vec![0u8; mb], vec![-1f32; mb]);
-                        let e = bin.digits_u8(level, &x, &mut lo, &mut hi, &mut f, &f_rows, &mut Vec::new(), &mut Vec::new());
-                        assert_eq!(e, energy, "{w}x{h} {level:?}");
-                        for (j, &v) in sums.iter().enumerate() {
-                            let want_f = if f_rows[j / (mb / hb)] { v as f32 } else { -1.0 };
-                            assert_eq!((lo[j] as u16 | (hi[j] as u16) << 8, f[j]), (v, want_f), "{w}x{h} {level:?} value {j}");
-                        }
+                for level in Level::supported() {
+                    let (mut lo, mut hi) = (vec![0u8; mb], vec![0u8; mb]);
+                    let e = bin.digits_u8(level, &x, &mut lo, &mut hi, &mut Vec::new(), &mut Vec::new());
+                    assert_eq!(e, energy, "{w}x{h} {level:?}");
+                    for (j, &v) in sums.iter().enumerate() {
+                        assert_eq!(lo[j] as u16 | (hi[j] as u16) << 8, v, "{w}x{h} {level:?} value {j}");
                     }
                 }
             }
