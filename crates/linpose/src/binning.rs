@@ -142,10 +142,10 @@ impl Binning {
     }
 
     /// [`Self::sums_u8`] of `x` as the 8-bit query path takes them: each block sum's low and
-    /// high bytes into the planes `lo` and `hi`; returns their sum of squares. `sums` and `acc`
-    /// are scratch. Gray images binned by 2 go through AVX-512 BW where `level` allows (the same
-    /// integers).
-    pub fn digits_u8(&self, level: Level, x: &[u8], lo: &mut [u8], hi: &mut [u8], sums: &mut Vec<u16>, acc: &mut Vec<u16>) -> u64 {
+    /// high bytes into the planes `lo` and `hi`; returns their sum of squares and that of `x`
+    /// itself (both exact). `sums` and `acc` are scratch. Gray images binned by 2 or 4 go through AVX-512 BW where `level` allows (the
+    /// same integers).
+    pub fn digits_u8(&self, level: Level, x: &[u8], lo: &mut [u8], hi: &mut [u8], sums: &mut Vec<u16>, acc: &mut Vec<u16>) -> (u64, u64) {
         let s = self.spec();
         let mb = s.features();
         assert!(x.len() == self.full.features() && lo.len() == mb && hi.len() == mb);
@@ -155,13 +155,18 @@ impl Binning {
             // images (asserted above).
             return unsafe { simd::digits_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi) };
         }
+        #[cfg(target_arch = "x86_64")]
+        if level == Level::Avx512 && self.factor == 4 && self.full.color.channels() == 1 {
+            // SAFETY: as above.
+            return unsafe { simd::digits_4x4_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi) };
+        }
         let _ = level;
         sums.resize(mb, 0);
         let energy = self.sums_u8(x, sums, acc);
         for ((&v, lo), hi) in sums.iter().zip(lo).zip(hi) {
             (*lo, *hi) = (v as u8, (v >> 8) as u8);
         }
-        energy
+        (energy, crate::kernels::dot_u8::sum_squares(x))
     }
 
     /// Bins every image of `xs` (rows of [`Self::full`]'s features), in parallel; a copy when
@@ -177,9 +182,35 @@ impl Binning {
     }
 }
 
+/// The squares of the pixels of a gray image `x` of width `w` outside its top-left `used_w` x
+/// `used_h` pixels (those binning leaves out), summed.
+#[cfg(target_arch = "x86_64")]
+fn left_out_squares(x: &[u8], w: usize, used_w: usize, used_h: usize) -> u64 {
+    let sq = |v: &[u8]| v.iter().map(|&p| p as u64 * p as u64).sum::<u64>();
+    x.chunks_exact(w).take(used_h).map(|r| sq(&r[used_w..])).sum::<u64>() + sq(&x[used_h * w..])
+}
+
 #[cfg(target_arch = "x86_64")]
 mod simd {
     use std::arch::x86_64::*;
+
+    /// `acc` plus the squares of the 64 bytes of `v`, summed in fours into its 16 i32 lanes (at
+    /// most 260,100 a lane a call).
+    #[inline]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn add_squares(acc: __m512i, v: __m512i) -> __m512i {
+        let lo = _mm512_cvtepu8_epi16(_mm512_castsi512_si256(v));
+        let hi = _mm512_cvtepu8_epi16(_mm512_extracti64x4_epi64::<1>(v));
+        _mm512_add_epi32(acc, _mm512_add_epi32(_mm512_madd_epi16(lo, lo), _mm512_madd_epi16(hi, hi)))
+    }
+
+    /// The sum of 16 u32 lanes.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn lanes_u64(v: __m512i) -> u64 {
+        _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(v))) as u64
+            + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(v))) as u64
+    }
 
     /// [`super::Binning::digits_u8`] of a gray image of width `w` binned by 2 into `wb` x `hb`:
     /// per binned row, 64 pixels of each of its two rows a step, their adjacent pairs summed by
@@ -192,16 +223,16 @@ mod simd {
     /// The CPU must support AVX-512 F and BW; `x` holds at least (2 hb) rows of `w` pixels, `w
     /// >= 2 wb`, and `lo`, `hi` hold `wb` x `hb` values.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn digits_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8]) -> u64 {
+    pub unsafe fn digits_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8]) -> (u64, u64) {
         let span = 2 * wb;
         assert!(w >= span && x.len() >= 2 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb);
         assert!(span.div_ceil(64) <= 1024, "a row of at most 65,536 pixels");
         let ones = _mm512_set1_epi8(1);
-        let mut energy = 0u64;
+        let (mut energy, mut energy_full) = (0u64, 0u64);
         for yo in 0..hb {
             let (r0, r1) = (x.as_ptr().add(2 * yo * w), x.as_ptr().add((2 * yo + 1) * w));
             let (lo_row, hi_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb));
-            let mut sq = _mm512_setzero_si512();
+            let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
             // The rows 12 blocks down asked for now: one image is one stream, too slow for the
             // hardware prefetcher alone when images come from memory.
             if yo + 12 < hb {
@@ -218,6 +249,7 @@ mod simd {
                 let mask_out = if n == 64 { u32::MAX } else { (1u32 << (n / 2)) - 1 };
                 let a = _mm512_maskz_loadu_epi8(mask_in, r0.add(p) as *const i8);
                 let b = _mm512_maskz_loadu_epi8(mask_in, r1.add(p) as *const i8);
+                sq_full = add_squares(add_squares(sq_full, a), b);
                 let s = _mm512_add_epi16(_mm512_maddubs_epi16(a, ones), _mm512_maddubs_epi16(b, ones));
                 let o = p / 2;
                 // (512-bit stores of the low halves: the 256-bit masked store needs AVX-512 VL.)
@@ -227,10 +259,62 @@ mod simd {
                 sq = _mm512_add_epi32(sq, _mm512_madd_epi16(s, s));
                 p += 64;
             }
-            energy += _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(sq))) as u64
-                + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(sq))) as u64;
+            energy += lanes_u64(sq);
+            energy_full += lanes_u64(sq_full);
         }
-        energy
+        // The pixels the blocks leave out (a last column or row) count in the image's energy.
+        (energy, energy_full + super::left_out_squares(x, w, 2 * wb, 2 * hb))
+    }
+
+    /// [`super::Binning::digits_u8`] of a gray image of width `w` binned by 4 into `wb` x `hb`:
+    /// per binned row, 64 pixels of each of its four rows a step, their adjacent pairs summed by
+    /// `maddubs` (at most 510 in i16), the four rows' pair sums added (at most 2,040), adjacent
+    /// pairs of those summed by `madd` into i32 (16 block sums of at most 4,080), written out as
+    /// low and high bytes, and squared into i32 lanes (at most 16,646,400 a lane a step),
+    /// flushed to u64 each row (at most 128 steps a row: asserted).
+    ///
+    /// # Safety
+    /// As [`digits_2x2_avx512`], with (4 hb) rows and `w >= 4 wb`.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn digits_4x4_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8]) -> (u64, u64) {
+        let span = 4 * wb;
+        assert!(w >= span && x.len() >= 4 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb);
+        assert!(span.div_ceil(64) <= 128, "a row of at most 8,192 pixels");
+        let (ones8, ones16) = (_mm512_set1_epi8(1), _mm512_set1_epi16(1));
+        let (mut energy, mut energy_full) = (0u64, 0u64);
+        for yo in 0..hb {
+            let r = x.as_ptr().add(4 * yo * w);
+            let (lo_row, hi_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb));
+            if yo + 6 < hb {
+                let ahead = x.as_ptr().add((4 * yo + 24) * w);
+                for off in (0..4 * w).step_by(64) {
+                    _mm_prefetch::<_MM_HINT_T0>(ahead.add(off) as *const i8);
+                }
+            }
+            let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+            let mut p = 0;
+            while p < span {
+                let n = (span - p).min(64);
+                let mask_in = if n == 64 { u64::MAX } else { (1u64 << n) - 1 };
+                let mask_out = if n == 64 { u16::MAX } else { (1u16 << (n / 4)) - 1 };
+                let mut pairs = _mm512_setzero_si512();
+                for k in 0..4 {
+                    let v = _mm512_maskz_loadu_epi8(mask_in, r.add(k * w + p) as *const i8);
+                    sq_full = add_squares(sq_full, v);
+                    pairs = _mm512_add_epi16(pairs, _mm512_maddubs_epi16(v, ones8));
+                }
+                let q = _mm512_madd_epi16(pairs, ones16);
+                let o = p / 4;
+                _mm512_mask_storeu_epi8(lo_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi128_si512(_mm512_cvtepi32_epi8(q)));
+                _mm512_mask_storeu_epi8(hi_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi128_si512(_mm512_cvtepi32_epi8(_mm512_srli_epi32::<8>(q))));
+                sq = _mm512_add_epi32(sq, _mm512_mullo_epi32(q, q));
+                p += 64;
+            }
+            energy += lanes_u64(sq);
+            energy_full += lanes_u64(sq_full);
+        }
+        // The pixels the blocks leave out (a last column or row) count in the image's energy.
+        (energy, energy_full + super::left_out_squares(x, w, 4 * wb, 4 * hb))
     }
 }
 
@@ -310,9 +394,9 @@ mod tests {
     fn the_digit_planes_are_the_sums_on_every_path() {
         // Widths around the 64-pixel steps, odd ones leaving a column out, and images that
         // reach the largest sums.
-        for (w, h) in [(128, 6), (160, 7), (7, 6), (129, 7), (62, 6), (200, 9)] {
+        for (w, h, b) in [(128, 6, 2), (160, 7, 2), (7, 6, 2), (129, 7, 2), (62, 6, 2), (200, 9, 2), (128, 12, 4), (160, 13, 4), (14, 12, 4), (130, 15, 4), (260, 16, 4)] {
             let s = spec(w, h, ColorMode::Gray);
-            let bin = Binning::new(s, 2).unwrap();
+            let bin = Binning::new(s, b).unwrap();
             let mb = bin.spec().features();
             for fill in [None, Some(255u8), Some(0u8)] {
                 let x: Vec<u8> = (0..s.features()).map(|i| fill.unwrap_or(((i * 91 + i / 7) % 256) as u8)).collect();
@@ -321,7 +405,7 @@ mod tests {
                 for level in Level::supported() {
                     let (mut lo, mut hi) = (vec![0u8; mb], vec![0u8; mb]);
                     let e = bin.digits_u8(level, &x, &mut lo, &mut hi, &mut Vec::new(), &mut Vec::new());
-                    assert_eq!(e, energy, "{w}x{h} {level:?}");
+                    assert_eq!(e, (energy, x.iter().map(|&v| v as u64 * v as u64).sum()), "{w}x{h} by {b} {level:?}");
                     for (j, &v) in sums.iter().enumerate() {
                         assert_eq!(lo[j] as u16 | (hi[j] as u16) << 8, v, "{w}x{h} {level:?} value {j}");
                     }

@@ -64,9 +64,10 @@ pub struct TrainArgs {
     #[arg(long, value_name = "D")]
     pub resolution: Option<f64>,
     /// Refined: bin the images by B (each pixel the mean of a B x B block) before fitting and
-    /// before each query; 1 (the default) keeps them as given.
-    #[arg(long, value_name = "B")]
-    pub bin: Option<usize>,
+    /// before each query, or `auto` to choose B among 1, 2 and 4 by the held-out error; 1 (the
+    /// default) keeps them as given.
+    #[arg(long, value_name = "B|auto")]
+    pub bin: Option<String>,
     /// Linear model: read the images from disk in blocks instead of all at once, for training
     /// sets larger than memory. With N <= M images this is the usual minimum-norm fit; with
     /// N > M it is least squares / ridge through X^T X (M x M), which needs --ridge when some
@@ -146,8 +147,10 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
             if let Some(r) = a.resolution {
                 p = p.resolution(r);
             }
-            if let Some(b) = a.bin {
-                p = p.bin(b);
+            match a.bin.as_deref() {
+                None => {}
+                Some("auto") => p = p.auto_bin(),
+                Some(v) => p = p.bin(v.parse().map_err(|_| anyhow::anyhow!("--bin {v}: expected a whole number or 'auto'"))?),
             }
             p.fit(&train)?.into()
         }

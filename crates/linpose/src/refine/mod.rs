@@ -143,22 +143,32 @@ pub struct RefinedParams {
     per_cell: usize,
     weighted: bool,
     resolution: f64,
-    /// Images binned by this factor before anything else ([`crate::binning`]); 1: as given.
-    #[serde(default = "one")]
-    bin: usize,
+    /// Images binned by this factor before anything else ([`crate::binning`]; 1: as given;
+    /// None: chosen from the training data, [`BIN_CANDIDATES`]).
+    #[serde(default = "bin_one")]
+    bin: Option<usize>,
 }
 
-/// The binning factor of models written before it existed.
+/// The binning factor asked for by models written before it existed: none.
+fn bin_one() -> Option<usize> {
+    Some(1)
+}
+
+/// The binning factor of models written before it existed: 1.
 fn one() -> usize {
     1
 }
+
+/// The binning factors the automatic choice scores (those that leave an image of at least 3 x 3
+/// pixels): each halving of the resolution up to a quarter.
+pub const BIN_CANDIDATES: &[usize] = &[1, 2, 4];
 
 /// The weight floor, relative to the mean interpolation variance.
 pub const WEIGHT_FLOOR: f64 = 0.01;
 
 impl Default for RefinedParams {
     fn default() -> Self {
-        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: 1 }
+        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: Some(1) }
     }
 }
 
@@ -205,12 +215,20 @@ impl RefinedParams {
     /// [`crate::binning`]) before fitting and before each query; 1 (the default) keeps them as
     /// given. Noise is simulated on the images as given, then binned, as a query's would be.
     pub fn bin(mut self, factor: usize) -> Self {
-        self.bin = factor;
+        self.bin = Some(factor);
         self
     }
 
-    /// The binning factor.
-    pub fn bin_factor(&self) -> usize {
+    /// Choose the binning factor from the training data: among [`BIN_CANDIDATES`], the one
+    /// whose held-out error ([`select::choose`]) is least (a tie goes to the larger factor:
+    /// cheaper queries, a smaller model).
+    pub fn auto_bin(mut self) -> Self {
+        self.bin = None;
+        self
+    }
+
+    /// The binning factor asked for (None: chosen from the data).
+    pub fn fixed_bin(&self) -> Option<usize> {
         self.bin
     }
 
@@ -232,8 +250,8 @@ impl RefinedParams {
         if !(1..=16).contains(&self.per_cell) {
             return Err(Error::invalid("per cell", self.per_cell, "must be 1 to 16"));
         }
-        if !(1..=crate::binning::MAX_FACTOR).contains(&self.bin) {
-            return Err(Error::invalid("bin", self.bin, format!("must be 1 to {}", crate::binning::MAX_FACTOR)));
+        if let Some(b) = self.bin.filter(|b| !(1..=crate::binning::MAX_FACTOR).contains(b)) {
+            return Err(Error::invalid("bin", b, format!("must be 1 to {}", crate::binning::MAX_FACTOR)));
         }
         Ok(())
     }
@@ -244,6 +262,13 @@ impl RefinedParams {
 pub struct RefinedSettings {
     /// The parameters as given.
     pub params: RefinedParams,
+    /// The binning factor of every image the model takes (1: none).
+    #[serde(default = "one")]
+    pub bin: usize,
+    /// The automatic choice of the binning factor: each candidate with its held-out error
+    /// (degrees), as [`Self::selection`]'s least and [`Self::plain_error`] (empty when fixed).
+    #[serde(default)]
+    pub bin_selection: Vec<(usize, f64)>,
     /// Eigenimages kept, L.
     pub components: usize,
     /// Eigenimages of the weighted search of a clean query (the first ones; 0: all). The rest
@@ -314,21 +339,41 @@ impl Estimator for RefinedParams {
 
     fn fit(&self, full: &Dataset) -> Result<RefinedModel> {
         self.validate()?;
-        let views = Views { full, binning: Binning::new(full.spec(), self.bin)? };
-        // Everything is fitted on the binned images; the held-out fits take them as given (bin 1).
-        let binned;
-        let train = if views.binning.bins() {
-            binned = Dataset::from_features(full.manifest().clone(), views.binning.spec(), views.binning.apply_all(full.features()))?;
-            &binned
-        } else {
-            full
+        // The held-out fits take the binned images as given (bin 1).
+        let inner = RefinedParams { bin: Some(1), ..*self };
+        // The binning factor (with its images, grid and choice of L when scored), fixed or the
+        // candidate of least held-out error.
+        let mut bin_selection = Vec::new();
+        let (binning, train, grid, chosen) = match self.bin {
+            Some(b) => {
+                let binning = Binning::new(full.spec(), b)?;
+                let (train, grid) = binned_views(full, binning)?;
+                (binning, train, grid, None)
+            }
+            None => {
+                let mut best = None;
+                for &b in BIN_CANDIDATES {
+                    let Ok(binning) = Binning::new(full.spec(), b) else { continue };
+                    let (train, grid) = binned_views(full, binning)?;
+                    let scored = select::choose(train.as_ref().unwrap_or(full), &grid, &inner)?;
+                    let error = scored.1.iter().map(|s| s.1).chain(scored.2).fold(f64::INFINITY, f64::min);
+                    bin_selection.push((b, error));
+                    // A tie goes to the larger factor (the candidates rise).
+                    if best.as_ref().is_none_or(|(e, ..): &(f64, _, _, _, _)| error <= *e) {
+                        best = Some((error, binning, train, grid, scored));
+                    }
+                }
+                let (_, binning, train, grid, scored) = best.expect("factor 1 always fits");
+                (binning, train, grid, Some(scored))
+            }
         };
-        let inner = RefinedParams { bin: 1, ..*self };
+        let train = train.as_ref().unwrap_or(full);
+        let views = Views { full, binning };
         let space = train.space();
-        let grid = Grid::new(space, train.poses(), train.manifest().images(), train.manifest().root())?;
-        let (l_max, selection, plain_error) = match self.components {
-            Some(l) => (l, Vec::new(), None),
-            None => select::choose(train, &grid, &inner)?,
+        let (l_max, selection, plain_error) = match (self.components, chosen) {
+            (Some(l), _) => (l, Vec::new(), None),
+            (None, Some(scored)) => scored,
+            (None, None) => select::choose(train, &grid, &inner)?,
         };
         // The plain metric wins when it scored better on the held-out views than every weighted L.
         let best_weighted = selection.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
@@ -370,6 +415,8 @@ impl Estimator for RefinedParams {
         let background = background_knots(views, &grid.sample_at, &basis, l);
         let settings = RefinedSettings {
             params: *self,
+            bin: binning.factor(),
+            bin_selection,
             components: l,
             search_components: l_search,
             energy_kept: pca.energy_kept(),
@@ -394,6 +441,18 @@ impl Estimator for RefinedParams {
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         RefinedModel::new(meta, settings, to32(&basis), to32(&pca.mean), knots, background, grid.axes)
     }
+}
+
+/// The training images binned by `binning` (None when it keeps them as given) and their grid.
+fn binned_views(full: &Dataset, binning: Binning) -> Result<(Option<Dataset>, Grid)> {
+    let binned = if binning.bins() {
+        Some(Dataset::from_features(full.manifest().clone(), binning.spec(), binning.apply_all(full.features()))?)
+    } else {
+        None
+    };
+    let d = binned.as_ref().unwrap_or(full);
+    let grid = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root())?;
+    Ok((binned, grid))
 }
 
 /// Reference amplitude of [`clip_bias_shape`].
@@ -813,7 +872,7 @@ impl RefinedModel {
         axes: Vec<Vec<f64>>,
     ) -> Result<Self> {
         let (l, m) = (settings.components, mean.len());
-        let binning = Binning::new(meta.spec, settings.params.bin)?;
+        let binning = Binning::new(meta.spec, settings.bin)?;
         assert_eq!(binning.spec().features(), m, "a mean image of the binned size");
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
@@ -1223,7 +1282,7 @@ impl RefinedModel {
         let bad = |e: String| t.error(format!("damaged refined-eigenspace settings: {e}"));
         let settings: RefinedSettings = serde_json::from_value(meta.settings.clone()).map_err(|e| bad(e.to_string()))?;
         settings.params.validate().map_err(|e| bad(e.to_string()))?;
-        let binning = Binning::new(meta.spec, settings.params.bin).map_err(|e| bad(e.to_string()))?;
+        let binning = Binning::new(meta.spec, settings.bin).map_err(|e| bad(e.to_string()))?;
         let (l, m, d) = (settings.components, binning.spec().features(), meta.space.len());
         if l == 0 || settings.knot_shape.len() != d || settings.knot_shape.iter().any(|&c| c == 0 || c > 1 << 16) {
             return Err(bad(format!("{l} components, knot shape {:?}", settings.knot_shape)));
@@ -2112,8 +2171,8 @@ impl RefinedModel {
         // The noisy match's nu: the noise of a binned pixel (pv / b^2, independent noise) per
         // unit energy of the binned image.
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
-        for i in 0..n {
-            s.noise[i] = pv_full[i] / (b2 * s.benergy[i]);
+        for ((nu, &pv), &e) in s.noise.iter_mut().zip(&pv_full).zip(&s.benergy) {
+            *nu = pv / (b2 * e);
         }
         s.binned = binned;
         s.pv_full = pv_full;
@@ -2155,8 +2214,9 @@ impl RefinedModel {
             // [`Self::project_binned`]), in pixel values.
             for (i, x) in queries.chunks_exact(m).enumerate() {
                 let (lo, hi) = planes[2 * i * mb..2 * (i + 1) * mb].split_at_mut(mb);
-                s.energy[i] = self.binning.digits_u8(level, x, lo, hi, sums, acc);
-                let e_full = dot_u8::sum_squares(x) as f64;
+                let (e_binned, e_full) = self.binning.digits_u8(level, x, lo, hi, sums, acc);
+                s.energy[i] = e_binned;
+                let e_full = e_full as f64;
                 let pv = match self.early_full(noise, e_full) {
                     Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8_full, w * ch, ch), early),
                     None => 0.0,

@@ -139,6 +139,8 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(u
 fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> RefinedSettings {
     RefinedSettings {
         params: *params,
+        bin: 1,
+        bin_selection: vec![],
         components: l,
         search_components: l,
         energy_kept: 0.0,

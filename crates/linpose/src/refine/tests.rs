@@ -718,7 +718,7 @@ fn a_binned_model_searches_as_a_model_of_the_binned_images() {
     let a = RefinedParams::default().components(8).bin(2).fit(&d).unwrap();
     let b = RefinedParams::default().components(8).fit(&binned(&d, 2)).unwrap();
     assert_eq!(a.meta().spec, d.spec(), "the model takes images as given");
-    assert_eq!(a.settings().params.bin_factor(), 2);
+    assert_eq!((a.settings().bin, a.settings().params.fixed_bin()), (2, Some(2)));
     assert_eq!(a.predict(test.features()).unwrap(), b.predict(binned(&test, 2).features()).unwrap());
     // A query's noise is measured on the image as given: the threshold is that of a model
     // that does not bin, and +-5% noise on the images routes every query to the noisy match.
@@ -790,11 +790,41 @@ fn the_binning_factor_is_checked_and_kept_in_the_file() {
     let any: crate::AnyModel = model.clone().into();
     crate::model_file::save(&any, &path).unwrap();
     let back = crate::model_file::load(&path).unwrap();
-    assert_eq!(back.meta().settings["params"]["bin"], 4);
+    assert_eq!(back.meta().settings["bin"], 4);
     assert_eq!(back.predict(test.features()).unwrap(), est);
     // A model written before binning existed has no factor: it takes images as they are.
     let mut settings = model.meta().settings.clone();
     settings["params"].as_object_mut().unwrap().remove("bin");
+    settings.as_object_mut().unwrap().remove("bin");
+    settings.as_object_mut().unwrap().remove("bin_selection");
     let old: RefinedSettings = serde_json::from_value(settings).unwrap();
-    assert_eq!(old.params.bin_factor(), 1);
+    assert_eq!((old.bin, old.params.fixed_bin()), (1, Some(1)));
+}
+
+#[test]
+fn the_automatic_binning_factor_is_the_least_held_out_error() {
+    let d = train_set();
+    let model = RefinedParams::default().auto_bin().fit(&d).unwrap();
+    let s = model.settings();
+    // 32 x 12 images: by 4 they keep 8 x 3 pixels, so all three candidates are scored.
+    let factors: Vec<usize> = s.bin_selection.iter().map(|c| c.0).collect();
+    assert_eq!(factors, BIN_CANDIDATES);
+    let least = s.bin_selection.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
+    let chosen = s.bin_selection.iter().rev().find(|c| c.1 == least).unwrap().0;
+    assert_eq!(s.bin, chosen, "{:?}", s.bin_selection);
+    // Each candidate's score is what the choice of L on its images gives.
+    for &(b, e) in &s.bin_selection {
+        let fixed = RefinedParams::default().bin(b).fit(&d).unwrap();
+        let f = fixed.settings();
+        let want = f.selection.iter().map(|c| c.1).chain(f.plain_error).fold(f64::INFINITY, f64::min);
+        assert_eq!(e, want, "factor {b}");
+        if b == s.bin {
+            let test = grid(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5]);
+            assert_eq!(model.predict(test.features()).unwrap(), fixed.predict(test.features()).unwrap());
+        }
+    }
+    // Too small an image for a factor leaves it out.
+    let tiny = binned(&d, 2);
+    let t = RefinedParams::default().auto_bin().fit(&tiny).unwrap();
+    assert_eq!(t.settings().bin_selection.iter().map(|c| c.0).collect::<Vec<_>>(), [1, 2]);
 }
