@@ -95,16 +95,21 @@
 //! summed 8 coordinates a vector.
 //! bench/beyond_compare.py measures it against the eigenspace; BENCHMARKS.md holds the figures.
 //!
-//! Binning (`bin(b)`, `linpose train --bin B`; 1, none, by default): the model takes images as
-//! given and bins them by a box filter ([`crate::binning`]) before everything above, in training
-//! and for each query. The spline through binned views interpolates better (their fine detail,
-//! stripes and edges, aliases between training views), independent pixel noise's variance is
-//! divided by b^2, and every product costs b^2 times less. Simulated noise (the threshold, the
-//! noisy match's choice, the offset direction) is added to the images as given and then
-//! binned, as a query's noise would be. An 8-bit query's block sums are exact integers, given
-//! to the 8-bit products as two planes of 8-bit digits. On the comparison's 35 rows, b = 2 met
-//! the peer's error on 34 (COIL-1 0.514 against 0.472), b = 4 on 27 (noise at +-5% and +-10%
-//! went past it on duck, pot, cap and twin): BENCHMARKS.md.
+//! Binning (`auto_bin()`, the default, or `bin(b)`; `linpose train --bin auto|B`): the model
+//! takes images as given and bins them by a box filter ([`crate::binning`]) before everything
+//! above, in training and for each query, by the factor among [`BIN_CANDIDATES`] (1, 2, 4) whose
+//! held-out error is least (the choice of L run on each one's images). The spline through binned
+//! views interpolates better (their fine detail, stripes and edges, aliases between training
+//! views), independent pixel noise's variance is divided by b^2, and every product costs b^2
+//! times less. Simulated noise (the noisy match's choice, the offset direction) is added to the
+//! images as given and then binned, as a query's noise would be. A query's pixel noise is
+//! measured on the image as given, against the threshold of the training images as given: on
+//! binned images the estimate no longer tells noise from detail (least +-5% value over largest
+//! clean one on duck's training views: 53.9 as given, 4.1 by 2, 0.69 by 4). An 8-bit query's
+//! block sums are exact integers, given to the 8-bit products as two planes of 8-bit digits. On
+//! the comparison's 35 rows the choice took 4 on 17, 2 on 8 and 1 on 10, and met the peer's
+//! error on all but COIL-1 (0.500 against 0.472; by 1 COIL-15 had been over it too):
+//! BENCHMARKS.md.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
@@ -168,7 +173,7 @@ pub const WEIGHT_FLOOR: f64 = 0.01;
 
 impl Default for RefinedParams {
     fn default() -> Self {
-        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: Some(1) }
+        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: None }
     }
 }
 
@@ -212,16 +217,16 @@ impl RefinedParams {
     }
 
     /// Bin the images by `factor` (each pixel the mean of a factor x factor block,
-    /// [`crate::binning`]) before fitting and before each query; 1 (the default) keeps them as
-    /// given. Noise is simulated on the images as given, then binned, as a query's would be.
+    /// [`crate::binning`]) before fitting and before each query; 1 keeps them as given. Noise is
+    /// simulated on the images as given, then binned, as a query's would be.
     pub fn bin(mut self, factor: usize) -> Self {
         self.bin = Some(factor);
         self
     }
 
-    /// Choose the binning factor from the training data: among [`BIN_CANDIDATES`], the one
-    /// whose held-out error ([`select::choose`]) is least (a tie goes to the larger factor:
-    /// cheaper queries, a smaller model).
+    /// Choose the binning factor from the training data (the default): among
+    /// [`BIN_CANDIDATES`], the one whose held-out error ([`select::choose`]) is least (a tie goes
+    /// to the larger factor: cheaper queries, a smaller model).
     pub fn auto_bin(mut self) -> Self {
         self.bin = None;
         self

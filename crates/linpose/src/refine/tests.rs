@@ -258,8 +258,9 @@ fn the_starts_are_the_smallest_within_twice_the_least() {
 #[test]
 fn the_model_keeps_only_the_eigenimages_its_queries_use() {
     let d = train_set();
-    // L fixed: the weighted metric, whose search uses 8 eigenimages.
-    let model = RefinedParams::default().components(8).fit(&d).unwrap();
+    // L fixed: the weighted metric, whose search uses 8 eigenimages (on the images as given,
+    // so that the basis is compared with their PCA).
+    let model = RefinedParams::default().components(8).bin(1).fit(&d).unwrap();
     let s = model.settings();
     // The clean search's L and the noisy match's L, no more (the eigenspace's 20 were kept
     // before).
