@@ -16,7 +16,8 @@ pub enum Method {
     Eigenspace,
     /// Beyond the paper: the eigenspace searched continuously on its spline manifold
     /// (Levenberg-Marquardt from the closest coarse points; with one pose parameter, every lattice pose
-    /// exactly), L chosen from held-out training views.
+    /// exactly), with noisy queries detected and matched apart; L and the images' binning chosen
+    /// from held-out training views.
     Refined,
 }
 
