@@ -407,7 +407,7 @@ impl Estimator for RefinedParams {
         let sigma2 = if weighted { coord_variance.as_ref().map(|s| s[..l_search].to_vec()) } else { None };
         let scale = search_scale(sigma2.as_deref(), l_search, l);
         // The route measures a query's noise on the image as given: so is the threshold.
-        let noise_threshold = select::noise_threshold(Views { full, binning: Binning::none(full.spec()) })?.threshold;
+        let noise_threshold = select::noise_threshold(full)?.threshold;
         let mut knots = Vec::with_capacity(grid.sample_at.len() * l);
         for &i in &grid.sample_at {
             knots.extend(pca.coords[i * l..(i + 1) * l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
@@ -504,16 +504,6 @@ pub struct Views<'a> {
     pub full: &'a Dataset,
     /// The binning of the model.
     pub binning: Binning,
-}
-
-impl Views<'_> {
-    /// Rows of images as given (`rows`) with simulated uniform noise of +-`level` (clipped, from
-    /// `seed`, [`crate::eval::add_uniform_noise`]), binned.
-    pub fn noisy(&self, rows: &[f32], level: f64, seed: u64) -> Result<Vec<f32>> {
-        let mut q = rows.to_vec();
-        crate::eval::add_uniform_noise(&mut q, self.full.n_features(), level, seed)?;
-        Ok(if self.binning.bins() { self.binning.apply_all(&q) } else { q })
-    }
 }
 
 /// A fitted refined eigenspace: L eigenimages, the mean image, the spline surface through the

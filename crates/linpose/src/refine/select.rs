@@ -169,8 +169,9 @@ pub const NOISE_SEED: u64 = 0x5e1ec7;
 /// [`NOISE_LEVELS`] (clipped, fixed seed) and are estimated with every candidate, L among
 /// [`CANDIDATES`] up to `l_cap`, weighted or plain; the least mean pose error wins (a tie goes
 /// to the smaller L, then to the plain metric). None when no fold is possible. `train` is what
-/// the model is fitted on (binned); the noise goes on the same views as given (`views`), then
-/// they are binned.
+/// the model is fitted on (binned); each fold's model takes the held-out views as given
+/// (`views`) with their noise and bins them, as the model will: so a query's noise is measured
+/// as it will be.
 pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
@@ -189,8 +190,12 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
         let knots: Vec<f32> = sub_grid.sample_at.iter().flat_map(|&i| pca.coords[i * l..(i + 1) * l].iter().map(|&v| v as f32)).collect();
         let fit_full = views.full.subset(keep)?;
         let background = super::background_knots(Views { full: &fit_full, ..views }, &sub_grid.sample_at, &pca.basis, l);
-        let settings = RefinedSettings { coord_variance: coord_variance.clone().unwrap_or_default(), ..fold_settings(params, l, sub_grid.shape()) };
-        let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
+        let settings = RefinedSettings {
+            coord_variance: coord_variance.clone().unwrap_or_default(),
+            bin: views.binning.factor(),
+            ..fold_settings(params, l, sub_grid.shape())
+        };
+        let meta = ModelMeta { method: METHOD.into(), spec: views.full.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         let mut model = RefinedModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), knots, background, sub_grid.axes.clone())?;
         let mut cands: Vec<(usize, bool)> = CANDIDATES.iter().filter(|&&c| c <= l).map(|&c| (c, false)).collect();
@@ -200,10 +205,17 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
         if coord_variance.is_some() {
             cands.extend(cands.clone().into_iter().map(|(c, _)| (c, true)));
         }
-        // The held-out views' noise is simulated on them as given, then binned.
+        // The held-out views as given, with simulated noise (the fold's model bins them).
         let held: Vec<bool> = keep.iter().map(|k| !k).collect();
         let test_full = views.full.subset(&held)?;
-        let noisy: Vec<Vec<f32>> = NOISE_LEVELS.iter().map(|&level| views.noisy(test_full.features(), level, NOISE_SEED)).collect::<Result<_>>()?;
+        let m = test_full.n_features();
+        let noisy: Vec<Vec<f32>> = NOISE_LEVELS
+            .iter()
+            .map(|&level| {
+                let mut q = test_full.features().to_vec();
+                crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED).map(|_| q)
+            })
+            .collect::<Result<_>>()?;
         // Each candidate's match (its tables or tree) is set once for every noise level.
         for &(c, w) in &cands {
             model.set_noise_match(c, w);
@@ -234,31 +246,23 @@ const NOISE_BLOCK: usize = 64;
 /// images alone: `clean`, the largest [`super::pixel_noise`] of a training image, and `noisy`,
 /// the smallest of the same images with simulated uniform noise at the smallest of
 /// [`NOISE_LEVELS`] (clipped, fixed seed). When they separate, the threshold is their geometric
-/// mean, the same factor from each; otherwise `clean`. Both are measured on the images binned
-/// as the model bins them (`views`), the noise added before binning.
+/// mean, the same factor from each; otherwise `clean`. A model that bins measures a query's
+/// noise on the image as given, so `train` is the images as given.
 ///
 /// Why not `clean` itself: a fresh clean view is as likely as any of the N training views to
 /// be the noisiest of the N + 1, so it exceeds the training maximum with probability 1 / (N +
 /// 1), and about one clean query in N + 1 would take the noisy match, whose free gain and
 /// offset cost precision. The midpoint keeps every simulated noisy training view above it.
-pub fn noise_threshold(views: Views<'_>) -> Result<NoiseThreshold> {
-    let spec = views.binning.spec();
-    let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), spec.features());
+pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
+    let spec = train.spec();
+    let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), train.n_features());
     let noise = |x: &[f32]| super::pixel_noise(x, w, h, ch);
+    let clean = (0..train.len()).into_par_iter().map(|i| noise(train.row(i))).reduce(|| 0.0, f64::max);
     let level = NOISE_LEVELS.iter().copied().fold(f64::INFINITY, f64::min);
-    let (mut clean, mut noisy) = (0.0f64, f64::INFINITY);
-    let m_full = views.full.n_features();
-    // The training images as given and with simulated noise, both binned, a block at a time.
-    for (b, block) in views.full.features().chunks(NOISE_BLOCK * m_full).enumerate() {
-        let binned;
-        let x = if views.binning.bins() {
-            binned = views.binning.apply_all(block);
-            &binned[..]
-        } else {
-            block
-        };
-        clean = clean.max(x.par_chunks(m).map(noise).reduce(|| 0.0, f64::max));
-        let q = views.noisy(block, level, NOISE_SEED.wrapping_add(b as u64))?;
+    let mut noisy = f64::INFINITY;
+    for (b, block) in train.features().chunks(NOISE_BLOCK * m).enumerate() {
+        let mut q = block.to_vec();
+        crate::eval::add_uniform_noise(&mut q, m, level, NOISE_SEED.wrapping_add(b as u64))?;
         noisy = noisy.min(q.par_chunks(m).map(noise).reduce(|| f64::INFINITY, f64::min));
     }
     Ok(NoiseThreshold { clean, noisy, threshold: separating(clean, noisy) })

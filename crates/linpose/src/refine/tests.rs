@@ -450,7 +450,7 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     let d = train_set();
     let spec = d.spec();
     let (w, h, m) = (spec.width as usize, spec.height as usize, d.n_features());
-    let t = select::noise_threshold(super::Views { full: &d, binning: crate::binning::Binning::none(d.spec()) }).unwrap();
+    let t = select::noise_threshold(&d).unwrap();
     let clean = (0..d.len()).map(|i| super::pixel_noise(d.row(i), w, h, 1)).fold(0.0, f64::max);
     assert_eq!(t.clean, clean, "the noisiest clean training view");
     assert!(t.noisy > 2.0 * t.clean, "simulated +-5% noise stands well above the clean views: {t:?}");
