@@ -46,11 +46,6 @@ impl Binning {
         Ok(b)
     }
 
-    /// No binning: images of `full` as given.
-    pub fn none(full: ImageSpec) -> Self {
-        Binning { factor: 1, full }
-    }
-
     /// The factor b.
     pub fn factor(&self) -> usize {
         self.factor

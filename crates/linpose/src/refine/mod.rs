@@ -997,7 +997,7 @@ impl RefinedModel {
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 let energy = crate::linalg::energy(x);
                 s.benergy[i] = energy;
-                let pv = match self.early(noise, energy) {
+                let pv = match self.early(noise, energy, m) {
                     Some(early) => pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch), early),
                     None => 0.0,
                 };
@@ -1031,7 +1031,7 @@ impl RefinedModel {
                 }
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
-                let pv = match self.early(noise, s.energy[i] as f64) {
+                let pv = match self.early(noise, s.energy[i] as f64, m) {
                     Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch), early),
                     None => 0.0,
                 };
@@ -1040,25 +1040,15 @@ impl RefinedModel {
         }
     }
 
-    /// The `early` of the staged pixel-noise estimate of a query of energy `energy` (in the
-    /// estimate's units), `None` for no estimate. The route compares the estimate times M /
-    /// energy with the threshold ([`Self::poses_of`]).
+    /// The `early` of the staged pixel-noise estimate of a query of `m` pixels and energy
+    /// `energy` (in the estimate's units), `None` for no estimate. The route compares the
+    /// estimate times M / energy with the threshold ([`Self::poses_of`]).
     #[inline]
-    fn early_full(&self, noise: NoiseWant, energy: f64) -> Option<f64> {
+    fn early(&self, noise: NoiseWant, energy: f64, m: usize) -> Option<f64> {
         match noise {
             NoiseWant::None => None,
             NoiseWant::Full => Some(0.0),
-            NoiseWant::Route => Some(NOISE_EARLY * self.settings.noise_threshold * energy / self.meta.spec.features() as f64),
-        }
-    }
-
-    /// [`Self::early_full`] for the image the model works on (binned when it bins).
-    #[inline]
-    fn early(&self, noise: NoiseWant, energy: f64) -> Option<f64> {
-        match noise {
-            NoiseWant::None => None,
-            NoiseWant::Full => Some(0.0),
-            NoiseWant::Route => Some(NOISE_EARLY * self.settings.noise_threshold * energy / self.m as f64),
+            NoiseWant::Route => Some(NOISE_EARLY * self.settings.noise_threshold * energy / m as f64),
         }
     }
 
@@ -2147,8 +2137,7 @@ impl RefinedModel {
         let n = queries.len() / m;
         binned.resize(n * mb, 0.0);
         s.route.resize(n, 0.0);
-        let mut pv_full = std::mem::take(&mut s.pv_full);
-        pv_full.resize(n, 0.0);
+        s.pv_full.resize(n, 0.0);
         let full = self.binning.full();
         let (w, h, ch) = (full.width as usize, full.height as usize, full.color.channels());
         // Each image binned, and its pixel noise measured as given (where noise stands out
@@ -2156,21 +2145,20 @@ impl RefinedModel {
         for (i, (x, o)) in queries.chunks_exact(m).zip(binned.chunks_exact_mut(mb)).enumerate() {
             self.binning.apply(x, o, &mut s.bin_acc);
             let energy = crate::linalg::energy(x);
-            let pv = match self.early_full(noise, energy) {
+            let pv = match self.early(noise, energy, m) {
                 Some(early) => pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32_full, w * ch, ch), early),
                 None => 0.0,
             };
-            (s.route[i], pv_full[i]) = (pv * m as f64 / energy, pv);
+            (s.route[i], s.pv_full[i]) = (pv * m as f64 / energy, pv);
         }
         self.project_f32(&binned, NoiseWant::None, s);
         // The noisy match's nu: the noise of a binned pixel (pv / b^2, independent noise) per
         // unit energy of the binned image.
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
-        for ((nu, &pv), &e) in s.noise.iter_mut().zip(&pv_full).zip(&s.benergy) {
+        for ((nu, &pv), &e) in s.noise.iter_mut().zip(&s.pv_full).zip(&s.benergy) {
             *nu = pv / (b2 * e);
         }
         s.binned = binned;
-        s.pv_full = pv_full;
     }
 
     /// [`PoseModel::predict_into`], computing `noise` of each query's pixel noise.
@@ -2212,7 +2200,7 @@ impl RefinedModel {
                 let (e_binned, e_full) = self.binning.digits_u8(level, x, lo, hi, sums, acc);
                 s.energy[i] = e_binned;
                 let e_full = e_full as f64;
-                let pv = match self.early_full(noise, e_full) {
+                let pv = match self.early(noise, e_full, m) {
                     Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8_full, w * ch, ch), early),
                     None => 0.0,
                 };

@@ -678,7 +678,7 @@ fn the_staged_noise_estimate_routes_queries_as_the_whole_one() {
         assert_eq!(route, whole, "8-bit at +-{a}");
         for x in q.chunks_exact(m) {
             let energy = crate::linalg::energy(x);
-            let early = model.early(NoiseWant::Route, energy).unwrap();
+            let early = model.early(NoiseWant::Route, energy, m).unwrap();
             let staged = super::pixel_variance_in(x, w, h, 1, &mut super::RowsF32::new(w, h, 1), early);
             let full = super::pixel_variance(x, w, h, 1);
             // The route's comparison: noise per unit energy times M against the threshold.
