@@ -136,32 +136,34 @@ impl Binning {
         energy
     }
 
-    /// [`Self::sums_u8`] of `x` as the 8-bit query path takes them: each block sum's low and
-    /// high bytes into the planes `lo` and `hi`; returns their sum of squares and that of `x`
-    /// itself (both exact). `sums` and `acc` are scratch. Gray images binned by 2 or 4 go through AVX-512 BW where `level` allows (the
-    /// same integers).
-    pub fn digits_u8(&self, level: Level, x: &[u8], lo: &mut [u8], hi: &mut [u8], sums: &mut Vec<u16>, acc: &mut Vec<u16>) -> (u64, u64) {
+    /// [`Self::sums_u8`] of `x` as the 8-bit query path takes them: the block sums into `out`
+    /// (at least [`Self::spec`]'s features; values past them are left alone); returns their sum
+    /// of squares and that of `x` itself (both exact). `acc` is scratch. Gray images binned by 2
+    /// or 4 go through AVX-512 BW where `level` allows (the same integers, the image's own
+    /// squares summed in the same pass).
+    pub fn sums_energies_u8(&self, level: Level, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> (u64, u64) {
         let s = self.spec();
         let mb = s.features();
-        assert!(x.len() == self.full.features() && lo.len() == mb && hi.len() == mb);
+        assert!(x.len() == self.full.features() && out.len() >= mb);
         #[cfg(target_arch = "x86_64")]
         if level == Level::Avx512 && self.factor == 2 && self.full.color.channels() == 1 {
             // SAFETY: AVX-512 F/BW detected (Level::Avx512); the slices hold the full and binned
             // images (asserted above).
-            return unsafe { simd::digits_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi) };
+            return unsafe { simd::sums_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, out) };
         }
         #[cfg(target_arch = "x86_64")]
         if level == Level::Avx512 && self.factor == 4 && self.full.color.channels() == 1 {
             // SAFETY: as above.
-            return unsafe { simd::digits_4x4_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, lo, hi) };
+            return unsafe { simd::sums_4x4_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, out) };
         }
         let _ = level;
-        sums.resize(mb, 0);
-        let energy = self.sums_u8(x, sums, acc);
-        for ((&v, lo), hi) in sums.iter().zip(lo).zip(hi) {
-            (*lo, *hi) = (v as u8, (v >> 8) as u8);
-        }
+        let energy = self.sums_u8(x, &mut out[..mb], acc);
         (energy, crate::kernels::dot_u8::sum_squares(x))
+    }
+
+    /// The largest block sum of an 8-bit image: 255 b^2.
+    pub fn max_sum(&self) -> u32 {
+        255 * (self.factor * self.factor) as u32
     }
 
     /// Bins every image of `xs` (rows of [`Self::full`]'s features), in parallel; a copy when
@@ -207,26 +209,26 @@ mod simd {
             + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(v))) as u64
     }
 
-    /// [`super::Binning::digits_u8`] of a gray image of width `w` binned by 2 into `wb` x `hb`:
-    /// per binned row, 64 pixels of each of its two rows a step, their adjacent pairs summed by
-    /// `maddubs` (at most 510 in i16), the two rows' pair sums added (32 block sums of at most
-    /// 1,020), written out as low and high bytes, and squared in pairs into i32 lanes
+    /// [`super::Binning::sums_energies_u8`] of a gray image of width `w` binned by 2 into `wb` x
+    /// `hb`: per binned row, 64 pixels of each of its two rows a step, their adjacent pairs summed
+    /// by `maddubs` (at most 510 in i16), the two rows' pair sums added (32 block sums of at most
+    /// 1,020), written out, and squared in pairs into i32 lanes
     /// (at most 2,080,800 a lane a step), flushed to u64 each row (at most 1,024 steps a row
     /// before a lane could overflow: asserted).
     ///
     /// # Safety
     /// The CPU must support AVX-512 F and BW; `x` holds at least (2 hb) rows of `w` pixels, `w
-    /// >= 2 wb`, and `lo`, `hi` hold `wb` x `hb` values.
+    /// >= 2 wb`, and `out` at least `wb` x `hb` values.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn digits_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8]) -> (u64, u64) {
+    pub unsafe fn sums_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, out: &mut [u16]) -> (u64, u64) {
         let span = 2 * wb;
-        assert!(w >= span && x.len() >= 2 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb);
+        assert!(w >= span && x.len() >= 2 * hb * w && out.len() >= wb * hb);
         assert!(span.div_ceil(64) <= 1024, "a row of at most 65,536 pixels");
         let ones = _mm512_set1_epi8(1);
         let (mut energy, mut energy_full) = (0u64, 0u64);
         for yo in 0..hb {
             let (r0, r1) = (x.as_ptr().add(2 * yo * w), x.as_ptr().add((2 * yo + 1) * w));
-            let (lo_row, hi_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb));
+            let out_row = out.as_mut_ptr().add(yo * wb);
             let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
             // The rows 12 blocks down asked for now: one image is one stream, too slow for the
             // hardware prefetcher alone when images come from memory.
@@ -247,9 +249,7 @@ mod simd {
                 sq_full = add_squares(add_squares(sq_full, a), b);
                 let s = _mm512_add_epi16(_mm512_maddubs_epi16(a, ones), _mm512_maddubs_epi16(b, ones));
                 let o = p / 2;
-                // (512-bit stores of the low halves: the 256-bit masked store needs AVX-512 VL.)
-                _mm512_mask_storeu_epi8(lo_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi256_si512(_mm512_cvtepi16_epi8(s)));
-                _mm512_mask_storeu_epi8(hi_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi256_si512(_mm512_cvtepi16_epi8(_mm512_srli_epi16::<8>(s))));
+                _mm512_mask_storeu_epi16(out_row.add(o) as *mut i16, mask_out, s);
                 // Lanes past the row's outputs hold 0 (masked loads), so they add nothing.
                 sq = _mm512_add_epi32(sq, _mm512_madd_epi16(s, s));
                 p += 64;
@@ -261,25 +261,25 @@ mod simd {
         (energy, energy_full + super::left_out_squares(x, w, 2 * wb, 2 * hb))
     }
 
-    /// [`super::Binning::digits_u8`] of a gray image of width `w` binned by 4 into `wb` x `hb`:
-    /// per binned row, 64 pixels of each of its four rows a step, their adjacent pairs summed by
-    /// `maddubs` (at most 510 in i16), the four rows' pair sums added (at most 2,040), adjacent
-    /// pairs of those summed by `madd` into i32 (16 block sums of at most 4,080), written out as
-    /// low and high bytes, and squared into i32 lanes (at most 16,646,400 a lane a step),
+    /// [`super::Binning::sums_energies_u8`] of a gray image of width `w` binned by 4 into `wb` x
+    /// `hb`: per binned row, 64 pixels of each of its four rows a step, their adjacent pairs
+    /// summed by `maddubs` (at most 510 in i16), the four rows' pair sums added (at most 2,040),
+    /// adjacent pairs of those summed by `madd` into i32 (16 block sums of at most 4,080),
+    /// written out as 16-bit values, and squared into i32 lanes (at most 16,646,400 a lane a step),
     /// flushed to u64 each row (at most 128 steps a row: asserted).
     ///
     /// # Safety
-    /// As [`digits_2x2_avx512`], with (4 hb) rows and `w >= 4 wb`.
+    /// As [`sums_2x2_avx512`], with (4 hb) rows and `w >= 4 wb`.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn digits_4x4_avx512(x: &[u8], w: usize, wb: usize, hb: usize, lo: &mut [u8], hi: &mut [u8]) -> (u64, u64) {
+    pub unsafe fn sums_4x4_avx512(x: &[u8], w: usize, wb: usize, hb: usize, out: &mut [u16]) -> (u64, u64) {
         let span = 4 * wb;
-        assert!(w >= span && x.len() >= 4 * hb * w && lo.len() >= wb * hb && hi.len() >= wb * hb);
+        assert!(w >= span && x.len() >= 4 * hb * w && out.len() >= wb * hb);
         assert!(span.div_ceil(64) <= 128, "a row of at most 8,192 pixels");
         let (ones8, ones16) = (_mm512_set1_epi8(1), _mm512_set1_epi16(1));
         let (mut energy, mut energy_full) = (0u64, 0u64);
         for yo in 0..hb {
             let r = x.as_ptr().add(4 * yo * w);
-            let (lo_row, hi_row) = (lo.as_mut_ptr().add(yo * wb), hi.as_mut_ptr().add(yo * wb));
+            let out_row = out.as_mut_ptr().add(yo * wb);
             if yo + 6 < hb {
                 let ahead = x.as_ptr().add((4 * yo + 24) * w);
                 for off in (0..4 * w).step_by(64) {
@@ -300,8 +300,8 @@ mod simd {
                 }
                 let q = _mm512_madd_epi16(pairs, ones16);
                 let o = p / 4;
-                _mm512_mask_storeu_epi8(lo_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi128_si512(_mm512_cvtepi32_epi8(q)));
-                _mm512_mask_storeu_epi8(hi_row.add(o) as *mut i8, mask_out as u64, _mm512_castsi128_si512(_mm512_cvtepi32_epi8(_mm512_srli_epi32::<8>(q))));
+                // (A 512-bit store of the low half: the 256-bit masked store needs AVX-512 VL.)
+                _mm512_mask_storeu_epi16(out_row.add(o) as *mut i16, mask_out as u32, _mm512_castsi256_si512(_mm512_cvtepi32_epi16(q)));
                 sq = _mm512_add_epi32(sq, _mm512_mullo_epi32(q, q));
                 p += 64;
             }
@@ -386,7 +386,7 @@ mod tests {
     }
 
     #[test]
-    fn the_digit_planes_are_the_sums_on_every_path() {
+    fn the_query_sums_and_energies_are_the_same_on_every_path() {
         // Widths around the 64-pixel steps, odd ones leaving a column out, and images that
         // reach the largest sums.
         for (w, h, b) in [(128, 6, 2), (160, 7, 2), (7, 6, 2), (129, 7, 2), (62, 6, 2), (200, 9, 2), (128, 12, 4), (160, 13, 4), (14, 12, 4), (130, 15, 4), (260, 16, 4)] {
@@ -398,12 +398,12 @@ mod tests {
                 let mut sums = vec![0u16; mb];
                 let energy = bin.sums_u8(&x, &mut sums, &mut Vec::new());
                 for level in Level::supported() {
-                    let (mut lo, mut hi) = (vec![0u8; mb], vec![0u8; mb]);
-                    let e = bin.digits_u8(level, &x, &mut lo, &mut hi, &mut Vec::new(), &mut Vec::new());
+                    // Room past the binned values, which stays as it was.
+                    let mut out = vec![7u16; mb + 40];
+                    let e = bin.sums_energies_u8(level, &x, &mut out, &mut Vec::new());
                     assert_eq!(e, (energy, x.iter().map(|&v| v as u64 * v as u64).sum()), "{w}x{h} by {b} {level:?}");
-                    for (j, &v) in sums.iter().enumerate() {
-                        assert_eq!(lo[j] as u16 | (hi[j] as u16) << 8, v, "{w}x{h} {level:?} value {j}");
-                    }
+                    assert_eq!(out[..mb], sums[..], "{w}x{h} by {b} {level:?}");
+                    assert!(out[mb..].iter().all(|&v| v == 7), "{w}x{h} by {b} {level:?}");
                 }
             }
         }

@@ -203,7 +203,7 @@ fn sums_portable(x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
 /// copy and VNNI at the query's level, this module's exact sums; otherwise
 /// [`super::dot_u8`]'s f32 products of the f32 rows the caller passes (the same rows the copy
 /// was made from).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct FastRows(Option<QuantRows>);
 
 /// The buffers of [`FastRows::dots_batch`], one per parallel task.

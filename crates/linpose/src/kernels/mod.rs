@@ -2,7 +2,7 @@
 //! ([`syrk`]; [`gram`] drives it for X X^T in memory, [`gram8`] for 8-bit features in exact
 //! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`] in f32; [`dot_q`] exact
 //! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI runs
-//! it) and the refined eigenspace's coarse scan ([`scan`]).
+//! it; [`dot_w`] the same for the 16-bit block sums of binned images) and the refined eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in
 //! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
@@ -11,6 +11,7 @@
 
 pub mod dot_q;
 pub mod dot_u8;
+pub mod dot_w;
 pub mod gram;
 pub mod gram8;
 pub mod levels;

@@ -122,7 +122,7 @@ use crate::binning::Binning;
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
-use crate::kernels::{dot_q, dot_u8, AlignedF32, Level};
+use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
@@ -517,8 +517,11 @@ pub struct RefinedModel {
     /// so the 8-bit products read it in place.
     rows: AlignedF32,
     /// The product rows ([`Self::product_rows`] of `rows`) in 16-bit fixed point, for 8-bit
-    /// queries where [`dot_q::fast`] (derived, not stored in the file).
+    /// queries where [`dot_q::fast`] (derived, not stored in the file); none when `words` serves.
     quant: dot_q::FastRows,
+    /// For a model that bins, where [`dot_q::fast`]: the product rows in 16-bit fixed point for
+    /// the 16-bit block sums of 8-bit queries ([`dot_w`]; derived, not stored in the file).
+    words: Option<dot_w::WordRows>,
     /// M, the pixels of an image (binned).
     m: usize,
     /// The binning of the images the model takes ([`ModelMeta::spec`]) into those it works on.
@@ -906,11 +909,14 @@ impl RefinedModel {
         let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };
         let rows = [basis, mean].concat();
         // The product rows: the mean's only when the residual is used (as `product_rows`).
-        let quant = dot_q::FastRows::new(&rows[..(l + uses_residual(&settings) as usize) * m], m);
+        let product = &rows[..(l + uses_residual(&settings) as usize) * m];
+        let words = (binning.bins() && dot_q::fast(Level::detect())).then(|| dot_w::WordRows::new(product, m, binning.max_sum())).flatten();
+        let quant = if words.is_some() { dot_q::FastRows::default() } else { dot_q::FastRows::new(product, m) };
         Ok(RefinedModel {
             meta,
             settings,
             quant,
+            words,
             rows: AlignedF32::new(&rows),
             m,
             binning,
@@ -2063,6 +2069,8 @@ struct BinScratch {
     acc: Vec<u16>,
     raw: Vec<f32>,
     energy: Vec<u64>,
+    lines: Vec<dot_w::Line>,
+    idx: Vec<u32>,
 }
 
 thread_local! {
@@ -2174,11 +2182,12 @@ impl RefinedModel {
     }
 
     /// [`Self::project_u8`] for a model that bins: each image's block sums, exact in integers
-    /// (at most 65,280), are split into two 8-bit digit planes, low and high, which the 8-bit
-    /// products take as two images (a zero step of the high plane, the blocks darker than 256 /
-    /// b^2 on average, is skipped); a query's products are low + 256 high, its energy the
-    /// sums' exact sum of squares (in units of the block sums: the scale cancels in each ratio,
-    /// as in [`Self::project_u8`]). Its pixel noise is measured on the image as given
+    /// (255 b^2 at most), go to the 16-bit products ([`dot_w`], where [`dot_q::fast`] and b <=
+    /// 11), else split into two 8-bit digit planes, low and high, which the 8-bit products take
+    /// as two images (a zero step of the high plane, the blocks darker than 256 / b^2 on average,
+    /// is skipped; a query's products are low + 256 high); a query's energy is the sums' exact sum
+    /// of squares (in units of the block sums: the scale cancels in each ratio, as in
+    /// [`Self::project_u8`]). Its pixel noise is measured on the image as given
     /// ([`pixel_variance_u8`], staged), as [`Self::project_binned`] does.
     fn project_u8_binned(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
         let (l, mb, k) = (self.components(), self.m, self.product_rows());
@@ -2190,14 +2199,25 @@ impl RefinedModel {
         s.route.resize(n, 0.0);
         s.pv_full.resize(n, 0.0);
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
+        let words = self.words.as_ref().filter(|_| dot_q::fast(level));
         BIN_SCRATCH.with_borrow_mut(|b| {
-            let BinScratch { planes, sums, acc, raw, energy } = b;
-            planes.resize(2 * n * mb, 0);
-            // Each image's digits, and its pixel noise measured as given (as
+            let BinScratch { planes, sums, acc, raw, energy, lines, idx } = b;
+            // The block sums: into the 16-bit products' lines (zero past mb), or one after
+            // another for the digit planes.
+            let (values, stride) = match words {
+                Some(wr) => {
+                    wr.lines_of(n, lines);
+                    (dot_w::WordRows::values_mut(lines), wr.steps() * dot_w::STEP)
+                }
+                None => {
+                    sums.resize(n * mb, 0);
+                    (&mut sums[..], mb)
+                }
+            };
+            // Each image's sums, and its pixel noise measured as given (as
             // [`Self::project_binned`]), in pixel values.
-            for (i, x) in queries.chunks_exact(m).enumerate() {
-                let (lo, hi) = planes[2 * i * mb..2 * (i + 1) * mb].split_at_mut(mb);
-                let (e_binned, e_full) = self.binning.digits_u8(level, x, lo, hi, sums, acc);
+            for ((i, x), v) in queries.chunks_exact(m).enumerate().zip(values.chunks_exact_mut(stride)) {
+                let (e_binned, e_full) = self.binning.sums_energies_u8(level, x, v, acc);
                 s.energy[i] = e_binned;
                 let e_full = e_full as f64;
                 let pv = match self.early(noise, e_full, m) {
@@ -2206,19 +2226,33 @@ impl RefinedModel {
                 };
                 (s.route[i], s.pv_full[i]) = (pv * m as f64 / e_full, pv);
             }
-            let rows = &self.rows[..k * mb];
-            raw.resize(2 * n * k, 0.0);
-            energy.resize(2 * n, 0);
-            if 2 * n >= 8 {
-                self.quant.dots_batch(level, &planes[..2 * n * mb], mb, rows, raw, energy, &mut s.products);
-            } else {
-                for (x, r) in planes[..2 * n * mb].chunks_exact(mb).zip(raw.chunks_exact_mut(k)) {
-                    self.quant.dots(level, x, rows, r);
+            match words {
+                Some(wr) => wr.dots_batch(level, lines, &mut s.raw[..n * k], idx),
+                None => {
+                    planes.resize(2 * n * mb, 0);
+                    for (v, p) in sums.chunks_exact(mb).zip(planes.chunks_exact_mut(2 * mb)) {
+                        let (lo, hi) = p.split_at_mut(mb);
+                        for ((&v, lo), hi) in v.iter().zip(lo).zip(hi) {
+                            (*lo, *hi) = (v as u8, (v >> 8) as u8);
+                        }
+                    }
+                    let rows = &self.rows[..k * mb];
+                    raw.resize(2 * n * k, 0.0);
+                    energy.resize(2 * n, 0);
+                    if 2 * n >= 8 {
+                        self.quant.dots_batch(level, &planes[..2 * n * mb], mb, rows, raw, energy, &mut s.products);
+                    } else {
+                        for (x, r) in planes[..2 * n * mb].chunks_exact(mb).zip(raw.chunks_exact_mut(k)) {
+                            self.quant.dots(level, x, rows, r);
+                        }
+                    }
+                    for (o, pair) in s.raw[..n * k].chunks_exact_mut(k).zip(raw.chunks_exact(2 * k)) {
+                        let (lo, hi) = pair.split_at(k);
+                        o.iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
+                    }
                 }
             }
             for i in 0..n {
-                let (lo, hi) = raw[2 * i * k..2 * (i + 1) * k].split_at(k);
-                s.raw[i * k..(i + 1) * k].iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
                 // The noisy match's nu in units of the block sums (b^2 times a binned pixel's
                 // mean): a pixel's noise pv gives a block mean's pv / b^2, a block sum's b^2 pv.
                 let energy = s.energy[i] as f64;
@@ -2233,7 +2267,8 @@ impl RefinedModel {
         let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
-        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, self.quant.block(level)) } else { n };
+        let block = if self.words.is_some() && dot_q::fast(level) { dot_w::BLOCK } else { self.quant.block(level) };
+        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, block) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             if self.binning.bins() {
                 self.project_u8_binned(level, q, noise, s);
