@@ -98,10 +98,17 @@ impl WordRows {
     }
 
     /// Room for `n` images in lines, as [`Self::dots_batch`] takes them: image i's values at
-    /// `i * steps() * STEP`, zero past m (the caller writes the first m of each).
+    /// `i * steps() * STEP`, zero past m; the caller writes the first m of each (only the
+    /// padding is cleared: a batch's lines are written once, not twice).
     pub fn lines_of(&self, n: usize, buf: &mut Vec<Line>) {
-        buf.clear();
-        buf.resize(n * self.steps(), Line::default());
+        let steps = self.steps();
+        buf.resize(n * steps, Line::default());
+        let tail = self.m % STEP;
+        if tail != 0 {
+            for image in buf[..n * steps].chunks_exact_mut(steps) {
+                image[steps - 1].0[tail..].fill(0);
+            }
+        }
     }
 
     /// The values of `lines` (written as u16, read as i16: at most xmax <= 32,767).
@@ -255,7 +262,8 @@ mod tests {
 
     /// n images of m values in [0, xmax], with runs of zeros (skipped steps) and the bound itself.
     fn images(n: usize, m: usize, xmax: u32, q: &WordRows) -> (Vec<Vec<i16>>, Vec<Line>) {
-        let mut buf = Vec::new();
+        // A buffer that held other values first: lines_of clears the padding.
+        let mut buf = vec![Line([-1; STEP]); n * q.steps() + 3];
         q.lines_of(n, &mut buf);
         let mut plain = Vec::new();
         for i in 0..n {

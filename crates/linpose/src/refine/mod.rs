@@ -2058,10 +2058,16 @@ struct QueryScratch {
     rows_u8_full: Option<RowsU8>,
 }
 
-/// A thread's buffers for binned 8-bit queries ([`RefinedModel::project_u8_binned`]): the digit
-/// planes of a task's images, one image's block sums, the binning's scratch, the planes'
-/// products and sums of squares. Per thread, not per task, so that the
-/// planes are not allocated and cleared for every task.
+/// 8-bit queries per sub-chunk of the 16-bit products of [`RefinedModel::project_u8_binned`]:
+/// whole register blocks, and few enough that their sums (9.6 KB each at 160 x 120 by 2) are
+/// still in the L2 cache for the products (a task's 192 held 1.8 MB).
+const BIN_SUB_U8: usize = 4 * dot_w::BLOCK;
+
+/// A thread's buffers for binned 8-bit queries ([`RefinedModel::project_u8_binned`]): for the
+/// 8-bit products, a task's block sums, their digit planes, the planes' products and sums of
+/// squares; for the 16-bit ones, a sub-chunk's sums in lines and the kernel's step list; the
+/// binning's scratch. Per thread, not per task, so that the buffers are not allocated for
+/// every task.
 #[derive(Default)]
 struct BinScratch {
     planes: Vec<u8>,
@@ -2202,21 +2208,9 @@ impl RefinedModel {
         let words = self.words.as_ref().filter(|_| dot_q::fast(level));
         BIN_SCRATCH.with_borrow_mut(|b| {
             let BinScratch { planes, sums, acc, raw, energy, lines, idx } = b;
-            // The block sums: into the 16-bit products' lines (zero past mb), or one after
-            // another for the digit planes.
-            let (values, stride) = match words {
-                Some(wr) => {
-                    wr.lines_of(n, lines);
-                    (dot_w::WordRows::values_mut(lines), wr.steps() * dot_w::STEP)
-                }
-                None => {
-                    sums.resize(n * mb, 0);
-                    (&mut sums[..], mb)
-                }
-            };
-            // Each image's sums, and its pixel noise measured as given (as
+            // Each image's block sums, and its pixel noise measured as given (as
             // [`Self::project_binned`]), in pixel values.
-            for ((i, x), v) in queries.chunks_exact(m).enumerate().zip(values.chunks_exact_mut(stride)) {
+            let mut sum_one = |i: usize, x: &[u8], v: &mut [u16]| {
                 let (e_binned, e_full) = self.binning.sums_energies_u8(level, x, v, acc);
                 s.energy[i] = e_binned;
                 let e_full = e_full as f64;
@@ -2225,10 +2219,26 @@ impl RefinedModel {
                     None => 0.0,
                 };
                 (s.route[i], s.pv_full[i]) = (pv * m as f64 / e_full, pv);
-            }
+            };
             match words {
-                Some(wr) => wr.dots_batch(level, lines, &mut s.raw[..n * k], idx),
+                // In sub-chunks whose sums are still cached for the products.
+                Some(wr) => {
+                    let stride = wr.steps() * dot_w::STEP;
+                    for (c, xq) in queries.chunks(BIN_SUB_U8 * m).enumerate() {
+                        let (i0, nn) = (c * BIN_SUB_U8, xq.len() / m);
+                        wr.lines_of(nn, lines);
+                        let values = dot_w::WordRows::values_mut(lines);
+                        for ((i, x), v) in (i0..).zip(xq.chunks_exact(m)).zip(values.chunks_exact_mut(stride)) {
+                            sum_one(i, x, v);
+                        }
+                        wr.dots_batch(level, lines, &mut s.raw[i0 * k..(i0 + nn) * k], idx);
+                    }
+                }
                 None => {
+                    sums.resize(n * mb, 0);
+                    for ((i, x), v) in queries.chunks_exact(m).enumerate().zip(sums.chunks_exact_mut(mb)) {
+                        sum_one(i, x, v);
+                    }
                     planes.resize(2 * n * mb, 0);
                     for (v, p) in sums.chunks_exact(mb).zip(planes.chunks_exact_mut(2 * mb)) {
                         let (lo, hi) = p.split_at_mut(mb);

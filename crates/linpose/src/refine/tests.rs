@@ -745,9 +745,10 @@ fn a_binned_model_searches_as_a_model_of_the_binned_images() {
 
 #[test]
 fn binned_u8_queries_match_f32_queries() {
-    // The 8-bit path's block sums in two digit planes against the f32 path's binned features,
-    // clean and noisy, in batches of every size the product paths take, by 2 (the AVX-512 path
-    // where there is one) and by 3 (the portable one).
+    // The 8-bit path's block sums (16-bit products where VNNI runs, two digit planes elsewhere)
+    // against the f32 path's binned features, clean and noisy, in batches of every size the
+    // product paths take, and on one thread three times the views (tasks of more than one
+    // sub-chunk), by 2 (the AVX-512 binning where there is one) and by 3 (the portable one).
     let d = train_set();
     let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
     let m = test.n_features();
@@ -768,6 +769,14 @@ fn binned_u8_queries_match_f32_queries() {
                 let e = test.space().error_deg(&pf[2 * i..2 * i + 2], &p8[2 * i..2 * i + 2]);
                 assert!(e < 1e-3, "by {b}, batch of {k}, view {i}: {:?} vs {:?}", &p8[2 * i..2 * i + 2], &pf[2 * i..2 * i + 2]);
             }
+        }
+        let thrice = q8.repeat(3);
+        let mut p8 = vec![0.0; 3 * n * 2];
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        one.install(|| model.predict_u8_into(&thrice, &mut p8)).unwrap();
+        for (i, p) in p8.chunks_exact(2).enumerate() {
+            let f = &pf[2 * (i % n)..2 * (i % n) + 2];
+            assert!(test.space().error_deg(f, p) < 1e-3, "by {b}, one thread, query {i}: {p:?} vs {f:?}");
         }
         let mut one = [0.0; 2];
         assert!(model.predict_u8_into(&vec![0u8; m], &mut one).is_err(), "a black image is refused");
