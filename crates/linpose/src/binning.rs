@@ -212,9 +212,10 @@ mod simd {
     /// [`super::Binning::sums_energies_u8`] of a gray image of width `w` binned by 2 into `wb` x
     /// `hb`: per binned row, 64 pixels of each of its two rows a step, their adjacent pairs summed
     /// by `maddubs` (at most 510 in i16), the two rows' pair sums added (32 block sums of at most
-    /// 1,020), written out, and squared in pairs into i32 lanes
-    /// (at most 2,080,800 a lane a step), flushed to u64 each row (at most 1,024 steps a row
-    /// before a lane could overflow: asserted).
+    /// 1,020), written out, and squared in pairs into u32 lanes (at most 2,080,800 a lane a
+    /// step; the image's own squares at most 520,200), added into u64 after whole rows of at
+    /// most 2,048 steps in all (below 2^32 a lane; a row of at most 1,024 steps: asserted). A
+    /// flush each row had cost a third of the kernel on COIL's rows of 2 steps.
     ///
     /// # Safety
     /// The CPU must support AVX-512 F and BW; `x` holds at least (2 hb) rows of `w` pixels, `w
@@ -226,10 +227,11 @@ mod simd {
         assert!(span.div_ceil(64) <= 1024, "a row of at most 65,536 pixels");
         let ones = _mm512_set1_epi8(1);
         let (mut energy, mut energy_full) = (0u64, 0u64);
+        let rows_per_flush = 2048 / span.div_ceil(64).max(1);
+        let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
         for yo in 0..hb {
             let (r0, r1) = (x.as_ptr().add(2 * yo * w), x.as_ptr().add((2 * yo + 1) * w));
             let out_row = out.as_mut_ptr().add(yo * wb);
-            let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
             // The rows 12 blocks down asked for now: one image is one stream, too slow for the
             // hardware prefetcher alone when images come from memory.
             if yo + 12 < hb {
@@ -254,8 +256,11 @@ mod simd {
                 sq = _mm512_add_epi32(sq, _mm512_madd_epi16(s, s));
                 p += 64;
             }
-            energy += lanes_u64(sq);
-            energy_full += lanes_u64(sq_full);
+            if (yo + 1) % rows_per_flush == 0 || yo + 1 == hb {
+                energy += lanes_u64(sq);
+                energy_full += lanes_u64(sq_full);
+                (sq, sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+            }
         }
         // The pixels the blocks leave out (a last column or row) count in the image's energy.
         (energy, energy_full + super::left_out_squares(x, w, 2 * wb, 2 * hb))
@@ -265,8 +270,9 @@ mod simd {
     /// `hb`: per binned row, 64 pixels of each of its four rows a step, their adjacent pairs
     /// summed by `maddubs` (at most 510 in i16), the four rows' pair sums added (at most 2,040),
     /// adjacent pairs of those summed by `madd` into i32 (16 block sums of at most 4,080),
-    /// written out as 16-bit values, and squared into i32 lanes (at most 16,646,400 a lane a step),
-    /// flushed to u64 each row (at most 128 steps a row: asserted).
+    /// written out as 16-bit values, and squared into u32 lanes (at most 16,646,400 a lane a
+    /// step; the image's own squares at most 1,040,400), added into u64 after whole rows of at
+    /// most 256 steps in all (below 2^32 a lane; a row of at most 128 steps: asserted).
     ///
     /// # Safety
     /// As [`sums_2x2_avx512`], with (4 hb) rows and `w >= 4 wb`.
@@ -277,6 +283,8 @@ mod simd {
         assert!(span.div_ceil(64) <= 128, "a row of at most 8,192 pixels");
         let (ones8, ones16) = (_mm512_set1_epi8(1), _mm512_set1_epi16(1));
         let (mut energy, mut energy_full) = (0u64, 0u64);
+        let rows_per_flush = 256 / span.div_ceil(64).max(1);
+        let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
         for yo in 0..hb {
             let r = x.as_ptr().add(4 * yo * w);
             let out_row = out.as_mut_ptr().add(yo * wb);
@@ -286,7 +294,6 @@ mod simd {
                     _mm_prefetch::<_MM_HINT_T0>(ahead.add(off) as *const i8);
                 }
             }
-            let (mut sq, mut sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
             let mut p = 0;
             while p < span {
                 let n = (span - p).min(64);
@@ -305,8 +312,11 @@ mod simd {
                 sq = _mm512_add_epi32(sq, _mm512_mullo_epi32(q, q));
                 p += 64;
             }
-            energy += lanes_u64(sq);
-            energy_full += lanes_u64(sq_full);
+            if (yo + 1) % rows_per_flush == 0 || yo + 1 == hb {
+                energy += lanes_u64(sq);
+                energy_full += lanes_u64(sq_full);
+                (sq, sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+            }
         }
         // The pixels the blocks leave out (a last column or row) count in the image's energy.
         (energy, energy_full + super::left_out_squares(x, w, 4 * wb, 4 * hb))
@@ -387,9 +397,10 @@ mod tests {
 
     #[test]
     fn the_query_sums_and_energies_are_the_same_on_every_path() {
-        // Widths around the 64-pixel steps, odd ones leaving a column out, and images that
-        // reach the largest sums.
-        for (w, h, b) in [(128, 6, 2), (160, 7, 2), (7, 6, 2), (129, 7, 2), (62, 6, 2), (200, 9, 2), (128, 12, 4), (160, 13, 4), (14, 12, 4), (130, 15, 4), (260, 16, 4)] {
+        // Widths around the 64-pixel steps, odd ones leaving a column out, images that reach
+        // the largest sums, and ones of more rows than the squares' lanes take between two
+        // flushes (by 2, 16 rows of 128 steps; by 4, 51 rows of 5 steps).
+        for (w, h, b) in [(128, 6, 2), (160, 7, 2), (7, 6, 2), (129, 7, 2), (62, 6, 2), (200, 9, 2), (8192, 41, 2), (128, 12, 4), (160, 13, 4), (14, 12, 4), (130, 15, 4), (260, 16, 4), (260, 222, 4)] {
             let s = spec(w, h, ColorMode::Gray);
             let bin = Binning::new(s, b).unwrap();
             let mb = bin.spec().features();
