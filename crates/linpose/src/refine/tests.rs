@@ -838,3 +838,36 @@ fn the_automatic_binning_factor_is_the_least_held_out_error() {
     let t = RefinedParams::default().auto_bin().fit(&tiny).unwrap();
     assert_eq!(t.settings().bin_selection.iter().map(|c| c.0).collect::<Vec<_>>(), [1, 2]);
 }
+
+/// `d` as colour images: each gray value v becomes (v, 0.7 v, 0.4 v + 0.1 on lit pixels), so the
+/// three channels differ and are binned apart.
+fn colour(d: &Dataset) -> Dataset {
+    let f = d.features().iter().flat_map(|&v| [v, 0.7 * v, if v > 0.0 { 0.4 * v + 0.1 } else { 0.0 }]).collect();
+    let spec = ImageSpec { color: ColorMode::Rgb, ..d.spec() };
+    Dataset::from_features(d.manifest().clone(), spec, f).unwrap()
+}
+
+#[test]
+fn binned_colour_u8_queries_match_f32_queries() {
+    // Colour images binned channel by channel (the portable binning, then the 16-bit products
+    // where VNNI runs): 8-bit queries against the f32 path, and the training poses recovered.
+    let d = colour(&train_set());
+    let test = colour(&grid(&[35.0, 65.0], &[7.5, 100.0, 200.0, 352.5]));
+    let q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
+    for b in [2, 3] {
+        let model = RefinedParams::default().components(8).bin(b).fit(&d).unwrap();
+        assert_eq!(model.meta().spec.color, ColorMode::Rgb);
+        let own = model.predict(d.features()).unwrap();
+        for i in 0..d.len() {
+            assert!(d.space().error_deg(d.pose(i), &own[2 * i..2 * i + 2]) < 1e-6, "by {b}, training view {i}");
+        }
+        let pf = model.predict(&qf).unwrap();
+        let mut p8 = vec![0.0; test.len() * 2];
+        model.predict_u8_into(&q8, &mut p8).unwrap();
+        for i in 0..test.len() {
+            let e = test.space().error_deg(&pf[2 * i..2 * i + 2], &p8[2 * i..2 * i + 2]);
+            assert!(e < 1e-3, "by {b}, view {i}: {:?} vs {:?}", &p8[2 * i..2 * i + 2], &pf[2 * i..2 * i + 2]);
+        }
+    }
+}
