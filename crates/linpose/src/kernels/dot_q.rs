@@ -46,6 +46,23 @@ const STEP: usize = 64;
 /// most 255 x 128 a step: 1024 steps stay below 2^31).
 const SPAN: usize = 1024;
 
+/// Each row r of `w` (rows of `m` values) in fixed point: its scale s_r = max |w_r| / [`VMAX`] (1
+/// for a row of zeros) and each weight's integer round(w / s_r), within [-VMAX, VMAX], given to
+/// `put(r, p, v)`; returns the scales. (The 16-bit products, [`super::dot_w`], store the same
+/// integers.)
+pub(crate) fn fixed_point(w: &[f32], m: usize, mut put: impl FnMut(usize, usize, i32)) -> Vec<f64> {
+    let mut scale = Vec::with_capacity(w.len() / m);
+    for (r, row) in w.chunks_exact(m).enumerate() {
+        let amax = row.iter().fold(0f64, |a, &x| a.max((x as f64).abs()));
+        let s = if amax > 0.0 { amax / VMAX as f64 } else { 1.0 };
+        scale.push(s);
+        for (p, &x) in row.iter().enumerate() {
+            put(r, p, ((x as f64 / s).round() as i32).clamp(-VMAX, VMAX));
+        }
+    }
+    scale
+}
+
 /// Weight rows in fixed point (see the module doc).
 #[derive(Debug, Clone)]
 pub struct QuantRows {
@@ -79,22 +96,15 @@ impl QuantRows {
         assert!(w.iter().all(|v| v.is_finite()), "finite weights");
         let rows = w.len() / m;
         let mut digits = vec![0i8; rows * DIGITS * m.div_ceil(TILE) * TILE];
-        let mut scale = Vec::with_capacity(rows);
-        for (r, row) in w.chunks_exact(m).enumerate() {
-            let amax = row.iter().fold(0f64, |a, &x| a.max((x as f64).abs()));
-            let s = if amax > 0.0 { amax / VMAX as f64 } else { 1.0 };
-            scale.push(s);
-            for (p, &x) in row.iter().enumerate() {
-                let v = ((x as f64 / s).round() as i32).clamp(-VMAX, VMAX);
-                let mut rest = v;
-                for k in 0..DIGITS {
-                    let d = if k + 1 == DIGITS { rest } else { (rest + 128).rem_euclid(256) - 128 };
-                    debug_assert!((-128..=127).contains(&d));
-                    digits[at(rows, r, k, p)] = d as i8;
-                    rest = (rest - d) / 256;
-                }
+        let scale = fixed_point(w, m, |r, p, v| {
+            let mut rest = v;
+            for k in 0..DIGITS {
+                let d = if k + 1 == DIGITS { rest } else { (rest + 128).rem_euclid(256) - 128 };
+                debug_assert!((-128..=127).contains(&d));
+                digits[at(rows, r, k, p)] = d as i8;
+                rest = (rest - d) / 256;
             }
-        }
+        });
         let lines = digits.chunks_exact(STEP).map(|c| Line(c.try_into().expect("64 digits"))).collect();
         QuantRows { rows, m, scale, lines }
     }

@@ -60,15 +60,7 @@ impl WordRows {
         let rows = w.len() / m;
         let steps = m.div_ceil(STEP);
         let mut lines = vec![Line::default(); rows * steps];
-        let mut scale = Vec::with_capacity(rows);
-        for (r, row) in w.chunks_exact(m).enumerate() {
-            let amax = row.iter().fold(0f64, |a, &x| a.max((x as f64).abs()));
-            let s = if amax > 0.0 { amax / VMAX as f64 } else { 1.0 };
-            scale.push(s);
-            for (p, &x) in row.iter().enumerate() {
-                lines[r * steps + p / STEP].0[p % STEP] = ((x as f64 / s).round() as i32).clamp(-VMAX, VMAX) as i16;
-            }
-        }
+        let scale = super::dot_q::fixed_point(w, m, |r, p, v| lines[r * steps + p / STEP].0[p % STEP] = v as i16);
         Some(WordRows { rows, m, scale, lines, span })
     }
 
@@ -323,7 +315,20 @@ mod tests {
     }
 
     #[test]
-    fn bounds_beyond_i16_or_one_step_are_refused() {
+    fn the_integers_are_the_8_bit_kernels() {
+        let (rows, m) = (3, 200);
+        let mut w = weights(rows, m);
+        w[m..2 * m].fill(0.0);
+        let (q, d) = (WordRows::new(&w, m, 1020).unwrap(), super::super::dot_q::QuantRows::new(&w, m));
+        for r in 0..rows {
+            for p in 0..m {
+                assert_eq!(q.int(r, p), d.int(r, p), "row {r} pixel {p}");
+            }
+        }
+    }
+
+    #[test]
+    fn bounds_beyond_i16_are_refused_and_the_span_follows_the_bound() {
         let w = weights(2, 64);
         assert!(WordRows::new(&w, 64, 0).is_none());
         assert!(WordRows::new(&w, 64, 32_768).is_none());
