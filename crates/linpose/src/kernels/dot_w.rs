@@ -16,7 +16,7 @@
 //! Only the VNNI path is fast; where it is missing ([`super::dot_q::fast`]) models use the 8-bit
 //! kernels on the digit planes instead, and the portable body here serves as the reference.
 
-use super::dot_q::{fast, VMAX};
+use super::dot_q::VMAX;
 use super::Level;
 
 /// Values per step: one 512-bit vector of i16.
@@ -112,13 +112,14 @@ impl WordRows {
 
     /// `out[i rows + r] = s_r sum_p x_i[p] v_r[p]` for every image i of `xs` (lines from
     /// [`Self::lines_of`], values in [0, xmax]) and row r, exact in integers, rounded once.
-    /// `idx` is scratch. The VNNI kernel where [`fast`] holds, else the portable body.
+    /// `idx` is scratch. The VNNI kernel where [`super::dot_q::fast`] holds, else the portable
+    /// body.
     #[track_caller]
     pub fn dots_batch(&self, level: Level, xs: &[Line], out: &mut [f32], idx: &mut Vec<u32>) {
         let steps = self.steps();
         assert!(xs.len().is_multiple_of(steps) && out.len() == xs.len() / steps * self.rows, "whole images, one output per image and row");
         #[cfg(target_arch = "x86_64")]
-        if fast(level) {
+        if super::dot_q::fast(level) {
             for (x, o) in xs.chunks(BLOCK * steps).zip(out.chunks_mut(BLOCK * self.rows)) {
                 // SAFETY: fast(level) means AVX-512 F/BW/VNNI were detected; the block holds
                 // whole images of `steps` lines and one output per image and row (asserted).
