@@ -201,12 +201,30 @@ mod simd {
         _mm512_add_epi32(acc, _mm512_add_epi32(_mm512_madd_epi16(lo, lo), _mm512_madd_epi16(hi, hi)))
     }
 
-    /// The sum of 16 u32 lanes.
+    /// The sum of the 16 u32 lanes of `v`, which are cleared.
     #[inline]
     #[target_feature(enable = "avx512f")]
-    fn lanes_u64(v: __m512i) -> u64 {
-        _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(v))) as u64
-            + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(v))) as u64
+    fn take_lanes(v: &mut __m512i) -> u64 {
+        let sum = crate::kernels::sum_u32_lanes(*v);
+        *v = _mm512_setzero_si512();
+        sum
+    }
+
+    /// Asks for the `b` input rows of the binned row 24 input rows below binned row `yo` (of
+    /// `hb`) of an image of width `w` at `x`: one image is one stream, too slow for the hardware
+    /// prefetcher alone when images come from memory.
+    ///
+    /// # Safety
+    /// `x` holds at least (b hb) rows of `w` pixels.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn prefetch_ahead(x: &[u8], w: usize, b: usize, yo: usize, hb: usize) {
+        if yo + 24 / b < hb {
+            let ahead = x.as_ptr().add((b * yo + 24) * w);
+            for off in (0..b * w).step_by(64) {
+                _mm_prefetch::<_MM_HINT_T0>(ahead.add(off) as *const i8);
+            }
+        }
     }
 
     /// [`super::Binning::sums_energies_u8`] of a gray image of width `w` binned by 2 into `wb` x
@@ -232,14 +250,7 @@ mod simd {
         for yo in 0..hb {
             let (r0, r1) = (x.as_ptr().add(2 * yo * w), x.as_ptr().add((2 * yo + 1) * w));
             let out_row = out.as_mut_ptr().add(yo * wb);
-            // The rows 12 blocks down asked for now: one image is one stream, too slow for the
-            // hardware prefetcher alone when images come from memory.
-            if yo + 12 < hb {
-                let ahead = x.as_ptr().add((2 * yo + 24) * w);
-                for off in (0..2 * w).step_by(64) {
-                    _mm_prefetch::<_MM_HINT_T0>(ahead.add(off) as *const i8);
-                }
-            }
+            prefetch_ahead(x, w, 2, yo, hb);
             let mut p = 0;
             while p < span {
                 // Pixels p.. of the step (64 or fewer), outputs p / 2.. (32 or fewer).
@@ -257,9 +268,8 @@ mod simd {
                 p += 64;
             }
             if (yo + 1) % rows_per_flush == 0 || yo + 1 == hb {
-                energy += lanes_u64(sq);
-                energy_full += lanes_u64(sq_full);
-                (sq, sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+                energy += take_lanes(&mut sq);
+                energy_full += take_lanes(&mut sq_full);
             }
         }
         // The pixels the blocks leave out (a last column or row) count in the image's energy.
@@ -288,12 +298,7 @@ mod simd {
         for yo in 0..hb {
             let r = x.as_ptr().add(4 * yo * w);
             let out_row = out.as_mut_ptr().add(yo * wb);
-            if yo + 6 < hb {
-                let ahead = x.as_ptr().add((4 * yo + 24) * w);
-                for off in (0..4 * w).step_by(64) {
-                    _mm_prefetch::<_MM_HINT_T0>(ahead.add(off) as *const i8);
-                }
-            }
+            prefetch_ahead(x, w, 4, yo, hb);
             let mut p = 0;
             while p < span {
                 let n = (span - p).min(64);
@@ -313,9 +318,8 @@ mod simd {
                 p += 64;
             }
             if (yo + 1) % rows_per_flush == 0 || yo + 1 == hb {
-                energy += lanes_u64(sq);
-                energy_full += lanes_u64(sq_full);
-                (sq, sq_full) = (_mm512_setzero_si512(), _mm512_setzero_si512());
+                energy += take_lanes(&mut sq);
+                energy_full += take_lanes(&mut sq_full);
             }
         }
         // The pixels the blocks leave out (a last column or row) count in the image's energy.

@@ -19,6 +19,17 @@ pub mod peak;
 pub mod scan;
 pub mod syrk;
 
+/// The sum of the 16 u32 lanes of `v` (the binning kernels' and the noise estimate's squares
+/// and responses, summed in u32 lanes between flushes).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx512f")]
+pub(crate) fn sum_u32_lanes(v: std::arch::x86_64::__m512i) -> u64 {
+    use std::arch::x86_64::*;
+    _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(v))) as u64
+        + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(v))) as u64
+}
+
 /// f32 values that start on a 64-byte boundary (a cache line, one AVX-512 vector), so that a
 /// kernel can load them aligned in place instead of copying them ([`dot_u8::dots_batch`] reads
 /// model weights this way). Read-only once made; a clone is aligned afresh.

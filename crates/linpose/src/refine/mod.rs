@@ -1504,19 +1504,12 @@ mod simd {
             count += 1;
             since += 1;
             if since == flush_every {
-                total += lanes_u64(acc);
+                total += crate::kernels::sum_u32_lanes(acc);
                 (acc, since) = (_mm512_setzero_si512(), 0);
             }
         }
-        total += lanes_u64(acc);
+        total += crate::kernels::sum_u32_lanes(acc);
         (total as f64, count)
-    }
-
-    /// The sum of 16 u32 lanes.
-    #[target_feature(enable = "avx512f")]
-    fn lanes_u64(v: std::arch::x86_64::__m512i) -> u64 {
-        use std::arch::x86_64::*;
-        _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(v))) as u64 + _mm512_reduce_add_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64::<1>(v))) as u64
     }
 
     /// # Safety
@@ -2190,6 +2183,11 @@ impl RefinedModel {
         no_black_query(out, p)
     }
 
+    /// The 16-bit product rows when 8-bit queries at `level` take them (a model that bins, VNNI).
+    fn words_at(&self, level: Level) -> Option<&dot_w::WordRows> {
+        self.words.as_ref().filter(|_| dot_q::fast(level))
+    }
+
     /// [`Self::project_u8`] for a model that bins: each image's block sums, exact in integers
     /// (255 b^2 at most), go to the 16-bit products ([`dot_w`], where [`dot_q::fast`] and b <=
     /// 11), else split into two 8-bit digit planes, low and high, which the 8-bit products take
@@ -2208,7 +2206,7 @@ impl RefinedModel {
         s.route.resize(n, 0.0);
         s.pv_full.resize(n, 0.0);
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
-        let words = self.words.as_ref().filter(|_| dot_q::fast(level));
+        let words = self.words_at(level);
         BIN_SCRATCH.with_borrow_mut(|b| {
             let BinScratch { planes, sums, acc, raw, energy, lines, idx } = b;
             // Each image's block sums, and its pixel noise measured as given (as
@@ -2280,7 +2278,7 @@ impl RefinedModel {
         let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
-        let block = if self.words.is_some() && dot_q::fast(level) { dot_w::BLOCK } else { self.quant.block(level) };
+        let block = if self.words_at(level).is_some() { dot_w::BLOCK } else { self.quant.block(level) };
         let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, block) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             if self.binning.bins() {
