@@ -72,7 +72,10 @@
 //!
 //! The model keeps only the eigenimages its queries use: the weighted search's L and the noisy
 //! match's (the eigenspace keeps 20), so the basis, the surface and each query's projection
-//! shrink with them (duck: 12 of 20).
+//! shrink with them (duck: 12 of 20). Where the noisy match uses more than the search (COIL-19:
+//! 16 against 12), a query projects on the search's first and on the rest only once its route
+//! sends it to the noisy match; the clean search's nu comes from the residual off its own L
+//! coordinates, the residual its choice was scored with.
 //!
 //! Cost of a query: the projection on those L eigenimages and the mean (whose product gives the
 //! residual), by the eigenspace's own kernels (one f32 product per sub-chunk of a batch; for
@@ -515,16 +518,26 @@ pub struct Views<'a> {
 pub struct RefinedModel {
     meta: ModelMeta,
     settings: RefinedSettings,
-    /// The L eigenimages (rows of M, scaled), then the mean image: one matrix, so that a query's
-    /// products with both (the mean's for its residual) are one pass over it; 64-byte aligned,
-    /// so the 8-bit products read it in place.
+    /// The first L_s eigenimages (the clean search's; rows of M, scaled), the mean image, then
+    /// the other L - L_s eigenimages (the noisy match's past L_s): one matrix, so that a
+    /// query's products with the search's and the mean (for its residual) are one pass over
+    /// its first [`Self::product_rows`] rows, and the noisy match's extra coordinates
+    /// ([`Self::extra_rows`]) a second pass over the last rows, for the queries routed to it
+    /// only; 64-byte aligned, so the 8-bit products read it in place.
     rows: AlignedF32,
     /// The product rows ([`Self::product_rows`] of `rows`) in 16-bit fixed point, for 8-bit
     /// queries where [`dot_q::fast`] (derived, not stored in the file); none when `words` serves.
     quant: dot_q::FastRows,
+    /// The extra rows ([`Self::extra_rows`]) as `quant`.
+    quant_x: dot_q::FastRows,
     /// For a model that bins, where [`dot_q::fast`]: the product rows in 16-bit fixed point for
-    /// the 16-bit block sums of 8-bit queries ([`dot_w`]; derived, not stored in the file).
-    words: Option<dot_w::WordRows>,
+    /// the 16-bit block sums of 8-bit queries ([`dot_w`]; derived, not stored in the file), and
+    /// the extra rows.
+    words: Option<(dot_w::WordRows, Option<dot_w::WordRows>)>,
+    /// The training views' mean residual energy off the clean search's L_s coordinates (the
+    /// stored `residual_energy`, off all L, plus the knots' mean square in coordinates L_s..L):
+    /// the level of a clean query's residual that means no noise.
+    clean_residual_energy: f64,
     /// M, the pixels of an image (binned).
     m: usize,
     /// The binning of the images the model takes ([`ModelMeta::spec`]) into those it works on.
@@ -910,16 +923,34 @@ impl RefinedModel {
         // Only the clean coarse scan reads the boxes; the lattice and the tree replace it.
         let scanned = lattice.is_none() && tree.is_none();
         let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };
-        let rows = [basis, mean].concat();
-        // The product rows: the mean's only when the residual is used (as `product_rows`).
-        let product = &rows[..(l + uses_residual(&settings) as usize) * m];
-        let words = (binning.bins() && dot_q::fast(Level::detect())).then(|| dot_w::WordRows::new(product, m, binning.max_sum())).flatten();
-        let quant = if words.is_some() { dot_q::FastRows::default() } else { dot_q::FastRows::new(product, m) };
+        let rows = [&basis[..ls * m], &mean[..], &basis[ls * m..]].concat();
+        // The product rows: the mean's only when the residual is used (as `product_rows`); the
+        // extra rows past the mean.
+        let (product, extra) = (&rows[..(ls + uses_residual(&settings) as usize) * m], &rows[(ls + 1) * m..]);
+        let words = (binning.bins() && dot_q::fast(Level::detect()))
+            .then(|| {
+                let w = |r: &[f32]| dot_w::WordRows::new(r, m, binning.max_sum());
+                match (w(product), extra.is_empty()) {
+                    (Some(p), true) => Some((p, None)),
+                    (Some(p), false) => w(extra).map(|x| (p, Some(x))),
+                    (None, _) => None,
+                }
+            })
+            .flatten();
+        let fast = |r: &[f32]| if words.is_some() || r.is_empty() { dot_q::FastRows::default() } else { dot_q::FastRows::new(r, m) };
+        let (quant, quant_x) = (fast(product), fast(extra));
+        // Coordinates L_s.. are unscaled (search_scale), and the knots are the training views
+        // (a full grid, one view a point): their mean square is the eigenvalue over N.
+        let nk = knots.len() / l.max(1);
+        let beyond: f64 = knots.chunks_exact(l.max(1)).map(|k| k[ls..].iter().map(|&v| v as f64 * v as f64).sum::<f64>()).sum::<f64>() / nk.max(1) as f64;
+        let clean_residual_energy = settings.residual_energy + beyond;
         Ok(RefinedModel {
             meta,
             settings,
             quant,
+            quant_x,
             words,
+            clean_residual_energy,
             rows: AlignedF32::new(&rows),
             m,
             binning,
@@ -979,23 +1010,44 @@ impl RefinedModel {
         uses_residual(&self.settings)
     }
 
-    /// Products per query: the L coordinates, and the mean's when [`Self::uses_residual`].
+    /// Products every query takes: the clean search's L_s coordinates, and the mean's when
+    /// [`Self::uses_residual`].
     fn product_rows(&self) -> usize {
-        self.components() + self.uses_residual() as usize
+        self.settings.search() + self.uses_residual() as usize
+    }
+
+    /// Products only a query routed to the noisy match takes: its coordinates past L_s.
+    fn extra_rows(&self) -> usize {
+        self.components() - self.settings.search()
+    }
+
+    /// Whether a query takes the [`Self::extra_rows`]: when the model has some and the query
+    /// goes to the noisy match, all of them for `NoiseWant::Full`, else when its route's value
+    /// `route` (what [`Self::pose_routed`] compares) is over the threshold.
+    #[inline]
+    fn takes_extra(&self, noise: NoiseWant, route: f64) -> bool {
+        self.extra_rows() > 0
+            && match noise {
+                NoiseWant::None => false,
+                NoiseWant::Full => true,
+                NoiseWant::Route => self.settings.noise_threshold > 0.0 && route > self.settings.noise_threshold,
+            }
     }
 
     /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
-    /// (rows of L), `s.resid` and `s.noise`: the products with the eigenimages and the mean as one
-    /// sequential f32 product into `s.raw` (rayon splits the batch, see [`chunk_rows`]), then each
-    /// query's energy and, when `noise` says so, its pixel noise ([`pixel_variance`], staged
-    /// at `early` times the noise threshold, see [`NoiseWant`]), as [`Self::finish_query`]
-    /// takes them.
-    fn project_f32(&self, queries: &[f32], noise: NoiseWant, s: &mut QueryScratch) {
-        let (l, m, k) = (self.components(), self.m, self.product_rows());
+    /// (rows of L), `s.resid` and `s.noise`: the products with the search's eigenimages and the
+    /// mean as one sequential f32 product into `s.raw` (rayon splits the batch, see
+    /// [`chunk_rows`]), then each query's energy and, when `noise` says so, its pixel noise
+    /// ([`pixel_variance`], staged at `early` times the noise threshold, see [`NoiseWant`]),
+    /// which routes it; the queries routed to the noisy match take the extra rows
+    /// ([`Self::extra_f32`]); then [`Self::finish_query`]. With `routed` the caller has routed
+    /// them already (`s.extra`, a model that bins: on the images as given).
+    fn project_f32(&self, queries: &[f32], noise: NoiseWant, routed: bool, s: &mut QueryScratch) {
+        let (l, m, k, kx) = (self.components(), self.m, self.product_rows(), self.extra_rows());
         let n = queries.len() / m;
         let spec = self.binning.spec();
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
-        s.resize(n, l, k);
+        s.resize(n, l, k, kx);
         let ut = MatRef::from_column_major_slice(&self.rows[..k * m], m, k);
         // In sub-chunks whose queries stay in cache from the product to the energy and noise.
         let sub = if std::mem::size_of_val(queries) <= NOISE_SUB_F32_BYTES { n.max(1) } else { NOISE_SUB_F32 };
@@ -1006,12 +1058,82 @@ impl RefinedModel {
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 let energy = crate::linalg::energy(x);
                 s.benergy[i] = energy;
-                let pv = match self.early(noise, energy, m) {
+                s.pv[i] = match self.early(noise, energy, m) {
                     Some(early) => pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch), early),
                     None => 0.0,
                 };
-                (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, pv, &mut s.y[i * l..(i + 1) * l]);
+                if !routed {
+                    // The route's value as pose_of_coords forms it.
+                    s.extra[i] = self.takes_extra(noise, s.pv[i] / energy * m as f64);
+                }
             }
+            self.extra_f32(xq, i0, s);
+            for i in i0..i0 + nn {
+                let raw = &s.raw[i * k..(i + 1) * k];
+                let extra = s.extra[i].then(|| &s.rawx[i * kx..(i + 1) * kx]);
+                (s.resid[i], s.noise[i]) = self.finish_query(raw, extra, s.benergy[i], s.pv[i], &mut s.y[i * l..(i + 1) * l]);
+            }
+        }
+    }
+
+    /// The queries of `xq` (rows of M, the first the task's query `i0`) that `s.extra` routes to
+    /// the noisy match: their products with the extra rows into `s.rawx` (rows of
+    /// [`Self::extra_rows`], by query), in one f32 product (over `xq` itself when all of them
+    /// take it, else over a copy of those that do).
+    fn extra_f32(&self, xq: &[f32], i0: usize, s: &mut QueryScratch) {
+        let (m, kx, ls) = (self.m, self.extra_rows(), self.settings.search());
+        let nn = xq.len() / m;
+        s.xidx.clear();
+        s.xidx.extend((0..nn).filter(|&j| s.extra[i0 + j]));
+        let nx = s.xidx.len();
+        if nx == 0 {
+            return;
+        }
+        let src: &[f32] = if nx == nn {
+            xq
+        } else {
+            s.gather_f32.clear();
+            s.xidx.iter().for_each(|&j| s.gather_f32.extend_from_slice(&xq[j * m..(j + 1) * m]));
+            &s.gather_f32
+        };
+        s.xout.resize(nx * kx, 0.0);
+        let ut = MatRef::from_column_major_slice(&self.rows[(ls + 1) * m..(ls + 1 + kx) * m], m, kx);
+        matmul(MatMut::from_row_major_slice_mut(&mut s.xout, nx, kx), Accum::Replace, MatRef::from_row_major_slice(src, nx, m), ut, 1.0f32, Par::Seq);
+        for (o, &j) in s.xout.chunks_exact(kx).zip(&s.xidx) {
+            s.rawx[(i0 + j) * kx..(i0 + j + 1) * kx].copy_from_slice(o);
+        }
+    }
+
+    /// As [`Self::extra_f32`] for 8-bit images (`xq`, images of M pixel values), by
+    /// [`dot_q::FastRows`] as [`Self::project_u8`]'s products.
+    fn extra_u8(&self, level: Level, xq: &[u8], i0: usize, s: &mut QueryScratch) {
+        let (m, kx, ls) = (self.m, self.extra_rows(), self.settings.search());
+        let nn = xq.len() / m;
+        s.xidx.clear();
+        s.xidx.extend((0..nn).filter(|&j| s.extra[i0 + j]));
+        let nx = s.xidx.len();
+        if nx == 0 {
+            return;
+        }
+        let src: &[u8] = if nx == nn {
+            xq
+        } else {
+            s.gather_u8.clear();
+            s.xidx.iter().for_each(|&j| s.gather_u8.extend_from_slice(&xq[j * m..(j + 1) * m]));
+            &s.gather_u8
+        };
+        s.xout.resize(nx * kx, 0.0);
+        let rows = &self.rows[(ls + 1) * m..(ls + 1 + kx) * m];
+        if nx >= 8 {
+            s.xenergy.resize(nx, 0);
+            self.quant_x.dots_batch(level, src, m, rows, &mut s.xout, &mut s.xenergy, &mut s.products);
+        } else {
+            for (x, r) in src.chunks_exact(m).zip(s.xout.chunks_exact_mut(kx)) {
+                self.quant_x.dots(level, x, rows, r);
+            }
+        }
+        for (o, &j) in s.xout.chunks_exact(kx).zip(&s.xidx) {
+            s.rawx[(i0 + j) * kx..(i0 + j + 1) * kx].copy_from_slice(o);
         }
     }
 
@@ -1021,11 +1143,11 @@ impl RefinedModel {
     /// [`pixel_variance_u8`], all in pixel values: the 1 / 255 of the features cancels in each
     /// ratio.
     fn project_u8(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
-        let (l, m, k) = (self.components(), self.m, self.product_rows());
+        let (l, m, k, kx) = (self.components(), self.m, self.product_rows(), self.extra_rows());
         let n = queries.len() / m;
         let spec = self.binning.spec();
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
-        s.resize(n, l, k);
+        s.resize(n, l, k, kx);
         let rows = &self.rows[..k * m];
         // In sub-chunks whose images stay in cache from the products to the noise pass.
         for (c, xq) in queries.chunks(NOISE_SUB_U8 * m).enumerate() {
@@ -1040,11 +1162,19 @@ impl RefinedModel {
                 }
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
-                let pv = match self.early(noise, s.energy[i] as f64, m) {
+                let energy = s.energy[i] as f64;
+                s.pv[i] = match self.early(noise, energy, m) {
                     Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch), early),
                     None => 0.0,
                 };
-                (s.resid[i], s.noise[i]) = self.finish_query(&s.raw[i * k..(i + 1) * k], s.energy[i] as f64, pv, &mut s.y[i * l..(i + 1) * l]);
+                // The route's value as pose_of_coords forms it.
+                s.extra[i] = self.takes_extra(noise, s.pv[i] / energy * m as f64);
+            }
+            self.extra_u8(level, xq, i0, s);
+            for i in i0..i0 + nn {
+                let raw = &s.raw[i * k..(i + 1) * k];
+                let extra = s.extra[i].then(|| &s.rawx[i * kx..(i + 1) * kx]);
+                (s.resid[i], s.noise[i]) = self.finish_query(raw, extra, s.energy[i] as f64, s.pv[i], &mut s.y[i * l..(i + 1) * l]);
             }
         }
     }
@@ -1061,24 +1191,31 @@ impl RefinedModel {
         }
     }
 
-    /// One query from its products `raw` ([`Self::product_rows`]: the L coordinates, then the
-    /// mean's when used), its energy ||x||^2 and its pixel variance `pv`, in the same units:
-    /// the unit-energy, mean-subtracted coordinates into `y` (NaN for a query of zero or
-    /// non-finite energy), and its residual ||x / ||x|| - mean||^2 less the energy inside the
-    /// eigenspace (0 when not used) and pixel noise per unit-energy coordinate.
-    fn finish_query(&self, raw: &[f32], energy: f64, pv: f64, y: &mut [f32]) -> (f64, f64) {
+    /// One query from its products `raw` ([`Self::product_rows`]: the L_s coordinates, then the
+    /// mean's when used) and, for a query routed to the noisy match, `extra`
+    /// ([`Self::extra_rows`]), its energy ||x||^2 and its pixel variance `pv`, in the same units:
+    /// the unit-energy, mean-subtracted coordinates into `y` (0 past L_s without `extra`; NaN
+    /// for a query of zero or non-finite energy), and its residual ||x / ||x|| - mean||^2 less
+    /// the energy inside the search's L_s coordinates (0 when not used) and pixel noise per
+    /// unit-energy coordinate.
+    fn finish_query(&self, raw: &[f32], extra: Option<&[f32]>, energy: f64, pv: f64, y: &mut [f32]) -> (f64, f64) {
         let norm = energy.sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             y.fill(f32::NAN);
             return (0.0, 0.0);
         }
-        let l = y.len();
+        let ls = self.settings.search();
         let inv = (1.0 / norm) as f32;
-        y.iter_mut().zip(&raw[..l]).zip(&self.mean_proj).for_each(|((v, &r), &c)| *v = r * inv - c);
+        let (ys, yx) = y.split_at_mut(ls);
+        ys.iter_mut().zip(&raw[..ls]).zip(&self.mean_proj).for_each(|((v, &r), &c)| *v = r * inv - c);
+        match extra {
+            Some(e) => yx.iter_mut().zip(e).zip(&self.mean_proj[ls..]).for_each(|((v, &r), &c)| *v = r * inv - c),
+            None => yx.fill(0.0),
+        }
         let resid = if self.uses_residual() {
             // Unscaled coordinates: each scaled one's square times 1 / w_l.
-            let inside: f64 = y.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
-            1.0 - 2.0 * raw[l] as f64 / norm + self.mean_sq - inside
+            let inside: f64 = ys.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
+            1.0 - 2.0 * raw[ls] as f64 / norm + self.mean_sq - inside
         } else {
             0.0
         };
@@ -1097,15 +1234,15 @@ impl RefinedModel {
     /// the binned one.
     fn pose_routed(&self, y: &[f32], residual: f64, route: f64, noise_nu: f64, out: &mut [f64]) {
         let (l, d) = (self.components(), self.axes.len());
-        // Noise per coordinate from the energy off the eigenspace beyond the training views'
-        // (isotropic noise puts (M - L) times its per-coordinate variance there); the weights
+        // Noise per coordinate from the energy off the search's L_s coordinates beyond the
+        // training views' (isotropic noise puts (M - L_s) times its per-coordinate variance
+        // there: the residual the choice of L_s was scored with); the weights
         // 1 / (sigma_l^2 + floor + nu) relative to the stored 1 / (sigma_l^2 + floor).
-        let m = self.m;
-        let nu = ((residual - self.settings.residual_energy) / (m.saturating_sub(l).max(1)) as f64).max(0.0);
+        let (m, ls) = (self.m, self.settings.search());
+        let nu = ((residual - self.clean_residual_energy) / (m.saturating_sub(ls).max(1)) as f64).max(0.0);
         if self.settings.noise_threshold > 0.0 && route > self.settings.noise_threshold {
             return self.pose_of_noisy(y, noise_nu, out);
         }
-        let ls = self.settings.search();
         let k = self.settings.params.starts.min(self.start_len());
         let mut t = [0f64; 8];
         SEARCH_SCRATCH.with_borrow_mut(|sc| {
@@ -2038,6 +2175,17 @@ struct QueryScratch {
     resid: Vec<f64>,
     noise: Vec<f64>,
     raw: Vec<f32>,
+    /// The extra products (rows of [`RefinedModel::extra_rows`]) of the queries that take them
+    /// (`extra`), each query's pixel noise, and the extra products' buffers: which queries of a
+    /// sub-chunk, a copy of their images, their products and sums of squares.
+    rawx: Vec<f32>,
+    extra: Vec<bool>,
+    pv: Vec<f64>,
+    xidx: Vec<usize>,
+    gather_f32: Vec<f32>,
+    gather_u8: Vec<u8>,
+    xout: Vec<f32>,
+    xenergy: Vec<u64>,
     energy: Vec<u64>,
     products: dot_q::Scratch,
     rows_u8: Option<RowsU8>,
@@ -2072,6 +2220,7 @@ struct BinScratch {
     raw: Vec<f32>,
     energy: Vec<u64>,
     lines: Vec<dot_w::Line>,
+    lines_x: Vec<dot_w::Line>,
     idx: Vec<u32>,
 }
 
@@ -2080,12 +2229,16 @@ thread_local! {
 }
 
 impl QueryScratch {
-    /// Room for `n` queries of `l` coordinates and `k` products.
-    fn resize(&mut self, n: usize, l: usize, k: usize) {
+    /// Room for `n` queries of `l` coordinates, `k` products and `kx` extra ones (the routes
+    /// already in `extra` are kept).
+    fn resize(&mut self, n: usize, l: usize, k: usize, kx: usize) {
         self.y.resize(n * l, 0.0);
         self.resid.resize(n, 0.0);
         self.noise.resize(n, 0.0);
         self.raw.resize(n * k, 0.0);
+        self.rawx.resize(n * kx, 0.0);
+        self.extra.resize(n, false);
+        self.pv.resize(n, 0.0);
         self.energy.resize(n, 0);
         self.benergy.resize(n, 0.0);
     }
@@ -2140,7 +2293,7 @@ impl RefinedModel {
     /// energy of the binned image.
     fn project_binned(&self, queries: &[f32], noise: NoiseWant, s: &mut QueryScratch) {
         if !self.binning.bins() {
-            return self.project_f32(queries, noise, s);
+            return self.project_f32(queries, noise, false, s);
         }
         let mut binned = std::mem::take(&mut s.binned);
         let (m, mb) = (self.meta.spec.features(), self.m);
@@ -2161,7 +2314,11 @@ impl RefinedModel {
             };
             (s.route[i], s.pv_full[i]) = (pv * m as f64 / energy, pv);
         }
-        self.project_f32(&binned, NoiseWant::None, s);
+        s.extra.resize(n, false);
+        for (x, &r) in s.extra.iter_mut().zip(&s.route) {
+            *x = self.takes_extra(noise, r);
+        }
+        self.project_f32(&binned, NoiseWant::None, true, s);
         // The noisy match's nu: the noise of a binned pixel (pv / b^2, independent noise) per
         // unit energy of the binned image.
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
@@ -2184,8 +2341,8 @@ impl RefinedModel {
     }
 
     /// The 16-bit product rows when 8-bit queries at `level` take them (a model that bins, VNNI).
-    fn words_at(&self, level: Level) -> Option<&dot_w::WordRows> {
-        self.words.as_ref().filter(|_| dot_q::fast(level))
+    fn words_at(&self, level: Level) -> Option<(&dot_w::WordRows, Option<&dot_w::WordRows>)> {
+        self.words.as_ref().filter(|_| dot_q::fast(level)).map(|(w, x)| (w, x.as_ref()))
     }
 
     /// [`Self::project_u8`] for a model that bins: each image's block sums, exact in integers
@@ -2197,48 +2354,71 @@ impl RefinedModel {
     /// [`Self::project_u8`]). Its pixel noise is measured on the image as given
     /// ([`pixel_variance_u8`], staged), as [`Self::project_binned`] does.
     fn project_u8_binned(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
-        let (l, mb, k) = (self.components(), self.m, self.product_rows());
+        let (l, mb, k, kx, ls) = (self.components(), self.m, self.product_rows(), self.extra_rows(), self.settings.search());
         let m = self.meta.spec.features();
         let n = queries.len() / m;
         let full = self.binning.full();
         let (w, h, ch) = (full.width as usize, full.height as usize, full.color.channels());
-        s.resize(n, l, k);
+        s.resize(n, l, k, kx);
         s.route.resize(n, 0.0);
         s.pv_full.resize(n, 0.0);
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
         let words = self.words_at(level);
         BIN_SCRATCH.with_borrow_mut(|b| {
-            let BinScratch { planes, sums, acc, raw, energy, lines, idx } = b;
+            let BinScratch { planes, sums, acc, raw, energy, lines, lines_x, idx } = b;
             // Each image's block sums, and its pixel noise measured as given (as
-            // [`Self::project_binned`]), in pixel values.
-            let mut sum_one = |i: usize, x: &[u8], v: &mut [u16]| {
+            // [`Self::project_binned`]), in pixel values: the sums' energy, the route's value
+            // and the noise.
+            let rows_u8_full = &mut s.rows_u8_full;
+            let mut sum_one = |x: &[u8], v: &mut [u16]| {
                 let (e_binned, e_full) = self.binning.sums_energies_u8(level, x, v, acc);
-                s.energy[i] = e_binned;
                 let e_full = e_full as f64;
                 let pv = match self.early(noise, e_full, m) {
-                    Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8_full, w * ch, ch), early),
+                    Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(rows_u8_full, w * ch, ch), early),
                     None => 0.0,
                 };
-                (s.route[i], s.pv_full[i]) = (pv * m as f64 / e_full, pv);
+                (e_binned, pv * m as f64 / e_full, pv)
             };
             match words {
                 // In sub-chunks whose sums are still cached for the products.
-                Some(wr) => {
-                    let stride = wr.steps() * dot_w::STEP;
+                Some((wr, wx)) => {
+                    let steps = wr.steps();
                     for (c, xq) in queries.chunks(BIN_SUB_U8 * m).enumerate() {
                         let (i0, nn) = (c * BIN_SUB_U8, xq.len() / m);
                         wr.lines_of(nn, lines);
                         let values = dot_w::WordRows::values_mut(lines);
-                        for ((i, x), v) in (i0..).zip(xq.chunks_exact(m)).zip(values.chunks_exact_mut(stride)) {
-                            sum_one(i, x, v);
+                        for ((i, x), v) in (i0..).zip(xq.chunks_exact(m)).zip(values.chunks_exact_mut(steps * dot_w::STEP)) {
+                            (s.energy[i], s.route[i], s.pv_full[i]) = sum_one(x, v);
+                            s.extra[i] = self.takes_extra(noise, s.route[i]);
                         }
                         wr.dots_batch(level, lines, &mut s.raw[i0 * k..(i0 + nn) * k], idx);
+                        // The extra rows for the queries routed to the noisy match.
+                        let Some(wx) = wx else { continue };
+                        s.xidx.clear();
+                        s.xidx.extend((0..nn).filter(|&j| s.extra[i0 + j]));
+                        let nx = s.xidx.len();
+                        if nx == 0 {
+                            continue;
+                        }
+                        let src: &[dot_w::Line] = if nx == nn {
+                            lines
+                        } else {
+                            lines_x.clear();
+                            s.xidx.iter().for_each(|&j| lines_x.extend_from_slice(&lines[j * steps..(j + 1) * steps]));
+                            lines_x
+                        };
+                        s.xout.resize(nx * kx, 0.0);
+                        wx.dots_batch(level, src, &mut s.xout, idx);
+                        for (o, &j) in s.xout.chunks_exact(kx).zip(&s.xidx) {
+                            s.rawx[(i0 + j) * kx..(i0 + j + 1) * kx].copy_from_slice(o);
+                        }
                     }
                 }
                 None => {
                     sums.resize(n * mb, 0);
                     for ((i, x), v) in queries.chunks_exact(m).enumerate().zip(sums.chunks_exact_mut(mb)) {
-                        sum_one(i, x, v);
+                        (s.energy[i], s.route[i], s.pv_full[i]) = sum_one(x, v);
+                        s.extra[i] = self.takes_extra(noise, s.route[i]);
                     }
                     planes.resize(2 * n * mb, 0);
                     for (v, p) in sums.chunks_exact(mb).zip(planes.chunks_exact_mut(2 * mb)) {
@@ -2247,19 +2427,41 @@ impl RefinedModel {
                             (*lo, *hi) = (v as u8, (v >> 8) as u8);
                         }
                     }
-                    let rows = &self.rows[..k * mb];
-                    raw.resize(2 * n * k, 0.0);
-                    energy.resize(2 * n, 0);
-                    if 2 * n >= 8 {
-                        self.quant.dots_batch(level, &planes[..2 * n * mb], mb, rows, raw, energy, &mut s.products);
-                    } else {
-                        for (x, r) in planes[..2 * n * mb].chunks_exact(mb).zip(raw.chunks_exact_mut(k)) {
-                            self.quant.dots(level, x, rows, r);
+                    // The products of images of two planes (2 nx of them, rows of `kr`) into
+                    // `o` (rows of kr by image), low + 256 high.
+                    let mut planes_dots = |fr: &dot_q::FastRows, rows: &[f32], kr: usize, pl: &[u8], o: &mut [f32], products: &mut dot_q::Scratch| {
+                        let nx = pl.len() / (2 * mb);
+                        raw.resize(2 * nx * kr, 0.0);
+                        energy.resize(2 * nx, 0);
+                        if 2 * nx >= 8 {
+                            fr.dots_batch(level, pl, mb, rows, raw, energy, products);
+                        } else {
+                            for (x, r) in pl.chunks_exact(mb).zip(raw.chunks_exact_mut(kr)) {
+                                fr.dots(level, x, rows, r);
+                            }
                         }
-                    }
-                    for (o, pair) in s.raw[..n * k].chunks_exact_mut(k).zip(raw.chunks_exact(2 * k)) {
-                        let (lo, hi) = pair.split_at(k);
-                        o.iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
+                        for (o, pair) in o.chunks_exact_mut(kr).zip(raw.chunks_exact(2 * kr)) {
+                            let (lo, hi) = pair.split_at(kr);
+                            o.iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
+                        }
+                    };
+                    planes_dots(&self.quant, &self.rows[..k * mb], k, &planes[..2 * n * mb], &mut s.raw[..n * k], &mut s.products);
+                    s.xidx.clear();
+                    s.xidx.extend((0..n).filter(|&i| s.extra[i]));
+                    let nx = s.xidx.len();
+                    if nx > 0 {
+                        let src: &[u8] = if nx == n {
+                            &planes[..2 * n * mb]
+                        } else {
+                            s.gather_u8.clear();
+                            s.xidx.iter().for_each(|&i| s.gather_u8.extend_from_slice(&planes[2 * i * mb..2 * (i + 1) * mb]));
+                            &s.gather_u8
+                        };
+                        s.xout.resize(nx * kx, 0.0);
+                        planes_dots(&self.quant_x, &self.rows[(ls + 1) * mb..(ls + 1 + kx) * mb], kx, src, &mut s.xout, &mut s.products);
+                        for (o, &i) in s.xout.chunks_exact(kx).zip(&s.xidx) {
+                            s.rawx[i * kx..(i + 1) * kx].copy_from_slice(o);
+                        }
                     }
                 }
             }
@@ -2267,7 +2469,8 @@ impl RefinedModel {
                 // The noisy match's nu in units of the block sums (b^2 times a binned pixel's
                 // mean): a pixel's noise pv gives a block mean's pv / b^2, a block sum's b^2 pv.
                 let energy = s.energy[i] as f64;
-                (s.resid[i], _) = self.finish_query(&s.raw[i * k..(i + 1) * k], energy, 0.0, &mut s.y[i * l..(i + 1) * l]);
+                let extra = s.extra[i].then(|| &s.rawx[i * kx..(i + 1) * kx]);
+                (s.resid[i], _) = self.finish_query(&s.raw[i * k..(i + 1) * k], extra, energy, 0.0, &mut s.y[i * l..(i + 1) * l]);
                 s.noise[i] = b2 * s.pv_full[i] / energy;
             }
         });
@@ -2328,12 +2531,13 @@ impl PoseModel for RefinedModel {
     }
 
     fn tensors(&self) -> Vec<Tensor> {
-        let (l, m) = (self.components(), self.m);
+        let (l, ls, m) = (self.components(), self.settings.search(), self.m);
         let mut shape = self.settings.knot_shape.clone();
         shape.push(l);
+        // `rows` holds the mean between the search's eigenimages and the rest.
         let mut v = vec![
-            Tensor::f32("basis", vec![l, m], self.rows[..l * m].to_vec()),
-            Tensor::f32("mean", vec![m], self.rows[l * m..].to_vec()),
+            Tensor::f32("basis", vec![l, m], [&self.rows[..ls * m], &self.rows[(ls + 1) * m..]].concat()),
+            Tensor::f32("mean", vec![m], self.rows[ls * m..(ls + 1) * m].to_vec()),
             Tensor::f32("knots", shape.clone(), self.knots.clone()),
             Tensor::f32("background", shape, self.background.clone()),
         ];

@@ -871,3 +871,87 @@ fn binned_colour_u8_queries_match_f32_queries() {
         }
     }
 }
+
+/// A model whose noisy match uses more eigenimages than its clean search (L_s = 4 here) computes
+/// those extra coordinates for the queries routed to the noisy match only: on every projection
+/// path (f32 and 8-bit, as given and binned by 2, batches of 1, 7 and every view, clean and
+/// +-10% noisy views mixed), a noisy query's L coordinates and a clean query's L_s are the
+/// query's projection on the file's basis and mean (its other coordinates 0), the route is the
+/// one the search takes, and the poses are those of each query alone.
+#[test]
+fn the_noisy_match_s_extra_coordinates_serve_its_queries_only() {
+    let d = train_set();
+    let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
+    let m = test.n_features();
+    let mut q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    let noisy: Vec<bool> = (0..test.len()).map(|i| i % 3 != 1).collect();
+    for (i, x) in q8.chunks_exact_mut(m).enumerate().filter(|(i, _)| noisy[*i]) {
+        let v = with_noise(&x.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(), 0.1, 17 + i as u64);
+        x.iter_mut().zip(v).for_each(|(v, f)| *v = (f * 255.0).round() as u8);
+    }
+    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
+    for b in [1, 2] {
+        let model = RefinedParams::default().components(4).bin(b).fit(&d).unwrap();
+        let (l, ls) = (model.components(), model.settings().search());
+        assert!(ls == 4 && model.extra_rows() == l - ls && l > ls && model.settings().noise_threshold > 0.0, "bin {b}: L {l}, L_s {ls}");
+        // The reference: the file's basis and mean, in f64, on the (binned) f32 images.
+        let t = model.tensors();
+        let f32s = |d: &crate::model::TensorData| match d {
+            crate::model::TensorData::F32(v) => v.clone(),
+            crate::model::TensorData::F64(_) => panic!("f32 tensors"),
+        };
+        let (basis, mean) = (f32s(&t[0].data), f32s(&t[1].data));
+        let mb = model.m;
+        let xs: Vec<f32> = if b > 1 { model.binning.apply_all(&qf) } else { qf.clone() };
+        let want: Vec<Vec<f64>> = xs
+            .chunks_exact(mb)
+            .map(|x| {
+                let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
+                basis
+                    .chunks_exact(mb)
+                    .map(|u| u.iter().zip(x.iter().zip(&mean)).map(|(&u, (&x, &c))| u as f64 * (x as f64 / norm - c as f64)).sum())
+                    .collect()
+            })
+            .collect();
+        let check = |s: &QueryScratch, path: &str, tol: f64| {
+            for (i, (y, w)) in s.y.chunks_exact(l).zip(&want).enumerate() {
+                assert_eq!(s.extra[i], noisy[i], "bin {b} {path}: view {i} routed");
+                let scale = w.iter().fold(0f64, |a, v| a.max(v.abs()));
+                for c in 0..l {
+                    let w = if c < ls || noisy[i] { w[c] } else { 0.0 };
+                    assert!((y[c] as f64 - w).abs() <= tol * scale, "bin {b} {path}: view {i} coordinate {c}: {} vs {w}", y[c]);
+                }
+            }
+        };
+        let n = test.len();
+        for k in [1, 7, n] {
+            let mut s = QueryScratch::default();
+            model.project_binned(&qf[..k * m], NoiseWant::Route, &mut s);
+            if k == n {
+                check(&s, "f32", 1e-4);
+            }
+            let level = Level::detect();
+            let mut s8 = QueryScratch::default();
+            if b > 1 {
+                model.project_u8_binned(level, &q8[..k * m], NoiseWant::Route, &mut s8);
+            } else {
+                model.project_u8(level, &q8[..k * m], NoiseWant::Route, &mut s8);
+            }
+            if k == n {
+                check(&s8, "8-bit", 2e-3);
+            }
+            // Poses of the batch against each query alone.
+            let p = test.space().len();
+            let (mut batch, mut batch8) = (vec![0.0; k * p], vec![0.0; k * p]);
+            model.predict_into(&qf[..k * m], &mut batch).unwrap();
+            model.predict_u8_into(&q8[..k * m], &mut batch8).unwrap();
+            for i in 0..k {
+                let mut one = vec![0.0; p];
+                model.predict_into(&qf[i * m..(i + 1) * m], &mut one).unwrap();
+                assert_eq!(&batch[i * p..(i + 1) * p], &one[..], "bin {b}: batch of {k}, view {i}");
+                model.predict_u8_into(&q8[i * m..(i + 1) * m], &mut one).unwrap();
+                assert_eq!(&batch8[i * p..(i + 1) * p], &one[..], "bin {b} 8-bit: batch of {k}, view {i}");
+            }
+        }
+    }
+}
