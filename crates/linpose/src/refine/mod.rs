@@ -72,9 +72,12 @@
 //!
 //! The model keeps only the eigenimages its queries use: the weighted search's L and the noisy
 //! match's (the eigenspace keeps 20), so the basis, the surface and each query's projection
-//! shrink with them (duck: 12 of 20). Where the noisy match uses more than the search (COIL-19:
-//! 16 against 12), a query projects on the search's first and on the rest only once its route
-//! sends it to the noisy match; the clean search's nu comes from the residual off its own L
+//! shrink with them (duck: 12 of 20). A query projects on the rows its route uses alone: a
+//! clean one on the search's L_s and the mean (for its residual), a noisy one on the noisy
+//! match's L. A model that bins routes each query on the image as given before its products,
+//! so each takes one pass over its route's rows; one that does not routes after the clean
+//! rows' pass, and only a query sent to the noisy match takes its eigenimages past L_s (COIL-19:
+//! 16 against 12) in a second. The clean search's nu comes from the residual off its own L_s
 //! coordinates, the residual its choice was scored with.
 //!
 //! Cost of a query: the projection on those L eigenimages and the mean (whose product gives the
@@ -518,22 +521,21 @@ pub struct Views<'a> {
 pub struct RefinedModel {
     meta: ModelMeta,
     settings: RefinedSettings,
-    /// The first L_s eigenimages (the clean search's; rows of M, scaled), the mean image, then
-    /// the other L - L_s eigenimages (the noisy match's past L_s): one matrix, so that a
-    /// query's products with the search's and the mean (for its residual) are one pass over
-    /// its first [`Self::product_rows`] rows, and the noisy match's extra coordinates
-    /// ([`Self::extra_rows`]) a second pass over the last rows, for the queries routed to it
-    /// only; 64-byte aligned, so the 8-bit products read it in place.
+    /// The mean image, then the L eigenimages (rows of M, scaled): one matrix, so that the
+    /// rows a query's route takes are one range of it ([`Self::clean_rows`]: the mean's, for
+    /// the residual, and the clean search's L_s; [`Self::noisy_rows`]: the noisy match's L;
+    /// [`Self::extra_range`]: the L past L_s), each one pass; 64-byte aligned, so the 8-bit
+    /// products read it in place.
     rows: AlignedF32,
-    /// The product rows ([`Self::product_rows`] of `rows`) in 16-bit fixed point, for 8-bit
-    /// queries where [`dot_q::fast`] (derived, not stored in the file); none when `words` serves.
+    /// The clean rows in 16-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived,
+    /// not stored in the file); none when `words` serves.
     quant: dot_q::FastRows,
-    /// The extra rows ([`Self::extra_rows`]) as `quant`.
+    /// The extra rows ([`Self::extra_range`]) as `quant`.
     quant_x: dot_q::FastRows,
-    /// For a model that bins, where [`dot_q::fast`]: the product rows in 16-bit fixed point for
-    /// the 16-bit block sums of 8-bit queries ([`dot_w`]; derived, not stored in the file), and
-    /// the extra rows.
-    words: Option<(dot_w::WordRows, Option<dot_w::WordRows>)>,
+    /// For a model that bins, where [`dot_q::fast`]: the clean and noisy rows in 16-bit fixed
+    /// point for the 16-bit block sums of 8-bit queries ([`dot_w`]; derived, not stored in the
+    /// file).
+    words: Option<Words>,
     /// The training views' mean residual energy off the clean search's L_s coordinates (the
     /// stored `residual_energy`, off all L, plus the knots' mean square in coordinates L_s..L):
     /// the level of a clean query's residual that means no noise.
@@ -575,6 +577,14 @@ pub struct RefinedModel {
     /// The noisy query's search beside `tree` (on its poses): it replaces the noisy match's
     /// coarse scan and local search there.
     noisy_tree: Option<NoisyTree>,
+}
+
+/// A binned model's rows for [`dot_w`] ([`RefinedModel`]'s `words`): the clean rows, and the
+/// noisy rows when they differ (none: the same rows, no mean and L = L_s).
+#[derive(Debug, Clone)]
+struct Words {
+    clean: dot_w::WordRows,
+    noisy: Option<dot_w::WordRows>,
 }
 
 /// The start of a clean query's search on a manifold of two or more parameters reported on a
@@ -923,22 +933,21 @@ impl RefinedModel {
         // Only the clean coarse scan reads the boxes; the lattice and the tree replace it.
         let scanned = lattice.is_none() && tree.is_none();
         let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };
-        let rows = [&basis[..ls * m], &mean[..], &basis[ls * m..]].concat();
-        // The product rows: the mean's only when the residual is used (as `product_rows`); the
-        // extra rows past the mean.
-        let (product, extra) = (&rows[..(ls + uses_residual(&settings) as usize) * m], &rows[(ls + 1) * m..]);
+        let rows = [mean, basis].concat();
+        // The rows of each route (as clean_rows, noisy_rows, extra_range): the mean's only when
+        // the residual is used.
+        let r = uses_residual(&settings) as usize;
+        let (clean, noisy, extra) = (&rows[(1 - r) * m..(1 + ls) * m], &rows[m..(1 + l) * m], &rows[(1 + ls) * m..]);
         let words = (binning.bins() && dot_q::fast(Level::detect()))
             .then(|| {
                 let w = |r: &[f32]| dot_w::WordRows::new(r, m, binning.max_sum());
-                match (w(product), extra.is_empty()) {
-                    (Some(p), true) => Some((p, None)),
-                    (Some(p), false) => w(extra).map(|x| (p, Some(x))),
-                    (None, _) => None,
-                }
+                let clean = w(clean)?;
+                let noisy = if noisy.len() == clean.rows() * m && r == 0 { None } else { Some(w(noisy)?) };
+                Some(Words { clean, noisy })
             })
             .flatten();
         let fast = |r: &[f32]| if words.is_some() || r.is_empty() { dot_q::FastRows::default() } else { dot_q::FastRows::new(r, m) };
-        let (quant, quant_x) = (fast(product), fast(extra));
+        let (quant, quant_x) = (fast(clean), fast(extra));
         // Coordinates L_s.. are unscaled (search_scale), and the knots are the training views
         // (a full grid, one view a point): their mean square is the eigenvalue over N.
         let nk = knots.len() / l.max(1);
@@ -1010,51 +1019,129 @@ impl RefinedModel {
         uses_residual(&self.settings)
     }
 
-    /// Products every query takes: the clean search's L_s coordinates, and the mean's when
-    /// [`Self::uses_residual`].
-    fn product_rows(&self) -> usize {
-        self.settings.search() + self.uses_residual() as usize
-    }
-
-    /// Products only a query routed to the noisy match takes: its coordinates past L_s.
+    /// The noisy match's coordinates past the clean search's L_s: what a query routed to it
+    /// takes besides [`Self::clean_rows`] when it is routed after them (a model that does not
+    /// bin).
     fn extra_rows(&self) -> usize {
         self.components() - self.settings.search()
     }
 
-    /// Whether a query takes the [`Self::extra_rows`]: when the model has some and the query
-    /// goes to the noisy match, all of them for `NoiseWant::Full`, else when its route's value
-    /// `route` (what [`Self::pose_routed`] compares) is over the threshold.
+    /// The rows of `rows` ([mean, eigenimages]) a query the clean search serves takes: the
+    /// mean's when used, then the first L_s eigenimages.
+    fn clean_rows(&self) -> std::ops::Range<usize> {
+        1 - self.uses_residual() as usize..1 + self.settings.search()
+    }
+
+    /// The rows a query routed to the noisy match before its products takes (a model that
+    /// bins): every eigenimage, not the mean.
+    fn noisy_rows(&self) -> std::ops::Range<usize> {
+        1..1 + self.components()
+    }
+
+    /// The rows of [`Self::extra_rows`].
+    fn extra_range(&self) -> std::ops::Range<usize> {
+        1 + self.settings.search()..1 + self.components()
+    }
+
+    /// Whether a query goes to the noisy match: all of them for `NoiseWant::Full`, none for
+    /// `None`, else when its route's value `route` (what [`Self::pose_routed`] compares) is over
+    /// the threshold.
     #[inline]
-    fn takes_extra(&self, noise: NoiseWant, route: f64) -> bool {
-        self.extra_rows() > 0
-            && match noise {
-                NoiseWant::None => false,
-                NoiseWant::Full => true,
-                NoiseWant::Route => self.settings.noise_threshold > 0.0 && route > self.settings.noise_threshold,
+    fn routed_noisy(&self, noise: NoiseWant, route: f64) -> bool {
+        match noise {
+            NoiseWant::None => false,
+            NoiseWant::Full => true,
+            NoiseWant::Route => self.settings.noise_threshold > 0.0 && route > self.settings.noise_threshold,
+        }
+    }
+
+    /// The products of the queries `xq` (rows of M, the first the task's query `i0`; those at
+    /// `sel` when given, else all) with `rows` rows `rr` into `s.raw` (rows of 1 + L, the mean's
+    /// product first and eigenimage c's at 1 + c) from column `rr.start`: one f32 product over
+    /// `xq` itself or over a copy of the selected queries.
+    fn pass_f32(&self, xq: &[f32], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
+        let (m, kr, k) = (self.m, 1 + self.components(), rr.len());
+        let nn = xq.len() / m;
+        let nx = sel.map_or(nn, <[usize]>::len);
+        if nx == 0 || k == 0 {
+            return;
+        }
+        let src: &[f32] = match sel {
+            Some(sel) if nx < nn => {
+                s.gather_f32.clear();
+                sel.iter().for_each(|&j| s.gather_f32.extend_from_slice(&xq[j * m..(j + 1) * m]));
+                &s.gather_f32
             }
+            _ => xq,
+        };
+        s.xout.resize(nx * k, 0.0);
+        let ut = MatRef::from_column_major_slice(&self.rows[rr.start * m..rr.end * m], m, k);
+        matmul(MatMut::from_row_major_slice_mut(&mut s.xout, nx, k), Accum::Replace, MatRef::from_row_major_slice(src, nx, m), ut, 1.0f32, Par::Seq);
+        scatter(&s.xout, k, sel, i0, kr, rr.start, &mut s.raw);
+    }
+
+    /// As [`Self::pass_f32`] for 8-bit images of M pixel values, by `fr` (the rows `rr` in
+    /// 16-bit fixed point, see [`dot_q::FastRows`]): from 8 queries on in one batch, else one at
+    /// a time; their sums of squares into `s.xenergy` (by selected query).
+    #[allow(clippy::too_many_arguments)]
+    fn pass_u8(&self, level: Level, fr: &dot_q::FastRows, xq: &[u8], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
+        let (m, kr, k) = (self.m, 1 + self.components(), rr.len());
+        let nn = xq.len() / m;
+        let nx = sel.map_or(nn, <[usize]>::len);
+        if nx == 0 || k == 0 {
+            return;
+        }
+        let src: &[u8] = match sel {
+            Some(sel) if nx < nn => {
+                s.gather_u8.clear();
+                sel.iter().for_each(|&j| s.gather_u8.extend_from_slice(&xq[j * m..(j + 1) * m]));
+                &s.gather_u8
+            }
+            _ => xq,
+        };
+        s.xout.resize(nx * k, 0.0);
+        s.xenergy.resize(nx, 0);
+        let rows = &self.rows[rr.start * m..rr.end * m];
+        if nx >= 8 {
+            fr.dots_batch(level, src, m, rows, &mut s.xout, &mut s.xenergy, &mut s.products);
+        } else {
+            for ((x, r), e) in src.chunks_exact(m).zip(s.xout.chunks_exact_mut(k)).zip(s.xenergy.iter_mut()) {
+                fr.dots(level, x, rows, r);
+                *e = dot_u8::sum_squares(x);
+            }
+        }
+        scatter(&s.xout, k, sel, i0, kr, rr.start, &mut s.raw);
     }
 
     /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
-    /// (rows of L), `s.resid` and `s.noise`: the products with the search's eigenimages and the
-    /// mean as one sequential f32 product into `s.raw` (rayon splits the batch, see
-    /// [`chunk_rows`]), then each query's energy and, when `noise` says so, its pixel noise
-    /// ([`pixel_variance`], staged at `early` times the noise threshold, see [`NoiseWant`]),
-    /// which routes it; the queries routed to the noisy match take the extra rows
-    /// ([`Self::extra_f32`]); then [`Self::finish_query`]. With `routed` the caller has routed
-    /// them already (`s.extra`, a model that bins: on the images as given).
+    /// (rows of L), `s.resid` and `s.noise`. In sub-chunks whose queries stay in cache from the
+    /// products to the energy and noise (rayon splits the batch, see [`chunk_rows`]). Without
+    /// `routed`: the products of every query with [`Self::clean_rows`], then each query's energy
+    /// and, when `noise` says so, its pixel noise ([`pixel_variance`], staged at `early` times
+    /// the noise threshold, see [`NoiseWant`]), which routes it; the queries routed to the noisy
+    /// match take the [`Self::extra_range`] too. With `routed` (a model that bins: routed on the
+    /// images as given, `s.noisy`) each query takes its route's rows alone, the clean ones
+    /// [`Self::clean_rows`], the noisy ones [`Self::noisy_rows`]. Then [`Self::finish_query`].
     fn project_f32(&self, queries: &[f32], noise: NoiseWant, routed: bool, s: &mut QueryScratch) {
-        let (l, m, k, kx) = (self.components(), self.m, self.product_rows(), self.extra_rows());
+        let (l, m) = (self.components(), self.m);
         let n = queries.len() / m;
         let spec = self.binning.spec();
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
-        s.resize(n, l, k, kx);
-        let ut = MatRef::from_column_major_slice(&self.rows[..k * m], m, k);
-        // In sub-chunks whose queries stay in cache from the product to the energy and noise.
+        s.resize(n, l);
         let sub = if std::mem::size_of_val(queries) <= NOISE_SUB_F32_BYTES { n.max(1) } else { NOISE_SUB_F32 };
+        let mut sel = std::mem::take(&mut s.xidx);
+        let mut other = std::mem::take(&mut s.xidx2);
         for (c, xq) in queries.chunks(sub * m).enumerate() {
             let (i0, nn) = (c * sub, xq.len() / m);
-            let q = MatRef::from_row_major_slice(xq, nn, m);
-            matmul(MatMut::from_row_major_slice_mut(&mut s.raw[i0 * k..(i0 + nn) * k], nn, k), Accum::Replace, q, ut, 1.0f32, Par::Seq);
+            if routed {
+                sel.clear();
+                other.clear();
+                (0..nn).for_each(|j| if s.noisy[i0 + j] { sel.push(j) } else { other.push(j) });
+                self.pass_f32(xq, i0, (sel.len() < nn).then_some(&other[..]), self.clean_rows(), s);
+                self.pass_f32(xq, i0, Some(&sel[..]), self.noisy_rows(), s);
+            } else {
+                self.pass_f32(xq, i0, None, self.clean_rows(), s);
+            }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 let energy = crate::linalg::energy(x);
                 s.benergy[i] = energy;
@@ -1064,119 +1151,57 @@ impl RefinedModel {
                 };
                 if !routed {
                     // The route's value as pose_of_coords forms it.
-                    s.extra[i] = self.takes_extra(noise, s.pv[i] / energy * m as f64);
+                    s.noisy[i] = self.routed_noisy(noise, s.pv[i] / energy * m as f64);
                 }
             }
-            self.extra_f32(xq, i0, s);
+            if !routed && self.extra_rows() > 0 {
+                sel.clear();
+                sel.extend((0..nn).filter(|&j| s.noisy[i0 + j]));
+                self.pass_f32(xq, i0, Some(&sel[..]), self.extra_range(), s);
+            }
             for i in i0..i0 + nn {
-                let raw = &s.raw[i * k..(i + 1) * k];
-                let extra = s.extra[i].then(|| &s.rawx[i * kx..(i + 1) * kx]);
-                (s.resid[i], s.noise[i]) = self.finish_query(raw, extra, s.benergy[i], s.pv[i], &mut s.y[i * l..(i + 1) * l]);
+                let mean = !(routed && s.noisy[i]);
+                (s.resid[i], s.noise[i]) = self.finish_query(i, mean, s.benergy[i], s.pv[i], s);
             }
         }
+        (s.xidx, s.xidx2) = (sel, other);
     }
 
-    /// The queries of `xq` (rows of M, the first the task's query `i0`) that `s.extra` routes to
-    /// the noisy match: their products with the extra rows into `s.rawx` (rows of
-    /// [`Self::extra_rows`], by query), in one f32 product (over `xq` itself when all of them
-    /// take it, else over a copy of those that do).
-    fn extra_f32(&self, xq: &[f32], i0: usize, s: &mut QueryScratch) {
-        let (m, kx, ls) = (self.m, self.extra_rows(), self.settings.search());
-        let nn = xq.len() / m;
-        s.xidx.clear();
-        s.xidx.extend((0..nn).filter(|&j| s.extra[i0 + j]));
-        let nx = s.xidx.len();
-        if nx == 0 {
-            return;
-        }
-        let src: &[f32] = if nx == nn {
-            xq
-        } else {
-            s.gather_f32.clear();
-            s.xidx.iter().for_each(|&j| s.gather_f32.extend_from_slice(&xq[j * m..(j + 1) * m]));
-            &s.gather_f32
-        };
-        s.xout.resize(nx * kx, 0.0);
-        let ut = MatRef::from_column_major_slice(&self.rows[(ls + 1) * m..(ls + 1 + kx) * m], m, kx);
-        matmul(MatMut::from_row_major_slice_mut(&mut s.xout, nx, kx), Accum::Replace, MatRef::from_row_major_slice(src, nx, m), ut, 1.0f32, Par::Seq);
-        for (o, &j) in s.xout.chunks_exact(kx).zip(&s.xidx) {
-            s.rawx[(i0 + j) * kx..(i0 + j + 1) * kx].copy_from_slice(o);
-        }
-    }
-
-    /// As [`Self::extra_f32`] for 8-bit images (`xq`, images of M pixel values), by
-    /// [`dot_q::FastRows`] as [`Self::project_u8`]'s products.
-    fn extra_u8(&self, level: Level, xq: &[u8], i0: usize, s: &mut QueryScratch) {
-        let (m, kx, ls) = (self.m, self.extra_rows(), self.settings.search());
-        let nn = xq.len() / m;
-        s.xidx.clear();
-        s.xidx.extend((0..nn).filter(|&j| s.extra[i0 + j]));
-        let nx = s.xidx.len();
-        if nx == 0 {
-            return;
-        }
-        let src: &[u8] = if nx == nn {
-            xq
-        } else {
-            s.gather_u8.clear();
-            s.xidx.iter().for_each(|&j| s.gather_u8.extend_from_slice(&xq[j * m..(j + 1) * m]));
-            &s.gather_u8
-        };
-        s.xout.resize(nx * kx, 0.0);
-        let rows = &self.rows[(ls + 1) * m..(ls + 1 + kx) * m];
-        if nx >= 8 {
-            s.xenergy.resize(nx, 0);
-            self.quant_x.dots_batch(level, src, m, rows, &mut s.xout, &mut s.xenergy, &mut s.products);
-        } else {
-            for (x, r) in src.chunks_exact(m).zip(s.xout.chunks_exact_mut(kx)) {
-                self.quant_x.dots(level, x, rows, r);
-            }
-        }
-        for (o, &j) in s.xout.chunks_exact(kx).zip(&s.xidx) {
-            s.rawx[(i0 + j) * kx..(i0 + j + 1) * kx].copy_from_slice(o);
-        }
-    }
-
-    /// As [`Self::project_f32`] for 8-bit images given as raw pixel values (n of them): the
-    /// products by [`dot_q::FastRows::dots_batch`] (the integer kernel where it is fast, else
-    /// [`dot_u8::dots_batch`]) from 8 queries on (one at a time below), the energy exact in integers, the pixel noise by
-    /// [`pixel_variance_u8`], all in pixel values: the 1 / 255 of the features cancels in each
-    /// ratio.
+    /// As [`Self::project_f32`] (not routed) for 8-bit images given as raw pixel values (n of
+    /// them): the products by [`dot_q::FastRows::dots_batch`] (the integer kernel where it is
+    /// fast, else [`dot_u8::dots_batch`]) from 8 queries on (one at a time below), the energy
+    /// exact in integers, the pixel noise by [`pixel_variance_u8`], all in pixel values: the
+    /// 1 / 255 of the features cancels in each ratio.
     fn project_u8(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
-        let (l, m, k, kx) = (self.components(), self.m, self.product_rows(), self.extra_rows());
-        let n = queries.len() / m;
+        let (l, m) = (self.components(), self.m);
         let spec = self.binning.spec();
         let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
-        s.resize(n, l, k, kx);
-        let rows = &self.rows[..k * m];
+        s.resize(queries.len() / m, l);
+        let mut sel = std::mem::take(&mut s.xidx);
         // In sub-chunks whose images stay in cache from the products to the noise pass.
         for (c, xq) in queries.chunks(NOISE_SUB_U8 * m).enumerate() {
             let (i0, nn) = (c * NOISE_SUB_U8, xq.len() / m);
-            let (raw, energy) = (&mut s.raw[i0 * k..(i0 + nn) * k], &mut s.energy[i0..i0 + nn]);
-            if n >= 8 {
-                self.quant.dots_batch(level, xq, m, rows, raw, energy, &mut s.products);
-            } else {
-                for ((x, r), e) in xq.chunks_exact(m).zip(raw.chunks_exact_mut(k)).zip(energy.iter_mut()) {
-                    self.quant.dots(level, x, rows, r);
-                    *e = dot_u8::sum_squares(x);
-                }
-            }
+            self.pass_u8(level, &self.quant, xq, i0, None, self.clean_rows(), s);
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
+                s.energy[i] = s.xenergy[i - i0];
                 let energy = s.energy[i] as f64;
                 s.pv[i] = match self.early(noise, energy, m) {
                     Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch), early),
                     None => 0.0,
                 };
                 // The route's value as pose_of_coords forms it.
-                s.extra[i] = self.takes_extra(noise, s.pv[i] / energy * m as f64);
+                s.noisy[i] = self.routed_noisy(noise, s.pv[i] / energy * m as f64);
             }
-            self.extra_u8(level, xq, i0, s);
+            if self.extra_rows() > 0 {
+                sel.clear();
+                sel.extend((0..nn).filter(|&j| s.noisy[i0 + j]));
+                self.pass_u8(level, &self.quant_x, xq, i0, Some(&sel[..]), self.extra_range(), s);
+            }
             for i in i0..i0 + nn {
-                let raw = &s.raw[i * k..(i + 1) * k];
-                let extra = s.extra[i].then(|| &s.rawx[i * kx..(i + 1) * kx]);
-                (s.resid[i], s.noise[i]) = self.finish_query(raw, extra, s.energy[i] as f64, s.pv[i], &mut s.y[i * l..(i + 1) * l]);
+                (s.resid[i], s.noise[i]) = self.finish_query(i, true, s.energy[i] as f64, s.pv[i], s);
             }
         }
+        s.xidx = sel;
     }
 
     /// The `early` of the staged pixel-noise estimate of a query of `m` pixels and energy
@@ -1191,31 +1216,30 @@ impl RefinedModel {
         }
     }
 
-    /// One query from its products `raw` ([`Self::product_rows`]: the L_s coordinates, then the
-    /// mean's when used) and, for a query routed to the noisy match, `extra`
-    /// ([`Self::extra_rows`]), its energy ||x||^2 and its pixel variance `pv`, in the same units:
-    /// the unit-energy, mean-subtracted coordinates into `y` (0 past L_s without `extra`; NaN
+    /// Query `i` of the task from its products (`s.raw`'s row: the mean's, then eigenimage c's
+    /// at 1 + c; L of them when it went to the noisy match, `s.noisy`, else L_s), the mean's
+    /// product taken when `mean`, its energy ||x||^2 and its pixel variance `pv`, in the same
+    /// units: the unit-energy, mean-subtracted coordinates into `s.y` (0 past those it took; NaN
     /// for a query of zero or non-finite energy), and its residual ||x / ||x|| - mean||^2 less
-    /// the energy inside the search's L_s coordinates (0 when not used) and pixel noise per
-    /// unit-energy coordinate.
-    fn finish_query(&self, raw: &[f32], extra: Option<&[f32]>, energy: f64, pv: f64, y: &mut [f32]) -> (f64, f64) {
+    /// the energy inside the search's L_s coordinates (0 when not used or not taken) and pixel
+    /// noise per unit-energy coordinate.
+    fn finish_query(&self, i: usize, mean: bool, energy: f64, pv: f64, s: &mut QueryScratch) -> (f64, f64) {
+        let (l, ls) = (self.components(), self.settings.search());
+        let y = &mut s.y[i * l..(i + 1) * l];
         let norm = energy.sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             y.fill(f32::NAN);
             return (0.0, 0.0);
         }
-        let ls = self.settings.search();
+        let raw = &s.raw[i * (1 + l)..(i + 1) * (1 + l)];
+        let took = if s.noisy[i] { l } else { ls };
         let inv = (1.0 / norm) as f32;
-        let (ys, yx) = y.split_at_mut(ls);
-        ys.iter_mut().zip(&raw[..ls]).zip(&self.mean_proj).for_each(|((v, &r), &c)| *v = r * inv - c);
-        match extra {
-            Some(e) => yx.iter_mut().zip(e).zip(&self.mean_proj[ls..]).for_each(|((v, &r), &c)| *v = r * inv - c),
-            None => yx.fill(0.0),
-        }
-        let resid = if self.uses_residual() {
+        y[..took].iter_mut().zip(&raw[1..1 + took]).zip(&self.mean_proj).for_each(|((v, &r), &c)| *v = r * inv - c);
+        y[took..].fill(0.0);
+        let resid = if mean && self.uses_residual() {
             // Unscaled coordinates: each scaled one's square times 1 / w_l.
-            let inside: f64 = ys.iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
-            1.0 - 2.0 * raw[ls] as f64 / norm + self.mean_sq - inside
+            let inside: f64 = y[..ls].iter().zip(&self.inv_weight).map(|(&v, &iw)| v as f64 * v as f64 * iw).sum();
+            1.0 - 2.0 * raw[0] as f64 / norm + self.mean_sq - inside
         } else {
             0.0
         };
@@ -2014,6 +2038,15 @@ fn uses_residual(settings: &RefinedSettings) -> bool {
     !settings.interpolation_variance.is_empty()
 }
 
+/// The products `out` (rows of `k`, one per selected query: those at `sel`, else all) into
+/// `raw` (rows of `kr`) of the task's queries i0 + j, from column `col`.
+fn scatter(out: &[f32], k: usize, sel: Option<&[usize]>, i0: usize, kr: usize, col: usize, raw: &mut [f32]) {
+    for (t, o) in out.chunks_exact(k).enumerate() {
+        let i = i0 + sel.map_or(t, |sel| sel[t]);
+        raw[i * kr + col..i * kr + col + k].copy_from_slice(o);
+    }
+}
+
 /// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
 /// [`dot_u8::BATCH_IMAGES`] and whole groups of [`dot_q::dots_batch`], and few enough that their
 /// images (19.2 KB each at 160 x 120) are still in the L2 cache when the noise pass reads them
@@ -2167,21 +2200,21 @@ thread_local! {
 }
 
 /// A query task's buffers: coordinates (rows of L), residuals and noise, the products (rows of
-/// [`RefinedModel::product_rows`]), the 8-bit queries' energies and
-/// the 8-bit products' buffers.
+/// 1 + L: the mean's, then the eigenimages', see [`RefinedModel::finish_query`]), the 8-bit
+/// queries' energies and the 8-bit products' buffers.
 #[derive(Default)]
 struct QueryScratch {
     y: Vec<f32>,
     resid: Vec<f64>,
     noise: Vec<f64>,
     raw: Vec<f32>,
-    /// The extra products (rows of [`RefinedModel::extra_rows`]) of the queries that take them
-    /// (`extra`), each query's pixel noise, and the extra products' buffers: which queries of a
-    /// sub-chunk, a copy of their images, their products and sums of squares.
-    rawx: Vec<f32>,
-    extra: Vec<bool>,
+    /// Whether each query goes to the noisy match, its pixel noise, and the buffers of a pass
+    /// over some of a sub-chunk's queries: which (two lists), a copy of their images, their
+    /// products and sums of squares.
+    noisy: Vec<bool>,
     pv: Vec<f64>,
     xidx: Vec<usize>,
+    xidx2: Vec<usize>,
     gather_f32: Vec<f32>,
     gather_u8: Vec<u8>,
     xout: Vec<f32>,
@@ -2229,15 +2262,14 @@ thread_local! {
 }
 
 impl QueryScratch {
-    /// Room for `n` queries of `l` coordinates, `k` products and `kx` extra ones (the routes
-    /// already in `extra` are kept).
-    fn resize(&mut self, n: usize, l: usize, k: usize, kx: usize) {
+    /// Room for `n` queries of `l` coordinates (the products: 1 + l a query; the routes already
+    /// in `noisy` are kept).
+    fn resize(&mut self, n: usize, l: usize) {
         self.y.resize(n * l, 0.0);
         self.resid.resize(n, 0.0);
         self.noise.resize(n, 0.0);
-        self.raw.resize(n * k, 0.0);
-        self.rawx.resize(n * kx, 0.0);
-        self.extra.resize(n, false);
+        self.raw.resize(n * (1 + l), 0.0);
+        self.noisy.resize(n, false);
         self.pv.resize(n, 0.0);
         self.energy.resize(n, 0);
         self.benergy.resize(n, 0.0);
@@ -2314,9 +2346,9 @@ impl RefinedModel {
             };
             (s.route[i], s.pv_full[i]) = (pv * m as f64 / energy, pv);
         }
-        s.extra.resize(n, false);
-        for (x, &r) in s.extra.iter_mut().zip(&s.route) {
-            *x = self.takes_extra(noise, r);
+        s.noisy.resize(n, false);
+        for (x, &r) in s.noisy.iter_mut().zip(&s.route) {
+            *x = self.routed_noisy(noise, r);
         }
         self.project_f32(&binned, NoiseWant::None, true, s);
         // The noisy match's nu: the noise of a binned pixel (pv / b^2, independent noise) per
@@ -2341,8 +2373,8 @@ impl RefinedModel {
     }
 
     /// The 16-bit product rows when 8-bit queries at `level` take them (a model that bins, VNNI).
-    fn words_at(&self, level: Level) -> Option<(&dot_w::WordRows, Option<&dot_w::WordRows>)> {
-        self.words.as_ref().filter(|_| dot_q::fast(level)).map(|(w, x)| (w, x.as_ref()))
+    fn words_at(&self, level: Level) -> Option<&Words> {
+        self.words.as_ref().filter(|_| dot_q::fast(level))
     }
 
     /// [`Self::project_u8`] for a model that bins: each image's block sums, exact in integers
@@ -2354,12 +2386,12 @@ impl RefinedModel {
     /// [`Self::project_u8`]). Its pixel noise is measured on the image as given
     /// ([`pixel_variance_u8`], staged), as [`Self::project_binned`] does.
     fn project_u8_binned(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
-        let (l, mb, k, kx, ls) = (self.components(), self.m, self.product_rows(), self.extra_rows(), self.settings.search());
+        let (l, mb) = (self.components(), self.m);
         let m = self.meta.spec.features();
         let n = queries.len() / m;
         let full = self.binning.full();
         let (w, h, ch) = (full.width as usize, full.height as usize, full.color.channels());
-        s.resize(n, l, k, kx);
+        s.resize(n, l);
         s.route.resize(n, 0.0);
         s.pv_full.resize(n, 0.0);
         let b2 = (self.binning.factor() * self.binning.factor()) as f64;
@@ -2379,38 +2411,43 @@ impl RefinedModel {
                 };
                 (e_binned, pv * m as f64 / e_full, pv)
             };
+            let mut sel = std::mem::take(&mut s.xidx);
             match words {
-                // In sub-chunks whose sums are still cached for the products.
-                Some((wr, wx)) => {
-                    let steps = wr.steps();
+                // In sub-chunks whose sums are still cached for the products; each query routed
+                // first, then its route's rows alone (the clean ones' mean and L_s, the noisy
+                // ones' L), each route's queries copied apart when the sub-chunk mixes them.
+                Some(wd) => {
+                    let steps = wd.clean.steps();
                     for (c, xq) in queries.chunks(BIN_SUB_U8 * m).enumerate() {
                         let (i0, nn) = (c * BIN_SUB_U8, xq.len() / m);
-                        wr.lines_of(nn, lines);
+                        wd.clean.lines_of(nn, lines);
                         let values = dot_w::WordRows::values_mut(lines);
                         for ((i, x), v) in (i0..).zip(xq.chunks_exact(m)).zip(values.chunks_exact_mut(steps * dot_w::STEP)) {
                             (s.energy[i], s.route[i], s.pv_full[i]) = sum_one(x, v);
-                            s.extra[i] = self.takes_extra(noise, s.route[i]);
+                            s.noisy[i] = self.routed_noisy(noise, s.route[i]);
                         }
-                        wr.dots_batch(level, lines, &mut s.raw[i0 * k..(i0 + nn) * k], idx);
-                        // The extra rows for the queries routed to the noisy match.
-                        let Some(wx) = wx else { continue };
-                        s.xidx.clear();
-                        s.xidx.extend((0..nn).filter(|&j| s.extra[i0 + j]));
-                        let nx = s.xidx.len();
-                        if nx == 0 {
-                            continue;
-                        }
-                        let src: &[dot_w::Line] = if nx == nn {
-                            lines
-                        } else {
-                            lines_x.clear();
-                            s.xidx.iter().for_each(|&j| lines_x.extend_from_slice(&lines[j * steps..(j + 1) * steps]));
-                            lines_x
+                        let routes = match &wd.noisy {
+                            Some(wn) => [(Some(false), &wd.clean, self.clean_rows()), (Some(true), wn, self.noisy_rows())],
+                            // The same rows for both routes: one pass.
+                            None => [(None, &wd.clean, self.clean_rows()), (None, &wd.clean, 0..0)],
                         };
-                        s.xout.resize(nx * kx, 0.0);
-                        wx.dots_batch(level, src, &mut s.xout, idx);
-                        for (o, &j) in s.xout.chunks_exact(kx).zip(&s.xidx) {
-                            s.rawx[(i0 + j) * kx..(i0 + j + 1) * kx].copy_from_slice(o);
+                        for (route, wr, rr) in routes {
+                            sel.clear();
+                            sel.extend((0..nn).filter(|&j| route.is_none_or(|r| s.noisy[i0 + j] == r)));
+                            let (nx, k) = (sel.len(), rr.len());
+                            if nx == 0 || k == 0 {
+                                continue;
+                            }
+                            let src: &[dot_w::Line] = if nx == nn {
+                                lines
+                            } else {
+                                lines_x.clear();
+                                sel.iter().for_each(|&j| lines_x.extend_from_slice(&lines[j * steps..(j + 1) * steps]));
+                                lines_x
+                            };
+                            s.xout.resize(nx * k, 0.0);
+                            wr.dots_batch(level, src, &mut s.xout, idx);
+                            scatter(&s.xout, k, Some(&sel[..]), i0, 1 + l, rr.start, &mut s.raw);
                         }
                     }
                 }
@@ -2418,7 +2455,7 @@ impl RefinedModel {
                     sums.resize(n * mb, 0);
                     for ((i, x), v) in queries.chunks_exact(m).enumerate().zip(sums.chunks_exact_mut(mb)) {
                         (s.energy[i], s.route[i], s.pv_full[i]) = sum_one(x, v);
-                        s.extra[i] = self.takes_extra(noise, s.route[i]);
+                        s.noisy[i] = self.routed_noisy(noise, s.route[i]);
                     }
                     planes.resize(2 * n * mb, 0);
                     for (v, p) in sums.chunks_exact(mb).zip(planes.chunks_exact_mut(2 * mb)) {
@@ -2427,53 +2464,63 @@ impl RefinedModel {
                             (*lo, *hi) = (v as u8, (v >> 8) as u8);
                         }
                     }
-                    // The products of images of two planes (2 nx of them, rows of `kr`) into
-                    // `o` (rows of kr by image), low + 256 high.
-                    let mut planes_dots = |fr: &dot_q::FastRows, rows: &[f32], kr: usize, pl: &[u8], o: &mut [f32], products: &mut dot_q::Scratch| {
-                        let nx = pl.len() / (2 * mb);
-                        raw.resize(2 * nx * kr, 0.0);
-                        energy.resize(2 * nx, 0);
-                        if 2 * nx >= 8 {
-                            fr.dots_batch(level, pl, mb, rows, raw, energy, products);
-                        } else {
-                            for (x, r) in pl.chunks_exact(mb).zip(raw.chunks_exact_mut(kr)) {
-                                fr.dots(level, x, rows, r);
-                            }
-                        }
-                        for (o, pair) in o.chunks_exact_mut(kr).zip(raw.chunks_exact(2 * kr)) {
-                            let (lo, hi) = pair.split_at(kr);
-                            o.iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
-                        }
-                    };
-                    planes_dots(&self.quant, &self.rows[..k * mb], k, &planes[..2 * n * mb], &mut s.raw[..n * k], &mut s.products);
-                    s.xidx.clear();
-                    s.xidx.extend((0..n).filter(|&i| s.extra[i]));
-                    let nx = s.xidx.len();
-                    if nx > 0 {
-                        let src: &[u8] = if nx == n {
-                            &planes[..2 * n * mb]
-                        } else {
-                            s.gather_u8.clear();
-                            s.xidx.iter().for_each(|&i| s.gather_u8.extend_from_slice(&planes[2 * i * mb..2 * (i + 1) * mb]));
-                            &s.gather_u8
-                        };
-                        s.xout.resize(nx * kx, 0.0);
-                        planes_dots(&self.quant_x, &self.rows[(ls + 1) * mb..(ls + 1 + kx) * mb], kx, src, &mut s.xout, &mut s.products);
-                        for (o, &i) in s.xout.chunks_exact(kx).zip(&s.xidx) {
-                            s.rawx[i * kx..(i + 1) * kx].copy_from_slice(o);
-                        }
+                    // Every query's clean rows, then the noisy ones' extra rows.
+                    self.planes_pass(level, &self.quant, self.clean_rows(), &planes[..2 * n * mb], None, raw, energy, s);
+                    if self.extra_rows() > 0 {
+                        sel.clear();
+                        sel.extend((0..n).filter(|&i| s.noisy[i]));
+                        self.planes_pass(level, &self.quant_x, self.extra_range(), &planes[..2 * n * mb], Some(&sel[..]), raw, energy, s);
                     }
                 }
             }
+            s.xidx = sel;
             for i in 0..n {
                 // The noisy match's nu in units of the block sums (b^2 times a binned pixel's
                 // mean): a pixel's noise pv gives a block mean's pv / b^2, a block sum's b^2 pv.
                 let energy = s.energy[i] as f64;
-                let extra = s.extra[i].then(|| &s.rawx[i * kx..(i + 1) * kx]);
-                (s.resid[i], _) = self.finish_query(&s.raw[i * k..(i + 1) * k], extra, energy, 0.0, &mut s.y[i * l..(i + 1) * l]);
+                let mean = words.is_none() || !s.noisy[i];
+                (s.resid[i], _) = self.finish_query(i, mean, energy, 0.0, s);
                 s.noise[i] = b2 * s.pv_full[i] / energy;
             }
         });
+    }
+
+    /// The products of binned 8-bit queries given as digit planes (`planes`: per query its low
+    /// then its high plane, of M each; those at `sel` when given, else all) with the rows `rr`
+    /// by `fr` (those rows in 16-bit fixed point) into `s.raw` as [`Self::pass_f32`]: each
+    /// plane as an image (`raw` and `energy` hold their products and sums of squares), a
+    /// query's products low + 256 high.
+    #[allow(clippy::too_many_arguments)]
+    fn planes_pass(&self, level: Level, fr: &dot_q::FastRows, rr: std::ops::Range<usize>, planes: &[u8], sel: Option<&[usize]>, raw: &mut Vec<f32>, energy: &mut Vec<u64>, s: &mut QueryScratch) {
+        let (mb, k) = (self.m, rr.len());
+        let nx = sel.map_or(planes.len() / (2 * mb), <[usize]>::len);
+        if nx == 0 || k == 0 {
+            return;
+        }
+        let src: &[u8] = match sel {
+            Some(sel) => {
+                s.gather_u8.clear();
+                sel.iter().for_each(|&i| s.gather_u8.extend_from_slice(&planes[2 * i * mb..2 * (i + 1) * mb]));
+                &s.gather_u8
+            }
+            None => planes,
+        };
+        let rows = &self.rows[rr.start * mb..rr.end * mb];
+        raw.resize(2 * nx * k, 0.0);
+        energy.resize(2 * nx, 0);
+        if 2 * nx >= 8 {
+            fr.dots_batch(level, src, mb, rows, raw, energy, &mut s.products);
+        } else {
+            for (x, r) in src.chunks_exact(mb).zip(raw.chunks_exact_mut(k)) {
+                fr.dots(level, x, rows, r);
+            }
+        }
+        s.xout.resize(nx * k, 0.0);
+        for (o, pair) in s.xout.chunks_exact_mut(k).zip(raw.chunks_exact(2 * k)) {
+            let (lo, hi) = pair.split_at(k);
+            o.iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
+        }
+        scatter(&s.xout, k, sel, 0, 1 + self.components(), rr.start, &mut s.raw);
     }
 
     /// [`PoseModel::predict_u8_into`], computing `noise` of each query's pixel noise.
@@ -2531,13 +2578,12 @@ impl PoseModel for RefinedModel {
     }
 
     fn tensors(&self) -> Vec<Tensor> {
-        let (l, ls, m) = (self.components(), self.settings.search(), self.m);
+        let (l, m) = (self.components(), self.m);
         let mut shape = self.settings.knot_shape.clone();
         shape.push(l);
-        // `rows` holds the mean between the search's eigenimages and the rest.
         let mut v = vec![
-            Tensor::f32("basis", vec![l, m], [&self.rows[..ls * m], &self.rows[(ls + 1) * m..]].concat()),
-            Tensor::f32("mean", vec![m], self.rows[ls * m..(ls + 1) * m].to_vec()),
+            Tensor::f32("basis", vec![l, m], self.rows[m..].to_vec()),
+            Tensor::f32("mean", vec![m], self.rows[..m].to_vec()),
             Tensor::f32("knots", shape.clone(), self.knots.clone()),
             Tensor::f32("background", shape, self.background.clone()),
         ];

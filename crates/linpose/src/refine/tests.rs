@@ -915,7 +915,7 @@ fn the_noisy_match_s_extra_coordinates_serve_its_queries_only() {
             .collect();
         let check = |s: &QueryScratch, path: &str, tol: f64| {
             for (i, (y, w)) in s.y.chunks_exact(l).zip(&want).enumerate() {
-                assert_eq!(s.extra[i], noisy[i], "bin {b} {path}: view {i} routed");
+                assert_eq!(s.noisy[i], noisy[i], "bin {b} {path}: view {i} routed");
                 let scale = w.iter().fold(0f64, |a, v| a.max(v.abs()));
                 for c in 0..l {
                     let w = if c < ls || noisy[i] { w[c] } else { 0.0 };
