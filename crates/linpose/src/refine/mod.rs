@@ -1061,19 +1061,10 @@ impl RefinedModel {
     /// `xq` itself or over a copy of the selected queries.
     fn pass_f32(&self, xq: &[f32], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
         let (m, kr, k) = (self.m, 1 + self.components(), rr.len());
-        let nn = xq.len() / m;
-        let nx = sel.map_or(nn, <[usize]>::len);
+        let (src, nx) = selected(xq, m, sel, &mut s.gather_f32);
         if nx == 0 || k == 0 {
             return;
         }
-        let src: &[f32] = match sel {
-            Some(sel) if nx < nn => {
-                s.gather_f32.clear();
-                sel.iter().for_each(|&j| s.gather_f32.extend_from_slice(&xq[j * m..(j + 1) * m]));
-                &s.gather_f32
-            }
-            _ => xq,
-        };
         s.xout.resize(nx * k, 0.0);
         let ut = MatRef::from_column_major_slice(&self.rows[rr.start * m..rr.end * m], m, k);
         matmul(MatMut::from_row_major_slice_mut(&mut s.xout, nx, k), Accum::Replace, MatRef::from_row_major_slice(src, nx, m), ut, 1.0f32, Par::Seq);
@@ -1086,19 +1077,10 @@ impl RefinedModel {
     #[allow(clippy::too_many_arguments)]
     fn pass_u8(&self, level: Level, fr: &dot_q::FastRows, xq: &[u8], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
         let (m, kr, k) = (self.m, 1 + self.components(), rr.len());
-        let nn = xq.len() / m;
-        let nx = sel.map_or(nn, <[usize]>::len);
+        let (src, nx) = selected(xq, m, sel, &mut s.gather_u8);
         if nx == 0 || k == 0 {
             return;
         }
-        let src: &[u8] = match sel {
-            Some(sel) if nx < nn => {
-                s.gather_u8.clear();
-                sel.iter().for_each(|&j| s.gather_u8.extend_from_slice(&xq[j * m..(j + 1) * m]));
-                &s.gather_u8
-            }
-            _ => xq,
-        };
         s.xout.resize(nx * k, 0.0);
         s.xenergy.resize(nx, 0);
         let rows = &self.rows[rr.start * m..rr.end * m];
@@ -2038,6 +2020,20 @@ fn uses_residual(settings: &RefinedSettings) -> bool {
     !settings.interpolation_variance.is_empty()
 }
 
+/// The items of `xs` (runs of `m`) at `sel` (all when None) and their count: `xs` itself when
+/// those are all of them, else a copy of them in `buf`.
+fn selected<'a, T: Copy>(xs: &'a [T], m: usize, sel: Option<&[usize]>, buf: &'a mut Vec<T>) -> (&'a [T], usize) {
+    let n = xs.len() / m;
+    match sel {
+        Some(sel) if sel.len() < n => {
+            buf.clear();
+            sel.iter().for_each(|&j| buf.extend_from_slice(&xs[j * m..(j + 1) * m]));
+            (buf, sel.len())
+        }
+        _ => (xs, n),
+    }
+}
+
 /// The products `out` (rows of `k`, one per selected query: those at `sel`, else all) into
 /// `raw` (rows of `kr`) of the task's queries i0 + j, from column `col`.
 fn scatter(out: &[f32], k: usize, sel: Option<&[usize]>, i0: usize, kr: usize, col: usize, raw: &mut [f32]) {
@@ -2434,17 +2430,11 @@ impl RefinedModel {
                         for (route, wr, rr) in routes {
                             sel.clear();
                             sel.extend((0..nn).filter(|&j| route.is_none_or(|r| s.noisy[i0 + j] == r)));
-                            let (nx, k) = (sel.len(), rr.len());
+                            let k = rr.len();
+                            let (src, nx) = selected(lines, steps, Some(&sel[..]), lines_x);
                             if nx == 0 || k == 0 {
                                 continue;
                             }
-                            let src: &[dot_w::Line] = if nx == nn {
-                                lines
-                            } else {
-                                lines_x.clear();
-                                sel.iter().for_each(|&j| lines_x.extend_from_slice(&lines[j * steps..(j + 1) * steps]));
-                                lines_x
-                            };
                             s.xout.resize(nx * k, 0.0);
                             wr.dots_batch(level, src, &mut s.xout, idx);
                             scatter(&s.xout, k, Some(&sel[..]), i0, 1 + l, rr.start, &mut s.raw);
@@ -2493,18 +2483,10 @@ impl RefinedModel {
     #[allow(clippy::too_many_arguments)]
     fn planes_pass(&self, level: Level, fr: &dot_q::FastRows, rr: std::ops::Range<usize>, planes: &[u8], sel: Option<&[usize]>, raw: &mut Vec<f32>, energy: &mut Vec<u64>, s: &mut QueryScratch) {
         let (mb, k) = (self.m, rr.len());
-        let nx = sel.map_or(planes.len() / (2 * mb), <[usize]>::len);
+        let (src, nx) = selected(planes, 2 * mb, sel, &mut s.gather_u8);
         if nx == 0 || k == 0 {
             return;
         }
-        let src: &[u8] = match sel {
-            Some(sel) => {
-                s.gather_u8.clear();
-                sel.iter().for_each(|&i| s.gather_u8.extend_from_slice(&planes[2 * i * mb..2 * (i + 1) * mb]));
-                &s.gather_u8
-            }
-            None => planes,
-        };
         let rows = &self.rows[rr.start * mb..rr.end * mb];
         raw.resize(2 * nx * k, 0.0);
         energy.resize(2 * nx, 0);

@@ -743,6 +743,20 @@ fn a_binned_model_searches_as_a_model_of_the_binned_images() {
     }
 }
 
+/// 24 unseen views as 8-bit images and as their f32 features, those `noisy` picks under +-10%
+/// noise (seed `seed` + the view's index), clipped and rounded.
+fn mixed_queries(noisy: impl Fn(usize) -> bool, seed: u64) -> (Dataset, Vec<u8>, Vec<f32>) {
+    let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
+    let m = test.n_features();
+    let mut q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    for (i, x) in q8.chunks_exact_mut(m).enumerate().filter(|(i, _)| noisy(*i)) {
+        let v = with_noise(&x.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(), 0.1, seed + i as u64);
+        x.iter_mut().zip(v).for_each(|(v, f)| *v = (f * 255.0).round() as u8);
+    }
+    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
+    (test, q8, qf)
+}
+
 #[test]
 fn binned_u8_queries_match_f32_queries() {
     // The 8-bit path's block sums (16-bit products where VNNI runs, two digit planes elsewhere)
@@ -750,14 +764,8 @@ fn binned_u8_queries_match_f32_queries() {
     // product paths take, and on one thread three times the views (tasks of more than one
     // sub-chunk), by 2 (the AVX-512 binning where there is one) and by 3 (the portable one).
     let d = train_set();
-    let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
+    let (test, q8, qf) = mixed_queries(|i| i % 2 == 0, 5);
     let m = test.n_features();
-    let mut q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
-    for (i, x) in q8.chunks_exact_mut(m).enumerate().step_by(2) {
-        let noisy = with_noise(&x.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(), 0.1, 5 + i as u64);
-        x.iter_mut().zip(noisy).for_each(|(v, f)| *v = (f * 255.0).round() as u8);
-    }
-    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
     let n = test.len();
     for b in [2, 3] {
         let model = RefinedParams::default().components(8).bin(b).fit(&d).unwrap();
@@ -881,15 +889,9 @@ fn binned_colour_u8_queries_match_f32_queries() {
 #[test]
 fn the_noisy_match_s_extra_coordinates_serve_its_queries_only() {
     let d = train_set();
-    let test = grid(&[35.0, 45.0, 65.0], &(0..8).map(|k| 45.0 * k as f64 + 7.5).collect::<Vec<_>>());
+    let (test, q8, qf) = mixed_queries(|i| i % 3 != 1, 17);
     let m = test.n_features();
-    let mut q8: Vec<u8> = test.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
     let noisy: Vec<bool> = (0..test.len()).map(|i| i % 3 != 1).collect();
-    for (i, x) in q8.chunks_exact_mut(m).enumerate().filter(|(i, _)| noisy[*i]) {
-        let v = with_noise(&x.iter().map(|&v| v as f32 / 255.0).collect::<Vec<_>>(), 0.1, 17 + i as u64);
-        x.iter_mut().zip(v).for_each(|(v, f)| *v = (f * 255.0).round() as u8);
-    }
-    let qf: Vec<f32> = q8.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
     for b in [1, 2] {
         let model = RefinedParams::default().components(4).bin(b).fit(&d).unwrap();
         let (l, ls) = (model.components(), model.settings().search());
