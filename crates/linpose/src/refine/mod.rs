@@ -1119,7 +1119,7 @@ impl RefinedModel {
                 sel.clear();
                 other.clear();
                 (0..nn).for_each(|j| if s.noisy[i0 + j] { sel.push(j) } else { other.push(j) });
-                self.pass_f32(xq, i0, (sel.len() < nn).then_some(&other[..]), self.clean_rows(), s);
+                self.pass_f32(xq, i0, Some(&other[..]), self.clean_rows(), s);
                 self.pass_f32(xq, i0, Some(&sel[..]), self.noisy_rows(), s);
             } else {
                 self.pass_f32(xq, i0, None, self.clean_rows(), s);
@@ -2422,12 +2422,19 @@ impl RefinedModel {
                             (s.energy[i], s.route[i], s.pv_full[i]) = sum_one(x, v);
                             s.noisy[i] = self.routed_noisy(noise, s.route[i]);
                         }
-                        let routes = match &wd.noisy {
-                            Some(wn) => [(Some(false), &wd.clean, self.clean_rows()), (Some(true), wn, self.noisy_rows())],
+                        let (two, one);
+                        let routes: &[(Option<bool>, &dot_w::WordRows, std::ops::Range<usize>)] = match &wd.noisy {
+                            Some(wn) => {
+                                two = [(Some(false), &wd.clean, self.clean_rows()), (Some(true), wn, self.noisy_rows())];
+                                &two
+                            }
                             // The same rows for both routes: one pass.
-                            None => [(None, &wd.clean, self.clean_rows()), (None, &wd.clean, 0..0)],
+                            None => {
+                                one = [(None, &wd.clean, self.clean_rows())];
+                                &one
+                            }
                         };
-                        for (route, wr, rr) in routes {
+                        for (route, wr, rr) in routes.iter().cloned() {
                             sel.clear();
                             sel.extend((0..nn).filter(|&j| route.is_none_or(|r| s.noisy[i0 + j] == r)));
                             let k = rr.len();
