@@ -73,16 +73,16 @@
 //! The model keeps only the eigenimages its queries use: the weighted search's L and the noisy
 //! match's (the eigenspace keeps 20), so the basis, the surface and each query's projection
 //! shrink with them (duck: 12 of 20). A query projects on the rows its route uses alone: a
-//! clean one on the search's L_s and the mean (for its residual), a noisy one on the noisy
-//! match's L. A model that bins routes each query on the image as given before its products,
+//! clean one on the search's L_s and the mean (for its residual), a noisy one on the L kept,
+//! without the mean. A model that bins routes each query on the image as given before its products,
 //! so each takes one pass over its route's rows; one that does not routes after the clean
 //! rows' pass, and only a query sent to the noisy match takes its eigenimages past L_s (COIL-19:
 //! 16 against 12) in a second. The clean search's nu comes from the residual off its own L_s
 //! coordinates, the residual its choice was scored with.
 //!
-//! Cost of a query: the projection on those L eigenimages and the mean (whose product gives the
-//! residual), by the eigenspace's own kernels (one f32 product per sub-chunk of a batch; for
-//! 8-bit images [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same
+//! Cost of a query: the projection on its route's eigenimages (and a clean one's on the mean,
+//! whose product gives the residual), by the eigenspace's own kernels (one f32 product per
+//! sub-chunk of a batch and route; for 8-bit images [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same
 //! pass), in sub-chunks small enough that the images are still cached for the sampled pixel-noise
 //! pass ([`pixel_variance`], [`pixel_variance_u8`]; staged for routing: a query whose estimate
 //! from a quarter of the sampled rows is under half the threshold is clean without the rest,
