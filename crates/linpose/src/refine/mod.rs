@@ -1246,7 +1246,7 @@ impl RefinedModel {
         // 1 / (sigma_l^2 + floor + nu) relative to the stored 1 / (sigma_l^2 + floor).
         let (m, ls) = (self.m, self.settings.search());
         let nu = ((residual - self.clean_residual_energy) / (m.saturating_sub(ls).max(1)) as f64).max(0.0);
-        if self.settings.noise_threshold > 0.0 && route > self.settings.noise_threshold {
+        if self.routed_noisy(NoiseWant::Route, route) {
             return self.pose_of_noisy(y, noise_nu, out);
         }
         let k = self.settings.params.starts.min(self.start_len());
@@ -2329,10 +2329,12 @@ impl RefinedModel {
         binned.resize(n * mb, 0.0);
         s.route.resize(n, 0.0);
         s.pv_full.resize(n, 0.0);
+        s.noisy.resize(n, false);
         let full = self.binning.full();
         let (w, h, ch) = (full.width as usize, full.height as usize, full.color.channels());
         // Each image binned, and its pixel noise measured as given (where noise stands out
-        // from the image's own detail; binning averages it away faster than the detail).
+        // from the image's own detail; binning averages it away faster than the detail), which
+        // routes it.
         for (i, (x, o)) in queries.chunks_exact(m).zip(binned.chunks_exact_mut(mb)).enumerate() {
             self.binning.apply(x, o, &mut s.bin_acc);
             let energy = crate::linalg::energy(x);
@@ -2341,10 +2343,7 @@ impl RefinedModel {
                 None => 0.0,
             };
             (s.route[i], s.pv_full[i]) = (pv * m as f64 / energy, pv);
-        }
-        s.noisy.resize(n, false);
-        for (x, &r) in s.noisy.iter_mut().zip(&s.route) {
-            *x = self.routed_noisy(noise, r);
+            s.noisy[i] = self.routed_noisy(noise, s.route[i]);
         }
         self.project_f32(&binned, NoiseWant::None, true, s);
         // The noisy match's nu: the noise of a binned pixel (pv / b^2, independent noise) per
