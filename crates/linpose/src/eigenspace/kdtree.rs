@@ -121,7 +121,7 @@ impl KdTree {
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
         let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
-        self.visit(0, 0.0, &mut off, q, &mut best, &mut |rows, items, best| {
+        self.visit(0, 0.0, 1.0, &mut off, q, &mut best, &mut |rows, items, best| {
             #[cfg(target_arch = "x86_64")]
             if simd {
                 // SAFETY: `simd` is true only when Level::detect() found AVX-512F; `rows` holds
@@ -138,37 +138,43 @@ impl KdTree {
         }
     }
 
-    /// The index of the point nearest to `q` among those `keep` accepts and at squared distance
-    /// at most `within`, with that distance (None when there is none): the same search, the
-    /// leaves scored point by point, the cells beyond `within` never visited.
-    pub fn nearest_where(&self, q: &[f32], within: f32, keep: &impl Fn(usize) -> bool) -> Option<(usize, f32)> {
+    /// [`KdTree::nearest_with_distance`] (the same point and distance) and, into `near`, every
+    /// point within `reach` (at least 1) times that squared distance, with its squared distance,
+    /// in no particular order: one branch and bound whose cells are kept while they can hold a
+    /// point within `reach` times the best distance so far. As that best only falls, no cell
+    /// that could hold a point within `reach` times the final one is ever dropped; the points
+    /// collected beyond it on the way are removed at the end. (A second search for the nearest
+    /// point of some kind within that reach, started after the first, scans again the cells
+    /// around the first point.)
+    pub fn nearest_and_near(&self, q: &[f32], reach: f32, near: &mut Vec<(f32, u32)>) -> (usize, f32) {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
-        let mut best = (within, u32::MAX);
+        assert!(reach >= 1.0, "a reach of at least 1");
+        near.clear();
+        let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
         let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
-        self.visit(0, 0.0, &mut off, q, &mut best, &mut |rows, items, best| {
-            let mut acc = [0f32; LEAF];
+        self.visit(0, 0.0, reach, &mut off, q, &mut best, &mut |rows, items, best| {
             #[cfg(target_arch = "x86_64")]
             if simd {
                 // SAFETY: as in nearest_with_distance.
-                unsafe { x86::distances_avx512(rows, q, &mut acc) };
-            } else {
-                distances(rows, q, &mut acc);
+                return unsafe { x86::scan_near_avx512(rows, items, q, best, reach, near) };
             }
-            #[cfg(not(target_arch = "x86_64"))]
-            distances(rows, q, &mut acc);
-            for (&a, &i) in acc.iter().zip(items) {
-                // At most the bound (`better` asks for less when no point is held yet).
-                if (a < best.0 || (a == best.0 && i < best.1)) && i != u32::MAX && keep(i as usize) {
-                    *best = (a, i);
-                }
-            }
+            let _ = simd;
+            scan_near(rows, items, q, best, reach, near)
         });
-        (best.1 != u32::MAX).then_some((best.1 as usize, best.0))
+        let bound = reach * best.0;
+        near.retain(|&(a, _)| a <= bound);
+        if best.1 == u32::MAX {
+            (0, f32::INFINITY)
+        } else {
+            (best.1 as usize, best.0)
+        }
     }
 
-    /// The branch and bound from `node`: `leaf` scores a leaf's rows and items into `best`.
-    fn visit(&self, node: u32, bound: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32))) {
+    /// The branch and bound from `node`: `leaf` scores a leaf's rows and items into `best`; a
+    /// cell is visited while its squared distance from `q` is at most `reach` times the best.
+    #[allow(clippy::too_many_arguments)]
+    fn visit(&self, node: u32, bound: f32, reach: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32))) {
         let nd = self.nodes[node as usize];
         if nd.dim == IS_LEAF {
             let at = nd.a as usize;
@@ -177,14 +183,14 @@ impl KdTree {
         let l = nd.dim as usize;
         let d = q[l] - nd.split;
         let (near, far) = if d <= 0.0 { (nd.a, nd.b) } else { (nd.b, nd.a) };
-        self.visit(near, bound, off, q, best, leaf);
+        self.visit(near, bound, reach, off, q, best, leaf);
         // The far cell lies beyond the split in coordinate l: its squared distance from q is at
         // least the bound with that coordinate's offset replaced by d.
         let old = off[l];
         let far_bound = bound - old * old + d * d;
-        if far_bound <= best.0 {
+        if far_bound <= reach * best.0 {
             off[l] = d;
-            self.visit(far, far_bound, off, q, best, leaf);
+            self.visit(far, far_bound, reach, off, q, best, leaf);
             off[l] = old;
         }
     }
@@ -206,6 +212,21 @@ fn scan(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
             *best = (a, i);
         }
     }
+}
+
+/// [`scan`], then the leaf's points within `reach` times the best distance (after the leaf)
+/// pushed onto `near` with their distances.
+#[inline(always)]
+fn scan_near(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
+    let mut acc = [0f32; LEAF];
+    distances(rows, q, &mut acc);
+    for (&a, &i) in acc.iter().zip(items) {
+        if better(a, i, *best) {
+            *best = (a, i);
+        }
+    }
+    let bound = reach * best.0;
+    near.extend(acc.iter().zip(items).filter(|&(&a, &i)| a <= bound && i != u32::MAX).map(|(&a, &i)| (a, i)));
 }
 
 /// One leaf's squared distances into `acc`, each summed over the coordinates in order.
@@ -232,41 +253,70 @@ mod x86 {
     use super::LEAF;
     use std::arch::x86_64::*;
 
-    /// [`super::distances`] compiled for AVX-512 (the same operations, so the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
+    /// A leaf's squared distances in one AVX-512 vector, summed a coordinate at a time: the
+    /// subtractions, products and sums of [`super::distances`] in the same order (no fused
+    /// multiply-add), so the same bits.
+    #[inline]
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn distances_avx512(rows: &[f32], q: &[f32], acc: &mut [f32; LEAF]) {
-        super::distances(rows, q, acc)
-    }
-
-    /// [`super::scan`] in one AVX-512 vector per coordinate: the same subtractions, products and
-    /// sums in the same order (no fused multiply-add), so the same bits.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn scan_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
-        assert!(rows.len() >= q.len() * LEAF && items.len() == LEAF);
+    unsafe fn leaf_distances(rows: &[f32], q: &[f32]) -> __m512 {
+        assert!(rows.len() >= q.len() * LEAF);
         let mut acc = _mm512_setzero_ps();
         for (l, &ql) in q.iter().enumerate() {
             let d = _mm512_sub_ps(_mm512_loadu_ps(rows.as_ptr().add(l * LEAF)), _mm512_set1_ps(ql));
             acc = _mm512_add_ps(acc, _mm512_mul_ps(d, d));
         }
-        // Only lanes at most the best distance can change it.
-        let mut hits = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(acc, _mm512_set1_ps(best.0));
-        if hits == 0 {
-            return;
-        }
-        let mut a = [0f32; LEAF];
-        _mm512_storeu_ps(a.as_mut_ptr(), acc);
+        acc
+    }
+
+    /// The lanes `hits` of the distances `a` into `best` (least distance, ties to the lower
+    /// index).
+    #[inline(always)]
+    fn take_best(mut hits: u16, a: &[f32; LEAF], items: &[u32], best: &mut (f32, u32)) {
         while hits != 0 {
             let j = hits.trailing_zeros() as usize;
             hits &= hits - 1;
             if super::better(a[j], items[j], *best) {
                 *best = (a[j], items[j]);
             }
+        }
+    }
+
+    /// [`super::scan`] in one AVX-512 vector per coordinate ([`leaf_distances`]).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn scan_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
+        assert!(items.len() == LEAF);
+        let acc = leaf_distances(rows, q);
+        // Only lanes at most the best distance can change it.
+        let hits = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(acc, _mm512_set1_ps(best.0));
+        if hits == 0 {
+            return;
+        }
+        let mut a = [0f32; LEAF];
+        _mm512_storeu_ps(a.as_mut_ptr(), acc);
+        take_best(hits, &a, items, best);
+    }
+
+    /// [`super::scan_near`] as [`scan_avx512`] scans, the same bits.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn scan_near_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
+        assert!(items.len() == LEAF);
+        let acc = leaf_distances(rows, q);
+        let mut a = [0f32; LEAF];
+        _mm512_storeu_ps(a.as_mut_ptr(), acc);
+        take_best(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(acc, _mm512_set1_ps(best.0)), &a, items, best);
+        // Unused lanes (index u32::MAX) are never near.
+        let valid = _mm512_cmpneq_epi32_mask(_mm512_loadu_si512(items.as_ptr().cast()), _mm512_set1_epi32(-1));
+        let mut hits = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(valid, acc, _mm512_set1_ps(reach * best.0));
+        while hits != 0 {
+            let j = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            near.push((a[j], items[j]));
         }
     }
 }

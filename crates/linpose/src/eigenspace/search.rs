@@ -232,12 +232,15 @@ mod tests {
         }
     }
 
-    /// The filtered search is brute force over the points kept within the bound: the least
-    /// distance, ties to the lower index, None when no kept point lies within it; with every
-    /// point kept and no bound it is the plain search.
+    /// The search with its near points is brute force: the nearest point and its distance as
+    /// the plain search gives them, and exactly the points within the reach times that distance
+    /// (each once, with its distance); the nearest of those outside a window of indices around
+    /// the first (as the refined search picks a second basin) is brute force's over the points
+    /// outside it within the reach.
     #[test]
-    fn the_filtered_tree_search_is_brute_force_over_the_kept_points() {
+    fn the_tree_s_near_points_are_brute_force_s() {
         let mut rng = ChaCha8Rng::seed_from_u64(13);
+        let mut near = Vec::new();
         for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {
             let points = curve_points(&mut rng, dim, n);
             let tree = KdTree::new(&points, dim);
@@ -248,19 +251,22 @@ mod tests {
                     let at = rng.random_range(0..n);
                     points[at * dim..(at + 1) * dim].iter().map(|v| v + rng.random_range(-0.05..0.05)).collect()
                 };
-                // Keep the points outside a window of indices around the nearest one (as the
-                // refined search keeps the poses away from its first start).
                 let (first, d1) = tree.nearest_with_distance(&q);
                 assert_eq!((first, d1), (tree.nearest(&q), dist(&points[first * dim..(first + 1) * dim], &q)));
-                let keep = |i: usize| i.abs_diff(first) > 40;
-                for within in [2.0 * d1, f32::INFINITY] {
-                    let brute = (0..n).filter(|&i| keep(i)).map(|i| (dist(&points[i * dim..(i + 1) * dim], &q), i)).filter(|&(d, _)| d <= within).fold(None, |b: Option<(f32, usize)>, (d, i)| match b {
-                        Some((bd, _)) if bd <= d => b,
-                        _ => Some((d, i)),
+                for reach in [1.0, 2.0, 4.0] {
+                    assert_eq!(tree.nearest_and_near(&q, reach, &mut near), (first, d1), "dim {dim}, query {k}");
+                    let mut got = near.clone();
+                    got.sort_by_key(|p| p.1);
+                    let want: Vec<(f32, u32)> =
+                        (0..n).map(|i| (dist(&points[i * dim..(i + 1) * dim], &q), i as u32)).filter(|&(d, _)| d <= reach * d1).collect();
+                    assert_eq!(got, want, "dim {dim}, query {k}, reach {reach}");
+                    let keep = |i: usize| i.abs_diff(first) > 40;
+                    let second = near.iter().filter(|p| keep(p.1 as usize)).min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1))).map(|p| p.1 as usize);
+                    let brute = (0..n).filter(|&i| keep(i) && dist(&points[i * dim..(i + 1) * dim], &q) <= reach * d1).min_by(|&x, &y| {
+                        dist(&points[x * dim..(x + 1) * dim], &q).total_cmp(&dist(&points[y * dim..(y + 1) * dim], &q)).then(x.cmp(&y))
                     });
-                    assert_eq!(tree.nearest_where(&q, within, &keep), brute.map(|(d, i)| (i, d)), "dim {dim}, query {k}, within {within}");
+                    assert_eq!(second, brute, "dim {dim}, query {k}, reach {reach}");
                 }
-                assert_eq!(tree.nearest_where(&q, f32::INFINITY, &|_| true), Some((first, d1)));
             }
         }
     }

@@ -719,16 +719,20 @@ impl NoisyTree {
         if !Self::unit_off(&v[..ln], &self.dir, &mut q[..ln]) {
             return None;
         }
-        let (i, d1) = self.tree.nearest_with_distance(&q[..ln]);
-        let first = &poses[i * d..(i + 1) * d];
-        let away = |k: usize| {
-            poses[k * d..(k + 1) * d].iter().zip(first).zip(periods).zip(apart).any(|(((&a, &b), p), &r)| {
-                let gap = (a - b).abs();
-                p.map_or(gap, |per| gap.min(per - gap)) > r
-            })
-        };
-        let second = self.tree.nearest_where(&q[..ln], 2.0 * d1, &away).map(|(k, _)| k);
-        Some((i, second))
+        // One search for the nearest point and those within twice its squared distance, among
+        // which the nearest of another basin (ties to the lower index).
+        SEARCH_SCRATCH.with_borrow_mut(|sc| {
+            let (i, _) = self.tree.nearest_and_near(&q[..ln], 2.0, &mut sc.near);
+            let first = &poses[i * d..(i + 1) * d];
+            let away = |k: usize| {
+                poses[k * d..(k + 1) * d].iter().zip(first).zip(periods).zip(apart).any(|(((&a, &b), p), &r)| {
+                    let gap = (a - b).abs();
+                    p.map_or(gap, |per| gap.min(per - gap)) > r
+                })
+            };
+            let second = sc.near.iter().filter(|&&(_, k)| away(k as usize)).min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1))).map(|&(_, k)| k as usize);
+            Some((i, second))
+        })
     }
 
     fn bytes(&self) -> usize {
@@ -1252,7 +1256,7 @@ impl RefinedModel {
         let k = self.settings.params.starts.min(self.start_len());
         let mut t = [0f64; 8];
         SEARCH_SCRATCH.with_borrow_mut(|sc| {
-            let SearchScratch { wt, w32, dist, buf, lb } = sc;
+            let SearchScratch { wt, w32, dist, buf, lb, .. } = sc;
             wt.clear();
             wt.extend(self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }));
             if let Some(lat) = &self.lattice {
@@ -2189,6 +2193,8 @@ struct SearchScratch {
     dist: Vec<f32>,
     buf: Vec<f64>,
     lb: Vec<f32>,
+    /// The noisy tree's points near a query ([`NoisyTree::starts`]).
+    near: Vec<(f32, u32)>,
 }
 
 thread_local! {
