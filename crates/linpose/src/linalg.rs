@@ -60,22 +60,102 @@ pub fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
     Mat::from_fn(n, k, |i, j| data[i * k + j])
 }
 
-/// ||x||^2: 16 independent f32 lanes (so the loop vectorises; one running sum is a chain of
-/// dependent adds), each block of 512 values summed into f64.
+/// f32 lanes of [`energy`]'s running sums: four independent chains of 16 (one AVX-512 vector
+/// each), so neither the dependent adds nor the vector width bound the loop.
+const ENERGY_LANES: usize = 64;
+/// Values per block of [`energy`] (32 a lane), each block's lane sums added into f64.
+const ENERGY_BLOCK: usize = 2048;
+
+/// The f32 lane sums `s` in f64, in eight independent chains (a vector of f64) then their sum.
+#[inline(always)]
+fn lanes_sum(s: &[f32; ENERGY_LANES]) -> f64 {
+    let mut v = [0f64; 8];
+    for (k, &a) in s.iter().enumerate() {
+        v[k % 8] += a as f64;
+    }
+    ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]))
+}
+
+/// ||x||^2: [`ENERGY_LANES`] independent f32 lanes, each block of [`ENERGY_BLOCK`] values summed
+/// into f64 ([`lanes_sum`]). Compiled for AVX-512 where the CPU has it (the same operations, so the same bits:
+/// queries are scaled by it, and both methods' projections take it).
 pub fn energy(x: &[f32]) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        // SAFETY: AVX-512F was detected.
+        return unsafe { x86::energy_avx512(x) };
+    }
+    energy_body(x)
+}
+
+/// (||x||^2, x . w): [`energy`] (the same bits) with x . w summed alongside it the same way, in
+/// one pass over `x` (the refined model's product of a query with the mean, which its residual
+/// takes, without a row of its own in the product with the eigenimages).
+pub fn energy_and_dot(x: &[f32], w: &[f32]) -> (f64, f64) {
+    assert_eq!(x.len(), w.len(), "x and w of one length");
+    #[cfg(target_arch = "x86_64")]
+    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        // SAFETY: AVX-512F was detected.
+        return unsafe { x86::energy_and_dot_avx512(x, w) };
+    }
+    energy_and_dot_body(x, w)
+}
+
+#[inline(always)]
+fn energy_body(x: &[f32]) -> f64 {
     let mut sq = 0f64;
-    for xb in x.chunks(512) {
-        let mut s = [0f32; 16];
-        let xc = xb.chunks_exact(16);
+    for xb in x.chunks(ENERGY_BLOCK) {
+        let mut s = [0f32; ENERGY_LANES];
+        let xc = xb.chunks_exact(ENERGY_LANES);
         let xr = xc.remainder();
         for a in xc {
-            for k in 0..16 {
+            for k in 0..ENERGY_LANES {
                 s[k] += a[k] * a[k];
             }
         }
-        sq += s.iter().map(|&v| v as f64).sum::<f64>() + xr.iter().map(|&v| v as f64 * v as f64).sum::<f64>();
+        sq += lanes_sum(&s) + xr.iter().map(|&v| v as f64 * v as f64).sum::<f64>();
     }
     sq
+}
+
+#[inline(always)]
+fn energy_and_dot_body(x: &[f32], w: &[f32]) -> (f64, f64) {
+    let (mut sq, mut dot) = (0f64, 0f64);
+    for (xb, wb) in x.chunks(ENERGY_BLOCK).zip(w.chunks(ENERGY_BLOCK)) {
+        let (mut s, mut t) = ([0f32; ENERGY_LANES], [0f32; ENERGY_LANES]);
+        let (xc, wc) = (xb.chunks_exact(ENERGY_LANES), wb.chunks_exact(ENERGY_LANES));
+        let (xr, wr) = (xc.remainder(), wc.remainder());
+        for (a, b) in xc.zip(wc) {
+            for k in 0..ENERGY_LANES {
+                s[k] += a[k] * a[k];
+                t[k] += a[k] * b[k];
+            }
+        }
+        sq += lanes_sum(&s) + xr.iter().map(|&v| v as f64 * v as f64).sum::<f64>();
+        dot += lanes_sum(&t) + xr.iter().zip(wr).map(|(&v, &u)| v as f64 * u as f64).sum::<f64>();
+    }
+    (sq, dot)
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    /// [`super::energy_body`] compiled for AVX-512 (the same operations, so the same bits).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn energy_avx512(x: &[f32]) -> f64 {
+        super::energy_body(x)
+    }
+
+    /// [`super::energy_and_dot_body`] compiled for AVX-512 (the same bits).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn energy_and_dot_avx512(x: &[f32], w: &[f32]) -> (f64, f64) {
+        super::energy_and_dot_body(x, w)
+    }
 }
 
 /// Dot product of two f32 vectors with eight independent accumulators (vectorises well and

@@ -1102,8 +1102,10 @@ impl RefinedModel {
     /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
     /// (rows of L), `s.resid` and `s.noise`. In sub-chunks whose queries stay in cache from the
     /// products to the energy and noise (rayon splits the batch, see [`chunk_rows`]). Without
-    /// `routed`: the products of every query with [`Self::clean_rows`], then each query's energy
-    /// and, when `noise` says so, its pixel noise ([`pixel_variance`], staged at `early` times
+    /// `routed`: the products of every query with [`Self::clean_rows`] (the mean's, when used,
+    /// summed with the query's energy in one pass, [`crate::linalg::energy_and_dot`]: a row
+    /// fewer in the product, whose kernel takes 4 at a time), then each query's energy and,
+    /// when `noise` says so, its pixel noise ([`pixel_variance`], staged at `early` times
     /// the noise threshold, see [`NoiseWant`]), which routes it; the queries routed to the noisy
     /// match take the [`Self::extra_range`] too. With `routed` (a model that bins: routed on the
     /// images as given, `s.noisy`) each query takes its route's rows alone, the clean ones
@@ -1117,19 +1119,30 @@ impl RefinedModel {
         let sub = if std::mem::size_of_val(queries) <= NOISE_SUB_F32_BYTES { n.max(1) } else { NOISE_SUB_F32 };
         let mut sel = std::mem::take(&mut s.xidx);
         let mut other = std::mem::take(&mut s.xidx2);
+        // The clean search's eigenimages go through the product; the mean's product (the
+        // first of [`Self::clean_rows`] when it is used) is summed with the energy.
+        let (take_mean, eigen_clean) = (self.uses_residual(), 1..1 + self.settings.search());
         for (c, xq) in queries.chunks(sub * m).enumerate() {
             let (i0, nn) = (c * sub, xq.len() / m);
             if routed {
                 sel.clear();
                 other.clear();
                 (0..nn).for_each(|j| if s.noisy[i0 + j] { sel.push(j) } else { other.push(j) });
-                self.pass_f32(xq, i0, Some(&other[..]), self.clean_rows(), s);
+                self.pass_f32(xq, i0, Some(&other[..]), eigen_clean.clone(), s);
                 self.pass_f32(xq, i0, Some(&sel[..]), self.noisy_rows(), s);
             } else {
-                self.pass_f32(xq, i0, None, self.clean_rows(), s);
+                self.pass_f32(xq, i0, None, eigen_clean.clone(), s);
             }
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
-                let energy = crate::linalg::energy(x);
+                // The product with the mean, where the query takes it, in the pass that sums
+                // its energy.
+                let energy = if take_mean && !(routed && s.noisy[i]) {
+                    let (energy, dot) = crate::linalg::energy_and_dot(x, &self.rows[..m]);
+                    s.raw[i * (1 + l)] = dot as f32;
+                    energy
+                } else {
+                    crate::linalg::energy(x)
+                };
                 s.benergy[i] = energy;
                 s.pv[i] = match self.early(noise, energy, m) {
                     Some(early) => pixel_variance_in(x, w, h, ch, RowsF32::reuse(&mut s.rows_f32, w * ch, ch), early),
