@@ -76,9 +76,10 @@ fn lanes_sum(s: &[f32; ENERGY_LANES]) -> f64 {
     ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]))
 }
 
-/// ||x||^2: [`ENERGY_LANES`] independent f32 lanes, each block of [`ENERGY_BLOCK`] values summed
-/// into f64 ([`lanes_sum`]). Compiled for AVX-512 where the CPU has it (the same operations, so the same bits:
-/// queries are scaled by it, and both methods' projections take it).
+/// ||x||^2: 64 independent f32 lanes (four chains of one AVX-512 vector), each block of 2048
+/// values (32 a lane) summed into f64 in eight chains. Compiled for AVX-512 where the CPU has
+/// it (the same operations, so the same bits: queries are scaled by it, and both methods'
+/// projections take it).
 pub fn energy(x: &[f32]) -> f64 {
     #[cfg(target_arch = "x86_64")]
     if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
@@ -205,5 +206,28 @@ mod tests {
         let b: Vec<f32> = (0..1003).map(|i| (i as f32 * 0.11).cos()).collect();
         let want: f64 = a.iter().zip(&b).map(|(&x, &y)| x as f64 * y as f64).sum();
         assert!((dot_f32(&a, &b) as f64 - want).abs() < 1e-4);
+    }
+
+    /// The energy and the energy with a product: within f32 rounding of the f64 sums, the
+    /// energy the same bits alone and beside the product, and on every build (the AVX-512 one
+    /// where the CPU has it), at lengths around the lanes and blocks (remainders included).
+    #[test]
+    fn energy_and_its_product_are_the_f64_sums_on_every_build() {
+        for m in [0, 1, 63, 64, 65, 2047, 2048, 2049, 16384, 19200 + 7] {
+            let x: Vec<f32> = (0..m).map(|i| ((i * 7919) % 257) as f32 / 256.0).collect();
+            let w: Vec<f32> = (0..m).map(|i| (i as f32 * 0.37).sin() * 1e-2).collect();
+            let xx: f64 = x.iter().map(|&v| v as f64 * v as f64).sum();
+            let xw: f64 = x.iter().zip(&w).map(|(&v, &u)| v as f64 * u as f64).sum();
+            let (e, d) = energy_and_dot(&x, &w);
+            assert_eq!(e.to_bits(), energy(&x).to_bits(), "m {m}");
+            assert_eq!((e.to_bits(), d.to_bits()), {
+                let (a, b) = energy_and_dot_body(&x, &w);
+                (a.to_bits(), b.to_bits())
+            });
+            assert_eq!(energy_body(&x).to_bits(), e.to_bits(), "m {m}");
+            assert!((e - xx).abs() <= 1e-6 * xx.max(1e-30), "m {m}: {e} against {xx}");
+            let scale: f64 = x.iter().zip(&w).map(|(&v, &u)| (v as f64 * u as f64).abs()).sum();
+            assert!((d - xw).abs() <= 1e-6 * scale.max(1e-30), "m {m}: {d} against {xw}");
+        }
     }
 }
