@@ -138,14 +138,19 @@ impl KdTree {
         }
     }
 
-    /// [`KdTree::nearest_with_distance`] (the same point and distance) and, into `near`, every
-    /// point within `reach` (at least 1) times that squared distance, with its squared distance,
-    /// in no particular order: one branch and bound whose cells are kept while they can hold a
-    /// point within `reach` times the best distance so far. As that best only falls, no cell
-    /// that could hold a point within `reach` times the final one is ever dropped; the points
+    /// The point nearest to `q` with its squared distance, and, into `near`, every point within
+    /// `reach` (at least 1) times that squared distance, with its squared distance, in no
+    /// particular order: one branch and bound whose cells are kept while they can hold a point
+    /// within `reach` times the best distance so far. As that best only falls, no cell that
+    /// could hold a point within `reach` times the final one is ever dropped; the points
     /// collected beyond it on the way are removed at the end. (A second search for the nearest
     /// point of some kind within that reach, started after the first, scans again the cells
     /// around the first point.)
+    ///
+    /// The distances are [`near_distance`]'s (four chains of fused multiply-adds, a quarter of
+    /// the dependent adds of [`KdTree::nearest`]'s sums), so the point is brute force's under
+    /// them, ties to the lower index, and may differ from [`KdTree::nearest`]'s where two
+    /// points' distances agree to the last bits.
     pub fn nearest_and_near(&self, q: &[f32], reach: f32, near: &mut Vec<(f32, u32)>) -> (usize, f32) {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         assert!(reach >= 1.0, "a reach of at least 1");
@@ -214,12 +219,31 @@ fn scan(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
     }
 }
 
-/// [`scan`], then the leaf's points within `reach` times the best distance (after the leaf)
-/// pushed onto `near` with their distances.
+/// The squared distance from `p` to `q` that [`KdTree::nearest_and_near`] measures: four
+/// chains, chain k summing the coordinates k, k + 4, ... in order by fused multiply-adds of the
+/// differences, then (c0 + c1) + (c2 + c3).
+pub fn near_distance(p: &[f32], q: &[f32]) -> f32 {
+    let mut c = [0f32; 4];
+    for (l, (&a, &b)) in p.iter().zip(q).enumerate() {
+        let d = a - b;
+        c[l % 4] = d.mul_add(d, c[l % 4]);
+    }
+    (c[0] + c[1]) + (c[2] + c[3])
+}
+
+/// One leaf's [`near_distance`]s into `best` (least distance, ties to the lower index), then the
+/// leaf's points within `reach` times the best distance (after the leaf) pushed onto `near`
+/// with their distances.
 #[inline(always)]
 fn scan_near(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
     let mut acc = [0f32; LEAF];
-    distances(rows, q, &mut acc);
+    let mut p = [0f32; MAX_DIM];
+    for (j, a) in acc.iter_mut().enumerate() {
+        for (l, v) in p[..q.len()].iter_mut().enumerate() {
+            *v = rows[l * LEAF + j];
+        }
+        *a = near_distance(&p[..q.len()], q);
+    }
     for (&a, &i) in acc.iter().zip(items) {
         if better(a, i, *best) {
             *best = (a, i);
@@ -227,17 +251,6 @@ fn scan_near(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reac
     }
     let bound = reach * best.0;
     near.extend(acc.iter().zip(items).filter(|&(&a, &i)| a <= bound && i != u32::MAX).map(|(&a, &i)| (a, i)));
-}
-
-/// One leaf's squared distances into `acc`, each summed over the coordinates in order.
-#[inline(always)]
-fn distances(rows: &[f32], q: &[f32], acc: &mut [f32; LEAF]) {
-    for (row, &ql) in rows.chunks_exact(LEAF).zip(q) {
-        for (a, &v) in acc.iter_mut().zip(row) {
-            let d = v - ql;
-            *a += d * d;
-        }
-    }
 }
 
 /// Whether point `i` at squared distance `a` replaces `best`: a lesser distance, or the same
@@ -254,7 +267,7 @@ mod x86 {
     use std::arch::x86_64::*;
 
     /// A leaf's squared distances in one AVX-512 vector, summed a coordinate at a time: the
-    /// subtractions, products and sums of [`super::distances`] in the same order (no fused
+    /// subtractions, products and sums of [`super::scan`] in the same order (no fused
     /// multiply-add), so the same bits.
     #[inline]
     #[target_feature(enable = "avx512f")]
@@ -299,14 +312,39 @@ mod x86 {
         take_best(hits, &a, items, best);
     }
 
-    /// [`super::scan_near`] as [`scan_avx512`] scans, the same bits.
+    /// [`super::scan_near`] in one AVX-512 vector per chain of [`super::near_distance`] (the same
+    /// fused multiply-adds and sums, so the same bits).
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
     pub unsafe fn scan_near_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
-        assert!(items.len() == LEAF);
-        let acc = leaf_distances(rows, q);
+        assert!(items.len() == LEAF && rows.len() >= q.len() * LEAF);
+        let diff = |l: usize| _mm512_sub_ps(_mm512_loadu_ps(rows.as_ptr().add(l * LEAF)), _mm512_set1_ps(q[l]));
+        // The four chains in registers: whole groups of four coordinates, then the rest.
+        let (mut c0, mut c1, mut c2, mut c3) = (_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps());
+        let whole = q.len() / 4 * 4;
+        for l in (0..whole).step_by(4) {
+            let (d0, d1, d2, d3) = (diff(l), diff(l + 1), diff(l + 2), diff(l + 3));
+            c0 = _mm512_fmadd_ps(d0, d0, c0);
+            c1 = _mm512_fmadd_ps(d1, d1, c1);
+            c2 = _mm512_fmadd_ps(d2, d2, c2);
+            c3 = _mm512_fmadd_ps(d3, d3, c3);
+        }
+        let rest = q.len() - whole;
+        if rest > 0 {
+            let d = diff(whole);
+            c0 = _mm512_fmadd_ps(d, d, c0);
+        }
+        if rest > 1 {
+            let d = diff(whole + 1);
+            c1 = _mm512_fmadd_ps(d, d, c1);
+        }
+        if rest > 2 {
+            let d = diff(whole + 2);
+            c2 = _mm512_fmadd_ps(d, d, c2);
+        }
+        let acc = _mm512_add_ps(_mm512_add_ps(c0, c1), _mm512_add_ps(c2, c3));
         let mut a = [0f32; LEAF];
         _mm512_storeu_ps(a.as_mut_ptr(), acc);
         take_best(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(acc, _mm512_set1_ps(best.0)), &a, items, best);

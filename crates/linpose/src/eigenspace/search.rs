@@ -232,39 +232,42 @@ mod tests {
         }
     }
 
-    /// The search with its near points is brute force: the nearest point and its distance as
-    /// the plain search gives them, and exactly the points within the reach times that distance
-    /// (each once, with its distance); the nearest of those outside a window of indices around
-    /// the first (as the refined search picks a second basin) is brute force's over the points
-    /// outside it within the reach.
+    /// The search with its near points is brute force under its own distance
+    /// ([`crate::eigenspace::kdtree::near_distance`]): the nearest point (ties to the lower
+    /// index) with its distance, which is the plain search's within f32 rounding, and exactly the
+    /// points within the reach times that distance (each once, with its distance); the nearest
+    /// of those outside a window of indices around the first (as the refined search picks a
+    /// second basin) is brute force's over the points outside it within the reach.
     #[test]
     fn the_tree_s_near_points_are_brute_force_s() {
+        use crate::eigenspace::kdtree::near_distance;
         let mut rng = ChaCha8Rng::seed_from_u64(13);
         let mut near = Vec::new();
         for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {
             let points = curve_points(&mut rng, dim, n);
             let tree = KdTree::new(&points, dim);
+            let at = |i: usize| &points[i * dim..(i + 1) * dim];
             for k in 0..100 {
                 let q: Vec<f32> = if k % 2 == 0 {
                     (0..dim).map(|_| rng.random_range(-1.2..1.2)).collect()
                 } else {
-                    let at = rng.random_range(0..n);
-                    points[at * dim..(at + 1) * dim].iter().map(|v| v + rng.random_range(-0.05..0.05)).collect()
+                    let i = rng.random_range(0..n);
+                    at(i).iter().map(|v| v + rng.random_range(-0.05..0.05)).collect()
                 };
-                let (first, d1) = tree.nearest_with_distance(&q);
-                assert_eq!((first, d1), (tree.nearest(&q), dist(&points[first * dim..(first + 1) * dim], &q)));
+                let nd: Vec<f32> = (0..n).map(|i| near_distance(at(i), &q)).collect();
+                let first = (0..n).fold(0, |b, i| if nd[i] < nd[b] { i } else { b });
+                let d1 = nd[first];
+                let plain = dist(at(tree.nearest(&q)), &q);
+                assert!((d1 - plain).abs() <= 1e-5 * plain.max(1e-30), "dim {dim}, query {k}: {d1} against {plain}");
                 for reach in [1.0, 2.0, 4.0] {
                     assert_eq!(tree.nearest_and_near(&q, reach, &mut near), (first, d1), "dim {dim}, query {k}");
                     let mut got = near.clone();
                     got.sort_by_key(|p| p.1);
-                    let want: Vec<(f32, u32)> =
-                        (0..n).map(|i| (dist(&points[i * dim..(i + 1) * dim], &q), i as u32)).filter(|&(d, _)| d <= reach * d1).collect();
+                    let want: Vec<(f32, u32)> = (0..n).filter(|&i| nd[i] <= reach * d1).map(|i| (nd[i], i as u32)).collect();
                     assert_eq!(got, want, "dim {dim}, query {k}, reach {reach}");
                     let keep = |i: usize| i.abs_diff(first) > 40;
                     let second = near.iter().filter(|p| keep(p.1 as usize)).min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1))).map(|p| p.1 as usize);
-                    let brute = (0..n).filter(|&i| keep(i) && dist(&points[i * dim..(i + 1) * dim], &q) <= reach * d1).min_by(|&x, &y| {
-                        dist(&points[x * dim..(x + 1) * dim], &q).total_cmp(&dist(&points[y * dim..(y + 1) * dim], &q)).then(x.cmp(&y))
-                    });
+                    let brute = (0..n).filter(|&i| keep(i) && nd[i] <= reach * d1).min_by(|&x, &y| nd[x].total_cmp(&nd[y]).then(x.cmp(&y)));
                     assert_eq!(second, brute, "dim {dim}, query {k}, reach {reach}");
                 }
             }
