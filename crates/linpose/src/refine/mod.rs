@@ -710,8 +710,9 @@ impl NoisyTree {
     /// the lattice `poses` (n x D): the tree's nearest point and, when one lies within twice
     /// its squared distance, the nearest one apart from it by more than `apart[j]` degrees
     /// along some axis j (circularly on a circular axis): a second basin, as on a nearly
-    /// symmetric object, whose views a half turn apart differ little. None when `z` has no
-    /// length off the offset direction.
+    /// symmetric object, whose views a half turn apart differ little (both from one search,
+    /// [`crate::eigenspace::kdtree::KdTree::nearest_and_near`], under its distance). None when
+    /// `z` has no length off the offset direction.
     fn starts(&self, z: &[f64], poses: &[f64]) -> Option<(usize, Option<usize>)> {
         let (ln, d, periods, apart) = (self.scale.len(), self.periods.len(), &self.periods, &self.apart);
         let (mut v, mut q) = ([0f64; crate::eigenspace::kdtree::MAX_DIM], [0f32; crate::eigenspace::kdtree::MAX_DIM]);
