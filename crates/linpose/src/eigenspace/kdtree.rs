@@ -212,6 +212,12 @@ fn scan(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
             *a += d * d;
         }
     }
+    take_lanes(&acc, items, best);
+}
+
+/// A leaf's distances `acc` into `best` (least distance, ties to the lower index).
+#[inline(always)]
+fn take_lanes(acc: &[f32; LEAF], items: &[u32], best: &mut (f32, u32)) {
     for (&a, &i) in acc.iter().zip(items) {
         if better(a, i, *best) {
             *best = (a, i);
@@ -244,11 +250,7 @@ fn scan_near(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reac
         }
         *a = near_distance(&p[..q.len()], q);
     }
-    for (&a, &i) in acc.iter().zip(items) {
-        if better(a, i, *best) {
-            *best = (a, i);
-        }
-    }
+    take_lanes(&acc, items, best);
     let bound = reach * best.0;
     near.extend(acc.iter().zip(items).filter(|&(&a, &i)| a <= bound && i != u32::MAX).map(|(&a, &i)| (a, i)));
 }
