@@ -82,8 +82,9 @@
 //!
 //! Cost of a query: the projection on its route's eigenimages (and a clean one's on the mean,
 //! whose product gives the residual), by the eigenspace's own kernels (one f32 product per
-//! sub-chunk of a batch and route; for 8-bit images [`crate::kernels::dot_u8::dots_batch`], the energy summed exactly in the same
-//! pass), in sub-chunks small enough that the images are still cached for the sampled pixel-noise
+//! sub-chunk of a batch and route, the mean's product summed with the energy,
+//! [`crate::linalg::energy_and_dot`]; for 8-bit images [`crate::kernels::dot_u8::dots_batch`],
+//! the mean a row of the product and the energy summed exactly in the same pass), in sub-chunks small enough that the images are still cached for the sampled pixel-noise
 //! pass ([`pixel_variance`], [`pixel_variance_u8`]; staged for routing: a query whose estimate
 //! from a quarter of the sampled rows is under half the threshold is clean without the rest,
 //! see `NOISE_EARLY`); a scan of the coarse points in register
