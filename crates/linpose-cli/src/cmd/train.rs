@@ -66,7 +66,8 @@ pub struct TrainArgs {
     pub resolution: Option<f64>,
     /// Refined: bin the images by B (each pixel the mean of a B x B block) before fitting and
     /// before each query (1 keeps them as given), or `auto` (the default) to choose B among 1,
-    /// 2 and 4 by the held-out error of the training views.
+    /// 2 and 4 by the held-out error of the training views: the coarsest within one standard
+    /// error of the least.
     #[arg(long, value_name = "B|auto")]
     pub bin: Option<String>,
     /// Linear model: read the images from disk in blocks instead of all at once, for training

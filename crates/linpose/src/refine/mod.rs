@@ -62,13 +62,14 @@
 //!    and 13.2 / 16.9.
 //!
 //! Every hyper-parameter is chosen from the training data alone ([`select`]): the number of
-//! eigenimages L (among 8, 12, 16, 20: no more than the eigenspace's 20, so a query costs no
-//! more) by the pose error of held-out training views, with the manifold built without them
-//! (every other knot along each axis held out in turn), and the weights as above. The same
-//! held-out views also score the plain metric (unweighted, 20 coordinates: the eigenspace's);
-//! when it beats every weighted L, the model uses it for every query (on COIL-20 the weighted
-//! metric wins by far on some objects, obj6: 0.39 against 5.38 degrees, and loses on others,
-//! obj20: 2.29 against 1.76).
+//! eigenimages L (among 8, 12, 16, 20, and under 20 on images as given, so a query's product
+//! costs less than the eigenspace's) by the pose error of held-out training views, with the
+//! manifold built without them (every other knot along each axis held out in turn, the odd
+//! ones, then the even ones), and the weights as above. The same held-out views also score the
+//! plain metric (unweighted, the eigenspace's, in 20 coordinates, 16 on images as given); when
+//! it beats every weighted L, the model uses it for every query (on COIL-20 the weighted metric
+//! wins by far on some objects, obj6: 0.39 against 5.38 degrees, and loses on others, obj20:
+//! 2.29 against 1.76).
 //!
 //! The model keeps only the eigenimages its queries use: the weighted search's L and the noisy
 //! match's (the eigenspace keeps 20), so the basis, the surface and each query's projection
@@ -104,8 +105,10 @@
 //!
 //! Binning (`auto_bin()`, the default, or `bin(b)`; `linpose train --bin auto|B`): the model
 //! takes images as given and bins them by a box filter ([`crate::binning`]) before everything
-//! above, in training and for each query, by the factor among [`BIN_CANDIDATES`] (1, 2, 4) whose
-//! held-out error is least (the choice of L run on each one's images). The spline through binned
+//! above, in training and for each query, by the factor among [`BIN_CANDIDATES`] (1, 2, 4)
+//! chosen by the one-standard-error rule ([`select::coarsest_within`]): the coarsest whose
+//! held-out error (the choice of L run on each one's images) is within one standard error of
+//! the least. The spline through binned
 //! views interpolates better (their fine detail, stripes and edges, aliases between training
 //! views), independent pixel noise's variance is divided by b^2, and every product costs b^2
 //! times less. Simulated noise (the noisy match's choice, the offset direction) is added to the
@@ -117,9 +120,10 @@
 //! ([`crate::kernels::dot_w`]: `vpdpwssd`, 32 sums an instruction against the weights' 16-bit
 //! fixed point) where AVX-512 VNNI runs, else as two planes of 8-bit digits through the 8-bit
 //! products (on COIL-17 by 2, 8-bit queries over the eigenspace's time went 1.20 -> 0.62). On
-//! the comparison's 35 rows the choice took 4 on 17, 2 on 8 and 1 on 10, and met the peer's
-//! error on all but COIL-1 (0.500 against 0.472; by 1 COIL-15 had been over it too):
-//! BENCHMARKS.md.
+//! the comparison's 35 rows the choice took 4 on 30 and 2 on 5, and met the peer's error on all
+//! but COIL-11 (0.375 against 0.347). By the least held-out error alone it had taken 4 on 17,
+//! 2 on 8 and 1 on 10, and missed the peer on COIL-1 (0.500 against 0.472), with 5 rows slower
+//! than the eigenspace: BENCHMARKS.md.
 //!
 //! Trained in f64, served in f32: basis, mean and knot slopes are stored as f32, the projection is
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
@@ -235,8 +239,9 @@ impl RefinedParams {
     }
 
     /// Choose the binning factor from the training data (the default): among
-    /// [`BIN_CANDIDATES`], the one whose held-out error ([`select::choose`]) is least (a tie goes
-    /// to the larger factor: cheaper queries, a smaller model).
+    /// [`BIN_CANDIDATES`], the coarsest whose held-out error ([`select::choose`]) is within one
+    /// standard error of the least ([`select::coarsest_within`]: cheaper
+    /// queries and a smaller model where the training views cannot tell the factors apart).
     pub fn auto_bin(mut self) -> Self {
         self.bin = None;
         self
@@ -284,6 +289,11 @@ pub struct RefinedSettings {
     /// (degrees), as [`Self::selection`]'s least and [`Self::plain_error`] (empty when fixed).
     #[serde(default)]
     pub bin_selection: Vec<(usize, f64)>,
+    /// The standard error of the least of [`Self::bin_selection`]'s errors: the coarsest factor
+    /// within it of the least was chosen ([`select::coarsest_within`]; 0 when fixed, and in
+    /// models written before it, which took the least).
+    #[serde(default)]
+    pub bin_tolerance: f64,
     /// Eigenimages kept, L.
     pub components: usize,
     /// Eigenimages of the weighted search of a clean query (the first ones; 0: all). The rest
@@ -357,8 +367,8 @@ impl Estimator for RefinedParams {
         // The held-out fits take the binned images as given (bin 1).
         let inner = RefinedParams { bin: Some(1), ..*self };
         // The binning factor (with its images, grid and choice of L when scored), fixed or the
-        // candidate of least held-out error.
-        let mut bin_selection = Vec::new();
+        // coarsest candidate within one standard error of the least held-out error.
+        let (mut bin_selection, mut bin_tolerance) = (Vec::new(), 0.0);
         let (binning, train, grid, chosen) = match self.bin {
             Some(b) => {
                 let binning = Binning::new(full.spec(), b)?;
@@ -366,20 +376,19 @@ impl Estimator for RefinedParams {
                 (binning, train, grid, None)
             }
             None => {
-                let mut best = None;
+                let mut scored = Vec::new();
                 for &b in BIN_CANDIDATES {
                     let Ok(binning) = Binning::new(full.spec(), b) else { continue };
                     let (train, grid) = binned_views(full, binning)?;
-                    let scored = select::choose(train.as_ref().unwrap_or(full), &grid, &inner)?;
-                    let error = scored.1.iter().map(|s| s.1).chain(scored.2).fold(f64::INFINITY, f64::min);
-                    bin_selection.push((b, error));
-                    // A tie goes to the larger factor (the candidates rise).
-                    if best.as_ref().is_none_or(|(e, ..): &(f64, _, _, _, _)| error <= *e) {
-                        best = Some((error, binning, train, grid, scored));
-                    }
+                    let choice = select::choose(train.as_ref().unwrap_or(full), &grid, &inner, b)?;
+                    bin_selection.push((b, choice.least));
+                    scored.push((binning, train, grid, choice));
                 }
-                let (_, binning, train, grid, scored) = best.expect("factor 1 always fits");
-                (binning, train, grid, Some(scored))
+                // The coarsest factor within one standard error of the least held-out error.
+                let k;
+                (k, bin_tolerance) = select::coarsest_within(&scored.iter().map(|s| (s.3.least, s.3.standard_error)).collect::<Vec<_>>());
+                let (binning, train, grid, choice) = scored.swap_remove(k);
+                (binning, train, grid, Some(choice))
             }
         };
         let train = train.as_ref().unwrap_or(full);
@@ -387,16 +396,21 @@ impl Estimator for RefinedParams {
         let space = train.space();
         let (l_max, selection, plain_error) = match (self.components, chosen) {
             (Some(l), _) => (l, Vec::new(), None),
-            (None, Some(scored)) => scored,
-            (None, None) => select::choose(train, &grid, &inner)?,
+            (None, Some(c)) => (c.components, c.scored, c.plain),
+            (None, None) => {
+                let c = select::choose(train, &grid, &inner, binning.factor())?;
+                (c.components, c.scored, c.plain)
+            }
         };
         // The plain metric wins when it scored better on the held-out views than every weighted L.
         let best_weighted = selection.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
         let plain = plain_error.is_some_and(|e| e < best_weighted);
-        let (l_max, weighted) = if plain { (NOISE_COMPONENTS, false) } else { (l_max, self.weighted) };
-        // The affine match of noisy queries may use up to the eigenspace's L = 20 coordinates:
-        // they are kept (unweighted) past the L of the weighted search.
-        let l_store = if weighted { l_max.max(NOISE_COMPONENTS) } else { l_max };
+        // Chosen automatically, no query's product costs as much as the eigenspace's.
+        let below = if self.components.is_some() { NOISE_COMPONENTS } else { select::below_eigenspace(binning.factor()) };
+        let (l_max, weighted) = if plain { (NOISE_COMPONENTS.min(below), false) } else { (l_max, self.weighted) };
+        // The affine match of noisy queries may use up to the eigenspace's L = 20 coordinates
+        // (within that bound): they are kept (unweighted) past the L of the weighted search.
+        let l_store = if weighted { l_max.max(NOISE_COMPONENTS.min(below)) } else { l_max };
         let mut pca = pca::fit(train, Dimension::Fixed(l_store))?;
         let l_search = l_max.min(pca.dim());
         // The match of noisy queries, chosen on held-out views under simulated noise.
@@ -432,6 +446,7 @@ impl Estimator for RefinedParams {
             params: *self,
             bin: binning.factor(),
             bin_selection,
+            bin_tolerance,
             components: l,
             search_components: l_search,
             energy_kept: pca.energy_kept(),

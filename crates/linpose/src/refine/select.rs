@@ -1,12 +1,25 @@
 //! The automatic choice of the number of eigenimages L, from the training views alone.
 //!
 //! Along each pose axis with enough knots in turn, the training views at every other knot are
-//! held out (a linear axis keeps both its end knots, so nothing is extrapolated); the eigenspace
-//! and the surface are fitted on the rest, and the held-out views are estimated with every
-//! candidate L (the leading L components of that one fit). The candidate with the least mean pose
-//! error over all held-out views wins; a tie goes to the smaller L (cheaper queries). The manifold
-//! fitted without the held-out views has twice the knot spacing of the final one, so this scores
-//! each L where interpolation matters most, on views no fit has seen.
+//! held out, the odd ones and then the even ones ([`both_folds`]: every knot once; a linear axis
+//! keeps both its end knots, so nothing is extrapolated); the eigenspace and the surface are
+//! fitted on the rest, and the held-out views are estimated with every candidate L (the leading L
+//! components of that one fit). The candidate with the least mean pose error over all held-out
+//! views wins; a tie goes to the smaller L (cheaper queries). The manifold fitted without the
+//! held-out views has twice the knot spacing of the final one, so this scores each L where
+//! interpolation matters most, on views no fit has seen. Holding out the even knots too doubles
+//! the views behind each score (COIL-20: 36 against 18), at the same spacing.
+//!
+//! No candidate costs as much as the eigenspace: on images as given L is at most 16
+//! ([`below_eigenspace`]), the plain metric's too. The binning factor is chosen by the
+//! one-standard-error rule ([`coarsest_within`]): the coarsest whose least error is within one
+//! standard error of the least of all. On COIL-20 the factors' held-out errors differ by a view
+//! or two in 36 (a standard error of 0.07 to 0.2 degrees where they come to 0.5 to 1.5), while
+//! each halving of the resolution makes a query's product 4 times cheaper; by the least error
+//! alone, 10 of the comparison's 35 rows took factor 1, and 5 of them the plain metric in 20
+//! coordinates, whose query was the eigenspace's own product plus the noise route and the
+//! search: slower than the eigenspace's, and no more accurate (BENCHMARKS.md, twentieth
+//! session).
 //!
 //! When no axis has enough knots (fewer than 4), L falls back to [`FALLBACK_COMPONENTS`], the
 //! eigenspace's default.
@@ -25,8 +38,24 @@ pub const FALLBACK_COMPONENTS: usize = 20;
 /// The candidates for L, capped by what the held-out fits can give.
 pub const CANDIDATES: &[usize] = &[8, 12, 16, 20];
 
-/// The held-out folds of `grid`: for each usable axis, which training samples are kept.
+/// The held-out folds of `grid`: for each usable axis, which training samples are kept (every
+/// other knot held out, the odd ones).
 pub fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
+    folds_of(train, grid, 1)
+}
+
+/// [`folds`], then the same with the other half held out (the even knots, a linear axis still
+/// keeping both its ends): every knot is held out once (the interior ones of a linear axis), at
+/// the same spacing, so the score has twice the views behind it.
+pub fn both_folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
+    let mut out = folds_of(train, grid, 1);
+    out.extend(folds_of(train, grid, 0));
+    out
+}
+
+/// The folds holding out, along each usable axis in turn, the knots of index parity `parity`
+/// (bar a linear axis's ends).
+fn folds_of(train: &Dataset, grid: &Grid, parity: usize) -> Vec<Vec<bool>> {
     let shape = grid.shape();
     let d = shape.len();
     let mut out = Vec::new();
@@ -36,7 +65,7 @@ pub fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
             continue;
         }
         let circular = train.space().params()[j].period.is_some();
-        let held = |k: usize| k % 2 == 1 && (circular || k != n - 1);
+        let held = |k: usize| k % 2 == parity && (circular || (k != 0 && k != n - 1));
         let mut keep = vec![true; train.len()];
         for (flat, &i) in grid.sample_at.iter().enumerate() {
             let k = flat / shape[j + 1..].iter().product::<usize>() % n;
@@ -63,33 +92,59 @@ pub type Scores = Vec<(usize, f64)>;
 /// weighted, mean capped held-out error in degrees).
 pub type NoiseChoice = (usize, bool, Vec<(usize, bool, f64)>);
 
-/// Chooses L for `params` on `train` (laid out on `grid`): the chosen L and every candidate's
-/// mean held-out error (degrees).
+/// Chooses L for `params` on `train` (laid out on `grid`, images as given: L at most
+/// [`below_eigenspace`]`(1)`): the chosen L and every candidate's mean held-out error (degrees).
 pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Scores)> {
-    choose(train, grid, params).map(|(l, scored, _)| (l, scored))
+    choose(train, grid, params, 1).map(|c| (c.components, c.scored))
+}
+
+/// What [`choose`] found on one set of training images.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Choice {
+    /// The chosen L (of the weighted search).
+    pub components: usize,
+    /// The plain metric's L ([`super::NOISE_COMPONENTS`] when the images and the cost bound
+    /// allow).
+    pub plain_components: usize,
+    /// Every weighted candidate's (L, mean held-out error in degrees).
+    pub scored: Scores,
+    /// The plain metric's mean held-out error (None when not scored).
+    pub plain: Option<f64>,
+    /// The least of those mean errors (infinite when nothing could be held out).
+    pub least: f64,
+    /// The standard error of [`Self::least`]: the standard deviation of that candidate's
+    /// held-out views' errors over the square root of their number (0 when nothing could be
+    /// held out).
+    pub standard_error: f64,
 }
 
 /// As [`choose_components`], and when `params` weights the coordinates, also the mean held-out
 /// error of the plain (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates: the
-/// eigenspace's own metric, which the model falls back to when it scores better.
-pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Scores, Option<f64>)> {
-    let folds = folds(train, grid);
+/// eigenspace's own metric, which the model falls back to when it scores better; and the least
+/// error's standard error, which the choice of the binning factor weighs.
+pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) -> Result<Choice> {
+    let below = below_eigenspace(bin);
+    let folds = both_folds(train, grid);
     if folds.is_empty() {
-        return Ok((FALLBACK_COMPONENTS, Vec::new(), None));
+        let l = FALLBACK_COMPONENTS.min(below);
+        return Ok(Choice { components: l, plain_components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
     }
-    let (mut plain_sum, mut plain_n, mut plain_folds) = (0.0, 0usize, 0usize);
+    // Each held-out view's error, by candidate: the weighted ones', then the plain metric's.
+    let mut views: Vec<Vec<f64>> = Vec::new();
+    let mut plain_views: Vec<f64> = Vec::new();
+    let (mut plain_folds, mut plain_l) = (0usize, 0usize);
     let space = train.space();
     let m = train.n_features();
-    let mut sums: Vec<(usize, f64, usize, usize)> = Vec::new();
+    let mut sums: Vec<(usize, usize)> = Vec::new();
     for keep in &folds {
         let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
         let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max)? } else { None };
-        let plain_l = super::NOISE_COMPONENTS.min(l_max);
+        plain_l = plain_components(l_max, below);
         let cands: Vec<(usize, bool)> = CANDIDATES
             .iter()
-            .filter(|&&l| l <= l_max)
+            .filter(|&&l| l <= l_max && l <= below)
             .map(|&l| (l, false))
             .chain(params.weighted.then_some((plain_l, true)))
             .collect();
@@ -115,24 +170,80 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(u
             let model = RefinedModel::new(meta, settings, basis, mean, knots, background, sub_grid.axes.clone())?;
             let est = model.predict(test.features())?;
             let d = space.len();
-            let err: f64 = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d])).sum();
+            let errs = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d]));
             if plain {
-                (plain_sum, plain_n, plain_folds) = (plain_sum + err, plain_n + test.len(), plain_folds + 1);
+                plain_views.extend(errs);
+                plain_folds += 1;
                 continue;
             }
             if c >= sums.len() {
-                sums.push((l, 0.0, 0, 0));
+                sums.push((l, 0));
+                views.push(Vec::new());
             }
-            sums[c].1 += err;
-            sums[c].2 += test.len();
-            sums[c].3 += 1;
+            views[c].extend(errs);
+            sums[c].1 += 1;
         }
     }
     // Only candidates every fold could score.
-    let scored: Vec<(usize, f64)> = sums.iter().filter(|s| s.3 == folds.len()).map(|&(l, e, n, _)| (l, e / n.max(1) as f64)).collect();
-    let best = scored.iter().fold((FALLBACK_COMPONENTS, f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
-    let plain = (plain_folds == folds.len()).then(|| plain_sum / plain_n.max(1) as f64);
-    Ok((best.0, scored, plain))
+    let kept: Vec<(usize, &[f64])> = sums.iter().zip(&views).filter(|(s, _)| s.1 == folds.len()).map(|(s, v)| (s.0, &v[..])).collect();
+    let scored: Scores = kept.iter().map(|&(l, v)| (l, mean(v))).collect();
+    let best = scored.iter().fold((FALLBACK_COMPONENTS.min(below), f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
+    let plain = (plain_folds == folds.len()).then(|| mean(&plain_views));
+    // The least error's views: the plain metric's when it scored below every weighted L (as
+    // the model then uses it), else the best weighted L's.
+    let least_views = match plain {
+        Some(p) if p < best.1 => &plain_views[..],
+        _ => kept.iter().find(|k| k.0 == best.0).map_or(&[][..], |k| k.1),
+    };
+    let least = best.1.min(plain.unwrap_or(f64::INFINITY));
+    Ok(Choice { components: best.0, plain_components: plain_l, scored, plain, least, standard_error: standard_error(least_views) })
+}
+
+/// The most eigenimages whose product with images binned by `bin` costs less than the
+/// eigenspace's ([`super::NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels):
+/// the largest of [`CANDIDATES`] under NOISE_COMPONENTS bin^2. Unbinned, 16: at 20, the plain
+/// metric's query was the eigenspace's own product plus the noise route and the search, never
+/// cheaper (BENCHMARKS.md, nineteenth and twentieth sessions).
+pub fn below_eigenspace(bin: usize) -> usize {
+    let bound = super::NOISE_COMPONENTS * bin * bin;
+    CANDIDATES.iter().copied().filter(|&l| l < bound).max().unwrap_or(CANDIDATES[0])
+}
+
+/// The eigenimages of the plain metric: the eigenspace's [`super::NOISE_COMPONENTS`], at most
+/// the `l_max` available and `below` ([`below_eigenspace`]).
+fn plain_components(l_max: usize, below: usize) -> usize {
+    super::NOISE_COMPONENTS.min(l_max).min(below)
+}
+
+/// The one-standard-error rule (Hastie, Tibshirani & Friedman, The Elements of Statistical
+/// Learning, 7.10) over candidates ordered from the costliest to the cheapest, each given as
+/// (mean held-out error, its standard error): the cheapest whose error is within one standard
+/// error of the least (that least's own), so a difference the held-out views cannot tell from
+/// chance does not buy a costlier model. Returns its index and the standard error allowed (0
+/// and 0 for no candidates; with every error infinite, nothing held out, the cheapest).
+pub fn coarsest_within(scores: &[(f64, f64)]) -> (usize, f64) {
+    let Some(&(least, se)) = scores.iter().fold(None, |b: Option<&(f64, f64)>, s| if b.is_none_or(|b| s.0 < b.0) { Some(s) } else { b }) else {
+        return (0, 0.0);
+    };
+    let k = scores.iter().rposition(|s| s.0 <= least + se).unwrap_or(0);
+    (k, se)
+}
+
+/// The mean of `v` (0 when empty).
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The standard error of the mean of `v`: its sample standard deviation over sqrt(len) (0 for
+/// fewer than two values).
+pub fn standard_error(v: &[f64]) -> f64 {
+    let n = v.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let m = mean(v);
+    let var = v.iter().map(|&x| (x - m) * (x - m)).sum::<f64>() / (n - 1) as f64;
+    (var / n as f64).sqrt()
 }
 
 /// The settings of a model fitted on one fold: `l` components, all searched, nothing chosen.
@@ -141,6 +252,7 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
         params: *params,
         bin: 1,
         bin_selection: vec![],
+        bin_tolerance: 0.0,
         components: l,
         search_components: l,
         energy_kept: 0.0,
@@ -165,7 +277,7 @@ pub const NOISE_LEVELS: &[f64] = &[0.05, 0.1];
 pub const NOISE_SEED: u64 = 0x5e1ec7;
 
 /// Chooses the match of noisy queries ([`RefinedModel`]'s affine match) from the training views
-/// alone: on the folds of [`choose`], the held-out views get simulated uniform noise at each of
+/// alone: on the folds of [`folds`], the held-out views get simulated uniform noise at each of
 /// [`NOISE_LEVELS`] (clipped, fixed seed) and are estimated with every candidate, L among
 /// [`CANDIDATES`] up to `l_cap`, weighted or plain; the least mean pose error wins (a tie goes
 /// to the smaller L, then to the plain metric). None when no fold is possible. `train` is what

@@ -114,15 +114,62 @@ fn unseen_views_are_close_and_the_file_round_trips() {
 fn selection_picks_the_least_held_out_error() {
     let d = train_set();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
-    let (l, scored, plain) = select::choose(&d, &g, &RefinedParams::default()).unwrap();
-    let best = scored.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
-    let first = scored.iter().find(|s| s.1 == best).unwrap().0;
-    assert_eq!(l, first);
-    // The plain metric is scored too, and the fitted model uses it exactly when it wins.
-    let plain = plain.expect("the weighted default scores the plain metric");
-    let model = RefinedParams::default().fit(&d).unwrap();
+    let c = select::choose(&d, &g, &RefinedParams::default(), 1).unwrap();
+    let best = c.scored.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    let first = c.scored.iter().find(|s| s.1 == best).unwrap().0;
+    assert_eq!(c.components, first);
+    // The plain metric is scored too, and a model fitted on these images uses it exactly when
+    // it wins.
+    let plain = c.plain.expect("the weighted default scores the plain metric");
+    assert_eq!(c.least, best.min(plain));
+    assert!(c.standard_error > 0.0 && c.standard_error < c.least, "{c:?}");
+    let model = RefinedParams::default().bin(1).fit(&d).unwrap();
     assert_eq!(model.settings().plain_error, Some(plain));
     assert_eq!(model.settings().interpolation_variance.is_empty(), plain < best);
+    // Unbinned, no candidate's product is as large as the eigenspace's 20 rows.
+    assert!(c.scored.iter().all(|s| s.0 <= 16) && c.plain_components <= 16, "{c:?}");
+    assert!(model.components() <= 16, "{}", model.components());
+}
+
+#[test]
+fn every_knot_is_held_out_once() {
+    let d = train_set();
+    let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
+    let shape = g.shape();
+    let folds = select::both_folds(&d, &g);
+    // The first half are the odd knots' folds (one per usable axis), then the even ones'.
+    assert_eq!(folds[..folds.len() / 2], select::folds(&d, &g)[..]);
+    for (j, pair) in folds[..folds.len() / 2].iter().zip(&folds[folds.len() / 2..]).enumerate() {
+        let axis = (0..shape.len()).filter(|&a| shape[a] >= 4).nth(j).unwrap();
+        let circular = d.space().params()[axis].period.is_some();
+        let n = shape[axis];
+        for (flat, &i) in g.sample_at.iter().enumerate() {
+            let k = flat / shape[axis + 1..].iter().product::<usize>() % n;
+            let end = !circular && (k == 0 || k == n - 1);
+            // Held out in exactly one of the two folds, or (a linear axis's ends) in neither.
+            let held = [!pair.0[i], !pair.1[i]];
+            assert_eq!(held.iter().filter(|&&h| h).count(), usize::from(!end), "axis {axis} knot {k}");
+        }
+    }
+}
+
+#[test]
+fn the_one_standard_error_rule_takes_the_cheapest_within_it() {
+    // (mean error, its standard error), costliest first.
+    assert_eq!(select::coarsest_within(&[(1.0, 0.1), (1.05, 0.2), (1.2, 0.1)]), (1, 0.1));
+    assert_eq!(select::coarsest_within(&[(1.0, 0.1), (1.1, 0.2), (1.05, 0.1)]), (2, 0.1));
+    // The least's own standard error sets the tolerance; a tie in the least goes to the first.
+    assert_eq!(select::coarsest_within(&[(2.0, 0.5), (1.0, 0.0), (1.0, 0.3)]), (2, 0.0));
+    assert_eq!(select::coarsest_within(&[(0.5, 0.0), (0.6, 1.0)]), (0, 0.0));
+    // Nothing held out (every error infinite): the cheapest; no candidate: index 0.
+    assert_eq!(select::coarsest_within(&[(f64::INFINITY, 0.0), (f64::INFINITY, 0.0)]), (1, 0.0));
+    assert_eq!(select::coarsest_within(&[]), (0, 0.0));
+    assert_eq!(select::standard_error(&[1.0]), 0.0);
+    // [0, 1, 2]: sample standard deviation 1, over sqrt(3).
+    assert!((select::standard_error(&[0.0, 1.0, 2.0]) - 1.0 / 3f64.sqrt()).abs() < 1e-15);
+    assert_eq!(select::below_eigenspace(1), 16);
+    assert_eq!(select::below_eigenspace(2), 20);
+    assert_eq!(select::below_eigenspace(4), 20);
 }
 
 #[test]
@@ -820,16 +867,23 @@ fn the_binning_factor_is_checked_and_kept_in_the_file() {
 }
 
 #[test]
-fn the_automatic_binning_factor_is_the_least_held_out_error() {
+fn the_automatic_binning_factor_is_the_coarsest_within_a_standard_error() {
     let d = train_set();
     let model = RefinedParams::default().auto_bin().fit(&d).unwrap();
     let s = model.settings();
     // 32 x 12 images: by 4 they keep 8 x 3 pixels, so all three candidates are scored.
     let factors: Vec<usize> = s.bin_selection.iter().map(|c| c.0).collect();
     assert_eq!(factors, BIN_CANDIDATES);
+    // The coarsest within one standard error of the least (that least's own, recorded).
     let least = s.bin_selection.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
-    let chosen = s.bin_selection.iter().rev().find(|c| c.1 == least).unwrap().0;
-    assert_eq!(s.bin, chosen, "{:?}", s.bin_selection);
+    let chosen = s.bin_selection.iter().rev().find(|c| c.1 <= least + s.bin_tolerance).unwrap().0;
+    assert_eq!(s.bin, chosen, "{:?} {}", s.bin_selection, s.bin_tolerance);
+    let b_least = s.bin_selection.iter().find(|c| c.1 == least).unwrap().0;
+    let images = if b_least == 1 { d.clone() } else { binned(&d, b_least) };
+    let g = Grid::new(images.space(), images.poses(), images.manifest().images(), images.manifest().root()).unwrap();
+    let c = select::choose(&images, &g, &RefinedParams::default().bin(1), b_least).unwrap();
+    assert_eq!((c.least, c.standard_error), (least, s.bin_tolerance));
+    assert!(s.bin_tolerance > 0.0);
     // Each candidate's score is what the choice of L on its images gives.
     for &(b, e) in &s.bin_selection {
         let fixed = RefinedParams::default().bin(b).fit(&d).unwrap();
