@@ -103,9 +103,6 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
 pub struct Choice {
     /// The chosen L (of the weighted search).
     pub components: usize,
-    /// The plain metric's L ([`super::NOISE_COMPONENTS`] when the images and the cost bound
-    /// allow).
-    pub plain_components: usize,
     /// Every weighted candidate's (L, mean held-out error in degrees).
     pub scored: Scores,
     /// The plain metric's mean held-out error (None when not scored).
@@ -118,8 +115,9 @@ pub struct Choice {
     pub standard_error: f64,
 }
 
-/// As [`choose_components`], and when `params` weights the coordinates, also the mean held-out
-/// error of the plain (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates: the
+/// As [`choose_components`] on images binned by `bin` (which bounds L, [`below_eigenspace`]),
+/// and when `params` weights the coordinates, also the mean held-out error of the plain
+/// (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates (within that bound): the
 /// eigenspace's own metric, which the model falls back to when it scores better; and the least
 /// error's standard error, which the choice of the binning factor weighs.
 pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) -> Result<Choice> {
@@ -127,12 +125,12 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
     let folds = both_folds(train, grid);
     if folds.is_empty() {
         let l = FALLBACK_COMPONENTS.min(below);
-        return Ok(Choice { components: l, plain_components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
+        return Ok(Choice { components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
     }
     // Each held-out view's error, by candidate: the weighted ones', then the plain metric's.
     let mut views: Vec<Vec<f64>> = Vec::new();
     let mut plain_views: Vec<f64> = Vec::new();
-    let (mut plain_folds, mut plain_l) = (0usize, 0usize);
+    let mut plain_folds = 0usize;
     let space = train.space();
     let m = train.n_features();
     let mut sums: Vec<(usize, usize)> = Vec::new();
@@ -141,7 +139,7 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
         let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max)? } else { None };
-        plain_l = plain_components(l_max, below);
+        let plain_l = super::NOISE_COMPONENTS.min(l_max).min(below);
         let cands: Vec<(usize, bool)> = CANDIDATES
             .iter()
             .filter(|&&l| l <= l_max && l <= below)
@@ -196,7 +194,7 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
         _ => kept.iter().find(|k| k.0 == best.0).map_or(&[][..], |k| k.1),
     };
     let least = best.1.min(plain.unwrap_or(f64::INFINITY));
-    Ok(Choice { components: best.0, plain_components: plain_l, scored, plain, least, standard_error: standard_error(least_views) })
+    Ok(Choice { components: best.0, scored, plain, least, standard_error: standard_error(least_views) })
 }
 
 /// The most eigenimages whose product with images binned by `bin` costs less than the
@@ -209,12 +207,6 @@ pub fn below_eigenspace(bin: usize) -> usize {
     CANDIDATES.iter().copied().filter(|&l| l < bound).max().unwrap_or(CANDIDATES[0])
 }
 
-/// The eigenimages of the plain metric: the eigenspace's [`super::NOISE_COMPONENTS`], at most
-/// the `l_max` available and `below` ([`below_eigenspace`]).
-fn plain_components(l_max: usize, below: usize) -> usize {
-    super::NOISE_COMPONENTS.min(l_max).min(below)
-}
-
 /// The one-standard-error rule (Hastie, Tibshirani & Friedman, The Elements of Statistical
 /// Learning, 7.10) over candidates ordered from the costliest to the cheapest, each given as
 /// (mean held-out error, its standard error): the cheapest whose error is within one standard
@@ -222,7 +214,7 @@ fn plain_components(l_max: usize, below: usize) -> usize {
 /// chance does not buy a costlier model. Returns its index and the standard error allowed (0
 /// and 0 for no candidates; with every error infinite, nothing held out, the cheapest).
 pub fn coarsest_within(scores: &[(f64, f64)]) -> (usize, f64) {
-    let Some(&(least, se)) = scores.iter().fold(None, |b: Option<&(f64, f64)>, s| if b.is_none_or(|b| s.0 < b.0) { Some(s) } else { b }) else {
+    let Some(&(least, se)) = scores.iter().min_by(|a, b| a.0.total_cmp(&b.0)) else {
         return (0, 0.0);
     };
     let k = scores.iter().rposition(|s| s.0 <= least + se).unwrap_or(0);
