@@ -127,13 +127,13 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
         let l = FALLBACK_COMPONENTS.min(below);
         return Ok(Choice { components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
     }
-    // Each held-out view's error, by candidate: the weighted ones', then the plain metric's.
-    let mut views: Vec<Vec<f64>> = Vec::new();
+    // Each weighted candidate's L, the folds that scored it and its held-out views' errors; the
+    // plain metric's errors and folds.
+    let mut weighted: Vec<(usize, usize, Vec<f64>)> = Vec::new();
     let mut plain_views: Vec<f64> = Vec::new();
     let mut plain_folds = 0usize;
     let space = train.space();
     let m = train.n_features();
-    let mut sums: Vec<(usize, usize)> = Vec::new();
     for keep in &folds {
         let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
@@ -174,16 +174,15 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
                 plain_folds += 1;
                 continue;
             }
-            if c >= sums.len() {
-                sums.push((l, 0));
-                views.push(Vec::new());
+            if c >= weighted.len() {
+                weighted.push((l, 0, Vec::new()));
             }
-            views[c].extend(errs);
-            sums[c].1 += 1;
+            weighted[c].1 += 1;
+            weighted[c].2.extend(errs);
         }
     }
     // Only candidates every fold could score.
-    let kept: Vec<(usize, &[f64])> = sums.iter().zip(&views).filter(|(s, _)| s.1 == folds.len()).map(|(s, v)| (s.0, &v[..])).collect();
+    let kept: Vec<(usize, &[f64])> = weighted.iter().filter(|w| w.1 == folds.len()).map(|w| (w.0, &w.2[..])).collect();
     let scored: Scores = kept.iter().map(|&(l, v)| (l, mean(v))).collect();
     let best = scored.iter().fold((FALLBACK_COMPONENTS.min(below), f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
     let plain = (plain_folds == folds.len()).then(|| mean(&plain_views));
