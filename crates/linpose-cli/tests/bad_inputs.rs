@@ -166,6 +166,8 @@ const CASES: &[Case] = &[
     case("negative_manifold_step", &[], &["train", "--data", "data", "--method", "eigenspace", "--manifold-step", "-0.5", "--out", "e"], 1, &["manifold step", "positive"]),
     case("zero_components", &[], &["train", "--data", "data", "--method", "eigenspace", "--components", "0", "--out", "e"], 1, &["components", "at least one"]),
     case("energy_above_one", &[], &["train", "--data", "data", "--method", "eigenspace", "--energy", "1.5", "--out", "e"], 1, &["energy", "(0, 1]"]),
+    case("unknown_interpolant", &[], &["train", "--data", "data", "--method", "refined", "--interpolant", "cubic", "--out", "e"], 1, &["--interpolant cubic", "'spline', 'local' or 'auto'"]),
+    case("bin_not_a_number", &[], &["train", "--data", "data", "--method", "refined", "--bin", "two", "--out", "e"], 1, &["--bin two", "whole number or 'auto'"]),
     case("nan_train_step", &[], &["train", "--data", "data", "--train-step", "nan", "--out", "e"], 1, &["train step", "positive"]),
     case("negative_components", &[], &["train", "--data", "data", "--method", "eigenspace", "--components=-3", "--out", "e"], 2, &["--components", "-3"]),
     case("data_is_a_file", &[], &["train", "--data", "data/a000.png", "--out", "e"], 1, &["a000.png", "not a folder"]),

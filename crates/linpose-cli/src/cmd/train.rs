@@ -70,6 +70,12 @@ pub struct TrainArgs {
     /// error of the least.
     #[arg(long, value_name = "B|auto")]
     pub bin: Option<String>,
+    /// Refined: how the manifold passes between the training views: `spline` (the C2 cubic
+    /// spline, the eigenspace's), `local` (each knot's slope from its two neighbours alone,
+    /// Catmull-Rom on uniform knots), or `auto` (the default) to choose by the held-out error
+    /// of the training views, with L.
+    #[arg(long, value_name = "spline|local|auto")]
+    pub interpolant: Option<String>,
     /// Linear model: read the images from disk in blocks instead of all at once, for training
     /// sets larger than memory. With N <= M images this is the usual minimum-norm fit; with
     /// N > M it is least squares / ridge through X^T X (M x M), which needs --ridge when some
@@ -153,6 +159,10 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
                 None => {}
                 Some("auto") => p = p.auto_bin(),
                 Some(v) => p = p.bin(v.parse().map_err(|_| anyhow::anyhow!("--bin {v}: expected a whole number or 'auto'"))?),
+            }
+            match a.interpolant.as_deref() {
+                None | Some("auto") => p = p.auto_interpolant(),
+                Some(v) => p = p.interpolant(v.parse().map_err(|_| anyhow::anyhow!("--interpolant {v}: expected 'spline', 'local' or 'auto'"))?),
             }
             p.fit(&train)?.into()
         }

@@ -44,6 +44,19 @@ impl Spline {
     /// A spline through `knots` (strictly increasing, finite) with `boundary`. For a periodic
     /// spline give only the distinct knots, all within one period: the closing knot is added.
     pub fn new(knots: &[f64], boundary: Boundary) -> Result<Self> {
+        Self::build(knots, boundary, false)
+    }
+
+    /// The local cubic through `knots`: each knot's slope is the derivative of the parabola
+    /// through it and its two neighbours (Bessel's slope; on uniform knots the central difference,
+    /// Catmull-Rom's), the ends of a linear axis the derivative of the parabola through the first
+    /// or last three knots. The curve is C1, reproduces quadratics, and a value moves it only on
+    /// the four pieces around its knot, where the C2 spline of [`Spline::new`] couples every knot.
+    pub fn local(knots: &[f64], boundary: Boundary) -> Result<Self> {
+        Self::build(knots, boundary, true)
+    }
+
+    fn build(knots: &[f64], boundary: Boundary, local: bool) -> Result<Self> {
         if knots.is_empty() {
             return Err(Error::invalid("spline knots", "[]", "at least one knot is needed"));
         }
@@ -53,6 +66,7 @@ impl Spline {
         let n = knots.len();
         let mut x = knots.to_vec();
         let slope_op = match boundary {
+            Boundary::NotAKnot if local => local_slopes(&x, false),
             Boundary::NotAKnot => not_a_knot_slopes(&x),
             Boundary::Periodic(period) => {
                 let close = knots[0] + period;
@@ -64,7 +78,11 @@ impl Spline {
                     ));
                 }
                 x.push(close);
-                periodic_slopes(&x)
+                if local {
+                    local_slopes(&x, true)
+                } else {
+                    periodic_slopes(&x)
+                }
             }
         };
         if slope_op.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
@@ -163,6 +181,54 @@ fn add_secant(row: &mut [f64], x: &[f64], k: usize, coef: f64) {
     let h = x[k + 1] - x[k];
     row[(k + 1) % n] += coef / h;
     row[k % n] -= coef / h;
+}
+
+/// S of [`Spline::local`] on the knots `x` (for a periodic spline the closing knot last): row i
+/// holds s_i = (dx_i m_{i-1} + dx_{i-1} m_i) / (dx_{i-1} + dx_i), the derivative at x_i of the
+/// parabola through x_{i-1}, x_i, x_{i+1} (wrapping round when periodic); the ends of a linear
+/// axis s_0 = ((2 dx_0 + dx_1) m_0 - dx_0 m_1) / (dx_0 + dx_1) and its mirror image. Two knots
+/// give a line (both slopes the secant), one a constant.
+fn local_slopes(x: &[f64], periodic: bool) -> Mat<f64> {
+    let n = if periodic { x.len() - 1 } else { x.len() };
+    let mut s = Mat::<f64>::zeros(n, n);
+    let mut row = vec![0.0; n];
+    for i in 0..n {
+        row.fill(0.0);
+        if periodic && n >= 2 {
+            // Pieces k - 1 and k of the closed curve: x[n] closes x[0].
+            let prev = (i + n - 1) % n;
+            let (h0, h1) = (if i == 0 { x[n] - x[n - 1] } else { x[i] - x[i - 1] }, x[i + 1] - x[i]);
+            add_secant_of(&mut row, prev, i, h0, h1 / (h0 + h1));
+            add_secant_of(&mut row, i, (i + 1) % n, h1, h0 / (h0 + h1));
+        } else if n == 2 {
+            add_secant(&mut row, x, 0, 1.0);
+        } else if n >= 3 {
+            // The parabola through three consecutive knots, differentiated at the wanted one.
+            let (k, at) = match i {
+                0 => (0, 0),
+                _ if i == n - 1 => (n - 3, 2),
+                _ => (i - 1, 1),
+            };
+            let (h0, h1) = (x[k + 1] - x[k], x[k + 2] - x[k + 1]);
+            let (w0, w1) = match at {
+                0 => ((2.0 * h0 + h1) / (h0 + h1), -h0 / (h0 + h1)),
+                1 => (h1 / (h0 + h1), h0 / (h0 + h1)),
+                _ => (-h1 / (h0 + h1), (h0 + 2.0 * h1) / (h0 + h1)),
+            };
+            add_secant(&mut row, x, k, w0);
+            add_secant(&mut row, x, k + 1, w1);
+        }
+        for (c, &v) in row.iter().enumerate() {
+            s[(i, c)] = v;
+        }
+    }
+    s
+}
+
+/// `coef` times the secant slope (y_b - y_a) / h into `row`.
+fn add_secant_of(row: &mut [f64], a: usize, b: usize, h: f64, coef: f64) {
+    row[b] += coef / h;
+    row[a] -= coef / h;
 }
 
 /// S for not-a-knot ends (SciPy's rows, including its 2- and 3-knot special cases).
@@ -291,10 +357,61 @@ mod tests {
         let x = [0.0, 0.5, 2.0, 2.25, 7.0, 9.0, 9.5];
         let y = [1.0, -2.0, 0.5, 3.0, -1.0, 0.0, 4.0];
         for b in [Boundary::NotAKnot, Boundary::Periodic(12.0)] {
-            let sp = Spline::new(&x, b).unwrap();
+            for sp in [Spline::new(&x, b).unwrap(), Spline::local(&x, b).unwrap()] {
             let r = sp.resample(&y, 1, &x);
             for (a, b) in r.iter().zip(&y) {
                 assert!((a - b).abs() <= 4.0 * f64::EPSILON * 4.0, "{a} vs {b}");
+            }
+            }
+        }
+    }
+
+    /// Bessel's slopes are the derivatives of the parabola through three knots: a parabola is
+    /// reproduced exactly, ends and uneven spacing included, slopes and values between knots.
+    #[test]
+    fn the_local_cubic_reproduces_a_parabola() {
+        let x = [-1.0, 0.5, 2.0, 2.25, 7.0, 9.0, 9.5];
+        let p = |t: f64| 3.0 * t * t - 2.0 * t + 1.0;
+        let y: Vec<f64> = x.iter().map(|&t| p(t)).collect();
+        let sp = Spline::local(&x, Boundary::NotAKnot).unwrap();
+        let s = sp.slopes(&y, 1);
+        for (&t, &sk) in x.iter().zip(&s) {
+            assert!((sk - (6.0 * t - 2.0)).abs() < 1e-12 * 60.0, "slope at {t}: {sk}");
+        }
+        for k in 0..=105 {
+            let t = -1.0 + 0.1 * k as f64;
+            assert!((sp.eval(&y, &s, t) - p(t)).abs() < 1e-12 * 300.0, "at {t}");
+        }
+        // Two knots: a line; on even periodic knots the slopes are central differences.
+        let line = Spline::local(&[1.0, 3.0], Boundary::NotAKnot).unwrap();
+        assert_eq!(line.slopes(&[2.0, 6.0], 1), vec![2.0, 2.0]);
+        let even: Vec<f64> = (0..12).map(|k| 30.0 * k as f64).collect();
+        let v: Vec<f64> = (0..12).map(|k| ((k * 7) % 5) as f64).collect();
+        let s = Spline::local(&even, Boundary::Periodic(360.0)).unwrap().slopes(&v, 1);
+        for k in 0..12 {
+            let want = (v[(k + 1) % 12] - v[(k + 11) % 12]) / 60.0;
+            assert!((s[k] - want).abs() < 1e-15, "slope {k}: {} vs {want}", s[k]);
+        }
+    }
+
+    /// A value moves the local cubic only on the four pieces around its knot; the spline's
+    /// moves everywhere.
+    #[test]
+    fn the_local_cubic_moves_only_near_a_changed_value() {
+        let x: Vec<f64> = (0..12).map(|k| 30.0 * k as f64).collect();
+        let y0 = vec![0.0; 12];
+        let mut y1 = y0.clone();
+        y1[5] = 1.0;
+        let at: Vec<f64> = (0..360).map(|t| t as f64 + 0.5).collect();
+        for (sp, local) in [(Spline::local(&x, Boundary::Periodic(360.0)).unwrap(), true), (Spline::new(&x, Boundary::Periodic(360.0)).unwrap(), false)] {
+            let (a, b) = (sp.resample(&y0, 1, &at), sp.resample(&y1, 1, &at));
+            for ((&t, &u), &v) in at.iter().zip(&a).zip(&b) {
+                let near = (90.0..210.0).contains(&t);
+                if local {
+                    assert_eq!(u != v, near, "at {t}");
+                } else if !near {
+                    assert!(u != v, "the spline rings at {t}");
+                }
             }
         }
     }

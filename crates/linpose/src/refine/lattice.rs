@@ -842,7 +842,7 @@ mod simd {
 mod tests {
     use super::*;
     use crate::pose::{Param, PoseSpace};
-    use crate::refine::surface::Surface;
+    use crate::refine::surface::{Interpolant, Surface, INTERPOLANTS};
 
     struct Rng(u64);
     impl Rng {
@@ -855,10 +855,10 @@ mod tests {
     }
 
     /// A random curve of `dim` coordinates through knots at `at`.
-    fn curve(at: &[f64], dim: usize, circular: bool, rng: &mut Rng) -> Surface {
+    fn curve(at: &[f64], dim: usize, circular: bool, interpolant: Interpolant, rng: &mut Rng) -> Surface {
         let space = PoseSpace::new(vec![if circular { Param::circular("azimuth", 360.0) } else { Param::linear("elevation") }]).unwrap();
         let knots: Vec<f64> = (0..at.len() * dim).map(|_| rng.next()).collect();
-        Surface::new(&space, &[at.to_vec()], &knots, dim).unwrap()
+        Surface::new(&space, &[at.to_vec()], &knots, dim, interpolant).unwrap()
     }
 
     /// Every lattice pose of `s` (and the end of a linear axis) with its weighted squared
@@ -892,8 +892,9 @@ mod tests {
         let single = [20.0, 25.3];
         let cases: [(&[f64], bool, usize, usize); 5] = [(&even36, true, 20, 20), (&even36, true, 12, 8), (&uneven, true, 9, 9), (&linear, false, 6, 6), (&single, false, 5, 5)];
         let mut pruned = 0;
-        for (at, circular, dim, ls) in cases {
-            let s = curve(at, dim, circular, &mut rng);
+        // Each case with either interpolant: the search takes any cubic Hermite curve.
+        for (k, (at, circular, dim, ls)) in cases.into_iter().flat_map(|c| [c, c]).enumerate() {
+            let s = curve(at, dim, circular, INTERPOLANTS[k % 2], &mut rng);
             let (knots, period, v, sl, d) = s.line_parts().unwrap();
             let lat = Lattice::new(knots, period, v, sl, d, ls, 0.5);
             let even = std::ptr::eq(at, &even36[..]) || std::ptr::eq(at, &single[..]);

@@ -144,6 +144,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+pub use surface::{Interpolant, INTERPOLANTS};
 use surface::Surface;
 
 /// The method's name in model files and on the command line.
@@ -166,6 +167,15 @@ pub struct RefinedParams {
     /// None: chosen from the training data, [`BIN_CANDIDATES`]).
     #[serde(default = "bin_one")]
     bin: Option<usize>,
+    /// How the surface interpolates between knots (None: chosen from the training data among
+    /// [`INTERPOLANTS`]).
+    #[serde(default = "spline_interpolant")]
+    interpolant: Option<Interpolant>,
+}
+
+/// The interpolant asked for by models written before it existed: the spline.
+fn spline_interpolant() -> Option<Interpolant> {
+    Some(Interpolant::Spline)
 }
 
 /// The binning factor asked for by models written before it existed: none.
@@ -187,7 +197,7 @@ pub const WEIGHT_FLOOR: f64 = 0.01;
 
 impl Default for RefinedParams {
     fn default() -> Self {
-        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: None }
+        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: None, interpolant: None }
     }
 }
 
@@ -247,6 +257,24 @@ impl RefinedParams {
         self
     }
 
+    /// Interpolate the surface between knots by `interpolant` instead of choosing it.
+    pub fn interpolant(mut self, interpolant: Interpolant) -> Self {
+        self.interpolant = Some(interpolant);
+        self
+    }
+
+    /// Choose the interpolant from the training data (the default): with L and the metric, by
+    /// the same held-out views ([`select::choose`]), the spline on a tie.
+    pub fn auto_interpolant(mut self) -> Self {
+        self.interpolant = None;
+        self
+    }
+
+    /// The interpolant asked for (None: chosen from the data).
+    pub fn fixed_interpolant(&self) -> Option<Interpolant> {
+        self.interpolant
+    }
+
     /// The binning factor asked for (None: chosen from the data).
     pub fn fixed_bin(&self) -> Option<usize> {
         self.bin
@@ -294,6 +322,14 @@ pub struct RefinedSettings {
     /// models written before it, which took the least).
     #[serde(default)]
     pub bin_tolerance: f64,
+    /// How the surface interpolates between knots (the spline in models written before the
+    /// choice existed).
+    #[serde(default)]
+    pub interpolant: Interpolant,
+    /// The automatic choice of the interpolant: each candidate with its least held-out error
+    /// (degrees) on the chosen binning factor's images (empty when fixed).
+    #[serde(default)]
+    pub interpolant_selection: Vec<(Interpolant, f64)>,
     /// Eigenimages kept, L.
     pub components: usize,
     /// Eigenimages of the weighted search of a clean query (the first ones; 0: all). The rest
@@ -394,14 +430,22 @@ impl Estimator for RefinedParams {
         let train = train.as_ref().unwrap_or(full);
         let views = Views { full, binning };
         let space = train.space();
-        let (l_max, selection, plain_error) = match (self.components, chosen) {
-            (Some(l), _) => (l, Vec::new(), None),
-            (None, Some(c)) => (c.components, c.scored, c.plain),
-            (None, None) => {
-                let c = select::choose(train, &grid, &inner, binning.factor())?;
-                (c.components, c.scored, c.plain)
-            }
+        // L and the interpolant, each fixed or chosen on the held-out views.
+        let chosen = match chosen {
+            None if self.components.is_none() || self.interpolant.is_none() => Some(select::choose(train, &grid, &inner, binning.factor())?),
+            c => c,
         };
+        let interpolant = self.interpolant.or(chosen.as_ref().map(|c| c.interpolant)).unwrap_or_default();
+        let interpolant_selection = match (self.interpolant, &chosen) {
+            (None, Some(c)) => c.by_interpolant.clone(),
+            _ => Vec::new(),
+        };
+        let (l_max, selection, plain_error) = match (self.components, chosen) {
+            (None, Some(c)) => (c.components, c.scored, c.plain),
+            (l, _) => (l.unwrap_or(select::FALLBACK_COMPONENTS), Vec::new(), None),
+        };
+        // Everything fitted from here on interpolates as the model will.
+        let inner = RefinedParams { interpolant: Some(interpolant), ..inner };
         // The plain metric wins when it scored better on the held-out views than every weighted L.
         let best_weighted = selection.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
         let plain = plain_error.is_some_and(|e| e < best_weighted);
@@ -427,7 +471,7 @@ impl Estimator for RefinedParams {
         let l = pca.dim();
         // Each coordinate weighted by the inverse of its interpolation error (see the module
         // doc): basis and knots scaled by sqrt(w), so the search is Euclidean.
-        let coord_variance = select::interpolation_variance(train, &grid, &pca.coords, l)?;
+        let coord_variance = select::interpolation_variance(train, &grid, &pca.coords, l, interpolant)?;
         let sigma2 = if weighted { coord_variance.as_ref().map(|s| s[..l_search].to_vec()) } else { None };
         let scale = search_scale(sigma2.as_deref(), l_search, l);
         // The route measures a query's noise on the image as given: so is the threshold.
@@ -447,6 +491,8 @@ impl Estimator for RefinedParams {
             bin: binning.factor(),
             bin_selection,
             bin_tolerance,
+            interpolant,
+            interpolant_selection,
             components: l,
             search_components: l_search,
             energy_kept: pca.energy_kept(),
@@ -921,12 +967,12 @@ impl RefinedModel {
         assert_eq!(binning.spec().features(), m, "a mean image of the binned size");
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
-        let surface = Surface::new(&meta.space, &axes, &k64, l)?;
+        let surface = Surface::new(&meta.space, &axes, &k64, l, settings.interpolant)?;
         let start_poses = surface.grid_poses(settings.params.per_cell);
         let start_shape = surface.grid_shape(settings.params.per_cell);
         let d = axes.len();
         let b64: Vec<f64> = background.iter().map(|&v| v as f64).collect();
-        let bg_surface = Surface::new(&meta.space, &axes, &b64, l)?;
+        let bg_surface = Surface::new(&meta.space, &axes, &b64, l, settings.interpolant)?;
         let n_start = start_poses.len() / d;
         let mut start_points = vec![0f32; n_start * l];
         let mut bg_start = vec![0f32; n_start * l];

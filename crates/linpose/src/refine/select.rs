@@ -24,7 +24,7 @@
 //! When no axis has enough knots (fewer than 4), L falls back to [`FALLBACK_COMPONENTS`], the
 //! eigenspace's default.
 
-use super::{RefinedModel, RefinedParams, RefinedSettings, Views, MAX_AUTO_COMPONENTS, METHOD};
+use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, MAX_AUTO_COMPONENTS, METHOD};
 use crate::dataset::Dataset;
 use crate::eigenspace::manifold::Grid;
 use crate::eigenspace::pca::{self, Dimension};
@@ -101,6 +101,10 @@ pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -
 /// What [`choose`] found on one set of training images.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Choice {
+    /// The chosen interpolant (the one asked for when fixed).
+    pub interpolant: Interpolant,
+    /// Every interpolant scored, with its least mean held-out error (degrees).
+    pub by_interpolant: Vec<(Interpolant, f64)>,
     /// The chosen L (of the weighted search).
     pub components: usize,
     /// Every weighted candidate's (L, mean held-out error in degrees).
@@ -123,77 +127,99 @@ pub struct Choice {
 pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) -> Result<Choice> {
     let below = below_eigenspace(bin);
     let folds = both_folds(train, grid);
+    let interpolants = params.fixed_interpolant().map_or(INTERPOLANTS.to_vec(), |i| vec![i]);
     if folds.is_empty() {
         let l = FALLBACK_COMPONENTS.min(below);
-        return Ok(Choice { components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
+        let interpolant = interpolants[0];
+        return Ok(Choice { interpolant, by_interpolant: Vec::new(), components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
     }
-    // Each weighted candidate's L, the folds that scored it and its held-out views' errors; the
-    // plain metric's errors and folds.
-    let mut weighted: Vec<(usize, usize, Vec<f64>)> = Vec::new();
-    let mut plain_views: Vec<f64> = Vec::new();
-    let mut plain_folds = 0usize;
+    let mut tallies: Vec<Tally> = interpolants.iter().map(|_| Tally::default()).collect();
     let space = train.space();
     let m = train.n_features();
     for keep in &folds {
         let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
-        let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max)? } else { None };
         let plain_l = super::NOISE_COMPONENTS.min(l_max).min(below);
-        let cands: Vec<(usize, bool)> = CANDIDATES
-            .iter()
-            .filter(|&&l| l <= l_max && l <= below)
-            .map(|&l| (l, false))
-            .chain(params.weighted.then_some((plain_l, true)))
-            .collect();
-        for (c, &(l, plain)) in cands.iter().enumerate() {
-            let sig = if plain { None } else { sigma2.as_ref().map(|s| s[..l].to_vec()) };
-            let scale = super::weights(sig.as_deref(), l);
-            let mut basis = Vec::with_capacity(l * m);
-            for (row, &s) in pca.basis.chunks_exact(m).zip(&scale).take(l) {
-                basis.extend(row.iter().map(|&v| (v * s) as f32));
+        for (&interpolant, tally) in interpolants.iter().zip(&mut tallies) {
+            let params = params.interpolant(interpolant);
+            let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max, interpolant)? } else { None };
+            let cands: Vec<(usize, bool)> = CANDIDATES
+                .iter()
+                .filter(|&&l| l <= l_max && l <= below)
+                .map(|&l| (l, false))
+                .chain(params.weighted.then_some((plain_l, true)))
+                .collect();
+            for (c, &(l, plain)) in cands.iter().enumerate() {
+                let sig = if plain { None } else { sigma2.as_ref().map(|s| s[..l].to_vec()) };
+                let scale = super::weights(sig.as_deref(), l);
+                let mut basis = Vec::with_capacity(l * m);
+                for (row, &s) in pca.basis.chunks_exact(m).zip(&scale).take(l) {
+                    basis.extend(row.iter().map(|&v| (v * s) as f32));
+                }
+                let mut knots = Vec::with_capacity(sub_grid.sample_at.len() * l);
+                for &i in &sub_grid.sample_at {
+                    knots.extend(pca.coords[i * l_max..i * l_max + l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
+                }
+                let settings = RefinedSettings {
+                    interpolation_variance: sig.unwrap_or_default(),
+                    residual_energy: pca.eigenvalues[l..].iter().map(|&v| v.max(0.0)).sum::<f64>() / fit.len() as f64,
+                    ..fold_settings(&params, l, sub_grid.shape())
+                };
+                let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
+                let mean = pca.mean.iter().map(|&v| v as f32).collect();
+                let background = vec![0.0; knots.len()];
+                let model = RefinedModel::new(meta, settings, basis, mean, knots, background, sub_grid.axes.clone())?;
+                let est = model.predict(test.features())?;
+                let d = space.len();
+                let errs = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d]));
+                if plain {
+                    tally.plain_views.extend(errs);
+                    tally.plain_folds += 1;
+                    continue;
+                }
+                if c >= tally.weighted.len() {
+                    tally.weighted.push((l, 0, Vec::new()));
+                }
+                tally.weighted[c].1 += 1;
+                tally.weighted[c].2.extend(errs);
             }
-            let mut knots = Vec::with_capacity(sub_grid.sample_at.len() * l);
-            for &i in &sub_grid.sample_at {
-                knots.extend(pca.coords[i * l_max..i * l_max + l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
-            }
-            let settings = RefinedSettings {
-                interpolation_variance: sig.unwrap_or_default(),
-                residual_energy: pca.eigenvalues[l..].iter().map(|&v| v.max(0.0)).sum::<f64>() / fit.len() as f64,
-                ..fold_settings(params, l, sub_grid.shape())
-            };
-            let meta = ModelMeta { method: METHOD.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null };
-            let mean = pca.mean.iter().map(|&v| v as f32).collect();
-            let background = vec![0.0; knots.len()];
-            let model = RefinedModel::new(meta, settings, basis, mean, knots, background, sub_grid.axes.clone())?;
-            let est = model.predict(test.features())?;
-            let d = space.len();
-            let errs = (0..test.len()).map(|i| space.error_deg(test.pose(i), &est[i * d..(i + 1) * d]));
-            if plain {
-                plain_views.extend(errs);
-                plain_folds += 1;
-                continue;
-            }
-            if c >= weighted.len() {
-                weighted.push((l, 0, Vec::new()));
-            }
-            weighted[c].1 += 1;
-            weighted[c].2.extend(errs);
         }
     }
-    // Only candidates every fold could score.
-    let kept: Vec<(usize, &[f64])> = weighted.iter().filter(|w| w.1 == folds.len()).map(|w| (w.0, &w.2[..])).collect();
-    let scored: Scores = kept.iter().map(|&(l, v)| (l, mean(v))).collect();
-    let best = scored.iter().fold((FALLBACK_COMPONENTS.min(below), f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
-    let plain = (plain_folds == folds.len()).then(|| mean(&plain_views));
-    // The least error's views: the plain metric's when it scored below every weighted L (as
-    // the model then uses it), else the best weighted L's.
-    let least_views = match plain {
-        Some(p) if p < best.1 => &plain_views[..],
-        _ => kept.iter().find(|k| k.0 == best.0).map_or(&[][..], |k| k.1),
-    };
-    let least = best.1.min(plain.unwrap_or(f64::INFINITY));
-    Ok(Choice { components: best.0, scored, plain, least, standard_error: standard_error(least_views) })
+    // The interpolant with the least error (the first, the spline, on a tie).
+    let choices: Vec<Choice> = interpolants.iter().zip(&tallies).map(|(&i, t)| t.choice(i, folds.len(), below)).collect();
+    let by_interpolant: Vec<(Interpolant, f64)> = choices.iter().map(|c| (c.interpolant, c.least)).collect();
+    let best = choices.into_iter().reduce(|a, b| if b.least < a.least { b } else { a }).expect("at least one interpolant");
+    Ok(Choice { by_interpolant, ..best })
+}
+
+/// One interpolant's held-out errors in [`choose`]: each weighted candidate's L, the folds that
+/// scored it and its held-out views' errors; the plain metric's errors and folds.
+#[derive(Default)]
+struct Tally {
+    weighted: Vec<(usize, usize, Vec<f64>)>,
+    plain_views: Vec<f64>,
+    plain_folds: usize,
+}
+
+impl Tally {
+    /// The choice of L for `interpolant` over `n_folds` folds, L at most `below` (without
+    /// [`Choice::by_interpolant`]).
+    fn choice(&self, interpolant: Interpolant, n_folds: usize, below: usize) -> Choice {
+        // Only candidates every fold could score.
+        let kept: Vec<(usize, &[f64])> = self.weighted.iter().filter(|w| w.1 == n_folds).map(|w| (w.0, &w.2[..])).collect();
+        let scored: Scores = kept.iter().map(|&(l, v)| (l, mean(v))).collect();
+        let best = scored.iter().fold((FALLBACK_COMPONENTS.min(below), f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
+        let plain = (self.plain_folds == n_folds).then(|| mean(&self.plain_views));
+        // The least error's views: the plain metric's when it scored below every weighted L (as
+        // the model then uses it), else the best weighted L's.
+        let least_views = match plain {
+            Some(p) if p < best.1 => &self.plain_views[..],
+            _ => kept.iter().find(|k| k.0 == best.0).map_or(&[][..], |k| k.1),
+        };
+        let least = best.1.min(plain.unwrap_or(f64::INFINITY));
+        Choice { interpolant, by_interpolant: Vec::new(), components: best.0, scored, plain, least, standard_error: standard_error(least_views) }
+    }
 }
 
 /// The most eigenimages whose product with images binned by `bin` costs less than the
@@ -237,13 +263,16 @@ pub fn standard_error(v: &[f64]) -> f64 {
     (var / n as f64).sqrt()
 }
 
-/// The settings of a model fitted on one fold: `l` components, all searched, nothing chosen.
+/// The settings of a model fitted on one fold: `l` components, all searched, nothing chosen, the
+/// interpolant of `params` (the spline when not fixed).
 fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> RefinedSettings {
     RefinedSettings {
         params: *params,
         bin: 1,
         bin_selection: vec![],
         bin_tolerance: 0.0,
+        interpolant: params.fixed_interpolant().unwrap_or_default(),
+        interpolant_selection: vec![],
         components: l,
         search_components: l,
         energy_kept: 0.0,
@@ -289,7 +318,7 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
         let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(l_fit))?;
         let l = pca.dim();
-        let coord_variance = interpolation_variance(&fit, &sub_grid, &pca.coords, l)?;
+        let coord_variance = interpolation_variance(&fit, &sub_grid, &pca.coords, l, params.fixed_interpolant().unwrap_or_default())?;
         let knots: Vec<f32> = sub_grid.sample_at.iter().flat_map(|&i| pca.coords[i * l..(i + 1) * l].iter().map(|&v| v as f32)).collect();
         let fit_full = views.full.subset(keep)?;
         let background = super::background_knots(Views { full: &fit_full, ..views }, &sub_grid.sample_at, &pca.basis, l);
@@ -406,8 +435,9 @@ pub fn error_cap(grid: &Grid) -> f64 {
 
 /// The mean squared interpolation error of each of the `dim` coordinates (`coords`, N x dim, in
 /// training order) over the held-out folds of `grid`: each held-out knot's coordinates against
-/// the surface through the remaining knots, at its pose. None when no fold is possible.
-pub fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim: usize) -> Result<Option<Vec<f64>>> {
+/// the surface through the remaining knots by `interpolant`, at its pose. None when no fold is
+/// possible.
+pub fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim: usize, interpolant: Interpolant) -> Result<Option<Vec<f64>>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);
@@ -423,7 +453,7 @@ pub fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim:
         let names: Vec<String> = kept.iter().map(|&i| train.manifest().images()[i].clone()).collect();
         let sub = Grid::new(space, &poses, &names, train.manifest().root())?;
         let knots: Vec<f64> = sub.sample_at.iter().flat_map(|&k| coords[kept[k] * dim..(kept[k] + 1) * dim].iter().copied()).collect();
-        let surface = super::surface::Surface::new(space, &sub.axes, &knots, dim)?;
+        let surface = super::surface::Surface::new(space, &sub.axes, &knots, dim, interpolant)?;
         for i in (0..train.len()).filter(|&i| !keep[i]) {
             let mut t = train.pose(i).to_vec();
             surface.clamp(&mut t[..d]);

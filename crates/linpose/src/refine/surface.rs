@@ -15,6 +15,7 @@
 use crate::eigenspace::spline::{Boundary, Spline};
 use crate::pose::{wrap_positive, PoseSpace};
 use crate::Result;
+use serde::{Deserialize, Serialize};
 
 /// Most Levenberg-Marquardt iterations per start.
 const MAX_ITER: usize = 8;
@@ -37,6 +38,52 @@ pub type LineParts<'a> = (&'a [f64], Option<f64>, &'a [f32], &'a [f32], usize);
 /// Jacobian when wanted.
 type Other<'a> = (&'a Surface, &'a mut [f64], Option<&'a mut [f64]>);
 
+/// How the surface passes between its knots: both are cubic on each knot interval, in Hermite
+/// form, and differ only in the slopes at the knots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolant {
+    /// The C2 cubic spline ([`Spline::new`]): the eigenspace's own manifold, every knot's slope
+    /// tied to every value.
+    #[default]
+    Spline,
+    /// The local cubic ([`Spline::local`]): each slope the derivative of the parabola through
+    /// the knot and its two neighbours (Catmull-Rom on uniform knots), C1. A coordinate that
+    /// changes abruptly between two training views (an edge or a highlight passing) moves it
+    /// only on the pieces around them, where the spline rings along the whole axis.
+    Local,
+}
+
+/// The interpolants the automatic choice scores, the spline first (it wins a tie).
+pub const INTERPOLANTS: &[Interpolant] = &[Interpolant::Spline, Interpolant::Local];
+
+impl Interpolant {
+    /// Its name: `spline` or `local`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Interpolant::Spline => "spline",
+            Interpolant::Local => "local",
+        }
+    }
+}
+
+impl std::fmt::Display for Interpolant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Interpolant {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        INTERPOLANTS
+            .iter()
+            .copied()
+            .find(|i| i.name() == s)
+            .ok_or_else(|| crate::Error::invalid("interpolant", s, "expected 'spline' or 'local'"))
+    }
+}
+
 /// The continuous manifold of one fitted model.
 #[derive(Debug, Clone)]
 pub struct Surface {
@@ -54,8 +101,8 @@ pub struct Surface {
 
 impl Surface {
     /// The surface through `knots` (the training views' coordinates, `dim` each, row-major over
-    /// the grid `axes`, last parameter fastest).
-    pub fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f64], dim: usize) -> Result<Self> {
+    /// the grid `axes`, last parameter fastest), by `interpolant` along each axis.
+    pub fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f64], dim: usize, interpolant: Interpolant) -> Result<Self> {
         let d = axes.len();
         let shape: Vec<usize> = axes.iter().map(Vec::len).collect();
         let n: usize = shape.iter().product();
@@ -67,7 +114,10 @@ impl Surface {
                 Some(t) => Boundary::Periodic(*t),
                 None => Boundary::NotAKnot,
             };
-            splines.push(Spline::new(ax, b)?);
+            splines.push(match interpolant {
+                Interpolant::Spline => Spline::new(ax, b)?,
+                Interpolant::Local => Spline::local(ax, b)?,
+            });
         }
         let mut stride = vec![1; d];
         for j in (0..d.saturating_sub(1)).rev() {
@@ -1144,7 +1194,7 @@ mod tests {
         let n = 6 * 37 * dim;
         let f: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
         let g: Vec<f64> = (0..n).map(|i| ((i * 104729) % 997) as f64 / 3000.0).collect();
-        (Surface::new(&space, &axes, &f, dim).unwrap(), Surface::new(&space, &axes, &g, dim).unwrap())
+        (Surface::new(&space, &axes, &f, dim, Interpolant::Spline).unwrap(), Surface::new(&space, &axes, &g, dim, Interpolant::Spline).unwrap())
     }
 
     fn bits(v: &[f64]) -> Vec<u64> {

@@ -52,7 +52,7 @@ fn surface_resamples_to_the_eigenspace_manifold() {
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
     let dense = crate::eigenspace::manifold::Manifold::build(d.space(), &g, &pca.coords, 6, 5.0).unwrap();
     let knots: Vec<f64> = g.sample_at.iter().flat_map(|&i| pca.coords[i * 6..(i + 1) * 6].iter().copied()).collect();
-    let s = surface::Surface::new(d.space(), &g.axes, &knots, 6).unwrap();
+    let s = surface::Surface::new(d.space(), &g.axes, &knots, 6, surface::Interpolant::Spline).unwrap();
     let (mut pose, mut f) = ([0.0; 2], [0.0; 6]);
     let scale = knots.iter().fold(0f64, |a, v| a.max(v.abs()));
     for k in (0..dense.len()).step_by(7) {
@@ -61,6 +61,52 @@ fn surface_resamples_to_the_eigenspace_manifold() {
         s.eval(&pose, &mut f, None);
         for (c, &v) in f.iter().enumerate().take(6) {
             assert!((v - dense.points[k * 6 + c]).abs() < 1e-5 * scale, "point {k} coordinate {c}");
+        }
+    }
+}
+
+/// Along a knot line of the other axis the surface is the one-axis curve of its interpolant
+/// through that line's knots, for either interpolant: the tensor product is wired per axis.
+#[test]
+fn the_surface_is_each_axis_curve_along_the_knot_lines() {
+    use crate::eigenspace::spline::{Boundary, Spline};
+    let d = train_set();
+    let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
+    let shape = g.shape();
+    let n: usize = shape.iter().product();
+    let v: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
+    let boundary = |j: usize| d.space().params()[j].period.map_or(Boundary::NotAKnot, Boundary::Periodic);
+    for interpolant in INTERPOLANTS.iter().copied() {
+        let s = surface::Surface::new(d.space(), &g.axes, &v, 1, interpolant).unwrap();
+        let line = |j: usize| match interpolant {
+            Interpolant::Spline => Spline::new(&g.axes[j], boundary(j)).unwrap(),
+            Interpolant::Local => Spline::local(&g.axes[j], boundary(j)).unwrap(),
+        };
+        let (l0, l1) = (line(0), line(1));
+        let mut f = [0.0];
+        for k in 0..shape[0].max(shape[1]) {
+            // Along axis 0 at knot k of axis 1, and along axis 1 at knot k of axis 0.
+            let y0: Vec<f64> = (0..shape[0]).map(|i| v[i * shape[1] + k.min(shape[1] - 1)]).collect();
+            let (lo, hi) = l0.span();
+            for q in (k < shape[1]).then_some(0..9).into_iter().flatten() {
+                let t = lo + (hi - lo) * (q as f64 + 0.37) / 9.0;
+                let mut pose = [t, g.axes[1][k]];
+                s.clamp(&mut pose);
+                s.eval(&pose, &mut f, None);
+                let want = l0.eval(&y0, &l0.slopes(&y0, 1), pose[0]);
+                assert!((f[0] - want).abs() < 1e-5, "{interpolant} axis 0 at {pose:?}: {} vs {want}", f[0]);
+            }
+            if k < shape[0] {
+                let y1 = &v[k * shape[1]..(k + 1) * shape[1]];
+                let (lo, hi) = l1.span();
+                for q in 0..9 {
+                    let mut pose = [g.axes[0][k], lo + (hi - lo) * (q as f64 + 0.37) / 9.0];
+                    s.clamp(&mut pose);
+                    s.eval(&pose, &mut f, None);
+                    let want = l1.eval(y1, &l1.slopes(y1, 1), pose[1]);
+                    assert!((f[0] - want).abs() < 1e-5, "{interpolant} axis 1 at {pose:?}: {} vs {want}", f[0]);
+                }
+            }
         }
     }
 }
@@ -74,7 +120,7 @@ fn a_pair_of_surfaces_evaluates_as_each_alone() {
     let n = g.sample_at.len();
     let a: Vec<f64> = (0..n * 5).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
     let b: Vec<f64> = (0..n * 5).map(|i| ((i * 104729) % 997) as f64 / 300.0 - 1.5).collect();
-    let (sa, sb) = (surface::Surface::new(d.space(), &g.axes, &a, 5).unwrap(), surface::Surface::new(d.space(), &g.axes, &b, 5).unwrap());
+    let (sa, sb) = (surface::Surface::new(d.space(), &g.axes, &a, 5, surface::Interpolant::Spline).unwrap(), surface::Surface::new(d.space(), &g.axes, &b, 5, surface::Interpolant::Spline).unwrap());
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for (k, lo) in [(0usize, 5usize), (1, 3), (2, 5), (3, 1)] {
         let mut t = [33.3 + 9.1 * k as f64, 17.0 + 71.5 * k as f64];
@@ -129,6 +175,39 @@ fn selection_picks_the_least_held_out_error() {
     // Unbinned, no candidate's product is as large as the eigenspace's 20 rows.
     assert!(c.scored.iter().all(|s| s.0 <= 16), "{c:?}");
     assert!(model.components() <= 16, "{}", model.components());
+    // Both interpolants are scored on the same folds; the chosen one has the least error (the
+    // spline on a tie), and the model fitted on these images interpolates by it.
+    assert_eq!(c.by_interpolant.iter().map(|b| b.0).collect::<Vec<_>>(), INTERPOLANTS);
+    let least = c.by_interpolant.iter().map(|b| b.1).fold(f64::INFINITY, f64::min);
+    assert_eq!(c.least, least);
+    assert_eq!(c.interpolant, c.by_interpolant.iter().find(|b| b.1 == least).unwrap().0);
+    assert_eq!(model.settings().interpolant, c.interpolant);
+    assert_eq!(model.settings().interpolant_selection, c.by_interpolant);
+    // Fixed, an interpolant is scored alone, to the same figures.
+    for &(i, e) in &c.by_interpolant {
+        let f = select::choose(&d, &g, &RefinedParams::default().interpolant(i), 1).unwrap();
+        assert_eq!((f.interpolant, &f.by_interpolant[..]), (i, &[(i, e)][..]));
+        if i == c.interpolant {
+            assert_eq!((&f.scored, f.plain, f.components), (&c.scored, c.plain, c.components));
+        }
+    }
+}
+
+#[test]
+fn a_model_written_before_the_interpolant_reads_as_the_spline() {
+    let d = train_set();
+    let model = RefinedParams::default().bin(2).interpolant(Interpolant::Local).components(8).fit(&d).unwrap();
+    let s = model.settings();
+    assert_eq!((s.interpolant, s.interpolant_selection.is_empty()), (Interpolant::Local, true));
+    let mut v = serde_json::to_value(s).unwrap();
+    let o = v.as_object_mut().unwrap();
+    o.remove("interpolant").unwrap();
+    o.remove("interpolant_selection").unwrap();
+    o["params"].as_object_mut().unwrap().remove("interpolant").unwrap();
+    let old: RefinedSettings = serde_json::from_value(v).unwrap();
+    assert_eq!((old.interpolant, old.params.fixed_interpolant()), (Interpolant::Spline, Some(Interpolant::Spline)));
+    assert!("cubic".parse::<Interpolant>().is_err());
+    assert_eq!(INTERPOLANTS.iter().map(|i| i.to_string().parse::<Interpolant>().unwrap()).collect::<Vec<_>>(), INTERPOLANTS);
 }
 
 #[test]
