@@ -97,7 +97,7 @@ c, e = a.method, "eigenspace"
 print(f"unseen mean error (degrees), model bytes, per-query us; candidate '{c}'")
 hdr = f"{'data':<8} {'noise':>5} | {c:>9} {'eig':>8} {'peer eig':>8}" + ("" if "linear" not in methods else f" {'linear':>8}")
 u8h = f" | {c+' u8':>9} {'eig u8':>8}" if a.timing_u8 else ""
-print(hdr + f" | {c+' B':>10} {'eig B':>10} | {c+' us':>9} {'eig us':>8}{u8h} | {'L':>3} ok")
+print(hdr + f" | {c+' B':>10} {'eig B':>10} | {c+' us':>9} {'eig us':>8}{u8h} | {'b':>1} {'L':>3} {'interp':<6} ok")
 fails, out = [], []
 for (name, n, pe, res) in rows:
     r, g = res[(c, n)], res.get((e, n))
@@ -117,7 +117,7 @@ for (name, n, pe, res) in rows:
     line += f" | {r['bytes']:>10} {g['bytes'] if g else 0:>10} | {r['us']:>9.1f} {g['us'] if g else float('nan'):>8.1f}"
     if a.timing_u8:
         line += f" | {r.get('us8', float('nan')):>9.1f} {g.get('us8', float('nan')) if g else float('nan'):>8.1f}"
-    line += f" | {L:>3} {flag}"
+    line += f" | {st.get('bin', ''):>1} {L:>3} {st.get('interpolant', ''):<6} {flag}"
     print(line)
     out.append(dict(data=name, noise=n, peer_eigenspace=pe, **{f"{m}_{k}": res[(m, n)][k] for m in methods for k in ("err", "bytes", "us", "us8") if k in res[(m, n)]}, settings=r["settings"]))
 if a.json:

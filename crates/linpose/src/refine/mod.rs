@@ -7,7 +7,10 @@
 //!    coordinates (periodic along a circular axis), but it is kept as the spline itself
 //!    ([`surface`]): its N knots with their slopes, not N_dense resampled points. The eigenspace
 //!    resampled every 0.5 degrees stores 65,520 x L numbers on the paper's grid; this stores
-//!    4 x 222 x L, so the model is a fraction of the eigenspace's size.
+//!    4 x 222 x L, so the model is a fraction of the eigenspace's size. Or, chosen on held-out
+//!    views, the local cubic through the same knots ([`Interpolant::Local`]: each slope from the
+//!    knot's two neighbours alone, Catmull-Rom on even knots), which does not ring where a
+//!    coordinate changes abruptly between two views (COIL-20, 31 of the comparison's 35 rows).
 //! 3. A query is projected as in the eigenspace; the closest of a coarse set of surface points
 //!    (`per_cell` per knot interval along each axis) give the starts, and from each
 //!    Levenberg-Marquardt minimises the distance to the surface in the pose itself. The pose is
@@ -69,7 +72,9 @@
 //! plain metric (unweighted, the eigenspace's, in 20 coordinates, 16 on images as given); when
 //! it beats every weighted L, the model uses it for every query (on COIL-20 the weighted metric
 //! wins by far on some objects, obj6: 0.39 against 5.38 degrees, and loses on others, obj20:
-//! 2.29 against 1.76).
+//! 2.29 against 1.76). They score every candidate with either interpolant ([`INTERPOLANTS`], on
+//! each fold's one eigenspace), and the interpolant of the least error wins (the spline on a
+//! tie; `interpolant(i)`, `linpose train --interpolant spline|local`, fixes it).
 //!
 //! The model keeps only the eigenimages its queries use: the weighted search's L and the noisy
 //! match's (the eigenspace keeps 20), so the basis, the surface and each query's projection
@@ -120,8 +125,10 @@
 //! ([`crate::kernels::dot_w`]: `vpdpwssd`, 32 sums an instruction against the weights' 16-bit
 //! fixed point) where AVX-512 VNNI runs, else as two planes of 8-bit digits through the 8-bit
 //! products (on COIL-17 by 2, 8-bit queries over the eigenspace's time went 1.20 -> 0.62). On
-//! the comparison's 35 rows the choice took 4 on 30 and 2 on 5, and met the peer's error on all
-//! but COIL-11 (0.375 against 0.347). By the least held-out error alone it had taken 4 on 17,
+//! the comparison's 35 rows the choice took 4 on 30, 2 on 4 and 1 on 1 (COIL-9), and with the
+//! choice of the interpolant met the peer's error on all 35; with the spline alone it took 4 on
+//! 30 and 2 on 5 and missed on COIL-11 (0.375 against 0.347). By the least held-out error alone
+//! (spline only) it had taken 4 on 17,
 //! 2 on 8 and 1 on 10, and missed the peer on COIL-1 (0.500 against 0.472), with 5 rows slower
 //! than the eigenspace: BENCHMARKS.md.
 //!

@@ -21,8 +21,15 @@
 //! search: slower than the eigenspace's, and no more accurate (BENCHMARKS.md, twentieth
 //! session).
 //!
+//! The interpolant of the surface ([`Interpolant`]) is chosen with L: each fold's eigenspace
+//! gives both interpolants' models (side by side, on separate threads), and the interpolant
+//! whose best candidate has the least error wins, the spline on a tie. Double the knot spacing
+//! favours the local cubic more than the final spacing does: on the paper's grid it won the
+//! held-out views of pot and twin and lost their unseen ones (pot 0.246 -> 0.375 degrees, still
+//! under the eigenspace's 0.508; BENCHMARKS.md, twenty-first session).
+//!
 //! When no axis has enough knots (fewer than 4), L falls back to [`FALLBACK_COMPONENTS`], the
-//! eigenspace's default.
+//! eigenspace's default, and the interpolant to the spline.
 
 use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, MAX_AUTO_COMPONENTS, METHOD};
 use crate::dataset::Dataset;
@@ -141,7 +148,9 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
         let plain_l = super::NOISE_COMPONENTS.min(l_max).min(below);
-        for (&interpolant, tally) in interpolants.iter().zip(&mut tallies) {
+        // The interpolants on this fold's eigenspace, side by side (each model's trees and
+        // tables are built on one thread).
+        tallies.par_iter_mut().zip(&interpolants).try_for_each(|(tally, &interpolant)| -> Result<()> {
             let params = params.interpolant(interpolant);
             let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max, interpolant)? } else { None };
             let cands: Vec<(usize, bool)> = CANDIDATES
@@ -184,7 +193,8 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
                 tally.weighted[c].1 += 1;
                 tally.weighted[c].2.extend(errs);
             }
-        }
+            Ok(())
+        })?;
     }
     // The interpolant with the least error (the first, the spline, on a tie).
     let choices: Vec<Choice> = interpolants.iter().zip(&tallies).map(|(&i, t)| t.choice(i, folds.len(), below)).collect();

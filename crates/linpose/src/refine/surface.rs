@@ -4,6 +4,11 @@
 //! Levenberg-Marquardt on the distance to the surface instead of the nearest of a fixed grid of
 //! resampled points.
 //!
+//! The surface may instead be the local cubic ([`Interpolant::Local`]): the same Hermite pieces,
+//! with each knot's slope the derivative of the parabola through it and its two neighbours along
+//! the axis ([`Spline::local`]). Everything below holds for either; only the slope operators
+//! differ.
+//!
 //! On each grid cell the spline is the tensor product of the per-axis cubic Hermite pieces, fixed
 //! by the values and the mixed slopes at the cell's 2^D corners: for a derivative mask d (which
 //! axes are differentiated) the slopes are S_d Y, the per-axis slope operators of
