@@ -65,11 +65,11 @@
 //!    and 13.2 / 16.9.
 //!
 //! Every hyper-parameter is chosen from the training data alone ([`select`]): the number of
-//! eigenimages L (among 8, 12, 16, 20, and under 20 on images as given, so a query's product
-//! costs less than the eigenspace's) by the pose error of held-out training views, with the
+//! eigenimages L (among 8, 12, 16, 20, and at most 12 on images as given, so a query, its
+//! product and its other work, costs less than the eigenspace's product) by the pose error of held-out training views, with the
 //! manifold built without them (every other knot along each axis held out in turn, the odd
 //! ones, then the even ones), and the weights as above. The same held-out views also score the
-//! plain metric (unweighted, the eigenspace's, in 20 coordinates, 16 on images as given); when
+//! plain metric (unweighted, the eigenspace's, in 20 coordinates, 12 on images as given); when
 //! it beats every weighted L, the model uses it for every query (on COIL-20 the weighted metric
 //! wins by far on some objects, obj6: 0.39 against 5.38 degrees, and loses on others, obj20:
 //! 2.29 against 1.76). They score every candidate with either interpolant ([`INTERPOLANTS`], on
@@ -125,10 +125,10 @@
 //! ([`crate::kernels::dot_w`]: `vpdpwssd`, 32 sums an instruction against the weights' 16-bit
 //! fixed point) where AVX-512 VNNI runs, else as two planes of 8-bit digits through the 8-bit
 //! products (on COIL-17 by 2, 8-bit queries over the eigenspace's time went 1.20 -> 0.62). On
-//! the comparison's 35 rows the choice took 4 on 30, 2 on 4 and 1 on 1 (COIL-9), and with the
-//! choice of the interpolant met the peer's error on all 35; with the spline alone it took 4 on
-//! 30 and 2 on 5 and missed on COIL-11 (0.375 against 0.347). By the least held-out error alone
-//! (spline only) it had taken 4 on 17,
+//! the comparison's 35 rows the choice took 4 on 30 and 2 on 5, and with the choice of the
+//! interpolant met the peer's error on all 35; with the spline alone it missed on COIL-11
+//! (0.375 against 0.347). By the least held-out error alone (spline only, L up to 20 as
+//! given) it had taken 4 on 17,
 //! 2 on 8 and 1 on 10, and missed the peer on COIL-1 (0.500 against 0.472), with 5 rows slower
 //! than the eigenspace: BENCHMARKS.md.
 //!

@@ -10,8 +10,8 @@
 //! interpolation matters most, on views no fit has seen. Holding out the even knots too doubles
 //! the views behind each score (COIL-20: 36 against 18), at the same spacing.
 //!
-//! No candidate costs as much as the eigenspace: on images as given L is at most 16
-//! ([`below_eigenspace`]), the plain metric's too. The binning factor is chosen by the
+//! No candidate costs as much as the eigenspace: on images as given L is at most 12
+//! ([`below_eigenspace`]: its product and the query's other work), the plain metric's too. The binning factor is chosen by the
 //! one-standard-error rule ([`coarsest_within`]): the coarsest whose least error is within one
 //! standard error of the least of all. On COIL-20 the factors' held-out errors differ by a view
 //! or two in 36 (a standard error of 0.07 to 0.2 degrees where they come to 0.5 to 1.5), while
@@ -232,14 +232,23 @@ impl Tally {
     }
 }
 
-/// The most eigenimages whose product with images binned by `bin` costs less than the
-/// eigenspace's ([`super::NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels):
-/// the largest of [`CANDIDATES`] under NOISE_COMPONENTS bin^2. Unbinned, 16: at 20, the plain
-/// metric's query was the eigenspace's own product plus the noise route and the search, never
-/// cheaper (BENCHMARKS.md, nineteenth and twentieth sessions).
+/// A query's work besides its product with the eigenimages, in rows of that product on the
+/// image as given: the mean's row (the weighted metric's residual), the pixel-noise pass and the
+/// search. perf of COIL-9's unbinned 8-bit queries (plain metric, 16 rows), samples over one
+/// row's: the noise pass 1.3, the lattice search 1.0; with the mean's row 3.3, rounded up.
+pub const QUERY_OVERHEAD_ROWS: usize = 4;
+
+/// The most eigenimages whose query on images binned by `bin` costs less than the eigenspace's
+/// product ([`super::NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels):
+/// the largest of [`CANDIDATES`] with L + [`QUERY_OVERHEAD_ROWS`] under NOISE_COMPONENTS bin^2
+/// (the eigenspace's own mean row and tree not counted, a margin for timing noise). Unbinned,
+/// 12. At 20 the plain metric's query was the eigenspace's own product plus the noise route and
+/// the search, never cheaper (nineteenth and twentieth sessions); at 16 it was 0.84 of the
+/// eigenspace's samples on COIL-9's 8-bit queries, but 0.90-1.04 of its time in nine timed runs
+/// (twenty-first session, BENCHMARKS.md).
 pub fn below_eigenspace(bin: usize) -> usize {
     let bound = super::NOISE_COMPONENTS * bin * bin;
-    CANDIDATES.iter().copied().filter(|&l| l < bound).max().unwrap_or(CANDIDATES[0])
+    CANDIDATES.iter().copied().filter(|&l| l + QUERY_OVERHEAD_ROWS < bound).max().unwrap_or(CANDIDATES[0])
 }
 
 /// The one-standard-error rule (Hastie, Tibshirani & Friedman, The Elements of Statistical
