@@ -10,7 +10,7 @@
 //!    4 x 222 x L, so the model is a fraction of the eigenspace's size. Or, chosen on held-out
 //!    views, the local cubic through the same knots ([`Interpolant::Local`]: each slope from the
 //!    knot's two neighbours alone, Catmull-Rom on even knots), which does not ring where a
-//!    coordinate changes abruptly between two views (COIL-20, 31 of the comparison's 35 rows).
+//!    coordinate changes abruptly between two views (chosen on 31 of the comparison's 35 rows).
 //! 3. A query is projected as in the eigenspace; the closest of a coarse set of surface points
 //!    (`per_cell` per knot interval along each axis) give the starts, and from each
 //!    Levenberg-Marquardt minimises the distance to the surface in the pose itself. The pose is

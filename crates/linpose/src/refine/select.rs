@@ -11,15 +11,15 @@
 //! the views behind each score (COIL-20: 36 against 18), at the same spacing.
 //!
 //! No candidate costs as much as the eigenspace: on images as given L is at most 12
-//! ([`below_eigenspace`]: its product and the query's other work), the plain metric's too. The binning factor is chosen by the
-//! one-standard-error rule ([`coarsest_within`]): the coarsest whose least error is within one
-//! standard error of the least of all. On COIL-20 the factors' held-out errors differ by a view
-//! or two in 36 (a standard error of 0.07 to 0.2 degrees where they come to 0.5 to 1.5), while
-//! each halving of the resolution makes a query's product 4 times cheaper; by the least error
-//! alone, 10 of the comparison's 35 rows took factor 1, and 5 of them the plain metric in 20
-//! coordinates, whose query was the eigenspace's own product plus the noise route and the
-//! search: slower than the eigenspace's, and no more accurate (BENCHMARKS.md, twentieth
-//! session).
+//! ([`below_eigenspace`]: its product and the query's other work), the plain metric's too. The
+//! binning factor is chosen by the one-standard-error rule ([`coarsest_within`]): the coarsest
+//! whose least error is within one standard error of the least of all. On COIL-20 the factors'
+//! held-out errors differ by a view or two in 36 (a standard error of 0.07 to 0.2 degrees where
+//! they come to 0.5 to 1.5), while each halving of the resolution makes a query's product 4 times
+//! cheaper; by the least error alone, 10 of the comparison's 35 rows took factor 1, and 5 of them
+//! the plain metric in 20 coordinates, whose query was the eigenspace's own product plus the noise
+//! route and the search: slower than the eigenspace's, and no more accurate (BENCHMARKS.md,
+//! twentieth session).
 //!
 //! The interpolant of the surface ([`Interpolant`]) is chosen with L: each fold's eigenspace
 //! gives both interpolants' models (side by side, on separate threads), and the interpolant
