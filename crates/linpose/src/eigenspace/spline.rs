@@ -184,51 +184,46 @@ fn add_secant(row: &mut [f64], x: &[f64], k: usize, coef: f64) {
 }
 
 /// S of [`Spline::local`] on the knots `x` (for a periodic spline the closing knot last): row i
-/// holds s_i = (dx_i m_{i-1} + dx_{i-1} m_i) / (dx_{i-1} + dx_i), the derivative at x_i of the
-/// parabola through x_{i-1}, x_i, x_{i+1} (wrapping round when periodic); the ends of a linear
-/// axis s_0 = ((2 dx_0 + dx_1) m_0 - dx_0 m_1) / (dx_0 + dx_1) and its mirror image. Two knots
-/// give a line (both slopes the secant), one a constant.
+/// holds the derivative at x_i of the parabola through x_{i-1}, x_i, x_{i+1} (wrapping round
+/// when periodic), s_i = (dx_i m_{i-1} + dx_{i-1} m_i) / (dx_{i-1} + dx_i); the ends of a linear
+/// axis take the parabola through their three knots, s_0 = ((2 dx_0 + dx_1) m_0 - dx_0 m_1) /
+/// (dx_0 + dx_1) and its mirror image. Two knots of a linear axis give a line (both slopes the
+/// secant), one knot a constant.
 fn local_slopes(x: &[f64], periodic: bool) -> Mat<f64> {
     let n = if periodic { x.len() - 1 } else { x.len() };
     let mut s = Mat::<f64>::zeros(n, n);
+    if n < 2 {
+        return s;
+    }
     let mut row = vec![0.0; n];
     for i in 0..n {
         row.fill(0.0);
-        if periodic && n >= 2 {
-            // Pieces k - 1 and k of the closed curve: x[n] closes x[0].
-            let prev = (i + n - 1) % n;
-            let (h0, h1) = (if i == 0 { x[n] - x[n - 1] } else { x[i] - x[i - 1] }, x[i + 1] - x[i]);
-            add_secant_of(&mut row, prev, i, h0, h1 / (h0 + h1));
-            add_secant_of(&mut row, i, (i + 1) % n, h1, h0 / (h0 + h1));
-        } else if n == 2 {
+        if n == 2 && !periodic {
             add_secant(&mut row, x, 0, 1.0);
-        } else if n >= 3 {
-            // The parabola through three consecutive knots, differentiated at the wanted one.
-            let (k, at) = match i {
+        } else {
+            // The parabola over pieces a and b (three consecutive knots), differentiated at
+            // its first, middle or last knot.
+            let (a, at) = match i {
+                _ if periodic => ((i + n - 1) % n, 1),
                 0 => (0, 0),
                 _ if i == n - 1 => (n - 3, 2),
                 _ => (i - 1, 1),
             };
-            let (h0, h1) = (x[k + 1] - x[k], x[k + 2] - x[k + 1]);
+            let b = (a + 1) % n;
+            let (h0, h1) = (x[a + 1] - x[a], x[b + 1] - x[b]);
             let (w0, w1) = match at {
                 0 => ((2.0 * h0 + h1) / (h0 + h1), -h0 / (h0 + h1)),
                 1 => (h1 / (h0 + h1), h0 / (h0 + h1)),
                 _ => (-h1 / (h0 + h1), (h0 + 2.0 * h1) / (h0 + h1)),
             };
-            add_secant(&mut row, x, k, w0);
-            add_secant(&mut row, x, k + 1, w1);
+            add_secant(&mut row, x, a, w0);
+            add_secant(&mut row, x, b, w1);
         }
         for (c, &v) in row.iter().enumerate() {
             s[(i, c)] = v;
         }
     }
     s
-}
-
-/// `coef` times the secant slope (y_b - y_a) / h into `row`.
-fn add_secant_of(row: &mut [f64], a: usize, b: usize, h: f64, coef: f64) {
-    row[b] += coef / h;
-    row[a] -= coef / h;
 }
 
 /// S for not-a-knot ends (SciPy's rows, including its 2- and 3-knot special cases).
@@ -358,10 +353,10 @@ mod tests {
         let y = [1.0, -2.0, 0.5, 3.0, -1.0, 0.0, 4.0];
         for b in [Boundary::NotAKnot, Boundary::Periodic(12.0)] {
             for sp in [Spline::new(&x, b).unwrap(), Spline::local(&x, b).unwrap()] {
-            let r = sp.resample(&y, 1, &x);
-            for (a, b) in r.iter().zip(&y) {
-                assert!((a - b).abs() <= 4.0 * f64::EPSILON * 4.0, "{a} vs {b}");
-            }
+                let r = sp.resample(&y, 1, &x);
+                for (a, b) in r.iter().zip(&y) {
+                    assert!((a - b).abs() <= 4.0 * f64::EPSILON * 4.0, "{a} vs {b}");
+                }
             }
         }
     }

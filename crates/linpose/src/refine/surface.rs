@@ -63,6 +63,15 @@ pub enum Interpolant {
 pub const INTERPOLANTS: &[Interpolant] = &[Interpolant::Spline, Interpolant::Local];
 
 impl Interpolant {
+    /// The curve of this interpolant through `knots` with `boundary` ([`Spline::new`] or
+    /// [`Spline::local`]).
+    pub fn along(self, knots: &[f64], boundary: Boundary) -> Result<Spline> {
+        match self {
+            Interpolant::Spline => Spline::new(knots, boundary),
+            Interpolant::Local => Spline::local(knots, boundary),
+        }
+    }
+
     /// Its name: `spline` or `local`.
     pub fn name(self) -> &'static str {
         match self {
@@ -119,10 +128,7 @@ impl Surface {
                 Some(t) => Boundary::Periodic(*t),
                 None => Boundary::NotAKnot,
             };
-            splines.push(match interpolant {
-                Interpolant::Spline => Spline::new(ax, b)?,
-                Interpolant::Local => Spline::local(ax, b)?,
-            });
+            splines.push(interpolant.along(ax, b)?);
         }
         let mut stride = vec![1; d];
         for j in (0..d.saturating_sub(1)).rev() {

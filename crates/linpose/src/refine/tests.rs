@@ -69,7 +69,7 @@ fn surface_resamples_to_the_eigenspace_manifold() {
 /// through that line's knots, for either interpolant: the tensor product is wired per axis.
 #[test]
 fn the_surface_is_each_axis_curve_along_the_knot_lines() {
-    use crate::eigenspace::spline::{Boundary, Spline};
+    use crate::eigenspace::spline::Boundary;
     let d = train_set();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
     let shape = g.shape();
@@ -78,10 +78,7 @@ fn the_surface_is_each_axis_curve_along_the_knot_lines() {
     let boundary = |j: usize| d.space().params()[j].period.map_or(Boundary::NotAKnot, Boundary::Periodic);
     for interpolant in INTERPOLANTS.iter().copied() {
         let s = surface::Surface::new(d.space(), &g.axes, &v, 1, interpolant).unwrap();
-        let line = |j: usize| match interpolant {
-            Interpolant::Spline => Spline::new(&g.axes[j], boundary(j)).unwrap(),
-            Interpolant::Local => Spline::local(&g.axes[j], boundary(j)).unwrap(),
-        };
+        let line = |j: usize| interpolant.along(&g.axes[j], boundary(j)).unwrap();
         let (l0, l1) = (line(0), line(1));
         let mut f = [0.0];
         for k in 0..shape[0].max(shape[1]) {
