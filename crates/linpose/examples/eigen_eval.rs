@@ -9,7 +9,7 @@
 //! machine, so the ratios compare like with like.
 
 use linpose::image_io::ColorMode;
-use linpose::eigenspace::SearchKind;
+use linpose::methods::eigenspace::SearchKind;
 use linpose::{Dataset, EigenspaceParams, Estimator, Manifest, PoseModel, TrainSelection};
 use std::path::PathBuf;
 use std::time::Instant;

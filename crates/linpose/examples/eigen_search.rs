@@ -7,7 +7,7 @@
 //! parameters) in L dimensions, as appearance manifolds do; queries are points between them plus
 //! a little noise, one thread, time per query in microseconds.
 
-use linpose::eigenspace::search::{NearestIndex, SearchKind};
+use linpose::methods::eigenspace::search::{NearestIndex, SearchKind};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;

@@ -8,7 +8,7 @@
 
 use crate::dataset::Dataset;
 use crate::eval::evaluate;
-use crate::linear::{leave_one_out, LinearParams};
+use crate::methods::linear::{leave_one_out, LinearParams};
 use crate::manifest::TrainSelection;
 use crate::methods::MethodSpec;
 use crate::model::{AnyModel, PoseModel};

@@ -30,38 +30,33 @@
 pub mod atomic;
 pub mod binning;
 pub mod dataset;
-pub mod eigenspace;
 pub mod error;
 pub mod eval;
 pub mod experiment;
 pub mod image_io;
 pub mod kernels;
 pub mod linalg;
-pub mod linear;
 pub mod manifest;
 pub mod methods;
 pub mod model;
 pub mod model_file;
 pub mod pose;
-pub mod refine;
 pub mod render;
-pub mod ridge;
-pub mod stream;
 
 pub use dataset::Dataset;
-pub use eigenspace::{EigenspaceModel, EigenspaceParams};
 pub use error::{Error, Result};
 pub use eval::{evaluate, EvalReport};
-pub use linear::{LinearModel, LinearParams};
 pub use manifest::{Manifest, TrainSelection};
+pub use methods::eigenspace::{EigenspaceModel, EigenspaceParams};
+pub use methods::linear::ridge::RidgeRule;
+pub use methods::linear::{LinearModel, LinearParams};
+pub use methods::refined::{RefinedModel, RefinedParams};
 pub use methods::MethodSpec;
 pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
 pub use pose::{ErrorSummary, Param, PoseSpace};
-pub use refine::{RefinedModel, RefinedParams};
-pub use ridge::RidgeRule;
 
 /// The methods a model can be trained with, by name.
-pub const METHODS: &[&str] = &[linear::METHOD, eigenspace::METHOD, refine::METHOD];
+pub const METHODS: &[&str] = &[methods::linear::METHOD, methods::eigenspace::METHOD, methods::refined::METHOD];
 
 #[cfg(test)]
 mod autotraits {

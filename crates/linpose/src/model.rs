@@ -195,11 +195,11 @@ impl TensorSet {
 #[allow(clippy::large_enum_variant)]
 pub enum AnyModel {
     /// Okatani & Deguchi's linear model.
-    Linear(crate::linear::LinearModel),
+    Linear(crate::methods::linear::LinearModel),
     /// Murase & Nayar's parametric eigenspace.
-    Eigenspace(crate::eigenspace::EigenspaceModel),
+    Eigenspace(crate::methods::eigenspace::EigenspaceModel),
     /// The eigenspace searched continuously on its spline manifold (beyond the paper).
-    Refined(crate::refine::RefinedModel),
+    Refined(crate::methods::refined::RefinedModel),
 }
 
 impl AnyModel {
@@ -214,9 +214,9 @@ impl AnyModel {
     /// Rebuilds a model of `meta.method` from the arrays of a file.
     pub(crate) fn from_parts(meta: ModelMeta, tensors: &TensorSet) -> Result<Self> {
         match meta.method.as_str() {
-            crate::linear::METHOD => Ok(AnyModel::Linear(crate::linear::LinearModel::from_parts(meta, tensors)?)),
-            crate::eigenspace::METHOD => Ok(AnyModel::Eigenspace(crate::eigenspace::EigenspaceModel::from_parts(meta, tensors)?)),
-            crate::refine::METHOD => Ok(AnyModel::Refined(crate::refine::RefinedModel::from_parts(meta, tensors)?)),
+            crate::methods::linear::METHOD => Ok(AnyModel::Linear(crate::methods::linear::LinearModel::from_parts(meta, tensors)?)),
+            crate::methods::eigenspace::METHOD => Ok(AnyModel::Eigenspace(crate::methods::eigenspace::EigenspaceModel::from_parts(meta, tensors)?)),
+            crate::methods::refined::METHOD => Ok(AnyModel::Refined(crate::methods::refined::RefinedModel::from_parts(meta, tensors)?)),
             other => Err(tensors.error(format!("unknown method '{other}' (this linpose knows: {})", crate::METHODS.join(", ")))),
         }
     }
@@ -240,20 +240,20 @@ impl PoseModel for AnyModel {
     }
 }
 
-impl From<crate::linear::LinearModel> for AnyModel {
-    fn from(m: crate::linear::LinearModel) -> Self {
+impl From<crate::methods::linear::LinearModel> for AnyModel {
+    fn from(m: crate::methods::linear::LinearModel) -> Self {
         AnyModel::Linear(m)
     }
 }
 
-impl From<crate::eigenspace::EigenspaceModel> for AnyModel {
-    fn from(m: crate::eigenspace::EigenspaceModel) -> Self {
+impl From<crate::methods::eigenspace::EigenspaceModel> for AnyModel {
+    fn from(m: crate::methods::eigenspace::EigenspaceModel) -> Self {
         AnyModel::Eigenspace(m)
     }
 }
 
-impl From<crate::refine::RefinedModel> for AnyModel {
-    fn from(m: crate::refine::RefinedModel) -> Self {
+impl From<crate::methods::refined::RefinedModel> for AnyModel {
+    fn from(m: crate::methods::refined::RefinedModel) -> Self {
         AnyModel::Refined(m)
     }
 }

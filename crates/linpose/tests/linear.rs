@@ -5,7 +5,7 @@
 //! leave ample margin over machine epsilon (2.2e-16) times that condition number.
 
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::linear::leave_one_out;
+use linpose::methods::linear::leave_one_out;
 use linpose::{Dataset, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
 
 /// Smooth synthetic images of an elevation and a turntable angle: two Gaussian blobs circling
@@ -196,7 +196,7 @@ fn model_file_round_trip_keeps_the_estimates() {
 
 #[test]
 fn loo_rule_picks_the_minimum_of_its_curve_and_agrees_with_refitting() {
-    use linpose::ridge::RidgeRule;
+    use linpose::methods::linear::ridge::RidgeRule;
     let data = synthetic(12, &[20.0, 40.0], 9, 7);
     let model = LinearParams::default().ridge_rule(RidgeRule::Loo).fit(&data).unwrap();
     let s = &model.meta().settings;
@@ -220,7 +220,7 @@ fn loo_rule_picks_the_minimum_of_its_curve_and_agrees_with_refitting() {
 
 #[test]
 fn noise_aware_training_beats_the_exact_fit_under_clipped_noise() {
-    use linpose::ridge::RidgeRule;
+    use linpose::methods::linear::ridge::RidgeRule;
     // Blobs on a black background, as a turntable image: clipped noise brightens the background.
     let data = synthetic(36, &[10.0, 30.0, 50.0], 24, 18);
     let mask: Vec<bool> = (0..data.len()).map(|i| (i % 36) % 2 == 0).collect();

@@ -209,7 +209,7 @@ fn run_streaming(a: &TrainArgs, manifest: linpose::Manifest, t0: Instant) -> any
         anyhow::bail!("--stream takes a numeric --ridge (0 for the exact fit); --ridge auto and --noise-level need the training set in memory");
     }
     let params = linear_params(a)?;
-    let (model, stats) = linpose::stream::fit_linear(&manifest, a.color.into(), &params, &|k| bar.inc(k))?;
+    let (model, stats) = linpose::methods::linear::stream::fit_linear(&manifest, a.color.into(), &params, &|k| bar.inc(k))?;
     bar.finish_and_clear();
     let fit_s = t0.elapsed().as_secs_f64();
     let model: AnyModel = model.into();
@@ -224,7 +224,7 @@ fn run_streaming(a: &TrainArgs, manifest: linpose::Manifest, t0: Instant) -> any
         a.out.display()
     );
     match stats.path {
-        linpose::stream::SolverPath::LeastSquares => eprintln!(
+        linpose::methods::linear::stream::SolverPath::LeastSquares => eprintln!(
             "  reading {:.3} s (overlapped; waited {:.3} s), accumulating X^T X and X^T P {:.3} s ({:.1} GFLOP/s{}), solving {:.3} s",
             stats.read_s,
             stats.wait_s,
@@ -233,7 +233,7 @@ fn run_streaming(a: &TrainArgs, manifest: linpose::Manifest, t0: Instant) -> any
             if stats.integer_8bit { ", 8-bit integer arithmetic" } else { ", f64" },
             stats.solve_s
         ),
-        linpose::stream::SolverPath::Gram => eprintln!("  reading {:.3} s, Gram matrix and solve {:.3} s", stats.read_s, stats.solve_s),
+        linpose::methods::linear::stream::SolverPath::Gram => eprintln!("  reading {:.3} s, Gram matrix and solve {:.3} s", stats.read_s, stats.solve_s),
     }
     if let Some(j) = &a.json {
         let summary = TrainSummary {

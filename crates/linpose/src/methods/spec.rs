@@ -2,10 +2,10 @@
 //! "a method with its settings" without caring which.
 
 use crate::dataset::Dataset;
-use crate::eigenspace::EigenspaceParams;
-use crate::linear::LinearParams;
+use crate::methods::eigenspace::EigenspaceParams;
+use crate::methods::linear::LinearParams;
 use crate::model::{AnyModel, Estimator};
-use crate::refine::RefinedParams;
+use crate::methods::refined::RefinedParams;
 use crate::Result;
 
 /// A method with its settings.
@@ -24,9 +24,9 @@ impl MethodSpec {
     /// The method's name, as in model files and on the command line.
     pub fn name(&self) -> &'static str {
         match self {
-            MethodSpec::Linear(_) => crate::linear::METHOD,
-            MethodSpec::Eigenspace(_) => crate::eigenspace::METHOD,
-            MethodSpec::Refined(_) => crate::refine::METHOD,
+            MethodSpec::Linear(_) => crate::methods::linear::METHOD,
+            MethodSpec::Eigenspace(_) => crate::methods::eigenspace::METHOD,
+            MethodSpec::Refined(_) => crate::methods::refined::METHOD,
         }
     }
 

@@ -2,7 +2,7 @@
 //! searched continuously instead of on a dense grid of resampled points.
 //!
 //! 1. Training is the eigenspace's: unit-energy images, the mean subtracted, the top L
-//!    eigenimages from the N x N Gram matrix ([`crate::eigenspace::pca`]).
+//!    eigenimages from the N x N Gram matrix ([`crate::methods::eigenspace::pca`]).
 //! 2. The manifold is the same tensor-product cubic spline through the training views'
 //!    coordinates (periodic along a circular axis), but it is kept as the spline itself
 //!    ([`surface`]): its N knots with their slopes, not N_dense resampled points. The eigenspace
@@ -141,8 +141,8 @@ pub mod surface;
 
 use crate::binning::Binning;
 use crate::dataset::Dataset;
-use crate::eigenspace::manifold::Grid;
-use crate::eigenspace::pca::{self, Dimension};
+use crate::methods::eigenspace::manifold::Grid;
+use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
@@ -663,7 +663,7 @@ struct Words {
 /// [`Surface::climb`] walks the reporting lattice with the query's own weights.
 #[derive(Debug, Clone)]
 struct CoarseTree {
-    tree: crate::eigenspace::kdtree::KdTree,
+    tree: crate::methods::eigenspace::kdtree::KdTree,
     /// The lattice's poses (n x D).
     poses: Vec<f64>,
 }
@@ -674,19 +674,19 @@ const MAX_TREE_POSES: usize = 1 << 20;
 impl CoarseTree {
     /// The tree over `surface` on the lattice of `step` degrees anchored at each axis's first
     /// knot, in the first `ls` coordinates; None for one parameter, more than
-    /// [`crate::eigenspace::kdtree::MAX_DIM`] coordinates or more than [`MAX_TREE_POSES`] poses.
+    /// [`crate::methods::eigenspace::kdtree::MAX_DIM`] coordinates or more than [`MAX_TREE_POSES`] poses.
     fn new(surface: &Surface, space: &crate::PoseSpace, axes: &[Vec<f64>], ls: usize, step: f64) -> Option<CoarseTree> {
         let d = axes.len();
-        if !(2..=8).contains(&d) || !(1..=crate::eigenspace::kdtree::MAX_DIM).contains(&ls) || step <= 0.0 {
+        if !(2..=8).contains(&d) || !(1..=crate::methods::eigenspace::kdtree::MAX_DIM).contains(&ls) || step <= 0.0 {
             return None;
         }
         let counts: Vec<f64> =
-            axes.iter().zip(space.params()).map(|(a, p)| crate::eigenspace::manifold::sample_count(a, p.period, step)).collect();
+            axes.iter().zip(space.params()).map(|(a, p)| crate::methods::eigenspace::manifold::sample_count(a, p.period, step)).collect();
         if counts.iter().product::<f64>() > MAX_TREE_POSES as f64 {
             return None;
         }
         let at: Vec<Vec<f64>> =
-            axes.iter().zip(space.params()).map(|(a, p)| crate::eigenspace::manifold::sample_positions(a, p.period, step)).collect();
+            axes.iter().zip(space.params()).map(|(a, p)| crate::methods::eigenspace::manifold::sample_positions(a, p.period, step)).collect();
         let n: usize = at.iter().map(Vec::len).product();
         let (mut poses, mut points) = (Vec::with_capacity(n * d), Vec::with_capacity(n * ls));
         let mut f = vec![0.0; ls];
@@ -694,13 +694,13 @@ impl CoarseTree {
         for k in 0..n {
             // The eigenspace manifold's order (the last axis fastest), its circular values
             // wrapped into [0, period) and brought back into the surface's domain.
-            crate::eigenspace::manifold::pose_of(&at, space, k, &mut t);
+            crate::methods::eigenspace::manifold::pose_of(&at, space, k, &mut t);
             surface.clamp(&mut t);
             surface.eval(&t, &mut f, None);
             poses.extend_from_slice(&t);
             points.extend(f.iter().map(|&v| v as f32));
         }
-        Some(CoarseTree { tree: crate::eigenspace::kdtree::KdTree::new(&points, ls), poses })
+        Some(CoarseTree { tree: crate::methods::eigenspace::kdtree::KdTree::new(&points, ls), poses })
     }
 }
 
@@ -715,7 +715,7 @@ impl CoarseTree {
 /// lattice on the affine match itself, with the query's own weights.
 #[derive(Debug, Clone)]
 struct NoisyTree {
-    tree: crate::eigenspace::kdtree::KdTree,
+    tree: crate::methods::eigenspace::kdtree::KdTree,
     /// The square roots of the weights the points were scaled by.
     scale: Vec<f64>,
     /// The unit offset direction removed (in the scaled coordinates).
@@ -732,7 +732,7 @@ impl NoisyTree {
     /// count: the coordinates used); None when a point has no length left off `dir`.
     fn new(f: &Surface, g: &Surface, space: &crate::PoseSpace, axes: &[Vec<f64>], poses: &[f64], c: &[f64], w0: &[f64]) -> Option<NoisyTree> {
         let (d, ln) = (f.params(), w0.len());
-        if !(1..=crate::eigenspace::kdtree::MAX_DIM).contains(&ln) {
+        if !(1..=crate::methods::eigenspace::kdtree::MAX_DIM).contains(&ln) {
             return None;
         }
         let scale: Vec<f64> = w0.iter().map(|w| w.sqrt()).collect();
@@ -760,7 +760,7 @@ impl NoisyTree {
         }
         let periods = space.params().iter().map(|p| p.period).collect();
         let apart = axes.iter().map(|a| 2.0 * a.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)).collect();
-        Some(NoisyTree { tree: crate::eigenspace::kdtree::KdTree::new(&points, ln), scale, dir, periods, apart })
+        Some(NoisyTree { tree: crate::methods::eigenspace::kdtree::KdTree::new(&points, ln), scale, dir, periods, apart })
     }
 
     /// `v` (scaled coordinates) less its part along `dir`, to unit length, into `out`; false
@@ -780,11 +780,11 @@ impl NoisyTree {
     /// its squared distance, the nearest one apart from it by more than `apart[j]` degrees
     /// along some axis j (circularly on a circular axis): a second basin, as on a nearly
     /// symmetric object, whose views a half turn apart differ little (both from one search,
-    /// [`crate::eigenspace::kdtree::KdTree::nearest_and_near`], under its distance). None when
+    /// [`crate::methods::eigenspace::kdtree::KdTree::nearest_and_near`], under its distance). None when
     /// `z` has no length off the offset direction.
     fn starts(&self, z: &[f64], poses: &[f64]) -> Option<(usize, Option<usize>)> {
         let (ln, d, periods, apart) = (self.scale.len(), self.periods.len(), &self.periods, &self.apart);
-        let (mut v, mut q) = ([0f64; crate::eigenspace::kdtree::MAX_DIM], [0f32; crate::eigenspace::kdtree::MAX_DIM]);
+        let (mut v, mut q) = ([0f64; crate::methods::eigenspace::kdtree::MAX_DIM], [0f32; crate::methods::eigenspace::kdtree::MAX_DIM]);
         v[..ln].iter_mut().zip(z.iter().zip(&self.scale)).for_each(|(o, (a, s))| *o = a * s);
         if !Self::unit_off(&v[..ln], &self.dir, &mut q[..ln]) {
             return None;
@@ -2606,7 +2606,7 @@ impl RefinedModel {
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
         let block = if self.words_at(level).is_some() { dot_w::BLOCK } else { self.quant.block(level) };
-        let rows = if n >= 8 { crate::eigenspace::u8_task_rows(n, block) } else { n };
+        let rows = if n >= 8 { crate::methods::eigenspace::u8_task_rows(n, block) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             if self.binning.bins() {
                 self.project_u8_binned(level, q, noise, s);

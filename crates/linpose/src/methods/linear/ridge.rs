@@ -16,7 +16,7 @@
 //!   (the camera that made them makes the queries) by Immerkaer's fast noise estimator.
 
 use crate::dataset::Dataset;
-use crate::linear::GramSystem;
+use crate::methods::linear::GramSystem;
 use crate::{Error, Result};
 use faer::Side;
 use serde::{Deserialize, Serialize};
@@ -123,11 +123,11 @@ mod tests {
         for &(x, a) in &[(0.0f64, 0.1f64), (0.05, 0.1), (0.5, 0.1), (0.97, 0.1), (1.0, 0.05), (0.02, 0.05)] {
             let n = 200_000;
             let mc: f64 = (0..n).map(|_| (x + rng.random_range(-a..a)).clamp(0.0, 1.0)).sum::<f64>() / n as f64;
-            let exact = crate::linear::expected_clipped(x, a);
+            let exact = crate::methods::linear::expected_clipped(x, a);
             assert!((mc - exact).abs() < 1e-3, "x {x} a {a}: {mc} vs {exact}");
         }
         // A black pixel brightens by a/4 on average.
-        assert!((crate::linear::expected_clipped(0.0, 0.2) - 0.05).abs() < 1e-15);
+        assert!((crate::methods::linear::expected_clipped(0.0, 0.2) - 0.05).abs() < 1e-15);
     }
 
     #[test]

@@ -17,7 +17,7 @@
 //! axis k's weights differentiated. Resampling this at the eigenspace's dense positions gives the
 //! eigenspace's manifold points (tested).
 
-use crate::eigenspace::spline::{Boundary, Spline};
+use crate::methods::eigenspace::spline::{Boundary, Spline};
 use crate::pose::{wrap_positive, PoseSpace};
 use crate::Result;
 use serde::{Deserialize, Serialize};

@@ -233,14 +233,14 @@ mod tests {
     }
 
     /// The search with its near points is brute force under its own distance
-    /// ([`crate::eigenspace::kdtree::near_distance`]): the nearest point (ties to the lower
+    /// ([`crate::methods::eigenspace::kdtree::near_distance`]): the nearest point (ties to the lower
     /// index) with its distance, which is the plain search's within f32 rounding, and exactly the
     /// points within the reach times that distance (each once, with its distance); the nearest
     /// of those outside a window of indices around the first (as the refined search picks a
     /// second basin) is brute force's over the points outside it within the reach.
     #[test]
     fn the_tree_s_near_points_are_brute_force_s() {
-        use crate::eigenspace::kdtree::near_distance;
+        use crate::methods::eigenspace::kdtree::near_distance;
         let mut rng = ChaCha8Rng::seed_from_u64(13);
         let mut near = Vec::new();
         for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {

@@ -842,7 +842,7 @@ mod simd {
 mod tests {
     use super::*;
     use crate::pose::{Param, PoseSpace};
-    use crate::refine::surface::{Interpolant, Surface, INTERPOLANTS};
+    use crate::methods::refined::surface::{Interpolant, Surface, INTERPOLANTS};
 
     struct Rng(u64);
     impl Rng {

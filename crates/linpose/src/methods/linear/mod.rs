@@ -5,10 +5,13 @@
 //! Beyond the paper and off by default: ridge (G + lambda I), and mean-centring (an intercept).
 //! Served in f32: the weights are stored as f32 and a query costs M*K multiply-adds.
 
+pub mod ridge;
+pub mod stream;
+
 use crate::dataset::Dataset;
 use crate::kernels::{dot_u8::dots, Level};
 use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
-use crate::ridge::{estimate_noise_sigma, loo_curve, RidgeRule};
+use crate::methods::linear::ridge::{estimate_noise_sigma, loo_curve, RidgeRule};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};

@@ -36,7 +36,7 @@ use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::kernels::levels::{quantize, residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
 use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
-use crate::linear::{LinearModel, LinearParams};
+use crate::methods::linear::{LinearModel, LinearParams};
 use crate::manifest::Manifest;
 use crate::model::{Estimator, ModelMeta};
 use crate::{Error, Result};
@@ -312,7 +312,7 @@ pub fn fit_least_squares(
     }
     let solve_s = t.elapsed().as_secs_f64();
     let meta = ModelMeta {
-        method: crate::linear::METHOD.into(),
+        method: crate::methods::linear::METHOD.into(),
         spec,
         space: space.clone(),
         train_poses: manifest.poses().to_vec(),

@@ -5,7 +5,7 @@ use crate::image_io::{ColorMode, ImageSpec};
 use crate::{Manifest, Param, PoseSpace};
 
 // The eigenspace tests' synthetic turntable images.
-use crate::eigenspace::tests::{image, H, W};
+use crate::methods::eigenspace::tests::{image, H, W};
 
 fn grid(elev: &[f64], azim: &[f64]) -> Dataset {
     grid_tiled(elev, azim, 1)
@@ -48,9 +48,9 @@ fn training_poses_are_recovered() {
 fn surface_resamples_to_the_eigenspace_manifold() {
     // The surface at the eigenspace's dense positions gives its manifold points (same spline).
     let d = train_set();
-    let pca = crate::eigenspace::pca::fit(&d, Dimension::Fixed(6)).unwrap();
+    let pca = crate::methods::eigenspace::pca::fit(&d, Dimension::Fixed(6)).unwrap();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
-    let dense = crate::eigenspace::manifold::Manifold::build(d.space(), &g, &pca.coords, 6, 5.0).unwrap();
+    let dense = crate::methods::eigenspace::manifold::Manifold::build(d.space(), &g, &pca.coords, 6, 5.0).unwrap();
     let knots: Vec<f64> = g.sample_at.iter().flat_map(|&i| pca.coords[i * 6..(i + 1) * 6].iter().copied()).collect();
     let s = surface::Surface::new(d.space(), &g.axes, &knots, 6, surface::Interpolant::Spline).unwrap();
     let (mut pose, mut f) = ([0.0; 2], [0.0; 6]);
@@ -69,7 +69,7 @@ fn surface_resamples_to_the_eigenspace_manifold() {
 /// through that line's knots, for either interpolant: the tensor product is wired per axis.
 #[test]
 fn the_surface_is_each_axis_curve_along_the_knot_lines() {
-    use crate::eigenspace::spline::Boundary;
+    use crate::methods::eigenspace::spline::Boundary;
     let d = train_set();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
     let shape = g.shape();
@@ -393,7 +393,7 @@ fn the_model_keeps_only_the_eigenimages_its_queries_use() {
     let tensors = model.tensors();
     assert_eq!(tensors[0].shape, vec![s.components, m], "basis");
     // The residual energy is the eigenvalues past the L kept.
-    let pca = crate::eigenspace::pca::fit(&d, Dimension::Fixed(s.components)).unwrap();
+    let pca = crate::methods::eigenspace::pca::fit(&d, Dimension::Fixed(s.components)).unwrap();
     let want = pca.eigenvalues[s.components..].iter().map(|v| v.max(0.0)).sum::<f64>() / d.len() as f64;
     assert!((s.residual_energy - want).abs() <= 1e-12 * want.max(1e-300), "{} vs {want}", s.residual_energy);
 }
@@ -550,7 +550,7 @@ fn on_a_turntable_the_plain_metric_finds_the_eigenspace_manifold_point() {
     let queries = turntable(&(0..120).map(|k| 3.0 * k as f64 + 0.7).collect::<Vec<_>>());
     let refined = RefinedParams::default().components(6).weighted(false).fit(&train).unwrap();
     assert!(refined.lattice.is_some(), "a one-parameter model searches its lattice");
-    let eigen = crate::eigenspace::EigenspaceParams::default().components(6).fit(&train).unwrap();
+    let eigen = crate::methods::eigenspace::EigenspaceParams::default().components(6).fit(&train).unwrap();
     let (a, b) = (refined.predict(queries.features()).unwrap(), eigen.predict(queries.features()).unwrap());
     assert_eq!(a, b);
     // Off the lattice (resolution 0) the local search runs instead, and lands within a lattice

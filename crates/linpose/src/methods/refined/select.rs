@@ -33,8 +33,8 @@
 
 use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, MAX_AUTO_COMPONENTS, METHOD};
 use crate::dataset::Dataset;
-use crate::eigenspace::manifold::Grid;
-use crate::eigenspace::pca::{self, Dimension};
+use crate::methods::eigenspace::manifold::Grid;
+use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::model::{ModelMeta, PoseModel};
 use crate::Result;
 use rayon::prelude::*;
