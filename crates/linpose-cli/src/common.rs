@@ -58,11 +58,7 @@ pub fn progress(len: u64, what: &str) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(len);
-    bar.set_style(
-        ProgressStyle::with_template("{msg:>20} [{bar:40}] {pos}/{len} ({eta})")
-            .expect("static template")
-            .progress_chars("=> "),
-    );
+    bar.set_style(ProgressStyle::with_template("{msg:>20} [{bar:40}] {pos}/{len} ({eta})").expect("static template").progress_chars("=> "));
     bar.set_message(what.to_string());
     bar
 }

@@ -118,7 +118,11 @@ fn model_loads_in_safetensors_and_reproduces_estimates() {
 fn explicit_training_list_and_rgb_features() {
     let d = Dir::new();
     write_dataset(&d.path("data"), 10, &[], (16, 12));
-    std::fs::write(d.path("list.txt"), "# every 30 degrees\na000.png\na030.png\na060.png\na090.png\na120.png\na150.png\na180.png\na210.png\na240.png\na270.png\na300.png\na330.png\n").unwrap();
+    std::fs::write(
+        d.path("list.txt"),
+        "# every 30 degrees\na000.png\na030.png\na060.png\na090.png\na120.png\na150.png\na180.png\na210.png\na240.png\na270.png\na300.png\na330.png\n",
+    )
+    .unwrap();
     d.ok(&["train", "--data", "data", "--train-list", "list.txt", "--out", "m.safetensors", "--json", "t.json"]);
     assert_eq!(json(&d.path("t.json"))["n_train"], 12);
     d.ok(&["eval", "--model", "m.safetensors", "--data", "data", "--json", "e.json"]);

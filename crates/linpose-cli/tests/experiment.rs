@@ -14,17 +14,43 @@ fn quick_experiment_writes_a_report_that_agrees_with_direct_evaluation() {
     let d = Dir::new();
     let out = d.ok(&["experiment", "--quick", "--objects", "duck", "--open-cases", "twin", "--out", "rep"]);
     assert!(out.contains("Report:") && out.contains("rep/report.html"), "{out}");
-    for f in ["report.md", "report.html", "results.json", "models/duck-linear.safetensors", "models/duck-eigenspace.safetensors", "figures/fig2-coefficients-duck.png", "figures/fig3-duck-linear.svg", "figures/fig3-twin-eigenspace.svg", "figures/fig4-duck-linear-noise10.svg", "figures/error-cdf.svg", "figures/error-vs-training-size.svg"] {
+    for f in [
+        "report.md",
+        "report.html",
+        "results.json",
+        "models/duck-linear.safetensors",
+        "models/duck-eigenspace.safetensors",
+        "figures/fig2-coefficients-duck.png",
+        "figures/fig3-duck-linear.svg",
+        "figures/fig3-twin-eigenspace.svg",
+        "figures/fig4-duck-linear-noise10.svg",
+        "figures/error-cdf.svg",
+        "figures/error-vs-training-size.svg",
+    ] {
         assert!(d.path("rep").join(f).is_file(), "missing {f}");
     }
     let md = std::fs::read_to_string(d.path("rep/report.md")).unwrap();
-    for s in ["What it found", "**Accuracy.**", "**Storage.**", "**Cost.**", "**Noise (linear).**", "**Overtraining.**", "**Open case twin.**", "Table 1", "NL + ML", "MK"] {
+    for s in [
+        "What it found",
+        "**Accuracy.**",
+        "**Storage.**",
+        "**Cost.**",
+        "**Noise (linear).**",
+        "**Overtraining.**",
+        "**Open case twin.**",
+        "Table 1",
+        "NL + ML",
+        "MK",
+    ] {
         assert!(md.contains(s), "report.md lacks {s}");
     }
     let html = std::fs::read_to_string(d.path("rep/report.html")).unwrap();
     assert!(html.contains("<svg") && html.contains("data:image/png;base64,"), "figures are inline");
     // Only the SVG namespace URI may appear: nothing is fetched (no src/href to a file or host).
-    assert!(!html.contains("src=\"figures/") && !html.contains("src=\"http") && !html.contains("href=\"http") && !html.contains("@import"), "the page needs no other file and no network");
+    assert!(
+        !html.contains("src=\"figures/") && !html.contains("src=\"http") && !html.contains("href=\"http") && !html.contains("@import"),
+        "the page needs no other file and no network"
+    );
 
     // The same data, made and evaluated directly through the CLI.
     d.ok(&["synth", "--object", "duck", "--azimuth", "0:351:9", "--elevation", "32:77:9", "--size", "80x60", "--out", "duck"]);
@@ -36,7 +62,12 @@ fn quick_experiment_writes_a_report_that_agrees_with_direct_evaluation() {
             let file = format!("{method}-{noise}.json");
             d.ok(&["eval", "--model", &format!("{method}.safetensors"), "--data", "duck", "--noise", noise, "--seed", seed, "--json", &file]);
             let e = json(&d.path(&file));
-            let run = duck["runs"].as_array().unwrap().iter().find(|x| x["method"] == method && x["noise"].as_f64().unwrap() == noise.parse::<f64>().unwrap()).unwrap();
+            let run = duck["runs"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|x| x["method"] == method && x["noise"].as_f64().unwrap() == noise.parse::<f64>().unwrap())
+                .unwrap();
             assert_eq!(run["n_train"], e["n_train"]);
             assert_eq!(run["model_bytes"], e["model_bytes"]);
             for stat in ["mean_deg", "median_deg", "p90_deg", "max_deg"] {

@@ -44,11 +44,7 @@ fn delays(full: Duration, n: u32) -> impl Iterator<Item = Duration> {
 }
 
 fn hidden_leftovers(dir: &Path, name: &str) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .filter_map(|e| e.ok()?.file_name().into_string().ok())
-        .filter(|f| f.starts_with(&format!(".{name}.")))
-        .collect()
+    std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()?.file_name().into_string().ok()).filter(|f| f.starts_with(&format!(".{name}."))).collect()
 }
 
 #[test]
@@ -191,7 +187,10 @@ fn same_command_same_bytes_with_one_or_two_threads() {
     }
     for other in ["b", "c"] {
         for f in ["linear.safetensors", "eigen.safetensors"] {
-            assert!(std::fs::read(d.path(&format!("a-{f}"))).unwrap() == std::fs::read(d.path(&format!("{other}-{f}"))).unwrap(), "{f}: run a and run {other} differ");
+            assert!(
+                std::fs::read(d.path(&format!("a-{f}"))).unwrap() == std::fs::read(d.path(&format!("{other}-{f}"))).unwrap(),
+                "{f}: run a and run {other} differ"
+            );
         }
         for f in ["train.json", "eval-linear.json", "eval-eigen.json"] {
             assert_eq!(untimed(&d.path(&format!("a-{f}"))), untimed(&d.path(&format!("{other}-{f}"))), "{f}: run a and run {other} differ");

@@ -34,8 +34,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let t0 = Instant::now();
         let est = model.predict(data.features())?;
         let predict_s = t0.elapsed().as_secs_f64();
-        let unseen: Vec<f64> =
-            (0..data.len()).filter(|&i| !mask[i]).map(|i| data.space().error_deg(data.pose(i), &est[i..i + 1])).collect();
+        let unseen: Vec<f64> = (0..data.len()).filter(|&i| !mask[i]).map(|i| data.space().error_deg(data.pose(i), &est[i..i + 1])).collect();
         let ours = unseen.iter().sum::<f64>() / unseen.len() as f64;
         ours_all.push(ours);
         let peer = peer_dir.as_ref().and_then(|d| {

@@ -3,7 +3,7 @@
 //!
 //! cargo run --release -p linpose --example contact_sheet [-- OUT.png]   (default docs/contact-sheet.png)
 
-use linpose::render::{objects, synth, Renderer, RenderParams};
+use linpose::render::{objects, synth, RenderParams, Renderer};
 
 /// (elevation, azimuth) of each column.
 const POSES: [(f64, f64); 4] = [(32.0, 0.0), (32.0, 90.0), (50.0, 210.0), (77.0, 300.0)];

@@ -52,8 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     model.project_into(&queries, &mut y)?;
     let project_s = t0.elapsed().as_secs_f64();
     let p = data.space().len();
-    let unseen: Vec<f64> =
-        (0..data.len()).filter(|&i| !mask[i]).map(|i| data.space().error_deg(data.pose(i), &est[i * p..(i + 1) * p])).collect();
+    let unseen: Vec<f64> = (0..data.len()).filter(|&i| !mask[i]).map(|i| data.space().error_deg(data.pose(i), &est[i * p..(i + 1) * p])).collect();
     let mean = unseen.iter().sum::<f64>() / unseen.len().max(1) as f64;
     let s = model.settings();
     println!(
@@ -71,7 +70,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(path) = peer {
         let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
         let e = &v["eigenspace"];
-        let (pm, pf, pp) = (e["unseen"]["mean_deg"].as_f64().unwrap_or(f64::NAN), e["fit_s"].as_f64().unwrap_or(f64::NAN), e["predict_s"].as_f64().unwrap_or(f64::NAN));
+        let (pm, pf, pp) =
+            (e["unseen"]["mean_deg"].as_f64().unwrap_or(f64::NAN), e["fit_s"].as_f64().unwrap_or(f64::NAN), e["predict_s"].as_f64().unwrap_or(f64::NAN));
         println!("peer: unseen mean {pm:.4} deg, fit_s {pf:.4}, predict_s {pp:.4}, model_bytes {}", e["model_bytes"]);
         println!("ratio ours/peer: fit {:.3}, predict {:.3}", fit_s / pf, predict_s / pp);
     }

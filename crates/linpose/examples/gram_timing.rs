@@ -25,10 +25,8 @@ fn main() {
     let sq = 2048;
     let a = Mat::<f64>::from_fn(sq, sq, |i, j| ((i * 31 + j * 17) % 101) as f64 / 101.0);
     let mut c = Mat::<f64>::zeros(sq, sq);
-    let data: Vec<(usize, Vec<f32>)> = [222usize, 2000]
-        .iter()
-        .map(|&n| (n, (0..n * m).map(|i| ((i * 2654435761usize) % 256) as f32 * (1.0 / 255.0)).collect()))
-        .collect();
+    let data: Vec<(usize, Vec<f32>)> =
+        [222usize, 2000].iter().map(|&n| (n, (0..n * m).map(|i| ((i * 2654435761usize) % 256) as f32 * (1.0 / 255.0)).collect())).collect();
     let (mut fma, mut vnni, mut mm) = (vec![], vec![], vec![]);
     // Per size: the default path, the f64 kernel.
     let mut g: Vec<[Vec<f64>; 2]> = vec![[vec![], vec![]]; data.len()];
@@ -62,7 +60,11 @@ fn main() {
         for (p, name) in [(0, if integer { "gram_f32 (8-bit integer path)" } else { "gram_f32 (f64 kernel: no VNNI)" }), (1, "gram_f32_fma (f64 kernel)")] {
             let t = median(g[k][p].clone());
             let tmin = g[k][p].iter().copied().fold(f64::INFINITY, f64::min);
-            let vs = if p == 0 && integer { format!(", {:.0}% of the VNNI peak (fastest {:.0}%)", 100.0 * done / t / vnni, 100.0 * done / tmin / vnni) } else { String::new() };
+            let vs = if p == 0 && integer {
+                format!(", {:.0}% of the VNNI peak (fastest {:.0}%)", 100.0 * done / t / vnni, 100.0 * done / tmin / vnni)
+            } else {
+                String::new()
+            };
             println!(
                 "N = {n}: {name} {:.4} s (fastest {:.4} s); {:.1} GFLOP/s (triangle) = {:.0}% of the FMA peak (fastest {:.0}%), {:.0}% of faer's{vs}",
                 t,

@@ -44,7 +44,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
-    println!("{} {} queries, noise {noise}, threads {}, load {}", data.len(), if u8 { "8-bit" } else { "f32" }, rayon::current_num_threads(), load.split_whitespace().take(3).collect::<Vec<_>>().join(" "));
+    println!(
+        "{} {} queries, noise {noise}, threads {}, load {}",
+        data.len(),
+        if u8 { "8-bit" } else { "f32" },
+        rayon::current_num_threads(),
+        load.split_whitespace().take(3).collect::<Vec<_>>().join(" ")
+    );
     for (p, mut t) in models.iter().zip(times) {
         t.sort_by(f64::total_cmp);
         println!("{:>9.2} us/query (min {:.2})  {}", t[t.len() / 2], t[0], p.display());

@@ -85,9 +85,24 @@ fn main() {
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("threads {}, load average {}, medians of {reps}", rayon::current_num_threads(), load.split_whitespace().take(3).collect::<Vec<_>>().join(" "));
     let gb = |bytes: usize, t: f64| bytes as f64 / t / 1e9;
-    println!("copy bound: batch {:.1} GB/s; one image + linear weights (cached) {:.1} GB/s; + eigenspace basis {:.1} GB/s", gb(batch * M, m[0]), gb(d_lin.len(), m[1]), gb(d_eig.len(), m[2]));
-    println!("linear u8 batch {batch}: {:.3} us/query, {:.1} GB/s of images = {:.0}% of the copy bound", m[3] / batch as f64 * 1e6, gb(batch * M, m[3]), 100.0 * m[0] / m[3]);
-    println!("linear u8 single: {:.2} us, bytes touched {:.1} GB/s = {:.0}% of the cached copy of the same bytes", m[4] * 1e6, gb(d_lin.len(), m[4]), 100.0 * m[1] / m[4]);
+    println!(
+        "copy bound: batch {:.1} GB/s; one image + linear weights (cached) {:.1} GB/s; + eigenspace basis {:.1} GB/s",
+        gb(batch * M, m[0]),
+        gb(d_lin.len(), m[1]),
+        gb(d_eig.len(), m[2])
+    );
+    println!(
+        "linear u8 batch {batch}: {:.3} us/query, {:.1} GB/s of images = {:.0}% of the copy bound",
+        m[3] / batch as f64 * 1e6,
+        gb(batch * M, m[3]),
+        100.0 * m[0] / m[3]
+    );
+    println!(
+        "linear u8 single: {:.2} us, bytes touched {:.1} GB/s = {:.0}% of the cached copy of the same bytes",
+        m[4] * 1e6,
+        gb(d_lin.len(), m[4]),
+        100.0 * m[1] / m[4]
+    );
     println!(
         "linear u8 single against one thread reading the same bytes from the caches ({:.2} us, {:.1} GB/s): {:.0}% of that bound",
         m[10] * 1e6,
@@ -97,7 +112,11 @@ fn main() {
     let flops = (2 * 20 * M) as f64;
     println!("f32 FMA bound {:.0} GFLOP/s: eigenspace {:.2} us/query at best when batched", m[7] / 1e9, flops / m[7] * 1e6);
     let bound_b = (m[0] / batch as f64).max(flops / m[7]);
-    println!("eigenspace u8 batch {batch}: {:.3} us/query = {:.0}% of its bound (max of copy and FMA bounds)", m[5] / batch as f64 * 1e6, 100.0 * bound_b / (m[5] / batch as f64));
+    println!(
+        "eigenspace u8 batch {batch}: {:.3} us/query = {:.0}% of its bound (max of copy and FMA bounds)",
+        m[5] / batch as f64 * 1e6,
+        100.0 * bound_b / (m[5] / batch as f64)
+    );
     let bound_s = m[11].max(flops / (m[7] / rayon::current_num_threads() as f64));
     println!(
         "eigenspace u8 single: {:.2} us = {:.0}% of its bound {:.2} us (max of one thread reading image + basis from the caches, {:.2} us, and one core's FMA bound)",
@@ -106,7 +125,11 @@ fn main() {
         bound_s * 1e6,
         m[11] * 1e6
     );
-    println!("eigenspace u8 projection alone, batch {batch}: {:.3} us/query = {:.0}% of its bound", m[9] / batch as f64 * 1e6, 100.0 * bound_b / (m[9] / batch as f64));
+    println!(
+        "eigenspace u8 projection alone, batch {batch}: {:.3} us/query = {:.0}% of its bound",
+        m[9] / batch as f64 * 1e6,
+        100.0 * bound_b / (m[9] / batch as f64)
+    );
     println!(
         "dense (the same views, black raised to 1: no step skipped): eigenspace u8 batch {:.3} us/query = {:.0}%, projection alone {:.3} us = {:.0}%",
         m[12] / batch as f64 * 1e6,

@@ -404,7 +404,21 @@ mod tests {
         // Widths around the 64-pixel steps, odd ones leaving a column out, images that reach
         // the largest sums, and ones of more rows than the squares' lanes take between two
         // flushes (by 2, 16 rows of 128 steps; by 4, 51 rows of 5 steps).
-        for (w, h, b) in [(128, 6, 2), (160, 7, 2), (7, 6, 2), (129, 7, 2), (62, 6, 2), (200, 9, 2), (8192, 41, 2), (128, 12, 4), (160, 13, 4), (14, 12, 4), (130, 15, 4), (260, 16, 4), (260, 222, 4)] {
+        for (w, h, b) in [
+            (128, 6, 2),
+            (160, 7, 2),
+            (7, 6, 2),
+            (129, 7, 2),
+            (62, 6, 2),
+            (200, 9, 2),
+            (8192, 41, 2),
+            (128, 12, 4),
+            (160, 13, 4),
+            (14, 12, 4),
+            (130, 15, 4),
+            (260, 16, 4),
+            (260, 222, 4),
+        ] {
             let s = spec(w, h, ColorMode::Gray);
             let bin = Binning::new(s, b).unwrap();
             let mb = bin.spec().features();

@@ -61,10 +61,7 @@ impl Dataset {
             });
         }
         if let Some(i) = features.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Dataset {
-                path: manifest.image_path(i / spec.features()),
-                message: "image has a non-finite value".into(),
-            });
+            return Err(Error::Dataset { path: manifest.image_path(i / spec.features()), message: "image has a non-finite value".into() });
         }
         Ok(Dataset { manifest, spec, features })
     }

@@ -95,11 +95,7 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, noise: f64, seed: u64) ->
     if data.space().params().iter().map(|p| &p.name).ne(meta.space.params().iter().map(|p| &p.name)) {
         return Err(Error::Dataset {
             path: data.manifest().root().to_path_buf(),
-            message: format!(
-                "the data set's parameters ({}) differ from the model's ({})",
-                names(data.space()).join(", "),
-                names(&meta.space).join(", ")
-            ),
+            message: format!("the data set's parameters ({}) differ from the model's ({})", names(data.space()).join(", "), names(&meta.space).join(", ")),
         });
     }
     let m = meta.spec.features();

@@ -8,8 +8,8 @@
 
 use crate::dataset::Dataset;
 use crate::eval::evaluate;
-use crate::methods::linear::{leave_one_out, LinearParams};
 use crate::manifest::TrainSelection;
+use crate::methods::linear::{leave_one_out, LinearParams};
 use crate::methods::MethodSpec;
 use crate::model::{AnyModel, PoseModel};
 use crate::pose::ErrorSummary;

@@ -61,26 +61,13 @@ pub fn luma601(r: u8, g: u8, b: u8) -> u8 {
 
 /// Decodes the image file at `path`, returning its size and appending its features to `out`.
 /// With `expect`, an image of another size is an [`Error::ImageSizeMismatch`] naming `context`.
-pub fn read_features(
-    path: &Path,
-    color: ColorMode,
-    expect: Option<(u32, u32)>,
-    context: &str,
-    out: &mut Vec<f32>,
-) -> Result<(u32, u32)> {
+pub fn read_features(path: &Path, color: ColorMode, expect: Option<(u32, u32)>, context: &str, out: &mut Vec<f32>) -> Result<(u32, u32)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     decode_features(path, &bytes, color, expect, context, out)
 }
 
 /// As [`read_features`], from bytes already in memory (`path` only names them in errors).
-pub fn decode_features(
-    path: &Path,
-    bytes: &[u8],
-    color: ColorMode,
-    expect: Option<(u32, u32)>,
-    context: &str,
-    out: &mut Vec<f32>,
-) -> Result<(u32, u32)> {
+pub fn decode_features(path: &Path, bytes: &[u8], color: ColorMode, expect: Option<(u32, u32)>, context: &str, out: &mut Vec<f32>) -> Result<(u32, u32)> {
     // The declared size is checked against the expected one before any pixel is allocated.
     let (w, h) = dimensions(path, bytes)?;
     if let Some((ew, eh)) = expect {
@@ -106,30 +93,17 @@ pub fn dimensions(path: &Path, bytes: &[u8]) -> Result<(u32, u32)> {
     if bytes.is_empty() {
         return Err(Error::ImageDecode { path: path.to_path_buf(), reason: "the file is empty".into() });
     }
-    let reader = ImageReader::new(Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| Error::io(path, e))?;
+    let reader = ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| Error::io(path, e))?;
     match reader.format() {
-        None => {
-            return Err(Error::ImageDecode {
-                path: path.to_path_buf(),
-                reason: "not a PNG or PNM (PGM/PPM) image".into(),
-            })
-        }
+        None => return Err(Error::ImageDecode { path: path.to_path_buf(), reason: "not a PNG or PNM (PGM/PPM) image".into() }),
         // A JPEG or GIF behind a .png name: say what it is.
         Some(f) if !matches!(f, image::ImageFormat::Png | image::ImageFormat::Pnm) => {
             let kind = format!("{f:?}").to_ascii_uppercase();
-            return Err(Error::ImageDecode {
-                path: path.to_path_buf(),
-                reason: format!("a {kind} image; linpose reads PNG and PNM (PGM/PPM) images"),
-            });
+            return Err(Error::ImageDecode { path: path.to_path_buf(), reason: format!("a {kind} image; linpose reads PNG and PNM (PGM/PPM) images") });
         }
         Some(_) => {}
     }
-    let (w, h) = reader.into_dimensions().map_err(|e| Error::ImageDecode {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
+    let (w, h) = reader.into_dimensions().map_err(|e| Error::ImageDecode { path: path.to_path_buf(), reason: e.to_string() })?;
     if w == 0 || h == 0 {
         return Err(Error::ImageDecode { path: path.to_path_buf(), reason: format!("the image has no pixels ({w}x{h})") });
     }
@@ -159,16 +133,10 @@ pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
     match (img, color) {
         (DynamicImage::ImageLuma8(g), ColorMode::Gray) => out.extend(g.as_raw().iter().map(|&v| v as f32 * S8)),
         (DynamicImage::ImageLumaA8(g), ColorMode::Gray) => out.extend(g.as_raw().chunks_exact(2).map(|p| p[0] as f32 * S8)),
-        (DynamicImage::ImageRgb8(c), ColorMode::Gray) => {
-            out.extend(c.as_raw().chunks_exact(3).map(|p| luma601(p[0], p[1], p[2]) as f32 * S8))
-        }
-        (DynamicImage::ImageRgba8(c), ColorMode::Gray) => {
-            out.extend(c.as_raw().chunks_exact(4).map(|p| luma601(p[0], p[1], p[2]) as f32 * S8))
-        }
+        (DynamicImage::ImageRgb8(c), ColorMode::Gray) => out.extend(c.as_raw().chunks_exact(3).map(|p| luma601(p[0], p[1], p[2]) as f32 * S8)),
+        (DynamicImage::ImageRgba8(c), ColorMode::Gray) => out.extend(c.as_raw().chunks_exact(4).map(|p| luma601(p[0], p[1], p[2]) as f32 * S8)),
         (DynamicImage::ImageLuma16(g), ColorMode::Gray) => out.extend(g.as_raw().iter().map(|&v| v as f32 * S16)),
-        (DynamicImage::ImageLumaA16(g), ColorMode::Gray) => {
-            out.extend(g.as_raw().chunks_exact(2).map(|p| p[0] as f32 * S16))
-        }
+        (DynamicImage::ImageLumaA16(g), ColorMode::Gray) => out.extend(g.as_raw().chunks_exact(2).map(|p| p[0] as f32 * S16)),
         (_, ColorMode::Gray) => {
             // 16-bit or float colour: Rec. 601 weights in floating point.
             let c = img.to_rgb32f();

@@ -41,10 +41,7 @@ impl Manifest {
             });
         }
         if let Some(i) = poses.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Dataset {
-                path: root,
-                message: format!("pose of {} is not finite: {}", images[i / space.len()], poses[i]),
-            });
+            return Err(Error::Dataset { path: root, message: format!("pose of {} is not finite: {}", images[i / space.len()], poses[i]) });
         }
         Ok(Manifest { root, space, images, poses })
     }
@@ -53,10 +50,7 @@ impl Manifest {
     /// COIL layout for `object` (which must then be given).
     pub fn open(dir: &Path, object: Option<u32>) -> Result<Self> {
         if !dir.is_dir() {
-            return Err(Error::Dataset {
-                path: dir.to_path_buf(),
-                message: if dir.exists() { "not a folder".into() } else { "no such folder".into() },
-            });
+            return Err(Error::Dataset { path: dir.to_path_buf(), message: if dir.exists() { "not a folder".into() } else { "no such folder".into() } });
         }
         let csv = dir.join("poses.csv");
         match object {
@@ -118,10 +112,7 @@ impl Manifest {
             views.push((k, name.to_string()));
         }
         if views.is_empty() {
-            return Err(Error::Dataset {
-                path: dir.to_path_buf(),
-                message: format!("no COIL images of object {object} (files named {prefix}K.png)"),
-            });
+            return Err(Error::Dataset { path: dir.to_path_buf(), message: format!("no COIL images of object {object} (files named {prefix}K.png)") });
         }
         views.sort();
         if let Some(w) = views.windows(2).find(|w| w[0].0 == w[1].0) {
@@ -195,10 +186,7 @@ impl Manifest {
             TrainSelection::Names(names) => {
                 let have: HashSet<&str> = self.images.iter().map(|s| s.as_str()).collect();
                 if let Some(missing) = names.iter().find(|n| !have.contains(n.as_str())) {
-                    return Err(Error::Dataset {
-                        path: self.root.clone(),
-                        message: format!("training list names '{missing}', which is not in the data set"),
-                    });
+                    return Err(Error::Dataset { path: self.root.clone(), message: format!("training list names '{missing}', which is not in the data set") });
                 }
                 let set: HashSet<&str> = names.iter().map(|s| s.as_str()).collect();
                 self.images.iter().map(|n| set.contains(n.as_str())).collect()
@@ -265,8 +253,7 @@ fn is_multiple(v: f64, s: f64) -> bool {
 
 fn check_relative(csv: &Path, img: &str) -> Result<()> {
     let p = Path::new(img);
-    let escapes = p.is_absolute()
-        || p.components().any(|c| matches!(c, Component::ParentDir | Component::RootDir | Component::Prefix(_)));
+    let escapes = p.is_absolute() || p.components().any(|c| matches!(c, Component::ParentDir | Component::RootDir | Component::Prefix(_)));
     if escapes {
         return Err(Error::Dataset {
             path: csv.to_path_buf(),
@@ -285,11 +272,7 @@ pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Stri
         Some(r) => r.map_err(|e| Error::parse(path, 1, e.to_string()))?,
     };
     if header.get(0) != Some("image") {
-        return Err(Error::parse(
-            path,
-            1,
-            format!("the header must start with 'image', found '{}'", header.get(0).unwrap_or("")),
-        ));
+        return Err(Error::parse(path, 1, format!("the header must start with 'image', found '{}'", header.get(0).unwrap_or(""))));
     }
     let names: Vec<String> = header.iter().skip(1).map(String::from).collect();
     if names.is_empty() {

@@ -144,10 +144,11 @@ pub struct TensorSet {
 
 impl TensorSet {
     fn get(&self, name: &str, shape: &[usize]) -> Result<&Tensor> {
-        let t = self.tensors.iter().find(|t| t.name == name).ok_or_else(|| Error::ModelFile {
-            path: self.path.clone(),
-            message: format!("the model file has no tensor '{name}'"),
-        })?;
+        let t = self
+            .tensors
+            .iter()
+            .find(|t| t.name == name)
+            .ok_or_else(|| Error::ModelFile { path: self.path.clone(), message: format!("the model file has no tensor '{name}'") })?;
         if t.shape != shape {
             return Err(Error::ModelFile {
                 path: self.path.clone(),

@@ -87,8 +87,7 @@ pub fn load(path: &Path) -> Result<AnyModel> {
 /// Parses model file bytes (`path` names them in errors).
 pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
-    let st = SafeTensors::deserialize(bytes)
-        .map_err(|e| err(format!("not a linpose model file (not a complete safetensors file: {e})")))?;
+    let st = SafeTensors::deserialize(bytes).map_err(|e| err(format!("not a linpose model file (not a complete safetensors file: {e})")))?;
     let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| err(e.to_string()))?;
     let meta = header.metadata().as_ref().ok_or_else(|| err("not a linpose model file (safetensors without linpose metadata)".into()))?;
     if meta.get("format").map(String::as_str) != Some("linpose") {
@@ -96,9 +95,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     }
     let version = meta.get("format_version").ok_or_else(|| err("model file has no format_version".into()))?;
     if version != &FORMAT_VERSION.to_string() {
-        return Err(err(format!(
-            "model file format version {version}, but this linpose reads version {FORMAT_VERSION}; retrain the model with this linpose"
-        )));
+        return Err(err(format!("model file format version {version}, but this linpose reads version {FORMAT_VERSION}; retrain the model with this linpose")));
     }
     let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
     let meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;

@@ -141,7 +141,11 @@ fn obj_files_render_and_bad_ones_are_named() {
     let dir = tempfile::tempdir().unwrap();
     // A tetrahedron, Y up, with a vertex colour on each vertex.
     let good = dir.path().join("tet.obj");
-    std::fs::write(&good, "# tetrahedron\nmtllib missing.mtl\nv 0 0 0 1 1 1\nv 1 0 0 0.5 0.5 0.5\nv 0 0 1 1 0 0\nv 0 1 0 0 1 0\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n").unwrap();
+    std::fs::write(
+        &good,
+        "# tetrahedron\nmtllib missing.mtl\nv 0 0 0 1 1 1\nv 1 0 0 0.5 0.5 0.5\nv 0 0 1 1 0 0\nv 0 1 0 0 1 0\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    )
+    .unwrap();
     let mesh = Mesh::from_obj(&good).unwrap();
     assert_eq!((mesh.positions().len(), mesh.triangles().len()), (4, 4));
     assert_eq!(mesh.positions()[3], [0.0, 0.0, 1.0], "OBJ y is the turntable axis");

@@ -37,9 +37,8 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
     let r = linpose::evaluate(&model, &data, a.noise, a.seed)?;
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
-    let line = |name: &str, s: &ErrorSummary| {
-        println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg)
-    };
+    let line =
+        |name: &str, s: &ErrorSummary| println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg);
     line("all", &r.all);
     match &r.unseen {
         Some(u) => line("unseen", u),

@@ -53,11 +53,7 @@ pub struct ExperimentArgs {
 
 /// The default methods compared.
 pub fn default_methods() -> Vec<MethodSpec> {
-    vec![
-        MethodSpec::Linear(LinearParams::default()),
-        MethodSpec::Eigenspace(EigenspaceParams::default()),
-        MethodSpec::Refined(RefinedParams::default()),
-    ]
+    vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(EigenspaceParams::default()), MethodSpec::Refined(RefinedParams::default())]
 }
 
 /// Replaces `out` by the finished folder `tmp` (the old report is removed only once the new one
@@ -142,7 +138,9 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(parent).with_context(|| format!("{}: cannot create the report's parent folder", parent.display()))?;
     let tmp = parent.join(format!(".{}.tmp-{}", a.out.file_name().and_then(|n| n.to_str()).unwrap_or("report"), std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
-    std::fs::create_dir_all(tmp.join("figures")).and_then(|_| std::fs::create_dir_all(tmp.join("models"))).with_context(|| format!("{}: cannot create the report folder", tmp.display()))?;
+    std::fs::create_dir_all(tmp.join("figures"))
+        .and_then(|_| std::fs::create_dir_all(tmp.join("models")))
+        .with_context(|| format!("{}: cannot create the report folder", tmp.display()))?;
     let result = (|| -> anyhow::Result<(Vec<ObjectResult>, f64)> {
         let mut results = Vec::new();
         let mut data_s = 0.0;
@@ -188,7 +186,11 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         }
     }
     let info = StudyInfo {
-        source: if a.data.is_empty() { format!("linpose's built-in turntable objects ({}), rendered", sources.iter().map(|s| s.0.as_str()).collect::<Vec<_>>().join(", ")) } else { "the user's data sets".into() },
+        source: if a.data.is_empty() {
+            format!("linpose's built-in turntable objects ({}), rendered", sources.iter().map(|s| s.0.as_str()).collect::<Vec<_>>().join(", "))
+        } else {
+            "the user's data sets".into()
+        },
         grid: if a.data.is_empty() {
             format!("azimuth {} x elevation {} = {} images of {}x{} per object", az, el, az.len() * el.len(), size.0, size.1)
         } else {

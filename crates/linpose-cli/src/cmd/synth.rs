@@ -58,11 +58,7 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
     let grid = PoseGrid::new(Grid::parse("elevation", &args.elevation)?, Grid::parse("azimuth", &args.azimuth)?)?;
     let (width, height) = parse_size(&args.size)?;
     let camera = if args.perspective { Camera::perspective() } else { Camera::default() };
-    let params = RenderParams::default()
-        .width(width)
-        .height(height)
-        .camera(camera)
-        .light(Light::default().specular(args.specular));
+    let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular));
     params.validate()?;
 
     let bar = if std::io::stderr().is_terminal() {

@@ -135,7 +135,9 @@ figcaption{{font-size:0.9em;color:#444;max-width:900px}}svg,img{{max-width:100%;
                 Block::Figure { data, caption, .. } => {
                     s.push_str("<figure>");
                     match data {
-                        FigureData::Svg(svg) => s.push_str(svg.trim_start_matches(|c| c != '<').split_once("<svg").map(|(_, r)| format!("<svg{r}")).as_deref().unwrap_or(svg)),
+                        FigureData::Svg(svg) => {
+                            s.push_str(svg.trim_start_matches(|c| c != '<').split_once("<svg").map(|(_, r)| format!("<svg{r}")).as_deref().unwrap_or(svg))
+                        }
                         FigureData::Png(png) => {
                             let _ = write!(s, "<img alt=\"{}\" src=\"data:image/png;base64,{}\">", esc(caption), base64(png));
                         }

@@ -125,7 +125,9 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
             })
             .collect();
         b.push(Block::Table(
-            ["method", "paper's formula", "actual terms", "numbers stored (formula)", "model bytes (measured)", "us per query (measured)"].map(String::from).to_vec(),
+            ["method", "paper's formula", "actual terms", "numbers stored (formula)", "model bytes (measured)", "us per query (measured)"]
+                .map(String::from)
+                .to_vec(),
             rows,
         ));
         b.push(Block::Para("The paper's Table 1 gives storage and cost NL + ML for the eigenspace method (N manifold points of L dimensions, M pixels) and MK for the linear model (K encoded parameters). Bytes count the numbers each model stores to serve a query, as float32; time is the wall time of estimating every view of the object divided by their number, batched, on 2 cores.".into()));
@@ -155,9 +157,9 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
     let series: Vec<(String, Vec<(f64, f64)>)> = main
         .iter()
         .flat_map(|o| {
-            info.methods.iter().map(move |m| {
-                (format!("{} {m}", o.name), o.sweep.iter().filter(|p| &p.method == m).map(|p| (p.n_train as f64, p.unseen_mean_deg)).collect())
-            })
+            info.methods
+                .iter()
+                .map(move |m| (format!("{} {m}", o.name), o.sweep.iter().filter(|p| &p.method == m).map(|p| (p.n_train as f64, p.unseen_mean_deg)).collect()))
         })
         .filter(|(_, v): &(String, Vec<(f64, f64)>)| !v.is_empty())
         .collect();
@@ -242,7 +244,15 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
                 f(c, 2),
                 f(n, 2),
                 n / c.max(1e-12),
-                if m == "linear" { if n / c.max(1e-12) < 1.5 { ", so noise does not severely affect it, as the paper's Fig. 4 says" } else { ", more than the paper's Fig. 4 suggests" } } else { "" }
+                if m == "linear" {
+                    if n / c.max(1e-12) < 1.5 {
+                        ", so noise does not severely affect it, as the paper's Fig. 4 says"
+                    } else {
+                        ", more than the paper's Fig. 4 suggests"
+                    }
+                } else {
+                    ""
+                }
             ));
         }
     }
@@ -277,7 +287,12 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
             .filter_map(|m| run(o, m, 0.0).map(|r| (m, r)))
             .map(|(m, r)| {
                 let pe: Vec<String> = o.params.iter().zip(&r.param_mean_abs_err_deg).map(|(p, e)| format!("{p} {}", f(*e, 1))).collect();
-                format!("{m} {} degrees ({}; {:.0}% of views off by more than {GROSS_ERROR_DEG} degrees)", f(unseen_mean(r), 2), pe.join(", "), 100.0 * r.gross_frac)
+                format!(
+                    "{m} {} degrees ({}; {:.0}% of views off by more than {GROSS_ERROR_DEG} degrees)",
+                    f(unseen_mean(r), 2),
+                    pe.join(", "),
+                    100.0 * r.gross_frac
+                )
             })
             .collect();
         out.push(format!("**Open case {}.** Unseen mean error: {}.", o.name, parts.join("; ")));
@@ -306,7 +321,16 @@ fn error_map(o: &ObjectResult, r: &Run, title: &str, vmax: f64) -> Result<Figure
             for (i, &(row, col)) in g.cell.iter().enumerate() {
                 values[row * g.cols.1.len() + col] = r.errors[i];
             }
-            Ok(FigureData::Svg(plots::heatmap(title, &format!("{} (degrees)", g.cols.0), &format!("{} (degrees)", g.rows.0), &g.cols.1, &g.rows.1, &values, vmax, "pose error (degrees)")?))
+            Ok(FigureData::Svg(plots::heatmap(
+                title,
+                &format!("{} (degrees)", g.cols.0),
+                &format!("{} (degrees)", g.rows.0),
+                &g.cols.1,
+                &g.rows.1,
+                &values,
+                vmax,
+                "pose error (degrees)",
+            )?))
         }
         None => {
             let k = o.params.len();

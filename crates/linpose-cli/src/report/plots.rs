@@ -32,17 +32,8 @@ fn svg(size: (u32, u32), draw: impl FnOnce(&Area<'_>) -> Result<(), String>) -> 
 
 /// Viridis, sampled at nine points and interpolated linearly; `t` in [0, 1].
 pub fn viridis(t: f64) -> RGBColor {
-    const V: [(u8, u8, u8); 9] = [
-        (68, 1, 84),
-        (71, 44, 122),
-        (59, 81, 139),
-        (44, 113, 142),
-        (33, 144, 141),
-        (39, 173, 129),
-        (92, 200, 99),
-        (170, 220, 50),
-        (253, 231, 37),
-    ];
+    const V: [(u8, u8, u8); 9] =
+        [(68, 1, 84), (71, 44, 122), (59, 81, 139), (44, 113, 142), (33, 144, 141), (39, 173, 129), (92, 200, 99), (170, 220, 50), (253, 231, 37)];
     let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 1.0 };
     let x = t * 8.0;
     let i = (x.floor() as usize).min(7);
@@ -150,7 +141,8 @@ pub fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f6
     svg((640, 380), |root| {
         let mut b = ChartBuilder::on(root);
         b.caption(title, (FONT, 16)).margin(10).x_label_area_size(40).y_label_area_size(60);
-        let colors = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14), RGBColor(23, 190, 207)];
+        let colors =
+            [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14), RGBColor(23, 190, 207)];
         macro_rules! body {
             ($chart:expr) => {{
                 let mut chart = $chart;
@@ -266,8 +258,6 @@ pub fn coefficient_png(images: &[&[f64]], w: u32, h: u32, scale: u32) -> Result<
         }
     }
     let mut out = Vec::new();
-    image::DynamicImage::ImageRgb8(canvas)
-        .write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png)
-        .map_err(|e| e.to_string())?;
+    image::DynamicImage::ImageRgb8(canvas).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).map_err(|e| e.to_string())?;
     Ok(out)
 }

@@ -291,7 +291,9 @@ pub fn dots_batch(level: Level, xs: &[u8], q: &QuantRows, out: &mut [f32], energ
     #[cfg(target_arch = "x86_64")]
     if vnni(level) && m.div_ceil(STEP) <= SPAN && q.rows > 0 {
         done = n / BLOCK * BLOCK;
-        for ((xb, ob), eb) in xs[..done * m].chunks(GROUP * BLOCK * m).zip(out[..done * q.rows].chunks_mut(GROUP * BLOCK * q.rows)).zip(energy[..done].chunks_mut(GROUP * BLOCK)) {
+        for ((xb, ob), eb) in
+            xs[..done * m].chunks(GROUP * BLOCK * m).zip(out[..done * q.rows].chunks_mut(GROUP * BLOCK * q.rows)).zip(energy[..done].chunks_mut(GROUP * BLOCK))
+        {
             // SAFETY: AVX-512 F/BW and VNNI were detected; the group holds whole blocks of BLOCK
             // images of m <= 65,536 pixels and one output per image and row.
             unsafe { x86::group_vnni(xb, q, ob, eb, scratch) };
@@ -519,7 +521,8 @@ mod tests {
                 }
             }
             // Every tile's digits past m are zero.
-            let used: usize = (0..3).map(|r| (0..m).flat_map(|p| (0..DIGITS).map(move |k| (r, k, p))).filter(|&(r, k, p)| q.digits()[q.at(r, k, p)] != 0).count()).sum();
+            let used: usize =
+                (0..3).map(|r| (0..m).flat_map(|p| (0..DIGITS).map(move |k| (r, k, p))).filter(|&(r, k, p)| q.digits()[q.at(r, k, p)] != 0).count()).sum();
             assert_eq!(used, q.digits().iter().filter(|&&d| d != 0).count());
         }
         // The extremes land on +-VMAX.

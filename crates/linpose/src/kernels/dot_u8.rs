@@ -111,7 +111,9 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
                     }
                     (wf, PIXEL_CHUNK)
                 };
-                for ((xb, ab), nz) in xf.chunks_exact(BATCH_IMAGES * PIXEL_CHUNK).zip(acc.chunks_exact_mut(BATCH_IMAGES * rows * LANES)).zip(nonzero.chunks_exact(BATCH_IMAGES)) {
+                for ((xb, ab), nz) in
+                    xf.chunks_exact(BATCH_IMAGES * PIXEL_CHUNK).zip(acc.chunks_exact_mut(BATCH_IMAGES * rows * LANES)).zip(nonzero.chunks_exact(BATCH_IMAGES))
+                {
                     // The steps where any of the block's images has a nonzero pixel.
                     let steps = nz.iter().fold(0, |a, &z| a | z);
                     if steps == 0 {

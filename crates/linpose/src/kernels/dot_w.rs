@@ -211,7 +211,15 @@ mod x86 {
     #[inline]
     #[allow(clippy::needless_range_loop)]
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
-    unsafe fn rows_block<const B: usize, const R: usize>(xp: *const i16, wp: *const i16, steps: usize, r: usize, span: usize, idx: &[u32], sums: &mut [[i64; BLOCK]; 2]) {
+    unsafe fn rows_block<const B: usize, const R: usize>(
+        xp: *const i16,
+        wp: *const i16,
+        steps: usize,
+        r: usize,
+        span: usize,
+        idx: &[u32],
+        sums: &mut [[i64; BLOCK]; 2],
+    ) {
         let mut wide = [[_mm512_setzero_si512(); B]; R];
         for chunk in idx.chunks(span) {
             let mut acc = [[_mm512_setzero_si512(); B]; R];

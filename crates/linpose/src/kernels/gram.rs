@@ -308,7 +308,6 @@ mod tests {
     use super::super::test_data::{data, reference};
     use super::*;
 
-
     fn read(x: &[f32], m: usize) -> impl Fn(usize, usize, &mut [f64]) + Sync + '_ {
         move |i, k0, out| out.iter_mut().zip(&x[i * m + k0..]).for_each(|(o, &v)| *o = v as f64)
     }

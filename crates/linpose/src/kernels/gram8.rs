@@ -22,7 +22,7 @@
 //! (tested). It is the Gram of the f32 features up to the left-out r_p r_q term, about 1e-14
 //! relative (tested against f64 sums).
 
-use super::levels::{residuals, SCALE_CROSS, SCALE_PAIRS, S8};
+use super::levels::{residuals, S8, SCALE_CROSS, SCALE_PAIRS};
 use super::syrk::{padded, SyrkAcc, GROUP16, KCP_MAX, KCQ_MAX};
 use super::Level;
 use faer::Mat;
@@ -75,10 +75,8 @@ fn gram_levels_with(x: &[f32], n: usize, m: usize, acc: impl Fn() -> SyrkAcc + S
     assert_eq!(x.len(), n * m, "feature rows size");
     let panels = m.div_ceil(kc8(n));
     let chunks = chunks8(n, m).min(panels.max(1));
-    let parts: Vec<Option<SyrkAcc>> = (0..chunks)
-        .into_par_iter()
-        .map(|c| partial(x, n, m, c * panels / chunks..(c + 1) * panels / chunks, acc(), level))
-        .collect();
+    let parts: Vec<Option<SyrkAcc>> =
+        (0..chunks).into_par_iter().map(|c| partial(x, n, m, c * panels / chunks..(c + 1) * panels / chunks, acc(), level)).collect();
     let mut parts = parts.into_iter();
     let mut sum = parts.next().flatten()?;
     for p in parts {

@@ -116,7 +116,13 @@ fn sq_dist_boxed_portable(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], 
         let (lo, hi) = (&boxes[2 * q * nb..(2 * q + 1) * nb], &boxes[(2 * q + 1) * nb..(2 * q + 2) * nb]);
         for ((l, &a), &b) in lb.iter_mut().zip(lo).zip(hi) {
             // The distance to [a, b] is 0 inside, the nearer end's outside.
-            let d = if yc < a { a - yc } else if yc > b { yc - b } else { 0.0 };
+            let d = if yc < a {
+                a - yc
+            } else if yc > b {
+                yc - b
+            } else {
+                0.0
+            };
             *l += w * (d * d);
         }
     }
@@ -369,9 +375,8 @@ mod tests {
         let gcols: Vec<f32> = (0..n * l).map(|i| ((i * 104729) % 997) as f32 / 400.0 - 1.2).collect();
         let y: Vec<f32> = (0..l).map(|q| q as f32 * 0.1 - 0.3).collect();
         let wt: Vec<f32> = (0..l).map(|q| if q == 3 { 0.0 } else { 1.0 + q as f32 }).collect();
-        let want: Vec<f32> = (0..n)
-            .map(|i| (0..l).filter(|&q| wt[q] != 0.0).fold(0f32, |s, q| s + wt[q] * ((cols[q * n + i] - y[q]) * (cols[q * n + i] - y[q]))))
-            .collect();
+        let want: Vec<f32> =
+            (0..n).map(|i| (0..l).filter(|&q| wt[q] != 0.0).fold(0f32, |s, q| s + wt[q] * ((cols[q * n + i] - y[q]) * (cols[q * n + i] - y[q])))).collect();
         let want_u: Vec<f32> = (0..n).map(|i| (0..l).fold(0f32, |s, q| s + y[q] * cols[q * n + i])).collect();
         let want_v: Vec<f32> = (0..n).map(|i| (0..l).fold(0f32, |s, q| s + y[q] * gcols[q * n + i])).collect();
         for level in Level::supported() {
@@ -435,7 +440,9 @@ mod tests {
     fn the_boxed_scan_keeps_every_point_within_twice_the_least() {
         let (n, l) = (700, 9);
         // Points along a curve, so that a query near one part of it rules out most blocks.
-        let cols: Vec<f32> = (0..l).flat_map(|q| (0..n).map(move |i| ((i as f32 * 0.013 * (q + 1) as f32).sin() + 0.01 * ((i * 31 + q * 7) % 13) as f32) / (q + 1) as f32)).collect();
+        let cols: Vec<f32> = (0..l)
+            .flat_map(|q| (0..n).map(move |i| ((i as f32 * 0.013 * (q + 1) as f32).sin() + 0.01 * ((i * 31 + q * 7) % 13) as f32) / (q + 1) as f32))
+            .collect();
         for (qi, at) in [0usize, 77, 300, 699].into_iter().enumerate() {
             let y: Vec<f32> = (0..l).map(|q| cols[q * n + at] + 0.003 * (q as f32 - 4.0)).collect();
             let wt: Vec<f32> = (0..l).map(|q| if q == 5 && qi % 2 == 1 { 0.0 } else { 1.0 / (1.0 + q as f32) }).collect();

@@ -896,7 +896,6 @@ mod tests {
     use super::super::test_data::{data, reference};
     use super::*;
 
-
     #[test]
     fn column_panels_accumulate_xtx() {
         // C = X^T X over blocks of rows, against the reference on X^T.

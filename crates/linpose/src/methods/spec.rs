@@ -4,8 +4,8 @@
 use crate::dataset::Dataset;
 use crate::methods::eigenspace::EigenspaceParams;
 use crate::methods::linear::LinearParams;
-use crate::model::{AnyModel, Estimator};
 use crate::methods::refined::RefinedParams;
+use crate::model::{AnyModel, Estimator};
 use crate::Result;
 
 /// A method with its settings.

@@ -102,9 +102,7 @@ impl fmt::Display for Grid {
 fn decimal(s: &str) -> std::result::Result<(f64, u32), String> {
     let digits = s.strip_prefix(['-', '+']).unwrap_or(s);
     let (int, frac) = digits.split_once('.').unwrap_or((digits, ""));
-    let plain = !(int.is_empty() && frac.is_empty())
-        && int.bytes().all(|b| b.is_ascii_digit())
-        && frac.bytes().all(|b| b.is_ascii_digit());
+    let plain = !(int.is_empty() && frac.is_empty()) && int.bytes().all(|b| b.is_ascii_digit()) && frac.bytes().all(|b| b.is_ascii_digit());
     if !plain {
         return Err(format!("'{s}' is not a number of degrees in plain decimal notation (e.g. 32 or 2.5)"));
     }

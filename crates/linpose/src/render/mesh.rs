@@ -42,20 +42,10 @@ impl Mesh {
         Self::build(Path::new("<mesh>"), positions, triangles, albedo, None)
     }
 
-    fn build(
-        path: &Path,
-        positions: Vec<[f64; 3]>,
-        triangles: Vec<[u32; 3]>,
-        albedo: Vec<f64>,
-        normals: Option<Vec<[f64; 3]>>,
-    ) -> Result<Self> {
+    fn build(path: &Path, positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>, albedo: Vec<f64>, normals: Option<Vec<[f64; 3]>>) -> Result<Self> {
         let err = |message: String| Error::Mesh { path: path.to_path_buf(), message };
         if positions.is_empty() || triangles.is_empty() {
-            return Err(err(format!(
-                "the mesh is empty ({} vertices, {} triangles); it needs at least one triangle",
-                positions.len(),
-                triangles.len()
-            )));
+            return Err(err(format!("the mesh is empty ({} vertices, {} triangles); it needs at least one triangle", positions.len(), triangles.len())));
         }
         if positions.len() > MAX_VERTICES || triangles.len() > MAX_TRIANGLES {
             return Err(err(format!(
@@ -160,9 +150,7 @@ impl Mesh {
         }
         let (nv, nt) = count_obj(bytes);
         if nv > MAX_VERTICES || nt > MAX_TRIANGLES {
-            return Err(err(format!(
-                "the file declares {nv} vertices and {nt} triangles; the limits are {MAX_VERTICES} and {MAX_TRIANGLES}"
-            )));
+            return Err(err(format!("the file declares {nv} vertices and {nt} triangles; the limits are {MAX_VERTICES} and {MAX_TRIANGLES}")));
         }
         check_face_indices(bytes).map_err(err)?;
         let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
@@ -189,7 +177,11 @@ impl Mesh {
             if m.vertex_color.len() == m.positions.len() {
                 albedo.extend(m.vertex_color.chunks_exact(3).map(|c| {
                     let l = 0.299 * c[0] as f64 + 0.587 * c[1] as f64 + 0.114 * c[2] as f64;
-                    if l.is_nan() { DEFAULT_ALBEDO } else { l.clamp(0.0, 1.0) }
+                    if l.is_nan() {
+                        DEFAULT_ALBEDO
+                    } else {
+                        l.clamp(0.0, 1.0)
+                    }
                 }));
             } else {
                 albedo.extend(std::iter::repeat_n(DEFAULT_ALBEDO, count));
@@ -301,11 +293,8 @@ fn bounding_sphere(positions: &[[f64; 3]], triangles: &[[u32; 3]]) -> ([f64; 3],
         sx += w * ((a[0] + b[0] + c[0]) / 3.0);
         sy += w * ((a[1] + b[1] + c[1]) / 3.0);
     }
-    let (cx, cy) = if area > 0.0 && (sx / area).is_finite() && (sy / area).is_finite() {
-        (sx / area, sy / area)
-    } else {
-        ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0)
-    };
+    let (cx, cy) =
+        if area > 0.0 && (sx / area).is_finite() && (sy / area).is_finite() { (sx / area, sy / area) } else { ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0) };
     let centre = [cx, cy, (lo[2] + hi[2]) / 2.0];
     let r2 = positions.iter().map(|p| dot(sub(*p, centre), sub(*p, centre))).fold(0.0, f64::max);
     (centre, r2.sqrt())

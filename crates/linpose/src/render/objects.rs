@@ -226,10 +226,16 @@ fn pot(b: &mut Builder) {
     let spout = [[0.5, 0.0, 0.25], [0.88, 0.0, 0.3], [0.98, 0.0, 0.72]];
     b.tube(24, 16, |t| bez(t, spout), |t| 0.11 - 0.06 * t, |_, t| mix(0.85, 0.25, smooth(0.85, 0.95, t)));
     // Handle: half a torus on the -x side.
-    b.tube(16, 24, |t| {
-        let th = PI * (t - 0.5);
-        [-0.55 - 0.24 * libm::cos(th), 0.0, 0.42 + 0.27 * libm::sin(th)]
-    }, |_| 0.045, |_, _| 0.45);
+    b.tube(
+        16,
+        24,
+        |t| {
+            let th = PI * (t - 0.5);
+            [-0.55 - 0.24 * libm::cos(th), 0.0, 0.42 + 0.27 * libm::sin(th)]
+        },
+        |_| 0.045,
+        |_, _| 0.45,
+    );
 }
 
 fn cap(b: &mut Builder) {
@@ -248,7 +254,8 @@ fn cap(b: &mut Builder) {
         let (lx, ly) = (phi / 22.0, (polar - 62.0) / 16.0);
         let logo = spot(hypot(lx, ly), 0.9, 0.1);
         a = mix(a, 0.97, logo);
-        let letter = (spot(lx.abs(), 0.12, 0.05) * spot(ly.abs(), 0.6, 0.08)).max(spot(ly.abs() - 0.0, 0.12, 0.05) * spot(lx.abs(), 0.5, 0.08) * smooth(-0.1, 0.0, -ly + 0.0));
+        let letter = (spot(lx.abs(), 0.12, 0.05) * spot(ly.abs(), 0.6, 0.08))
+            .max(spot(ly.abs() - 0.0, 0.12, 0.05) * spot(lx.abs(), 0.5, 0.08) * smooth(-0.1, 0.0, -ly + 0.0));
         a = mix(a, 0.15, letter * logo);
         // A dark strap band low on the back.
         a = mix(a, 0.3, smooth(130.0, 140.0, phi.abs()) * smooth(80.0, 86.0, polar));

@@ -210,11 +210,7 @@ impl RenderParams {
     /// Checks every parameter, naming the first one out of range.
     pub fn validate(&self) -> Result<()> {
         if self.width == 0 || self.height == 0 || self.width as u64 * self.height as u64 > MAX_PIXELS {
-            return Err(Error::invalid(
-                "size",
-                format!("{}x{}", self.width, self.height),
-                format!("must be at least 1x1 and at most {MAX_PIXELS} pixels"),
-            ));
+            return Err(Error::invalid("size", format!("{}x{}", self.width, self.height), format!("must be at least 1x1 and at most {MAX_PIXELS} pixels")));
         }
         if !(1..=4).contains(&self.supersample) {
             return Err(Error::invalid("supersample", self.supersample, "must be 1, 2, 3 or 4"));

@@ -178,13 +178,21 @@ fn powi(mut x: f64, mut k: u32) -> f64 {
 /// becomes on baseline x86-64.
 fn floor(x: f64) -> i64 {
     let t = x as i64;
-    if (t as f64) > x { t - 1 } else { t }
+    if (t as f64) > x {
+        t - 1
+    } else {
+        t
+    }
 }
 
 /// Smallest integer >= x, saturating (NaN gives 0).
 fn ceil(x: f64) -> i64 {
     let t = x as i64;
-    if (t as f64) < x { t + 1 } else { t }
+    if (t as f64) < x {
+        t + 1
+    } else {
+        t
+    }
 }
 
 /// [0, 1] to 0..=255, rounding half up.

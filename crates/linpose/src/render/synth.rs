@@ -131,13 +131,7 @@ pub fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
 
 /// Renders every pose of `grid` and writes the data set to `out` (see the module doc). `progress`
 /// is called with the number of images written since its last call. Returns the image count.
-pub fn write_dataset(
-    mesh: &Mesh,
-    grid: &PoseGrid,
-    params: &RenderParams,
-    out: &Path,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<u64> {
+pub fn write_dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, out: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<u64> {
     Renderer::new(params)?;
     let replace_empty = match fs::metadata(out) {
         Ok(m) if m.is_dir() => {

@@ -179,7 +179,16 @@ impl KdTree {
     /// The branch and bound from `node`: `leaf` scores a leaf's rows and items into `best`; a
     /// cell is visited while its squared distance from `q` is at most `reach` times the best.
     #[allow(clippy::too_many_arguments)]
-    fn visit(&self, node: u32, bound: f32, reach: f32, off: &mut [f32; MAX_DIM], q: &[f32], best: &mut (f32, u32), leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32))) {
+    fn visit(
+        &self,
+        node: u32,
+        bound: f32,
+        reach: f32,
+        off: &mut [f32; MAX_DIM],
+        q: &[f32],
+        best: &mut (f32, u32),
+        leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32)),
+    ) {
         let nd = self.nodes[node as usize];
         if nd.dim == IS_LEAF {
             let at = nd.a as usize;

@@ -215,7 +215,9 @@ pub fn check_size(counts: &[f64], dim: usize, step: f64) -> Result<()> {
         return Err(Error::invalid(
             "manifold step",
             step,
-            format!("would resample the manifold into {points:.0} points of {dim} values (at most {MAX_POINTS} points and {MAX_VALUES} values); use a larger step"),
+            format!(
+                "would resample the manifold into {points:.0} points of {dim} values (at most {MAX_POINTS} points and {MAX_VALUES} values); use a larger step"
+            ),
         ));
     }
     Ok(())

@@ -56,8 +56,8 @@ use faer::{Accum, MatMut, MatRef, Par};
 use manifold::{pose_of, Grid, Manifold};
 pub use pca::Dimension;
 use rayon::prelude::*;
-pub use search::SearchKind;
 use search::NearestIndex;
+pub use search::SearchKind;
 use serde::{Deserialize, Serialize};
 
 /// The method's name in model files and on the command line.
@@ -178,8 +178,7 @@ impl Estimator for EigenspaceParams {
         let root = train.manifest().root();
         // The grid first: a training set that cannot make a manifold fails before any arithmetic.
         let grid = Grid::new(space, train.poses(), train.manifest().images(), root)?;
-        let counts: Vec<f64> =
-            space.params().iter().zip(&grid.axes).map(|(p, g)| manifold::sample_count(g, p.period, self.manifold_step)).collect();
+        let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| manifold::sample_count(g, p.period, self.manifold_step)).collect();
         manifold::check_size(&counts, 1, self.manifold_step)?;
         let pca = pca::fit(train, self.dimension)?;
         let l = pca.dim();
@@ -226,20 +225,12 @@ pub struct EigenspaceModel {
 }
 
 impl EigenspaceModel {
-    fn new(
-        mut meta: ModelMeta,
-        mut settings: EigenspaceSettings,
-        basis: Vec<f32>,
-        mean: Vec<f32>,
-        points: Vec<f32>,
-        axes: Vec<Vec<f64>>,
-    ) -> Result<Self> {
+    fn new(mut meta: ModelMeta, mut settings: EigenspaceSettings, basis: Vec<f32>, mean: Vec<f32>, points: Vec<f32>, axes: Vec<Vec<f64>>) -> Result<Self> {
         let (l, m) = (settings.components, mean.len());
         let index = NearestIndex::new(&points, l, settings.params.search)?;
         settings.search = index.kind();
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
-        let mean_proj =
-            basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
+        let mean_proj = basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
         let quant = dot_q::FastRows::new(&basis, m);
         Ok(EigenspaceModel { meta, settings, basis: AlignedF32::new(&basis), mean, mean_proj, points, axes, index, quant })
     }
@@ -306,9 +297,10 @@ impl EigenspaceModel {
         let level = Level::detect();
         if n >= 8 {
             let rows = u8_task_rows(n, self.quant.block(level));
-            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(dot_q::Scratch::default, |scratch, (q, y)| {
-                self.project_u8_batch(level, q, y, scratch)
-            });
+            queries
+                .par_chunks(rows * m)
+                .zip(out.par_chunks_mut(rows * l))
+                .for_each_init(dot_q::Scratch::default, |scratch, (q, y)| self.project_u8_batch(level, q, y, scratch));
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(|(x, y)| self.project_one_u8(level, x, y));
         }
@@ -383,16 +375,14 @@ impl EigenspaceModel {
     }
 
     pub(crate) fn from_parts(meta: ModelMeta, t: &TensorSet) -> Result<Self> {
-        let settings: EigenspaceSettings =
-            serde_json::from_value(meta.settings.clone()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
+        let settings: EigenspaceSettings = serde_json::from_value(meta.settings.clone()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         settings.params.validate().map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let (l, m, d) = (settings.components, meta.spec.features(), meta.space.len());
         if l == 0 || settings.manifold_shape.len() != d || settings.manifold_shape.contains(&0) {
             return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
         }
         let counts: Vec<f64> = settings.manifold_shape.iter().map(|&c| c as f64).collect();
-        manifold::check_size(&counts, l, settings.params.step())
-            .map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
+        manifold::check_size(&counts, l, settings.params.step()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let n_dense: usize = settings.manifold_shape.iter().product();
         let basis = t.f32("basis", &[l, m])?;
         let mean = t.f32("mean", &[m])?;
@@ -479,11 +469,7 @@ impl PoseModel for EigenspaceModel {
             });
         }
         if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
-            return Err(Error::invalid(
-                "query",
-                format!("#{i} of the batch"),
-                "the image is all black (zero energy), so it cannot be scaled to unit energy",
-            ));
+            return Err(Error::invalid("query", format!("#{i} of the batch"), "the image is all black (zero energy), so it cannot be scaled to unit energy"));
         }
         Ok(())
     }

@@ -92,7 +92,8 @@ pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
         if norm <= 0.0 {
             return Err(Error::Dataset {
                 path: train.manifest().image_path(j),
-                message: "the image is all black (zero energy), so it cannot be scaled to unit energy for the eigenspace; remove it from the training set".into(),
+                message: "the image is all black (zero energy), so it cannot be scaled to unit energy for the eigenspace; remove it from the training set"
+                    .into(),
             });
         }
         col.iter_mut().for_each(|v| *v /= norm);

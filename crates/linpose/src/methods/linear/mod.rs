@@ -388,11 +388,7 @@ impl LinearModel {
     /// The encoded estimate W^T x + b in f64 (no decoding): what the identities are tested on.
     pub fn predict_encoded_f64(&self, x: &[f32]) -> Vec<f64> {
         let m = self.meta.spec.features();
-        self.w64
-            .chunks_exact(m)
-            .zip(&self.bias)
-            .map(|(w, b)| w.iter().zip(x).map(|(&a, &v)| a * v as f64).sum::<f64>() + b)
-            .collect()
+        self.w64.chunks_exact(m).zip(&self.bias).map(|(w, b)| w.iter().zip(x).map(|(&a, &v)| a * v as f64).sum::<f64>() + b).collect()
     }
 
     /// The f32 serving path for one query into `enc` (K values).

@@ -81,10 +81,10 @@ pub(crate) fn loo_curve(sys: &GramSystem, train: &Dataset) -> Result<LooCurve> {
         }
         curve.push((lambda, total / n as f64));
     }
-    let &(lambda, loo_mean_deg) = curve
-        .iter()
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .ok_or_else(|| Error::SingularGram { detail: "every candidate ridge leaves it singular".into(), hint: "the training images may be identical or constant".into() })?;
+    let &(lambda, loo_mean_deg) = curve.iter().min_by(|a, b| a.1.total_cmp(&b.1)).ok_or_else(|| Error::SingularGram {
+        detail: "every candidate ridge leaves it singular".into(),
+        hint: "the training images may be identical or constant".into(),
+    })?;
     Ok(LooCurve { curve, lambda, loo_mean_deg })
 }
 

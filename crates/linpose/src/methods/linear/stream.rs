@@ -36,8 +36,8 @@ use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::kernels::levels::{quantize, residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
 use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
-use crate::methods::linear::{LinearModel, LinearParams};
 use crate::manifest::Manifest;
+use crate::methods::linear::{LinearModel, LinearParams};
 use crate::model::{Estimator, ModelMeta};
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -126,7 +126,8 @@ pub fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, 
             let read_s = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let model = params.fit(&data)?;
-            let stats = StreamStats { path: SolverPath::Gram, n, m, read_s, wait_s: 0.0, accumulate_s: 0.0, solve_s: t.elapsed().as_secs_f64(), integer_8bit: false };
+            let stats =
+                StreamStats { path: SolverPath::Gram, n, m, read_s, wait_s: 0.0, accumulate_s: 0.0, solve_s: t.elapsed().as_secs_f64(), integer_8bit: false };
             Ok((model, stats))
         }
         SolverPath::LeastSquares => {
@@ -180,8 +181,8 @@ pub fn fit_least_squares(
     let np = padded(m);
     let mut acc = SyrkAcc::new(m);
     let mut xtp = vec![0f64; m * k]; // X^T P, row-major M x K
-    // Every block so far 8-bit, on a CPU with AVX-512 VNNI (without it the portable integer
-    // kernel gives the same bits but is slower than the f64 kernel, so the f64 path is taken).
+                                     // Every block so far 8-bit, on a CPU with AVX-512 VNNI (without it the portable integer
+                                     // kernel gives the same bits but is slower than the f64 kernel, so the f64 path is taken).
     let mut exact = acc.uses_vnni();
     let r = level_residuals();
     // C += s1 sum k_p k_q + s2 sum (k_p r_q + r_p k_q): 2^-62 m^2 and 2^-62 m, exact powers of two

@@ -678,7 +678,10 @@ mod simd {
                 let (s0, s1) = (_mm512_loadu_ps(cs.add(i0)), _mm512_loadu_ps(cs.add(i0 + 1)));
                 // The first pose of each interval, as the full scan computes it.
                 first = _mm512_min_ps(distance(yv, _mm512_loadu_ps(s.norms.as_ptr().add(i0)), h, [c0, s0, c1, s1]), first);
-                let most = _mm512_add_ps(_mm512_add_ps(_mm512_max_ps(c0, c1), _mm512_mul_ps(m1, _mm512_max_ps(s0, zero))), _mm512_mul_ps(m3, _mm512_max_ps(_mm512_sub_ps(zero, s1), zero)));
+                let most = _mm512_add_ps(
+                    _mm512_add_ps(_mm512_max_ps(c0, c1), _mm512_mul_ps(m1, _mm512_max_ps(s0, zero))),
+                    _mm512_mul_ps(m3, _mm512_max_ps(_mm512_sub_ps(zero, s1), zero)),
+                );
                 _mm512_storeu_ps(lb.add(i0), _mm512_sub_ps(_mm512_add_ps(yv, _mm512_loadu_ps(s.norm_min.as_ptr().add(i0))), _mm512_mul_ps(two, most)));
             }
         }
@@ -737,9 +740,17 @@ mod simd {
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
     #[inline]
-    unsafe fn distance(yy: std::arch::x86_64::__m512, norm: std::arch::x86_64::__m512, h: [std::arch::x86_64::__m512; 4], k: [std::arch::x86_64::__m512; 4]) -> std::arch::x86_64::__m512 {
+    unsafe fn distance(
+        yy: std::arch::x86_64::__m512,
+        norm: std::arch::x86_64::__m512,
+        h: [std::arch::x86_64::__m512; 4],
+        k: [std::arch::x86_64::__m512; 4],
+    ) -> std::arch::x86_64::__m512 {
         use std::arch::x86_64::*;
-        let dot = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], k[0]), _mm512_mul_ps(h[1], k[1])), _mm512_mul_ps(h[2], k[2])), _mm512_mul_ps(h[3], k[3]));
+        let dot = _mm512_add_ps(
+            _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(h[0], k[0]), _mm512_mul_ps(h[1], k[1])), _mm512_mul_ps(h[2], k[2])),
+            _mm512_mul_ps(h[3], k[3]),
+        );
         _mm512_sub_ps(_mm512_add_ps(yy, norm), _mm512_mul_ps(_mm512_set1_ps(2.0), dot))
     }
 
@@ -785,14 +796,17 @@ mod simd {
                 let at = l * c + k0;
                 // SAFETY: columns k0 .. k0 + 8 of row l (and k0 + 1 .. k0 + 9 when k0 + 8 < c)
                 // lie within the row (asserted lengths).
-                let (a, b) = unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(at))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(at)))) };
+                let (a, b) =
+                    unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(at))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(at)))) };
                 let (wa, wb) = (_mm512_mul_pd(wv, a), _mm512_mul_pd(wv, b));
                 acc[0] = _mm512_add_pd(acc[0], _mm512_mul_pd(wa, a));
                 acc[1] = _mm512_add_pd(acc[1], _mm512_mul_pd(wa, b));
                 acc[2] = _mm512_add_pd(acc[2], _mm512_mul_pd(wb, b));
                 if next {
                     // SAFETY: as above.
-                    let (a1, b1) = unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(at + 1))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(at + 1)))) };
+                    let (a1, b1) = unsafe {
+                        (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(at + 1))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(at + 1))))
+                    };
                     acc[3] = _mm512_add_pd(acc[3], _mm512_mul_pd(wa, a1));
                     acc[4] = _mm512_add_pd(acc[4], _mm512_mul_pd(wa, b1));
                     acc[5] = _mm512_add_pd(acc[5], _mm512_mul_pd(wb, a1));
@@ -815,7 +829,15 @@ mod simd {
     pub unsafe fn products_avx512(s: &Lattice, y: &[f32], wt: &[f64], cp: &mut [f64], cs: &mut [f64]) {
         use std::arch::x86_64::*;
         let c = s.cols;
-        assert!(c.is_multiple_of(8) && cp.len() >= c && cs.len() >= c && s.values.len() >= s.ls * c && s.slopes.len() >= s.ls * c && wt.len() >= s.ls && y.len() >= s.ls);
+        assert!(
+            c.is_multiple_of(8)
+                && cp.len() >= c
+                && cs.len() >= c
+                && s.values.len() >= s.ls * c
+                && s.slopes.len() >= s.ls * c
+                && wt.len() >= s.ls
+                && y.len() >= s.ls
+        );
         for k0 in (0..c).step_by(8) {
             let (mut sp, mut ss) = (_mm512_setzero_pd(), _mm512_setzero_pd());
             for l in 0..s.ls {
@@ -825,7 +847,9 @@ mod simd {
                 }
                 let av = _mm512_set1_pd(a);
                 // SAFETY: columns k0 .. k0 + 8 of row l (asserted lengths).
-                let (v, sl) = unsafe { (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(l * c + k0))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(l * c + k0)))) };
+                let (v, sl) = unsafe {
+                    (_mm512_cvtps_pd(_mm256_loadu_ps(s.values.as_ptr().add(l * c + k0))), _mm512_cvtps_pd(_mm256_loadu_ps(s.slopes.as_ptr().add(l * c + k0))))
+                };
                 sp = _mm512_add_pd(sp, _mm512_mul_pd(av, v));
                 ss = _mm512_add_pd(ss, _mm512_mul_pd(av, sl));
             }
@@ -841,8 +865,8 @@ mod simd {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::pose::{Param, PoseSpace};
     use crate::methods::refined::surface::{Interpolant, Surface, INTERPOLANTS};
+    use crate::pose::{Param, PoseSpace};
 
     struct Rng(u64);
     impl Rng {
@@ -890,7 +914,8 @@ mod tests {
         let linear: Vec<f64> = (0..12).map(|k| 20.0 + 5.0 * k as f64 + if k == 11 { 0.3 } else { 0.0 }).collect();
         // One interval off the lattice's step: even, with its end off the lattice.
         let single = [20.0, 25.3];
-        let cases: [(&[f64], bool, usize, usize); 5] = [(&even36, true, 20, 20), (&even36, true, 12, 8), (&uneven, true, 9, 9), (&linear, false, 6, 6), (&single, false, 5, 5)];
+        let cases: [(&[f64], bool, usize, usize); 5] =
+            [(&even36, true, 20, 20), (&even36, true, 12, 8), (&uneven, true, 9, 9), (&linear, false, 6, 6), (&single, false, 5, 5)];
         let mut pruned = 0;
         // Each case with either interpolant: the search takes any cubic Hermite curve.
         for (k, (at, circular, dim, ls)) in cases.into_iter().flat_map(|c| [c, c]).enumerate() {
@@ -909,9 +934,20 @@ mod tests {
                 let spread = if q % 3 == 0 { 0.3 } else { 0.003 };
                 let y: Vec<f32> = f.iter().map(|&x| (x + spread * rng.next()) as f32).collect();
                 let uniform = q % 2 == 0;
-                let wt: Vec<f64> = (0..dim).map(|l| if l >= ls { 0.0 } else if uniform { 0.7 } else { 0.2 + rng.next().abs() }).collect();
+                let wt: Vec<f64> = (0..dim)
+                    .map(|l| {
+                        if l >= ls {
+                            0.0
+                        } else if uniform {
+                            0.7
+                        } else {
+                            0.2 + rng.next().abs()
+                        }
+                    })
+                    .collect();
                 let got = lat.nearest(&y, &wt, uniform.then_some(0.7), &mut scratch);
-                let portable = if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
+                let portable =
+                    if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
                 assert_eq!(got.to_bits(), portable.to_bits(), "the AVX-512 build gives the portable one's pose");
                 #[cfg(target_arch = "x86_64")]
                 if !lat.even.is_empty() && crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {

@@ -141,9 +141,9 @@ pub mod surface;
 
 use crate::binning::Binning;
 use crate::dataset::Dataset;
+use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
-use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
 use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
@@ -151,8 +151,8 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-pub use surface::{Interpolant, INTERPOLANTS};
 use surface::Surface;
+pub use surface::{Interpolant, INTERPOLANTS};
 
 /// The method's name in model files and on the command line.
 pub const METHOD: &str = "refined";
@@ -528,11 +528,7 @@ impl Estimator for RefinedParams {
 
 /// The training images binned by `binning` (None when it keeps them as given) and their grid.
 fn binned_views(full: &Dataset, binning: Binning) -> Result<(Option<Dataset>, Grid)> {
-    let binned = if binning.bins() {
-        Some(Dataset::from_features(full.manifest().clone(), binning.spec(), binning.apply_all(full.features()))?)
-    } else {
-        None
-    };
+    let binned = if binning.bins() { Some(Dataset::from_features(full.manifest().clone(), binning.spec(), binning.apply_all(full.features()))?) } else { None };
     let d = binned.as_ref().unwrap_or(full);
     let grid = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root())?;
     Ok((binned, grid))
@@ -680,8 +676,7 @@ impl CoarseTree {
         if !(2..=8).contains(&d) || !(1..=crate::methods::eigenspace::kdtree::MAX_DIM).contains(&ls) || step <= 0.0 {
             return None;
         }
-        let counts: Vec<f64> =
-            axes.iter().zip(space.params()).map(|(a, p)| crate::methods::eigenspace::manifold::sample_count(a, p.period, step)).collect();
+        let counts: Vec<f64> = axes.iter().zip(space.params()).map(|(a, p)| crate::methods::eigenspace::manifold::sample_count(a, p.period, step)).collect();
         if counts.iter().product::<f64>() > MAX_TREE_POSES as f64 {
             return None;
         }
@@ -990,8 +985,7 @@ impl RefinedModel {
             bg_surface.eval(t, &mut f, None);
             f.iter().enumerate().for_each(|(c, &v)| bg_start[c * n_start + i] = v as f32);
         }
-        let mean_proj =
-            basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
+        let mean_proj = basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
         let mean_sq = mean.iter().map(|&v| v as f64 * v as f64).sum();
         let ls = settings.search();
         let sigma2 = (settings.interpolation_variance.len() == ls).then_some(&settings.interpolation_variance[..]);
@@ -1634,13 +1628,19 @@ mod simd {
                 let m = if p >= row { 0 } else { u16::MAX >> (16 - (row - p).min(16)) };
                 let at = p.min(row);
                 // SAFETY: masked to the row's values.
-                let (av, bv, cv) = unsafe { (_mm512_maskz_loadu_ps(m, $a.add(at)), _mm512_maskz_loadu_ps(m, $b.add(at)), _mm512_maskz_loadu_ps(m, $c.add(at))) };
+                let (av, bv, cv) =
+                    unsafe { (_mm512_maskz_loadu_ps(m, $a.add(at)), _mm512_maskz_loadu_ps(m, $b.add(at)), _mm512_maskz_loadu_ps(m, $c.add(at))) };
                 _mm512_add_ps(_mm512_sub_ps(av, _mm512_mul_ps(two, bv)), cv)
             }};
         }
         // Lane j of the shifted vectors: lane j + s of [cur, next].
         // SAFETY: 16 bytes from ch and from 2 ch lie within IOTA (2 ch <= 16).
-        let (i1, i2) = unsafe { (_mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(ch) as *const _)), _mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(2 * ch) as *const _))) };
+        let (i1, i2) = unsafe {
+            (
+                _mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(ch) as *const _)),
+                _mm512_cvtepu8_epi32(_mm_loadu_si128(super::IOTA.as_ptr().add(2 * ch) as *const _)),
+            )
+        };
         let n = row - 2 * ch;
         let (mut sum, mut count) = (0.0f64, 0usize);
         for (k, a, b, c) in super::SampledRows::new(x, row, h, pass) {
@@ -1711,7 +1711,12 @@ mod simd {
         // Lane j of the shifted vectors: lane j + s of [cur, next] (from a constant: an index
         // array written on the stack stalled the vector load of it).
         // SAFETY: 32 bytes from ch and from 2 ch lie within IOTA (2 ch <= 32).
-        let (i1, i2) = unsafe { (_mm512_cvtepu8_epi16(_mm256_loadu_si256(super::IOTA.as_ptr().add(ch) as *const _)), _mm512_cvtepu8_epi16(_mm256_loadu_si256(super::IOTA.as_ptr().add(2 * ch) as *const _))) };
+        let (i1, i2) = unsafe {
+            (
+                _mm512_cvtepu8_epi16(_mm256_loadu_si256(super::IOTA.as_ptr().add(ch) as *const _)),
+                _mm512_cvtepu8_epi16(_mm256_loadu_si256(super::IOTA.as_ptr().add(2 * ch) as *const _)),
+            )
+        };
         let n32 = rows.keep.len();
         assert!(n32 >= row - 2 * ch && n32.is_multiple_of(32));
         // Each lane takes two responses a vector, twice the portable lanes' bound.
@@ -2576,7 +2581,17 @@ impl RefinedModel {
     /// plane as an image (`raw` and `energy` hold their products and sums of squares), a
     /// query's products low + 256 high.
     #[allow(clippy::too_many_arguments)]
-    fn planes_pass(&self, level: Level, fr: &dot_q::FastRows, rr: std::ops::Range<usize>, planes: &[u8], sel: Option<&[usize]>, raw: &mut Vec<f32>, energy: &mut Vec<u64>, s: &mut QueryScratch) {
+    fn planes_pass(
+        &self,
+        level: Level,
+        fr: &dot_q::FastRows,
+        rr: std::ops::Range<usize>,
+        planes: &[u8],
+        sel: Option<&[usize]>,
+        raw: &mut Vec<f32>,
+        energy: &mut Vec<u64>,
+        s: &mut QueryScratch,
+    ) {
         let (mb, k) = (self.m, rr.len());
         let (src, nx) = selected(planes, 2 * mb, sel, &mut s.gather_u8);
         if nx == 0 || k == 0 {

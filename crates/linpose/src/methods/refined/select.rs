@@ -138,7 +138,15 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
     if folds.is_empty() {
         let l = FALLBACK_COMPONENTS.min(below);
         let interpolant = interpolants[0];
-        return Ok(Choice { interpolant, by_interpolant: Vec::new(), components: l, scored: Vec::new(), plain: None, least: f64::INFINITY, standard_error: 0.0 });
+        return Ok(Choice {
+            interpolant,
+            by_interpolant: Vec::new(),
+            components: l,
+            scored: Vec::new(),
+            plain: None,
+            least: f64::INFINITY,
+            standard_error: 0.0,
+        });
     }
     let mut tallies: Vec<Tally> = interpolants.iter().map(|_| Tally::default()).collect();
     let space = train.space();
@@ -153,12 +161,8 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
         tallies.par_iter_mut().zip(&interpolants).try_for_each(|(tally, &interpolant)| -> Result<()> {
             let params = params.interpolant(interpolant);
             let sigma2 = if params.weighted { interpolation_variance(&fit, &sub_grid, &pca.coords, l_max, interpolant)? } else { None };
-            let cands: Vec<(usize, bool)> = CANDIDATES
-                .iter()
-                .filter(|&&l| l <= l_max && l <= below)
-                .map(|&l| (l, false))
-                .chain(params.weighted.then_some((plain_l, true)))
-                .collect();
+            let cands: Vec<(usize, bool)> =
+                CANDIDATES.iter().filter(|&&l| l <= l_max && l <= below).map(|&l| (l, false)).chain(params.weighted.then_some((plain_l, true))).collect();
             for (c, &(l, plain)) in cands.iter().enumerate() {
                 let sig = if plain { None } else { sigma2.as_ref().map(|s| s[..l].to_vec()) };
                 let scale = super::weights(sig.as_deref(), l);

@@ -90,11 +90,7 @@ impl std::fmt::Display for Interpolant {
 impl std::str::FromStr for Interpolant {
     type Err = crate::Error;
     fn from_str(s: &str) -> Result<Self> {
-        INTERPOLANTS
-            .iter()
-            .copied()
-            .find(|i| i.name() == s)
-            .ok_or_else(|| crate::Error::invalid("interpolant", s, "expected 'spline' or 'local'"))
+        INTERPOLANTS.iter().copied().find(|i| i.name() == s).ok_or_else(|| crate::Error::invalid("interpolant", s, "expected 'spline' or 'local'"))
     }
 }
 
@@ -397,7 +393,16 @@ impl Surface {
     /// coordinate by less than `tol`. Returns the new cost, or None when no try lowered the cost
     /// (which ends the iteration).
     #[allow(clippy::too_many_arguments)]
-    fn damped_step(&self, h: &[[f64; 8]; 8], grad: &[f64; 8], mu: &mut f64, t: &mut [f64], cost: f64, tol: f64, mut cost_at: impl FnMut(&[f64]) -> f64) -> Option<f64> {
+    fn damped_step(
+        &self,
+        h: &[[f64; 8]; 8],
+        grad: &[f64; 8],
+        mu: &mut f64,
+        t: &mut [f64],
+        cost: f64,
+        tol: f64,
+        mut cost_at: impl FnMut(&[f64]) -> f64,
+    ) -> Option<f64> {
         let d = self.params();
         let mut cand = [0f64; 8];
         for _ in 0..12 {
@@ -811,7 +816,10 @@ impl Surface {
             let fresh0 = std::array::from_fn::<_, 3, _>(|s3| was[0][s3].is_none());
             let fresh1 = std::array::from_fn::<_, 3, _>(|s3| was[1][s3].is_none());
             let grid = |sel0: [bool; 3], sel1: [bool; 3]| {
-                (std::array::from_fn::<_, 3, _>(|s3| if sel0[s3] { at[0][s3].map(|k| pos(0, k)) } else { None }), std::array::from_fn::<_, 3, _>(|s3| if sel1[s3] { at[1][s3].map(|k| pos(1, k)) } else { None }))
+                (
+                    std::array::from_fn::<_, 3, _>(|s3| if sel0[s3] { at[0][s3].map(|k| pos(0, k)) } else { None }),
+                    std::array::from_fn::<_, 3, _>(|s3| if sel1[s3] { at[1][s3].map(|k| pos(1, k)) } else { None }),
+                )
             };
             for (sel0, sel1) in [(fresh0, [true; 3]), (fresh0.map(|f| !f), fresh1)] {
                 let (p0, p1) = grid(sel0, sel1);
@@ -855,7 +863,15 @@ impl Surface {
     /// position b and each knot interval of the first axis among the p0, the 4 sums along the
     /// second axis (value and slope at the interval's two knots) are formed once; each point
     /// then sums those 4 with its first-axis weights.
-    fn block2(&self, other: Option<&Surface>, lo: usize, p0: &[Option<f64>; 3], p1: &[Option<f64>; 3], fv: &mut [[f64; BLOCK_DIM]; 9], gv: &mut [[f64; BLOCK_DIM]; 9]) {
+    fn block2(
+        &self,
+        other: Option<&Surface>,
+        lo: usize,
+        p0: &[Option<f64>; 3],
+        p1: &[Option<f64>; 3],
+        fv: &mut [[f64; BLOCK_DIM]; 9],
+        gv: &mut [[f64; BLOCK_DIM]; 9],
+    ) {
         #[cfg(target_arch = "x86_64")]
         if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
             // SAFETY: the CPU supports AVX-512F (detected).
@@ -865,16 +881,28 @@ impl Surface {
     }
 
     #[inline(always)]
-    fn block2_body(&self, other: Option<&Surface>, lo: usize, p0: &[Option<f64>; 3], p1: &[Option<f64>; 3], fv: &mut [[f64; BLOCK_DIM]; 9], gv: &mut [[f64; BLOCK_DIM]; 9]) {
+    fn block2_body(
+        &self,
+        other: Option<&Surface>,
+        lo: usize,
+        p0: &[Option<f64>; 3],
+        p1: &[Option<f64>; 3],
+        fv: &mut [[f64; BLOCK_DIM]; 9],
+        gv: &mut [[f64; BLOCK_DIM]; 9],
+    ) {
         let n = self.shape[0] * self.shape[1];
-        let w0: [Option<([f64; 4], usize, usize)>; 3] = p0.map(|p| p.map(|t| {
-            let (w, _, i, j) = self.splines[0].weights_d(t);
-            (w, i, j)
-        }));
-        let w1: [Option<([f64; 4], usize, usize)>; 3] = p1.map(|p| p.map(|t| {
-            let (w, _, i, j) = self.splines[1].weights_d(t);
-            (w, i, j)
-        }));
+        let w0: [Option<([f64; 4], usize, usize)>; 3] = p0.map(|p| {
+            p.map(|t| {
+                let (w, _, i, j) = self.splines[0].weights_d(t);
+                (w, i, j)
+            })
+        });
+        let w1: [Option<([f64; 4], usize, usize)>; 3] = p1.map(|p| {
+            p.map(|t| {
+                let (w, _, i, j) = self.splines[1].weights_d(t);
+                (w, i, j)
+            })
+        });
         // h[p][..lo]: sum over q of w1[q] coef[row(p, q)], for one interval and one b.
         let mut h = [[0f64; BLOCK_DIM]; 4];
         let mut hg = [[0f64; BLOCK_DIM]; 4];
@@ -1033,7 +1061,15 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn block2_avx512(s: &Surface, other: Option<&Surface>, lo: usize, p0: &[Option<f64>; 3], p1: &[Option<f64>; 3], fv: &mut [[f64; BLOCK_DIM]; 9], gv: &mut [[f64; BLOCK_DIM]; 9]) {
+    pub unsafe fn block2_avx512(
+        s: &Surface,
+        other: Option<&Surface>,
+        lo: usize,
+        p0: &[Option<f64>; 3],
+        p1: &[Option<f64>; 3],
+        fv: &mut [[f64; BLOCK_DIM]; 9],
+        gv: &mut [[f64; BLOCK_DIM]; 9],
+    ) {
         let n = s.shape[0] * s.shape[1];
         assert!(lo <= BLOCK_DIM && lo <= s.dim && other.is_none_or(|o| lo <= o.dim && o.coef.len() == s.coef.len() * o.dim / s.dim));
         let w0 = p0.map(|p| p.map(|t| s.splines[0].weights_d(t)));

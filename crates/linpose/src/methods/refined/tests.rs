@@ -117,7 +117,10 @@ fn a_pair_of_surfaces_evaluates_as_each_alone() {
     let n = g.sample_at.len();
     let a: Vec<f64> = (0..n * 5).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
     let b: Vec<f64> = (0..n * 5).map(|i| ((i * 104729) % 997) as f64 / 300.0 - 1.5).collect();
-    let (sa, sb) = (surface::Surface::new(d.space(), &g.axes, &a, 5, surface::Interpolant::Spline).unwrap(), surface::Surface::new(d.space(), &g.axes, &b, 5, surface::Interpolant::Spline).unwrap());
+    let (sa, sb) = (
+        surface::Surface::new(d.space(), &g.axes, &a, 5, surface::Interpolant::Spline).unwrap(),
+        surface::Surface::new(d.space(), &g.axes, &b, 5, surface::Interpolant::Spline).unwrap(),
+    );
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for (k, lo) in [(0usize, 5usize), (1, 3), (2, 5), (3, 1)] {
         let mut t = [33.3 + 9.1 * k as f64, 17.0 + 71.5 * k as f64];
@@ -1039,10 +1042,7 @@ fn the_noisy_match_s_extra_coordinates_serve_its_queries_only() {
             .chunks_exact(mb)
             .map(|x| {
                 let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
-                basis
-                    .chunks_exact(mb)
-                    .map(|u| u.iter().zip(x.iter().zip(&mean)).map(|(&u, (&x, &c))| u as f64 * (x as f64 / norm - c as f64)).sum())
-                    .collect()
+                basis.chunks_exact(mb).map(|u| u.iter().zip(x.iter().zip(&mean)).map(|(&u, (&x, &c))| u as f64 * (x as f64 / norm - c as f64)).sum()).collect()
             })
             .collect();
         let check = |s: &QueryScratch, path: &str, tol: f64| {
