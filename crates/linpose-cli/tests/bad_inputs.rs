@@ -142,7 +142,8 @@ const CASES: &[Case] = &[
     model!("other_program", &["bad.safetensors", "safetensors file of another program"]),
     model!("no_metadata", &["bad.safetensors", "without linpose metadata"]),
     model!("no_format_version", &["bad.safetensors", "no format_version"]),
-    model!("format_version_2", &["bad.safetensors", "format version 2", "reads version 1", "retrain"]),
+    model!("format_version_1", &["bad.safetensors", "format version 1", "earlier linpose", "reads version 2", "retrain"]),
+    model!("format_version_3", &["bad.safetensors", "format version 3", "newer linpose", "reads version 2", "retrain"]),
     model!("shape_disagrees", &["bad.safetensors", "'weights'", "[2, 100]", "[2, 192]"]),
     model!("wrong_dtype", &["bad.safetensors", "'weights'", "dtype"]),
     model!("missing_tensor", &["bad.safetensors", "no tensor 'bias'"]),
@@ -205,7 +206,38 @@ const CASES: &[Case] = &[
         &["--bin two", "whole number or 'auto'"],
     ),
     case("nan_train_step", &[], &["train", "--data", "data", "--train-step", "nan", "--out", "e"], 1, &["train step", "positive"]),
-    case("negative_components", &[], &["train", "--data", "data", "--method", "eigenspace", "--components=-3", "--out", "e"], 2, &["--components", "-3"]),
+    case(
+        "negative_components",
+        &[],
+        &["train", "--data", "data", "--method", "eigenspace", "--components=-3", "--out", "e"],
+        1,
+        &["--components -3", "whole number"],
+    ),
+    // A setting of another method is refused, naming what the chosen method takes.
+    case("setting_of_another_method", &[], &["train", "--data", "data", "--bin", "2", "--out", "e"], 1, &["--bin 2", "linear", "ridge, noise-level, center"]),
+    case(
+        "switch_of_another_method",
+        &[],
+        &["train", "--data", "data", "--method", "refined", "--center", "--out", "e"],
+        1,
+        &["--center", "refined", "does not take it"],
+    ),
+    case(
+        "ridge_with_noise_level",
+        &[],
+        &["train", "--data", "data", "--ridge", "1", "--noise-level", "0.1", "--out", "e"],
+        1,
+        &["--noise-level 0.1", "cannot be given with ridge"],
+    ),
+    case(
+        "stream_a_method_that_cannot",
+        &[],
+        &["train", "--data", "data", "--method", "eigenspace", "--stream", "--out", "e"],
+        1,
+        &["--stream", "eigenspace", "in memory only", "linear"],
+    ),
+    case("stream_with_ridge_auto", &[], &["train", "--data", "data", "--stream", "--ridge", "auto", "--out", "e"], 1, &["--ridge auto", "fixed ridge"]),
+    case("unknown_method", &[], &["train", "--data", "data", "--method", "quadratic", "--out", "e"], 2, &["quadratic", "linear", "eigenspace", "refined"]),
     case("data_is_a_file", &[], &["train", "--data", "data/a000.png", "--out", "e"], 1, &["a000.png", "not a folder"]),
     case("model_out_in_missing_folder", &[], &["train", "--data", "data", "--out", "nowhere/m.safetensors"], 1, &["nowhere", "does not exist"]),
     case(
@@ -588,7 +620,7 @@ mod gen {
         let settings = r#"{"center":false,"ridge":0.0}"#;
         let m = meta("linear", 16, settings);
         let w: Vec<f32> = (0..2 * 192).map(|i| (i % 5) as f32 * 1e-3).collect();
-        let good = st(&header("linpose", Some("1"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w));
+        let good = st(&header("linpose", Some("2"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w));
         let mut nan_w = w.clone();
         nan_w[7] = f32::NAN;
         let mut past_end = good.clone();
@@ -600,29 +632,30 @@ mod gen {
             ("models/other_program.safetensors", st(r#"{"__metadata__":{"format":"pt"},"w":{"dtype":"F32","shape":[2],"data_offsets":[0,8]}}"#, &[0; 8])),
             ("models/no_metadata.safetensors", st(r#"{"w":{"dtype":"F32","shape":[2],"data_offsets":[0,8]}}"#, &[0; 8])),
             ("models/no_format_version.safetensors", st(&header("linpose", None, &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
-            ("models/format_version_2.safetensors", st(&header("linpose", Some("2"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
-            ("models/shape_disagrees.safetensors", st(&header("linpose", Some("1"), &m, &linear_tensors("F32", "[2,100]", 4 * 200)), &linear_data(&w[..200]))),
-            ("models/wrong_dtype.safetensors", st(&header("linpose", Some("1"), &m, &linear_tensors("I32", "[2,192]", 4 * 384)), &linear_data(&w))),
+            ("models/format_version_1.safetensors", st(&header("linpose", Some("1"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
+            ("models/format_version_3.safetensors", st(&header("linpose", Some("3"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
+            ("models/shape_disagrees.safetensors", st(&header("linpose", Some("2"), &m, &linear_tensors("F32", "[2,100]", 4 * 200)), &linear_data(&w[..200]))),
+            ("models/wrong_dtype.safetensors", st(&header("linpose", Some("2"), &m, &linear_tensors("I32", "[2,192]", 4 * 384)), &linear_data(&w))),
             (
                 "models/missing_tensor.safetensors",
-                st(&header("linpose", Some("1"), &m, r#","weights":{"dtype":"F32","shape":[2,192],"data_offsets":[0,1536]}"#), &linear_data(&w)[16..]),
+                st(&header("linpose", Some("2"), &m, r#","weights":{"dtype":"F32","shape":[2,192],"data_offsets":[0,1536]}"#), &linear_data(&w)[16..]),
             ),
             (
                 "models/unknown_method.safetensors",
-                st(&header("linpose", Some("1"), &meta("quadratic", 16, settings), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
+                st(&header("linpose", Some("2"), &meta("quadratic", 16, settings), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
             ),
             (
                 "models/damaged_metadata.safetensors",
-                st(&header("linpose", Some("1"), r##""{\"method\":\"linear\",\"spec\":""##, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
+                st(&header("linpose", Some("2"), r##""{\"method\":\"linear\",\"spec\":""##, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
             ),
             (
                 "models/zero_image_size.safetensors",
-                st(&header("linpose", Some("1"), &meta("linear", 0, settings), &linear_tensors("F32", "[2,0]", 0)), &linear_data(&[])),
+                st(&header("linpose", Some("2"), &meta("linear", 0, settings), &linear_tensors("F32", "[2,0]", 0)), &linear_data(&[])),
             ),
-            ("models/nan_weights.safetensors", st(&header("linpose", Some("1"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&nan_w))),
+            ("models/nan_weights.safetensors", st(&header("linpose", Some("2"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&nan_w))),
             (
                 "models/eigenspace_without_settings.safetensors",
-                st(&header("linpose", Some("1"), &meta("eigenspace", 16, "null"), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
+                st(&header("linpose", Some("2"), &meta("eigenspace", 16, "null"), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
             ),
             ("models/data_past_the_end.safetensors", past_end),
         ]

@@ -93,6 +93,19 @@ pub enum Error {
         /// Why it is refused.
         reason: String,
     },
+    /// A method's setting given by name ([`crate::Settings`]) is unknown to the method or cannot
+    /// be read.
+    #[error("setting {name} = '{value}' of the {method} method: {reason}")]
+    Setting {
+        /// The method's name.
+        method: &'static str,
+        /// The setting's name.
+        name: String,
+        /// Its value, as given.
+        value: String,
+        /// Why it is refused.
+        reason: String,
+    },
     /// A model file is not a linpose model, is damaged, or comes from another format version.
     #[error("{path}: {message}")]
     ModelFile {

@@ -1,4 +1,4 @@
-//! The paper's study on one object: both methods at the paper's training step, under query
+//! The paper's study on one object: every method at the paper's training step, under query
 //! noise, across training-set sizes (the overtraining question of section 4, with the linear
 //! model's closed-form leave-one-out error beside its true unseen error), and the storage and
 //! cost of Table 1 measured on the fitted models.
@@ -9,8 +9,7 @@
 use crate::dataset::Dataset;
 use crate::eval::evaluate;
 use crate::manifest::TrainSelection;
-use crate::methods::linear::{leave_one_out, LinearParams};
-use crate::methods::MethodSpec;
+use crate::model::MethodSpec;
 use crate::model::{AnyModel, PoseModel};
 use crate::pose::ErrorSummary;
 use crate::Result;
@@ -34,7 +33,7 @@ pub struct StudyParams {
 impl Default for StudyParams {
     fn default() -> Self {
         StudyParams {
-            methods: vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(Default::default())],
+            methods: crate::methods::METHODS.iter().map(|m| m.default_spec()).collect(),
             train_step: 9.0,
             noise: vec![0.0, 0.05, 0.10],
             size_steps: vec![6.0, 9.0, 12.0, 18.0, 27.0],
@@ -187,32 +186,15 @@ pub fn find_grid(data: &Dataset) -> Option<Grid> {
 
 /// The storage / cost terms of the paper's Table 1 for a fitted model.
 pub fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
-    let meta = model.meta();
-    let m = meta.spec.features();
-    let (formula, terms, numbers) = match model {
-        AnyModel::Linear(_) => {
-            let k = meta.space.encoded_len();
-            ("MK".to_string(), vec![("M".to_string(), m), ("K".to_string(), k)], m * k)
-        }
-        AnyModel::Eigenspace(e) => {
-            let (n, l) = (e.manifold_len(), e.components());
-            ("NL + ML".to_string(), vec![("N".to_string(), n), ("L".to_string(), l), ("M".to_string(), m)], n * l + m * l)
-        }
-        AnyModel::Refined(r) => {
-            let (n, l, s, d) = (r.knots_len(), r.components(), r.start_len(), r.meta().space.len());
-            let c = 1usize << d;
-            (
-                // The view surface and the noisy match's offset surface (2^D slopes per knot each),
-                // both at the S coarse points, the noisy scan's three numbers per point, the basis.
-                "2 (2^D NL + SL) + 3S + ML".to_string(),
-                vec![("D".to_string(), d), ("N".to_string(), n), ("S".to_string(), s), ("L".to_string(), l), ("M".to_string(), m)],
-                2 * (c * n * l + s * l) + 3 * s + m * l,
-            )
-        }
-        #[allow(unreachable_patterns)]
-        _ => ("-".to_string(), vec![], model.model_bytes() / 4),
-    };
-    Table1Row { method: meta.method.clone(), formula, terms, formula_numbers: numbers, model_bytes: model.model_bytes(), per_query_us }
+    let storage = model.storage();
+    Table1Row {
+        method: model.meta().method.clone(),
+        formula: model.method().storage.to_string(),
+        terms: storage.terms,
+        formula_numbers: storage.numbers,
+        model_bytes: model.model_bytes(),
+        per_query_us,
+    }
 }
 
 /// Per-parameter mean absolute errors and the gross-error fraction over unseen samples.
@@ -291,14 +273,13 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
                 Err(e) => return Err(e),
             };
             let r = evaluate(&model, data, 0.0, p.seed)?;
-            let loo_mean_deg = match method {
-                MethodSpec::Linear(lp) if !lp.is_centered() => {
-                    let loo = leave_one_out(lp, &train)?;
+            let loo_mean_deg = match method.leave_one_out(&train).transpose()? {
+                Some(loo) => {
                     let k = train.space().len();
                     let e: f64 = (0..train.len()).map(|i| train.space().error_deg(train.pose(i), &loo[i * k..(i + 1) * k])).sum();
                     Some(e / train.len() as f64)
                 }
-                _ => None,
+                None => None,
             };
             sweep.push(SweepPoint {
                 method: r.method,

@@ -51,12 +51,9 @@ pub use methods::eigenspace::{EigenspaceModel, EigenspaceParams};
 pub use methods::linear::ridge::RidgeRule;
 pub use methods::linear::{LinearModel, LinearParams};
 pub use methods::refined::{RefinedModel, RefinedParams};
-pub use methods::MethodSpec;
-pub use model::{AnyModel, Estimator, ModelMeta, PoseModel};
+pub use methods::METHODS;
+pub use model::{AnyModel, Estimator, Method, MethodSpec, ModelMeta, PoseModel, Settings};
 pub use pose::{ErrorSummary, Param, PoseSpace};
-
-/// The methods a model can be trained with, by name.
-pub const METHODS: &[&str] = &[methods::linear::METHOD, methods::eigenspace::METHOD, methods::refined::METHOD];
 
 #[cfg(test)]
 mod autotraits {

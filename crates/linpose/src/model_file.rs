@@ -13,8 +13,9 @@ use safetensors::SafeTensors;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// The model file format version this linpose writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+/// The model file format version this linpose writes and reads. Files of another version are
+/// refused with a message that says to retrain: the format has no compatibility layer.
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Serialises a model to safetensors bytes.
 ///
@@ -95,7 +96,14 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     }
     let version = meta.get("format_version").ok_or_else(|| err("model file has no format_version".into()))?;
     if version != &FORMAT_VERSION.to_string() {
-        return Err(err(format!("model file format version {version}, but this linpose reads version {FORMAT_VERSION}; retrain the model with this linpose")));
+        let whose = match version.parse::<u32>() {
+            Ok(v) if v < FORMAT_VERSION => "an earlier linpose",
+            Ok(_) => "a newer linpose",
+            Err(_) => "an unknown program",
+        };
+        return Err(err(format!(
+            "model file format version {version} (written by {whose}), but this linpose reads version {FORMAT_VERSION}; retrain the model with this linpose"
+        )));
     }
     let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
     let meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
@@ -109,7 +117,10 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
         };
         tensors.push(Tensor { name, shape: view.shape().to_vec(), data });
     }
-    AnyModel::from_parts(meta, &TensorSet { path: path.to_path_buf(), tensors })
+    let tensors = TensorSet { path: path.to_path_buf(), tensors };
+    let method = crate::methods::find(&meta.method)
+        .ok_or_else(|| tensors.error(format!("unknown method '{}' (this linpose knows: {})", meta.method, crate::methods::names())))?;
+    method.load(meta, &tensors)
 }
 
 fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {

@@ -7,7 +7,7 @@ use linpose::experiment::{run_object, ObjectResult, StudyParams};
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{self, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
-use linpose::{EigenspaceParams, LinearParams, Manifest, MethodSpec, PoseModel, RefinedParams};
+use linpose::{Manifest, PoseModel};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -51,11 +51,6 @@ pub struct ExperimentArgs {
     pub no_timings: bool,
 }
 
-/// The default methods compared.
-pub fn default_methods() -> Vec<MethodSpec> {
-    vec![MethodSpec::Linear(LinearParams::default()), MethodSpec::Eigenspace(EigenspaceParams::default()), MethodSpec::Refined(RefinedParams::default())]
-}
-
 /// Replaces `out` by the finished folder `tmp` (the old report is removed only once the new one
 /// is complete).
 fn replace_dir(tmp: &Path, out: &Path) -> anyhow::Result<()> {
@@ -91,7 +86,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         }
     }
     let mut params = StudyParams {
-        methods: default_methods(),
+        methods: StudyParams::default().methods,
         train_step: a.train_step.unwrap_or(if a.quick { 18.0 } else { 9.0 }),
         noise: a.noise.clone(),
         size_steps: a.size_steps.clone().unwrap_or_else(|| if a.quick { vec![18.0, 27.0, 36.0] } else { vec![6.0, 9.0, 12.0, 18.0, 27.0] }),

@@ -2,6 +2,7 @@
 
 pub mod eval;
 pub mod experiment;
+pub mod method_args;
 pub mod predict;
 pub mod synth;
 pub mod train;

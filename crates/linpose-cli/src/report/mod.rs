@@ -6,7 +6,8 @@ pub mod plots;
 
 use doc::{Block, Doc, FigureData};
 use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
-use linpose::{AnyModel, PoseModel};
+use linpose::model::Origin;
+use linpose::{Method, PoseModel};
 use serde::Serialize;
 
 /// What the study was, for the report's opening and the JSON.
@@ -199,86 +200,120 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
     Ok(Doc { title: "linpose: the paper's experiments, reproduced".into(), blocks: b })
 }
 
+/// The methods of the study as the registry describes them (a name it does not know is skipped).
+fn described(info: &StudyInfo) -> Vec<&'static Method> {
+    info.methods.iter().filter_map(|m| linpose::methods::find(m)).collect()
+}
+
+/// "a (x), b (y), ..." for the methods with a value, smallest first.
+fn ranked(values: &[(&str, f64)], show: impl Fn(f64) -> String) -> String {
+    let mut v: Vec<&(&str, f64)> = values.iter().filter(|(_, x)| x.is_finite()).collect();
+    v.sort_by(|a, b| a.1.total_cmp(&b.1));
+    v.iter().map(|(m, x)| format!("{m} {}", show(*x))).collect::<Vec<_>>().join(", ")
+}
+
 fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) -> Vec<String> {
     let mut out = Vec::new();
     let names: Vec<&str> = main.iter().map(|o| o.name.as_str()).collect();
-    let has = |m: &str| info.methods.iter().any(|x| x == m);
-    if has("linear") && has("eigenspace") && !main.is_empty() {
-        let (l, e) = (mean_over(main.iter().copied(), "linear", 0.0), mean_over(main.iter().copied(), "eigenspace", 0.0));
-        out.push(format!(
-            "**Accuracy.** The paper's verdict holds: {} the linear model's unseen mean error, averaged over {}, is {} degrees against the eigenspace method's {} degrees ({:.1}x).",
-            if l > e { "the eigenspace method is the more accurate;" } else { "here the linear model is at least as accurate as the eigenspace method (the paper expected the opposite);" },
-            names.join(", "),
-            f(l, 2),
-            f(e, 2),
-            l / e.max(1e-12)
-        ));
+    let methods = described(info);
+    let by_origin = |origin: Origin| methods.iter().find(|m| m.origin == origin).map(|m| m.name);
+    if !main.is_empty() && !methods.is_empty() {
+        let errors: Vec<(&str, f64)> = methods.iter().map(|m| (m.name, mean_over(main.iter().copied(), m.name, 0.0))).collect();
+        let mut text =
+            format!("**Accuracy.** Unseen mean error averaged over {}, most accurate first: {} degrees.", names.join(", "), ranked(&errors, |e| f(e, 2)));
+        let err = |name: &str| errors.iter().find(|(m, _)| *m == name).map_or(f64::NAN, |e| e.1);
+        if let (Some(paper), Some(base)) = (by_origin(Origin::Paper), by_origin(Origin::Baseline)) {
+            let (l, e) = (err(paper), err(base));
+            text.push_str(&format!(
+                " The paper's verdict {}: {paper}'s error is {:.1}x {base}'s.",
+                if l > e { "holds, its baseline is the more accurate" } else { "does not hold here, its own method is at least as accurate as its baseline" },
+                l / e.max(1e-12)
+            ));
+        }
+        for beyond in methods.iter().filter(|m| m.origin == Origin::Beyond) {
+            let others: Vec<String> =
+                methods.iter().filter(|m| m.name != beyond.name).map(|m| format!("{:.2}x {}'s", err(beyond.name) / err(m.name).max(1e-12), m.name)).collect();
+            text.push_str(&format!(" {}, beyond the paper: {} error.", beyond.name, others.join(", ")));
+        }
+        out.push(text);
         if let Some(o) = main.first() {
             let t = |m: &str| o.table1.iter().find(|t| t.method == m);
-            if let (Some(tl), Some(te)) = (t("linear"), t("eigenspace")) {
+            let rows: Vec<&linpose::experiment::Table1Row> = methods.iter().filter_map(|m| t(m.name)).collect();
+            if !rows.is_empty() {
+                let bytes: Vec<(&str, f64)> = rows.iter().map(|r| (r.method.as_str(), r.model_bytes as f64)).collect();
+                let (small, large) = (rows.iter().min_by_key(|r| r.model_bytes).expect("a row"), rows.iter().max_by_key(|r| r.model_bytes).expect("a row"));
                 out.push(format!(
-                    "**Storage.** On {}, the linear model stores {} bytes (MK = {}) against {} bytes for the eigenspace method (NL + ML = {}): {:.1}x smaller.",
+                    "**Storage.** On {}, smallest first: {} bytes; {} stores {:.1}x fewer than {}.",
                     o.name,
-                    tl.model_bytes,
-                    tl.formula_numbers,
-                    te.model_bytes,
-                    te.formula_numbers,
-                    te.model_bytes as f64 / tl.model_bytes.max(1) as f64
+                    ranked(&bytes, |b| format!("{b:.0}")),
+                    small.method,
+                    large.model_bytes as f64 / small.model_bytes.max(1) as f64,
+                    large.method
                 ));
-                out.push(format!(
-                    "**Cost.** A query costs {} us with the linear model and {} us with the eigenspace method ({:.1}x), measured on all {} views.",
-                    f(tl.per_query_us, 1),
-                    f(te.per_query_us, 1),
-                    te.per_query_us / tl.per_query_us.max(1e-12),
-                    o.n_samples
-                ));
+                let us: Vec<(&str, f64)> = rows.iter().map(|r| (r.method.as_str(), r.per_query_us)).collect();
+                out.push(format!("**Cost.** A query costs, cheapest first: {} us, measured on all {} views.", ranked(&us, |u| f(u, 1)), o.n_samples));
             }
         }
     }
     if let Some(&amax) = info.noise.iter().rfind(|&&a| a > 0.0) {
-        for m in &info.methods {
-            let (c, n) = (mean_over(main.iter().copied(), m, 0.0), mean_over(main.iter().copied(), m, amax));
+        for m in &methods {
+            let (c, n) = (mean_over(main.iter().copied(), m.name, 0.0), mean_over(main.iter().copied(), m.name, amax));
+            let paper = match m.origin {
+                Origin::Paper if n / c.max(1e-12) < 1.5 => ", so noise does not severely affect it, as the paper's Fig. 4 says",
+                Origin::Paper => ", more than the paper's Fig. 4 suggests",
+                _ => "",
+            };
             out.push(format!(
-                "**Noise ({m}).** With {} pixel noise its unseen mean error goes from {} to {} degrees ({:.1}x){}.",
+                "**Noise ({}).** With {} pixel noise its unseen mean error goes from {} to {} degrees ({:.1}x){paper}.",
+                m.name,
                 pct(amax),
                 f(c, 2),
                 f(n, 2),
-                n / c.max(1e-12),
-                if m == "linear" {
-                    if n / c.max(1e-12) < 1.5 {
-                        ", so noise does not severely affect it, as the paper's Fig. 4 says"
-                    } else {
-                        ", more than the paper's Fig. 4 suggests"
-                    }
-                } else {
-                    ""
-                }
+                n / c.max(1e-12)
             ));
         }
     }
-    if has("linear") {
-        let pts: Vec<(f64, f64, f64)> = main
-            .iter()
-            .flat_map(|o| o.sweep.iter().filter(|p| p.method == "linear").map(|p| (p.n_train as f64, p.unseen_mean_deg, p.loo_mean_deg.unwrap_or(f64::NAN))))
-            .collect();
-        if !pts.is_empty() {
-            let decreasing = main.iter().all(|o| {
-                let mut v: Vec<(usize, f64)> = o.sweep.iter().filter(|p| p.method == "linear").map(|p| (p.n_train, p.unseen_mean_deg)).collect();
+    let swept: Vec<&str> = methods.iter().map(|m| m.name).filter(|m| main.iter().any(|o| o.sweep.iter().any(|p| p.method == *m))).collect();
+    if !swept.is_empty() {
+        let decreasing = |m: &str| {
+            main.iter().all(|o| {
+                let mut v: Vec<(usize, f64)> = o.sweep.iter().filter(|p| p.method == m).map(|p| (p.n_train, p.unseen_mean_deg)).collect();
                 v.sort_by_key(|x| x.0);
                 v.windows(2).all(|w| w[1].1 <= w[0].1 * 1.05)
-            });
-            let (small, large) = sweep_ends(main, "linear");
-            let ratios: Vec<f64> = pts.iter().filter(|p| p.2.is_finite() && p.1 > 0.0).map(|p| p.2 / p.1).collect();
+            })
+        };
+        let ends: Vec<String> = swept
+            .iter()
+            .map(|m| {
+                let (small, large) = sweep_ends(main, m);
+                format!("{m} from {} to {}", f(small, 2), f(large, 2))
+            })
+            .collect();
+        let (steady, not): (Vec<&str>, Vec<&str>) = swept.iter().partition(|m| decreasing(m));
+        let mut text = format!(
+            "**Overtraining.** Unseen mean error with the fewest training views against the most (mean over objects, degrees): {}. {}",
+            ends.join("; "),
+            match (steady.is_empty(), not.is_empty()) {
+                (false, true) => "No overtraining appears: the error falls with more data for every method.".to_string(),
+                (false, false) => format!("It falls steadily with more data for {}, not for {}.", steady.join(", "), not.join(", ")),
+                _ => "The error does not fall steadily with more data.".to_string(),
+            }
+        );
+        for m in &swept {
+            let ratios: Vec<f64> = main
+                .iter()
+                .flat_map(|o| o.sweep.iter().filter(|p| p.method == *m))
+                .filter_map(|p| p.loo_mean_deg.filter(|l| l.is_finite() && p.unseen_mean_deg > 0.0).map(|l| l / p.unseen_mean_deg))
+                .collect();
+            if ratios.is_empty() {
+                continue;
+            }
             let (rmin, rmax) = ratios.iter().fold((f64::INFINITY, 0.0f64), |(a, b), &r| (a.min(r), b.max(r)));
-            out.push(format!(
-                "**Overtraining.** {} for the linear model: its unseen mean error goes from {} degrees with the fewest training views to {} with the most (mean over objects), although N stays far below M. Its closed-form leave-one-out error, from the training set alone, is {:.2} to {:.2} times the true unseen error across objects and steps: each left-out view sits a whole training step from its nearest remaining neighbour, twice as far as an unseen view, so it answers a harder question than the one measured and its ratio to the true error depends on the object: it ranks training sets rather than predicting their error.",
-                if decreasing { "No overtraining appears" } else { "The error does not fall steadily with more data" },
-                f(small, 2),
-                f(large, 2),
-                rmin,
-                rmax
+            text.push_str(&format!(
+                " The {m} method's closed-form leave-one-out error, from the training set alone, is {rmin:.2} to {rmax:.2} times its true unseen error across objects and steps: each left-out view sits a whole training step from its nearest remaining neighbour, twice as far as an unseen view, so it answers a harder question than the one measured: it ranks training sets rather than predicting their error."
             ));
         }
+        out.push(text);
     }
     for o in open {
         let parts: Vec<String> = info
@@ -341,18 +376,19 @@ fn error_map(o: &ObjectResult, r: &Run, title: &str, vmax: f64) -> Result<Figure
 }
 
 fn figures(b: &mut Vec<Block>, info: &StudyInfo, objects: &[ObjectResult]) -> Result<(), String> {
-    // Fig. 2: the coefficient vectors of the first object's linear model.
-    if let Some((o, AnyModel::Linear(lm))) = objects.iter().find_map(|o| o.models.iter().find(|m| matches!(m, AnyModel::Linear(_))).map(|m| (o, m))) {
-        let spec = lm.meta().spec;
+    // Fig. 2: the coefficient vectors of the first object's first model linear in the pixels.
+    if let Some((o, model, w)) = objects.iter().find_map(|o| o.models.iter().find_map(|m| m.coefficients().map(|w| (o, m, w)))) {
+        let spec = model.meta().spec;
         if spec.color == linpose::image_io::ColorMode::Gray {
             let m = spec.features();
-            let imgs: Vec<&[f64]> = lm.weights().chunks_exact(m).collect();
-            let names = encoded_names(lm.meta());
+            let imgs: Vec<&[f64]> = w.chunks_exact(m).collect();
+            let names = encoded_names(model.meta());
             b.push(Block::Figure {
                 file: format!("fig2-coefficients-{}.png", o.name),
                 data: FigureData::Png(plots::coefficient_png(&imgs, spec.width, spec.height, 2)?),
                 caption: format!(
-                    "Fig. 2: the coefficient vectors w_j of the linear model of {} shown as {}x{} images, left to right: {}. Blue negative, white zero, red positive, each image on its own scale (largest |w| = {}).",
+                    "Fig. 2: the coefficient vectors w_j of the {} model of {} shown as {}x{} images, left to right: {}. Blue negative, white zero, red positive, each image on its own scale (largest |w| = {}).",
+                    model.meta().method,
                     o.name,
                     spec.width,
                     spec.height,

@@ -49,7 +49,7 @@ pub mod spline;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, AlignedF32, Level};
-use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
@@ -60,8 +60,21 @@ use search::NearestIndex;
 pub use search::SearchKind;
 use serde::{Deserialize, Serialize};
 
-/// The method's name in model files and on the command line.
-pub const METHOD: &str = "eigenspace";
+/// The parametric eigenspace in the method registry.
+pub static METHOD: Method = Method {
+    name: "eigenspace",
+    summary: "Murase & Nayar's parametric eigenspace: PCA, the spline appearance manifold resampled densely, the nearest manifold point",
+    origin: Origin::Baseline,
+    storage: "NL + ML",
+    options: &[
+        MethodOption { name: "components", value: "L", help: "number of eigenimages L (default 20, capped at N - 1)" },
+        MethodOption { name: "energy", value: "T", help: "instead of components, keep the fewest eigenimages holding this fraction of the energy (e.g. 0.95)" },
+        MethodOption { name: "manifold-step", value: "D", help: "resample the appearance manifold every D degrees along each pose axis (default 0.5)" },
+    ],
+    params: |s| Ok(EigenspaceParams::from_settings(s)?.into()),
+    load: |meta, t| Ok(AnyModel::new(EigenspaceModel::from_parts(meta, t)?)),
+    stream: None,
+};
 
 /// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
 /// in [`dot_u8::dots_batch`], 16 in [`dot_q::dots_batch`]).
@@ -138,6 +151,23 @@ impl EigenspaceParams {
         self.search
     }
 
+    /// The parameters from settings by name ([`METHOD`]'s options).
+    pub(crate) fn from_settings(settings: &Settings) -> Result<Self> {
+        let r = settings.reader(&METHOD)?;
+        r.exclusive("energy", "components")?;
+        let mut p = EigenspaceParams::default();
+        if let Some(l) = r.parse("components", "a whole number")? {
+            p = p.components(l);
+        }
+        if let Some(t) = r.parse("energy", "a fraction in (0, 1]")? {
+            p = p.energy(t);
+        }
+        if let Some(d) = r.parse("manifold-step", "a number of degrees")? {
+            p = p.manifold_step(d);
+        }
+        Ok(p)
+    }
+
     fn validate(&self) -> Result<()> {
         match self.dimension {
             Dimension::Fixed(0) => return Err(Error::invalid("components", 0, "at least one eigenimage is needed")),
@@ -172,6 +202,10 @@ pub struct EigenspaceSettings {
 impl Estimator for EigenspaceParams {
     type Model = EigenspaceModel;
 
+    fn method(&self) -> &'static Method {
+        &METHOD
+    }
+
     fn fit(&self, train: &Dataset) -> Result<EigenspaceModel> {
         self.validate()?;
         let space = train.space();
@@ -191,7 +225,7 @@ impl Estimator for EigenspaceParams {
             search: self.search,
         };
         let meta = ModelMeta {
-            method: METHOD.into(),
+            method: METHOD.name.into(),
             spec: train.spec(),
             space: space.clone(),
             train_poses: train.poses().to_vec(),
@@ -406,6 +440,10 @@ impl EigenspaceModel {
 }
 
 impl PoseModel for EigenspaceModel {
+    fn method(&self) -> &'static Method {
+        &METHOD
+    }
+
     fn meta(&self) -> &ModelMeta {
         &self.meta
     }
@@ -478,6 +516,11 @@ impl PoseModel for EigenspaceModel {
     /// positions (8 bytes each), which turn a point's index into its pose.
     fn model_bytes(&self) -> usize {
         (self.points.len() + self.basis.len() + self.mean.len()) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
+    }
+
+    fn storage(&self) -> Storage {
+        let (n, l, m) = (self.manifold_len(), self.components(), self.meta.spec.features());
+        Storage::new(&[("N", n), ("L", l), ("M", m)], n * l + m * l)
     }
 
     fn tensors(&self) -> Vec<Tensor> {

@@ -150,7 +150,7 @@ fn model_file_round_trip_gives_the_same_predictions() {
     let path = dir.path().join("m.safetensors");
     crate::model_file::save(&model, &path).unwrap();
     let back = crate::model_file::load(&path).unwrap();
-    assert!(matches!(back, crate::AnyModel::Eigenspace(_)));
+    assert!(back.downcast_ref::<EigenspaceModel>().is_some());
     // serde_json reads floats back to within an ulp or so, so compare the metadata field by field.
     let (a, b) = (back.meta(), model.meta());
     assert_eq!((&a.method, a.spec, &a.space, &a.train_poses), (&b.method, b.spec, &b.space, &b.train_poses));

@@ -12,7 +12,7 @@ use crate::dataset::Dataset;
 use crate::kernels::{dot_u8::dots, Level};
 use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
 use crate::methods::linear::ridge::{estimate_noise_sigma, loo_curve, RidgeRule};
-use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::{Mat, Side};
@@ -20,15 +20,35 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
-/// The method's name in model files and on the command line.
-pub const METHOD: &str = "linear";
+/// The linear model in the method registry.
+pub static METHOD: Method = Method {
+    name: "linear",
+    summary: "Okatani & Deguchi's linear model: each pose parameter a linear function of the pixels, the minimum-norm exact fit through the Gram matrix",
+    origin: Origin::Paper,
+    storage: "MK",
+    options: &[
+        MethodOption {
+            name: "ridge",
+            value: "L|auto",
+            help: "ridge lambda added to the Gram matrix (default 0, the paper's exact minimum-norm fit), or auto: the lambda with the smallest exact leave-one-out error",
+        },
+        MethodOption {
+            name: "noise-level",
+            value: "A|auto",
+            help: "train for query noise of +-A (a fraction of full brightness): ridge lambda = N A^2/3, the optimum for independent pixel noise; auto estimates the noise of the training images",
+        },
+        MethodOption { name: "center", value: "", help: "subtract the mean image and pose first (an intercept; the paper has none)" },
+    ],
+    params: |s| Ok(LinearParams::from_settings(s)?.into()),
+    load: |meta, t| Ok(AnyModel::new(LinearModel::from_parts(meta, t)?)),
+    stream: Some(stream::fit_streamed),
+};
 
 /// Parameters of the linear model. The default is exactly the paper's: no ridge, no centring.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct LinearParams {
     ridge: f64,
     center: bool,
-    #[serde(default)]
     rule: RidgeRule,
 }
 
@@ -60,6 +80,26 @@ impl LinearParams {
     /// Whether the model is mean-centred.
     pub fn is_centered(&self) -> bool {
         self.center
+    }
+
+    /// How lambda is chosen.
+    pub fn rule(&self) -> RidgeRule {
+        self.rule
+    }
+
+    /// The parameters from settings by name ([`METHOD`]'s options).
+    pub(crate) fn from_settings(settings: &Settings) -> Result<Self> {
+        let r = settings.reader(&METHOD)?;
+        r.exclusive("noise-level", "ridge")?;
+        let p = LinearParams::default().center(r.switch("center")?);
+        let number = |name: &str, v: &str| v.parse::<f64>().map_err(|_| r.error(name, v, "expected a number or 'auto'"));
+        Ok(match (r.text("noise-level"), r.text("ridge")) {
+            (Some("auto"), _) => p.ridge_rule(RidgeRule::NoiseAuto),
+            (Some(v), _) => p.ridge_rule(RidgeRule::Noise(number("noise-level", v)?)),
+            (None, Some("auto")) => p.ridge_rule(RidgeRule::Loo),
+            (None, Some(v)) => p.ridge(number("ridge", v)?),
+            (None, None) => p,
+        })
     }
 
     fn validate(&self) -> Result<()> {
@@ -297,6 +337,15 @@ fn check_duplicates(train: &Dataset) -> Result<()> {
 impl Estimator for LinearParams {
     type Model = LinearModel;
 
+    fn method(&self) -> &'static Method {
+        &METHOD
+    }
+
+    /// The closed form of [`leave_one_out`], for uncentred models.
+    fn leave_one_out(&self, train: &Dataset) -> Option<Result<Vec<f64>>> {
+        (!self.center).then(|| leave_one_out(self, train))
+    }
+
     fn fit(&self, train: &Dataset) -> Result<LinearModel> {
         self.validate()?;
         let augmented;
@@ -342,7 +391,7 @@ impl Estimator for LinearParams {
             _ => vec![0.0; k],
         };
         let meta = ModelMeta {
-            method: METHOD.into(),
+            method: METHOD.name.into(),
             spec: train.spec(),
             space: train.space().clone(),
             train_poses: train.poses().to_vec(),
@@ -413,6 +462,10 @@ impl LinearModel {
 }
 
 impl PoseModel for LinearModel {
+    fn method(&self) -> &'static Method {
+        &METHOD
+    }
+
     fn meta(&self) -> &ModelMeta {
         &self.meta
     }
@@ -461,6 +514,15 @@ impl PoseModel for LinearModel {
 
     fn model_bytes(&self) -> usize {
         self.w32.len() * 4 + self.bias.len() * 8
+    }
+
+    fn storage(&self) -> Storage {
+        let (m, k) = (self.meta.spec.features(), self.meta.space.encoded_len());
+        Storage::new(&[("M", m), ("K", k)], m * k)
+    }
+
+    fn coefficients(&self) -> Option<&[f64]> {
+        Some(&self.w64)
     }
 
     fn tensors(&self) -> Vec<Tensor> {

@@ -37,8 +37,9 @@ use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::kernels::levels::{quantize, residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
 use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 use crate::manifest::Manifest;
-use crate::methods::linear::{LinearModel, LinearParams};
-use crate::model::{Estimator, ModelMeta};
+use crate::methods::linear::{LinearModel, LinearParams, METHOD};
+use crate::methods::linear::ridge::RidgeRule;
+use crate::model::{AnyModel, Estimator, ModelMeta, Settings};
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
@@ -104,6 +105,23 @@ pub struct StreamStats {
 }
 
 impl StreamStats {
+    /// What the fit did and how long each part took, in one line.
+    pub fn describe(&self) -> String {
+        match self.path {
+            SolverPath::LeastSquares => format!(
+                "{}: reading {:.3} s (overlapped; waited {:.3} s), accumulating X^T X and X^T P {:.3} s ({:.1} GFLOP/s, {}), solving {:.3} s",
+                self.path,
+                self.read_s,
+                self.wait_s,
+                self.accumulate_s,
+                self.accumulate_flops() / 1e9,
+                if self.integer_8bit { "8-bit integer arithmetic" } else { "f64" },
+                self.solve_s
+            ),
+            SolverPath::Gram => format!("{}: reading {:.3} s, Gram matrix and solve {:.3} s", self.path, self.read_s, self.solve_s),
+        }
+    }
+
     /// The accumulation's FLOP/s: M^2 N floating-point operations (the M^2 N / 2 multiply-adds of
     /// X^T X's lower triangle, counted once although the 8-bit path does them in integers in two
     /// passes) over `accumulate_s`.
@@ -147,6 +165,23 @@ pub fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, 
             fit_least_squares(manifest, spec, params, BLOCK, read)
         }
     }
+}
+
+/// [`crate::Method::fit_streamed`] for the linear model: [`fit_linear`] with parameters from
+/// settings by name, which must give a fixed ridge (the leave-one-out and noise rules need the
+/// training set in memory).
+pub(crate) fn fit_streamed(manifest: &Manifest, color: ColorMode, settings: &Settings, progress: &(dyn Fn(u64) + Sync)) -> Result<(AnyModel, String)> {
+    let params = LinearParams::from_settings(settings)?;
+    if params.rule() != RidgeRule::Fixed {
+        let r = settings.reader(&METHOD)?;
+        let (name, value) = r.text("noise-level").map(|v| ("noise-level", v)).unwrap_or(("ridge", r.text("ridge").unwrap_or("auto")));
+        return Err(r.error(name, value, "a streamed fit takes a fixed ridge (0 for the exact fit): the leave-one-out and noise rules need the training set in memory"));
+    }
+    if params.is_centered() {
+        return Err(Error::invalid("center", true, "a streamed fit is uncentred (the paper's form)"));
+    }
+    let (model, stats) = fit_linear(manifest, color, &params, progress)?;
+    Ok((AnyModel::new(model), stats.describe()))
 }
 
 /// A block of images on its way from the reader to the accumulation.
@@ -313,7 +348,7 @@ pub fn fit_least_squares(
     }
     let solve_s = t.elapsed().as_secs_f64();
     let meta = ModelMeta {
-        method: crate::methods::linear::METHOD.into(),
+        method: METHOD.name.into(),
         spec,
         space: space.clone(),
         train_poses: manifest.poses().to_vec(),

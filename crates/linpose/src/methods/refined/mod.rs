@@ -136,6 +136,7 @@
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
 
 pub mod lattice;
+mod method;
 pub mod select;
 pub mod surface;
 
@@ -144,7 +145,7 @@ use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
-use crate::model::{batch_len, Estimator, ModelMeta, PoseModel, Tensor, TensorSet};
+use crate::model::{batch_len, Estimator, Method, ModelMeta, PoseModel, Storage, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
@@ -154,8 +155,7 @@ use serde::{Deserialize, Serialize};
 use surface::Surface;
 pub use surface::{Interpolant, INTERPOLANTS};
 
-/// The method's name in model files and on the command line.
-pub const METHOD: &str = "refined";
+pub use method::METHOD;
 
 /// Most eigenimages considered by the automatic choice.
 pub const MAX_AUTO_COMPONENTS: usize = 40;
@@ -405,6 +405,10 @@ pub const NOISE_COMPONENTS: usize = 20;
 impl Estimator for RefinedParams {
     type Model = RefinedModel;
 
+    fn method(&self) -> &'static Method {
+        &METHOD
+    }
+
     fn fit(&self, full: &Dataset) -> Result<RefinedModel> {
         self.validate()?;
         // The held-out fits take the binned images as given (bin 1).
@@ -515,7 +519,7 @@ impl Estimator for RefinedParams {
             noise_selection,
         };
         let meta = ModelMeta {
-            method: METHOD.into(),
+            method: METHOD.name.into(),
             spec: full.spec(),
             space: space.clone(),
             train_poses: train.poses().to_vec(),
@@ -2635,6 +2639,14 @@ impl RefinedModel {
 }
 
 impl PoseModel for RefinedModel {
+    fn method(&self) -> &'static Method {
+        &METHOD
+    }
+
+    fn storage(&self) -> Storage {
+        self.table1_storage()
+    }
+
     fn meta(&self) -> &ModelMeta {
         &self.meta
     }
