@@ -1,4 +1,5 @@
-//! A data set in memory: a [`Manifest`] with every image decoded into a feature row.
+//! A data set in memory: images as feature rows with their poses, built from arrays already in
+//! memory ([`Dataset::new`]) or decoded from a data set folder ([`Dataset::load`]).
 
 use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::manifest::Manifest;
@@ -15,6 +16,26 @@ pub struct Dataset {
 }
 
 impl Dataset {
+    /// A data set from arrays in memory: `features` holds one row of `spec.features()` values per
+    /// sample (gray values in [0, 1], row-major pixels), `poses` one row of `space.len()` values
+    /// (degrees). Samples are named `sample 0`, `sample 1`, ... in errors and evaluations.
+    ///
+    /// ```
+    /// use linpose::image_io::{ColorMode, ImageSpec};
+    /// use linpose::{Dataset, Param, PoseSpace};
+    ///
+    /// let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+    /// let spec = ImageSpec { width: 2, height: 1, color: ColorMode::Gray };
+    /// let data = Dataset::new(spec, vec![0.0, 1.0, 1.0, 0.0], space, vec![0.0, 180.0])?;
+    /// assert_eq!((data.len(), data.pose(1)), (2, &[180.0][..]));
+    /// # Ok::<(), linpose::Error>(())
+    /// ```
+    pub fn new(spec: ImageSpec, features: Vec<f32>, space: PoseSpace, poses: Vec<f64>) -> Result<Self> {
+        let n = poses.len() / space.len().max(1);
+        let manifest = Manifest::new("", space, (0..n).map(|i| format!("sample {i}")).collect(), poses)?;
+        Self::from_features(manifest, spec, features)
+    }
+
     /// Decodes every image of `manifest` (in parallel). All images must have the size of the
     /// first; `progress` is called with the number of images decoded since its last call.
     pub fn load(manifest: Manifest, color: ColorMode, progress: &(dyn Fn(u64) + Sync)) -> Result<Self> {
@@ -52,7 +73,8 @@ impl Dataset {
         Self::from_features(manifest, spec, features)
     }
 
-    /// A data set from features already in memory (`manifest.len()` rows of `spec.features()`).
+    /// A data set of the images of `manifest` whose features are already in memory
+    /// (`manifest.len()` rows of `spec.features()`).
     pub fn from_features(manifest: Manifest, spec: ImageSpec, features: Vec<f32>) -> Result<Self> {
         if features.len() != manifest.len() * spec.features() {
             return Err(Error::Dataset {

@@ -7,15 +7,14 @@
 //! method that paper measures itself against, Murase & Nayar's parametric eigenspace.
 //!
 //! ```
-//! use linpose::{Dataset, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
+//! use linpose::{Dataset, Estimator, LinearParams, Param, PoseModel, PoseSpace};
 //! use linpose::image_io::{ColorMode, ImageSpec};
 //!
 //! // Four 2x2 "images" of a turntable angle, with their poses.
 //! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
-//! let manifest = Manifest::new(".", space, (0..4).map(|i| format!("{i}.png")).collect(), vec![0.0, 90.0, 180.0, 270.0])?;
 //! let spec = ImageSpec { width: 2, height: 2, color: ColorMode::Gray };
 //! let pixels = vec![1.0, 0.6, 0.0, 0.2, 0.2, 1.0, 0.6, 0.0, 0.0, 0.2, 1.0, 0.6, 0.6, 0.0, 0.2, 1.0];
-//! let data = Dataset::from_features(manifest, spec, pixels)?;
+//! let data = Dataset::new(spec, pixels, space, vec![0.0, 90.0, 180.0, 270.0])?;
 //!
 //! let model = LinearParams::default().fit(&data)?;
 //! let pose = model.predict(data.row(1))?;

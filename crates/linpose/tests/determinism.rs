@@ -4,18 +4,17 @@
 //! 160 x 120) so every parallel path of the kernels is taken.
 
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::{Dataset, EigenspaceParams, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
+use linpose::{Dataset, EigenspaceParams, Estimator, LinearParams, Param, PoseModel, PoseSpace};
 
 /// The paper's training grid (elevation 32..77 every 9, azimuth 0..324 every 9: 6 x 37 = 222)
 /// of smooth images with a pseudo-random texture, so the Gram matrix has no special structure.
 fn paper_sized() -> Dataset {
     let (w, h) = (160u32, 120u32);
     let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
-    let (mut images, mut poses, mut feats) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut poses, mut feats) = (Vec::new(), Vec::new());
     let mut state = 0x2545_f491_4f6c_dd1du64;
     for el in (32..=77).step_by(9) {
         for az in (0..360).step_by(9) {
-            images.push(format!("e{el}_a{az}.png"));
             poses.extend([el as f64, az as f64]);
             let (r, lift) = ((az as f64).to_radians(), el as f64 / 90.0 * 0.3);
             for y in 0..h {
@@ -31,8 +30,7 @@ fn paper_sized() -> Dataset {
             }
         }
     }
-    let manifest = Manifest::new("paper", space, images, poses).unwrap();
-    Dataset::from_features(manifest, ImageSpec { width: w, height: h, color: ColorMode::Gray }, feats).unwrap()
+    Dataset::new(ImageSpec { width: w, height: h, color: ColorMode::Gray }, feats, space, poses).unwrap()
 }
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {

@@ -13,7 +13,6 @@ use linpose::{Dataset, Estimator, LinearParams, Manifest, Param, PoseModel, Pose
 /// Nearby poses look alike and the images are linearly independent.
 fn synthetic(n_az: usize, elevations: &[f64], w: u32, h: u32) -> Dataset {
     let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
-    let mut images = Vec::new();
     let mut poses = Vec::new();
     let mut feats = Vec::new();
     let (wf, hf) = (w as f64, h as f64);
@@ -21,7 +20,6 @@ fn synthetic(n_az: usize, elevations: &[f64], w: u32, h: u32) -> Dataset {
         for a in 0..n_az {
             let az = a as f64 * 360.0 / n_az as f64;
             let r = az.to_radians();
-            images.push(format!("{el}_{az}.png"));
             poses.extend([el, az]);
             let lift = el / 90.0 * 0.3 * hf;
             let blobs = [(0.3, 0.0, 1.0), (0.2, 2.5, 0.6)];
@@ -40,8 +38,7 @@ fn synthetic(n_az: usize, elevations: &[f64], w: u32, h: u32) -> Dataset {
             }
         }
     }
-    let manifest = Manifest::new(".", space, images, poses).unwrap();
-    Dataset::from_features(manifest, ImageSpec { width: w, height: h, color: ColorMode::Gray }, feats).unwrap()
+    Dataset::new(ImageSpec { width: w, height: h, color: ColorMode::Gray }, feats, space, poses).unwrap()
 }
 
 #[test]
@@ -102,9 +99,8 @@ fn weights_lie_in_the_span_of_the_training_images() {
 fn small_case_worked_by_hand() {
     // X = [[1,0,1],[0,1,1]], p = [1, 2]: G = [[2,1],[1,2]], d = G^-1 p = [0, 1], w = X^T d = [0,1,1].
     let space = PoseSpace::new(vec![Param::linear("tilt")]).unwrap();
-    let manifest = Manifest::new(".", space, vec!["a".into(), "b".into()], vec![1.0, 2.0]).unwrap();
     let spec = ImageSpec { width: 3, height: 1, color: ColorMode::Gray };
-    let data = Dataset::from_features(manifest, spec, vec![1.0, 0.0, 1.0, 0.0, 1.0, 1.0]).unwrap();
+    let data = Dataset::new(spec, vec![1.0, 0.0, 1.0, 0.0, 1.0, 1.0], space, vec![1.0, 2.0]).unwrap();
     let model = LinearParams::default().fit(&data).unwrap();
     let w = model.weights();
     for (g, want) in w.iter().zip([0.0, 1.0, 1.0]) {
@@ -164,9 +160,8 @@ fn duplicate_images_with_different_poses_are_named() {
 fn linearly_dependent_images_are_a_clear_error() {
     // Three images where the third is the sum of the first two: G is singular.
     let space = PoseSpace::new(vec![Param::linear("tilt")]).unwrap();
-    let manifest = Manifest::new(".", space, vec!["a".into(), "b".into(), "c".into()], vec![0.0, 1.0, 2.0]).unwrap();
     let spec = ImageSpec { width: 3, height: 1, color: ColorMode::Gray };
-    let data = Dataset::from_features(manifest, spec, vec![0.25, 0.0, 0.5, 0.0, 0.5, 0.25, 0.25, 0.5, 0.75]).unwrap();
+    let data = Dataset::new(spec, vec![0.25, 0.0, 0.5, 0.0, 0.5, 0.25, 0.25, 0.5, 0.75], space, vec![0.0, 1.0, 2.0]).unwrap();
     let e = LinearParams::default().fit(&data).unwrap_err().to_string();
     assert!(e.contains("singular") && e.contains("--ridge"), "{e}");
     assert!(LinearParams::default().ridge(1e-3).fit(&data).is_ok());
