@@ -53,21 +53,73 @@ impl ImageSpec {
     }
 }
 
+/// A query image decoded for a model: its 8-bit gray values when it has them (the models' fast
+/// 8-bit path, [`crate::PoseModel::predict_u8_into`]), else its features.
+#[derive(Debug, Clone, PartialEq)]
+pub enum QueryImage {
+    /// 8-bit gray values (feature = value / 255), row-major.
+    Gray8(Vec<u8>),
+    /// Features (gray values in [0, 1], or three channels per pixel).
+    Features(Vec<f32>),
+}
+
+impl QueryImage {
+    /// Its features, converting 8-bit values exactly as the data set reader does.
+    pub fn into_features(self) -> Vec<f32> {
+        match self {
+            QueryImage::Gray8(v) => v.iter().map(|&k| k as f32 * crate::kernels::levels::S8).collect(),
+            QueryImage::Features(f) => f,
+        }
+    }
+}
+
+/// Reads the image file at `path` as a query for a model trained on images of `spec`: an image
+/// of another size is an [`Error::ImageSizeMismatch`] naming `context` (e.g. the model file).
+pub fn read_query(path: &Path, spec: ImageSpec, context: &str) -> Result<QueryImage> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let (w, h) = dimensions(path, &bytes)?;
+    if (w, h) != (spec.width, spec.height) {
+        return Err(Error::ImageSizeMismatch {
+            path: path.to_path_buf(),
+            expected_w: spec.width,
+            expected_h: spec.height,
+            got_w: w,
+            got_h: h,
+            context: context.to_string(),
+        });
+    }
+    let img = decode(path, &bytes)?;
+    let mut v8 = Vec::with_capacity(spec.features());
+    if push_u8_gray(&img, spec.color, &mut v8) {
+        return Ok(QueryImage::Gray8(v8));
+    }
+    let mut f = Vec::with_capacity(spec.features());
+    push_features(&img, spec.color, &mut f);
+    Ok(QueryImage::Features(f))
+}
+
 /// PIL's integer Rec. 601 luma: L = (19595 R + 38470 G + 7471 B + 2^15) >> 16.
 #[inline]
-pub fn luma601(r: u8, g: u8, b: u8) -> u8 {
+pub(crate) fn luma601(r: u8, g: u8, b: u8) -> u8 {
     ((r as u32 * 19595 + g as u32 * 38470 + b as u32 * 7471 + 0x8000) >> 16) as u8
 }
 
 /// Decodes the image file at `path`, returning its size and appending its features to `out`.
 /// With `expect`, an image of another size is an [`Error::ImageSizeMismatch`] naming `context`.
-pub fn read_features(path: &Path, color: ColorMode, expect: Option<(u32, u32)>, context: &str, out: &mut Vec<f32>) -> Result<(u32, u32)> {
+pub(crate) fn read_features(path: &Path, color: ColorMode, expect: Option<(u32, u32)>, context: &str, out: &mut Vec<f32>) -> Result<(u32, u32)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     decode_features(path, &bytes, color, expect, context, out)
 }
 
 /// As [`read_features`], from bytes already in memory (`path` only names them in errors).
-pub fn decode_features(path: &Path, bytes: &[u8], color: ColorMode, expect: Option<(u32, u32)>, context: &str, out: &mut Vec<f32>) -> Result<(u32, u32)> {
+pub(crate) fn decode_features(
+    path: &Path,
+    bytes: &[u8],
+    color: ColorMode,
+    expect: Option<(u32, u32)>,
+    context: &str,
+    out: &mut Vec<f32>,
+) -> Result<(u32, u32)> {
     // The declared size is checked against the expected one before any pixel is allocated.
     let (w, h) = dimensions(path, bytes)?;
     if let Some((ew, eh)) = expect {
@@ -89,7 +141,7 @@ pub fn decode_features(path: &Path, bytes: &[u8], color: ColorMode, expect: Opti
 
 /// The width and height an image file declares, read from its header; refuses a file that is
 /// not a PNG or PNM image and a size of no pixels or over [`MAX_PIXELS`].
-pub fn dimensions(path: &Path, bytes: &[u8]) -> Result<(u32, u32)> {
+pub(crate) fn dimensions(path: &Path, bytes: &[u8]) -> Result<(u32, u32)> {
     if bytes.is_empty() {
         return Err(Error::ImageDecode { path: path.to_path_buf(), reason: "the file is empty".into() });
     }
@@ -114,7 +166,7 @@ pub fn dimensions(path: &Path, bytes: &[u8]) -> Result<(u32, u32)> {
 }
 
 /// Decodes an image, refusing absurd sizes before allocating their pixels.
-pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
+pub(crate) fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
     let (w, h) = dimensions(path, bytes)?;
     let mut reader = ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| Error::io(path, e))?;
     let mut limits = image::Limits::default();
@@ -126,7 +178,7 @@ pub fn decode(path: &Path, bytes: &[u8]) -> Result<DynamicImage> {
 }
 
 /// Appends the features of a decoded image.
-pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
+pub(crate) fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
     // The integer Gram kernels read features back as levels by this same constant.
     use crate::kernels::levels::S8;
     const S16: f32 = 1.0 / 65535.0;
@@ -153,7 +205,7 @@ pub fn push_features(img: &DynamicImage, color: ColorMode, out: &mut Vec<f32>) {
 /// Appends an 8-bit image's gray features as their raw values (feature = value / 255) and
 /// returns true; returns false, appending nothing, for an image that is not 8-bit or a colour
 /// mode that is not gray. The values are exactly those [`push_features`] divides by 255.
-pub fn push_u8_gray(img: &DynamicImage, color: ColorMode, out: &mut Vec<u8>) -> bool {
+pub(crate) fn push_u8_gray(img: &DynamicImage, color: ColorMode, out: &mut Vec<u8>) -> bool {
     if color != ColorMode::Gray {
         return false;
     }

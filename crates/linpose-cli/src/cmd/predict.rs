@@ -2,7 +2,7 @@
 
 use crate::common::progress;
 use anyhow::Context;
-use linpose::image_io::{decode, push_features, push_u8_gray};
+use linpose::image_io::{read_query, QueryImage};
 use linpose::PoseModel;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -130,26 +130,15 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
 /// Decodes one image into `pixels` (8-bit gray, returning true) or else `features` (returning
 /// false; `features[0]` is NaN after an 8-bit image, marking the row to convert if needed).
 fn read_one(path: &Path, spec: linpose::image_io::ImageSpec, context: &str, features: &mut [f32], pixels: &mut [u8]) -> linpose::Result<bool> {
-    let bytes = std::fs::read(path).map_err(|e| linpose::Error::io(path, e))?;
-    let img = decode(path, &bytes)?;
-    if (img.width(), img.height()) != (spec.width, spec.height) {
-        return Err(linpose::Error::ImageSizeMismatch {
-            path: path.to_path_buf(),
-            expected_w: spec.width,
-            expected_h: spec.height,
-            got_w: img.width(),
-            got_h: img.height(),
-            context: context.to_string(),
-        });
+    match read_query(path, spec, context)? {
+        QueryImage::Gray8(v) => {
+            pixels.copy_from_slice(&v);
+            features[0] = f32::NAN;
+            Ok(true)
+        }
+        QueryImage::Features(f) => {
+            features.copy_from_slice(&f);
+            Ok(false)
+        }
     }
-    let mut v8 = Vec::with_capacity(pixels.len());
-    if push_u8_gray(&img, spec.color, &mut v8) {
-        pixels.copy_from_slice(&v8);
-        features[0] = f32::NAN;
-        return Ok(true);
-    }
-    let mut v = Vec::with_capacity(features.len());
-    push_features(&img, spec.color, &mut v);
-    features.copy_from_slice(&v);
-    Ok(false)
 }
