@@ -4,6 +4,27 @@
 //!
 //! For the linear model, `weights` is K x M (float32) and `bias` has K values (float64): the
 //! encoded estimate of a feature row x is `weights @ x + bias`.
+//!
+//! ```
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//! use linpose::{model_file, Dataset, EigenspaceParams, Estimator, Param, PoseModel, PoseSpace};
+//!
+//! // Eight 4x4 views of a turntable.
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let spec = ImageSpec { width: 4, height: 4, color: ColorMode::Gray };
+//! let poses: Vec<f64> = (0..8).map(|i| 45.0 * i as f64).collect();
+//! let pixels: Vec<f32> = poses.iter().flat_map(|a| (0..16).map(move |p| (0.5 + 0.4 * (a.to_radians() + p as f64).sin()) as f32)).collect();
+//! let data = Dataset::new(spec, pixels, space, poses)?;
+//! let model = EigenspaceParams::default().components(3).fit(&data)?;
+//!
+//! let path = std::env::temp_dir().join(format!("linpose-doc-{}.safetensors", std::process::id()));
+//! model_file::save(&model, &path)?;
+//! let back = model_file::load(&path)?; // any method's model, as an AnyModel
+//! std::fs::remove_file(&path).ok();
+//! assert_eq!(back.meta().method, "eigenspace");
+//! assert_eq!(back.predict(data.row(2))?, model.predict(data.row(2))?);
+//! # Ok::<(), linpose::Error>(())
+//! ```
 
 use crate::atomic::write_atomic;
 use crate::model::{AnyModel, ModelMeta, PoseModel, Tensor, TensorData, TensorSet};
