@@ -1,5 +1,6 @@
 //! Murase & Nayar's parametric eigenspace (IJCV 14:5-24, 1995), the method Okatani & Deguchi
-//! measure themselves against, written to match the numpy peer (`peer.py`) step by step:
+//! measure themselves against, written to match a numpy/SciPy implementation of it step by step
+//! (the same splines as SciPy's `CubicSpline`, the same resampling positions as numpy's `arange`):
 //!
 //! 1. each training image scaled to unit energy (||x|| = 1) and the mean image subtracted;
 //! 2. the eigenspace: the top L eigenimages, from the N x N Gram matrix ([`pca`]), L fixed
@@ -20,7 +21,7 @@
 //! tolerances of a few eps times the size of the sums involved.
 //!
 //! ```
-//! use linpose::{Dataset, EigenspaceParams, Estimator, Manifest, Param, PoseModel, PoseSpace};
+//! use linpose::{Dataset, EigenspaceParams, Estimator, Param, PoseModel, PoseSpace};
 //! use linpose::image_io::{ColorMode, ImageSpec};
 //!
 //! // A turntable seen every 10 degrees: 36 "images" of 64 pixels, a bright lobe turning round.
@@ -31,8 +32,7 @@
 //!     (0.2 + (3.0 * ((u - a.to_radians()).cos() - 1.0)).exp()) as f32
 //! });
 //! let pixels = poses.iter().flat_map(|&a| image(a)).collect();
-//! let manifest = Manifest::new(".", space, (0..36).map(|k| format!("{k}.png")).collect(), poses)?;
-//! let data = Dataset::from_features(manifest, ImageSpec { width: 64, height: 1, color: ColorMode::Gray }, pixels)?;
+//! let data = Dataset::new(ImageSpec { width: 64, height: 1, color: ColorMode::Gray }, pixels, space, poses)?;
 //!
 //! let model = EigenspaceParams::default().components(8).manifold_step(0.5).fit(&data)?;
 //! let view: Vec<f32> = image(123.0).collect(); // between two training views
