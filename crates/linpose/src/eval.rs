@@ -1,5 +1,5 @@
 //! Evaluation: estimate every sample of a data set, optionally under pixel noise, and measure the
-//! error of METHOD.md over all samples and over the unseen ones.
+//! error of docs/method.md over all samples and over the unseen ones.
 
 use crate::dataset::Dataset;
 use crate::model::PoseModel;

@@ -2,7 +2,7 @@
 //!
 //! A gray image gives one feature per pixel, its brightness in [0, 1] (8-bit values / 255,
 //! 16-bit values / 65535). RGB becomes gray with Rec. 601 luma computed exactly as PIL's
-//! `convert("L")` does (so linpose and the numpy peer see the same numbers), or keeps its three
+//! `convert("L")` does (so linpose and a numpy/PIL implementation see the same numbers), or keeps its three
 //! channels as features with [`ColorMode::Rgb`]. Alpha is ignored; palette images are expanded.
 
 use crate::{Error, Result};

@@ -215,7 +215,7 @@ impl Manifest {
 pub enum TrainSelection {
     /// Every sample.
     All,
-    /// METHOD.md: a sample is in the training set when every parameter minus that parameter's
+    /// docs/method.md: a sample is in the training set when every parameter minus that parameter's
     /// smallest value in the data set is a multiple of the step (degrees).
     Step(f64),
     /// The samples whose image paths are listed.

@@ -1,5 +1,5 @@
 //! Pose parameters: names, periods, the (cos, sin) encoding of circular parameters (paper Eq. 5)
-//! and the error measure of METHOD.md.
+//! and the pose error measure (docs/method.md).
 
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -145,7 +145,7 @@ impl PoseSpace {
         (self.params[ia].period == Some(360.0) && self.params[ie].period.is_none()).then_some((ie, ia))
     }
 
-    /// The pose error of METHOD.md, in degrees: for (elevation, azimuth) the angle between the two
+    /// The pose error (docs/method.md), in degrees: for (elevation, azimuth) the angle between the two
     /// viewing directions on the sphere; otherwise the largest difference over parameters, wrapped
     /// for circular ones (so a lone circular parameter gives its wrapped difference).
     pub fn error_deg(&self, truth: &[f64], est: &[f64]) -> f64 {

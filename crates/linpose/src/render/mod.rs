@@ -4,7 +4,7 @@
 //! The object stands on a turntable that turns it by the azimuth e about the vertical (z) axis; a
 //! camera at elevation alpha above the turntable plane looks at its centre. In the object's own
 //! frame the camera then lies in the direction u = (cos alpha cos e, cos alpha sin e, sin alpha)
-//! of METHOD.md (the turntable turns clockwise seen from above). The light is fixed in the world:
+//! of docs/method.md (the turntable turns clockwise seen from above). The light is fixed in the world:
 //! it does not turn with the object. Shading is Lambertian with an ambient term and an optional
 //! Blinn-Phong highlight; the image is 8-bit gray on a black background.
 //!

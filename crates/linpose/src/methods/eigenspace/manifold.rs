@@ -2,9 +2,9 @@
 //! training grid, joined by cubic splines along each pose axis (periodic along a circular axis, a
 //! closed curve; not-a-knot along a linear one) and resampled densely.
 //!
-//! Resampling goes axis by axis, in the order of the pose parameters, at exactly the positions the
-//! peer uses (numpy's `arange`): a circular axis from g_0 to g_0 + period exclusive, a linear axis
-//! from g_0 to g_last inclusive (up to g_last + 1e-9), every `step` degrees. A spline along one
+//! Resampling goes axis by axis, in the order of the pose parameters, at exactly the positions
+//! numpy's `arange` gives: a circular axis from g_0 to g_0 + period exclusive, a linear axis from
+//! g_0 to g_last inclusive (up to g_last + 1e-9), every `step` degrees. A spline along one
 //! axis applied to values already resampled along the previous axes is the tensor-product spline,
 //! so the order does not change the result beyond rounding.
 

@@ -95,8 +95,8 @@ fn chunk_rows(n: usize) -> usize {
     n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
 }
 
-/// Parameters of the parametric eigenspace. The default is the peer's: 20 components, a manifold
-/// resampled every 0.5 degrees, the search picked by size.
+/// Parameters of the parametric eigenspace. The default: 20 components (Murase & Nayar used 8 to
+/// 20), a manifold resampled every 0.5 degrees, the search picked by size.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct EigenspaceParams {
     dimension: Dimension,
@@ -512,7 +512,7 @@ impl PoseModel for EigenspaceModel {
         Ok(())
     }
 
-    /// The peer's count, (manifold points + basis + mean) x 4 bytes, plus the manifold's sample
+    /// Every stored number: (manifold points + basis + mean) x 4 bytes, plus the manifold's sample
     /// positions (8 bytes each), which turn a point's index into its pose.
     fn model_bytes(&self) -> usize {
         (self.points.len() + self.basis.len() + self.mean.len()) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8

@@ -69,7 +69,7 @@ impl Pca {
 /// Fits the eigenspace of `train`'s images.
 ///
 /// An image of zero energy (all black) cannot be scaled to unit energy and is refused by name.
-/// L is capped at N - 1 (what centring leaves, as the peer caps it) and at the usable rank. The
+/// L is capped at N - 1 (what centring leaves) and at the usable rank. The
 /// Gram route squares the condition number: an eigenimage u_l = Xc^T v_l / sqrt(lambda_l) leaks
 /// about eps * lambda_1 / lambda_l of the others (the rounding of v_l, of order eps * lambda_1,
 /// amplified by 1 / lambda_l in u_l . u_k). A component with lambda_l < lambda_1 * eps / eps_f32

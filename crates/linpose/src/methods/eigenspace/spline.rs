@@ -1,8 +1,7 @@
 //! Cubic interpolating splines along one pose axis, with general (non-uniform) knots: periodic for
 //! a circular axis (a closed curve), not-a-knot at the ends of a linear axis. These are the
-//! boundary conditions of SciPy's `CubicSpline` as the peer calls it (`bc_type="periodic"` and
-//! the default), including SciPy's special cases for two and three knots, so both resample the
-//! same manifold.
+//! boundary conditions of SciPy's `CubicSpline` (`bc_type="periodic"` and the default),
+//! including SciPy's special cases for two and three knots, so both resample the same manifold.
 //!
 //! The spline is C2 and is written in Hermite form: on [x_i, x_{i+1}] it is fixed by the values
 //! y_i, y_{i+1} and the slopes s_i, s_{i+1}. The slopes are a linear function of the values,

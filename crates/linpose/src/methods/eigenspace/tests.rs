@@ -1,5 +1,5 @@
 //! End-to-end tests of the eigenspace method on synthetic images: smooth functions of the pose,
-//! made here (tests never read /work/shared).
+//! made here (tests read no data from outside the repository).
 
 use super::*;
 use crate::image_io::{ColorMode, ImageSpec};
@@ -167,7 +167,7 @@ fn model_file_round_trip_gives_the_same_predictions() {
 }
 
 #[test]
-fn model_bytes_follow_the_peers_count() {
+fn model_bytes_count_every_stored_number() {
     let d = turntable();
     let (train, _) = split(&d, 10.0);
     let model = EigenspaceParams::default().fit(&train).unwrap();

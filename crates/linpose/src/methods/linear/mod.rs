@@ -233,7 +233,7 @@ impl<'a> GramSystem<'a> {
         out
     }
 
-    /// Exact leave-one-out residuals of the fit with `lambda` (METHOD.md): for sample i,
+    /// Exact leave-one-out residuals of the fit with `lambda` (docs/method.md): for sample i,
     /// e_i = [(G + lambda I)^{-1} P]_i / [(G + lambda I)^{-1}]_ii, returned as the left-out
     /// predictions P_i - e_i (N x K, row-major, uncentred).
     pub fn loo_predictions(&self, lambda: f64, train: &Dataset) -> Result<Vec<f64>> {
@@ -532,7 +532,7 @@ impl PoseModel for LinearModel {
 }
 
 /// The exact leave-one-out estimates of the linear model with `params` on its own training set
-/// (METHOD.md, closed form, one factorisation): row i is the pose (degrees) that the model
+/// (docs/method.md, closed form, one factorisation): row i is the pose (degrees) that the model
 /// fitted without sample i gives sample i. At ridge 0 this is the paper's model's LOO error.
 pub fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>> {
     params.validate()?;

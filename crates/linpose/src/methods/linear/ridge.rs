@@ -2,7 +2,7 @@
 //!
 //! - [`RidgeRule::Loo`]: exact leave-one-out. With G = U S U^T computed once, the inverse
 //!   (G + lambda I)^-1 = U (S + lambda)^-1 U^T costs O(N^2 K) per lambda, and the left-out
-//!   residual of sample i is e_i = [(G + lambda I)^-1 P]_i / [(G + lambda I)^-1]_ii (METHOD.md;
+//!   residual of sample i is e_i = [(G + lambda I)^-1 P]_i / [(G + lambda I)^-1]_ii (docs/method.md;
 //!   Golub, Heath & Wahba 1979). Each candidate is scored by the mean *pose* error of the left-out
 //!   estimates (decoded, in degrees), and the best of a log-spaced grid, lambda = 0 included, wins.
 //! - [`RidgeRule::Noise`]: uniform noise of +-a clipped to [0, 1] is not zero-mean near black or
@@ -11,7 +11,7 @@
 //!   rendered duck under +-10% noise falls from 4.3 to 1.2 degrees); then, for the zero-mean
 //!   rest, independent pixel noise of variance s^2 on the queries,
 //!   the expected squared error on the training set is ||P - X W||^2 + N s^2 ||W||^2, minimised
-//!   by lambda = N s^2 (METHOD.md); uniform noise of +-a has s^2 = a^2 / 3.
+//!   by lambda = N s^2 (docs/method.md); uniform noise of +-a has s^2 = a^2 / 3.
 //! - [`RidgeRule::NoiseAuto`]: as `Noise`, with s estimated from the training images themselves
 //!   (the camera that made them makes the queries) by Immerkaer's fast noise estimator.
 
