@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 /// The temporary name used while `path` is being written: `.NAME.tmp-PID` in the same folder, so
 /// the final rename never crosses a file system.
-pub fn temp_path(path: &Path) -> PathBuf {
+pub(crate) fn temp_path(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
@@ -22,7 +22,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 /// Writes `path` atomically with a closure that fills the temporary file.
-pub fn write_atomic_with(path: &Path, fill: impl FnOnce(&mut std::io::BufWriter<fs::File>) -> std::io::Result<()>) -> Result<()> {
+pub(crate) fn write_atomic_with(path: &Path, fill: impl FnOnce(&mut std::io::BufWriter<fs::File>) -> std::io::Result<()>) -> Result<()> {
     if path.is_dir() {
         return Err(Error::io(path, std::io::Error::new(std::io::ErrorKind::IsADirectory, "output path is a directory")));
     }

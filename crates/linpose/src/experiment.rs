@@ -151,7 +151,7 @@ pub struct ObjectResult {
 }
 
 /// Finds the full grid the samples lie on, if they do (two parameters, every combination once).
-pub fn find_grid(data: &Dataset) -> Option<Grid> {
+pub(crate) fn find_grid(data: &Dataset) -> Option<Grid> {
     let space = data.space();
     if space.len() != 2 {
         return None;
@@ -185,7 +185,7 @@ pub fn find_grid(data: &Dataset) -> Option<Grid> {
 }
 
 /// The storage / cost terms of the paper's Table 1 for a fitted model.
-pub fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
+pub(crate) fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
     let storage = model.storage();
     Table1Row {
         method: model.meta().method.clone(),

@@ -27,7 +27,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
-pub mod binning;
+pub(crate) mod binning;
 pub mod dataset;
 pub mod error;
 pub mod eval;

@@ -264,6 +264,8 @@ fn check_relative(csv: &Path, img: &str) -> Result<()> {
 }
 
 /// Parses the text of a poses.csv: the parameter names, the image paths, the poses (row-major).
+/// Public for the fuzz target only.
+#[doc(hidden)]
 pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<String>, Vec<f64>)> {
     let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).trim(csv::Trim::All).from_reader(text.as_bytes());
     let mut records = rdr.records();
@@ -335,6 +337,8 @@ pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Stri
 }
 
 /// Parses a dataset.toml: for each parameter named there, `Some(period)` or `None` (linear).
+/// Public for the fuzz target only.
+#[doc(hidden)]
 pub fn parse_dataset_toml(path: &Path, text: &str, names: &[String]) -> Result<HashMap<String, Option<f64>>> {
     let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
         let line = e.span().map(|s| text[..s.start].matches('\n').count() + 1).unwrap_or(0);

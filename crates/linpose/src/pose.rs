@@ -173,7 +173,7 @@ impl PoseSpace {
 }
 
 /// `v` reduced into [0, period).
-pub fn wrap_positive(v: f64, period: f64) -> f64 {
+pub(crate) fn wrap_positive(v: f64, period: f64) -> f64 {
     let r = v.rem_euclid(period);
     // rem_euclid can return `period` itself for tiny negative inputs through rounding.
     if r >= period {
@@ -184,14 +184,14 @@ pub fn wrap_positive(v: f64, period: f64) -> f64 {
 }
 
 /// The shortest distance between `a` and `b` on a circle of circumference `period`, in [0, period/2].
-pub fn wrapped_diff(a: f64, b: f64, period: f64) -> f64 {
+pub(crate) fn wrapped_diff(a: f64, b: f64, period: f64) -> f64 {
     let d = (a - b).rem_euclid(period);
     d.min(period - d)
 }
 
 /// Angle in degrees between the viewing directions u = (cos a cos e, cos a sin e, sin a) of two
 /// (elevation a, azimuth e) pairs.
-pub fn sphere_angle_deg(elev1: f64, azim1: f64, elev2: f64, azim2: f64) -> f64 {
+pub(crate) fn sphere_angle_deg(elev1: f64, azim1: f64, elev2: f64, azim2: f64) -> f64 {
     let u = |a: f64, e: f64| {
         let (a, e) = (a.to_radians(), e.to_radians());
         [a.cos() * e.cos(), a.cos() * e.sin(), a.sin()]
@@ -239,7 +239,7 @@ impl ErrorSummary {
 }
 
 /// Percentile `q` (0..=100) of sorted data with linear interpolation (numpy's default method).
-pub fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
+pub(crate) fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
     let n = sorted.len();
     if n == 1 {
         return sorted[0];

@@ -143,7 +143,7 @@ impl Renderer {
 
 /// (sin, cos) of an angle in degrees, reduced to [0, 90) in degrees first so that multiples of
 /// 90 are exact (sin 180 = 0, cos 360 = 1) and the result depends only on the angle modulo 360.
-pub fn sin_cos_deg(deg: f64) -> (f64, f64) {
+pub(crate) fn sin_cos_deg(deg: f64) -> (f64, f64) {
     let r = deg.rem_euclid(360.0);
     let r = if r >= 360.0 { 0.0 } else { r };
     let q = (r / 90.0).floor().min(3.0);
