@@ -1,10 +1,12 @@
 //! # linpose
 //!
-//! Appearance-based pose estimation. linpose estimates the pose of an object from an image, given
-//! images of the object under known poses (a turntable, a robot arm, a render farm). It implements
-//! Okatani & Deguchi's linear model (MVA 2000) - each pose parameter a linear function of the
-//! pixels, fitted as the minimum-norm exact solution through the N x N Gram matrix - and the
-//! method that paper measures itself against, Murase & Nayar's parametric eigenspace.
+//! Appearance-based pose estimation. Given images of an object under known poses (a turntable, a
+//! robot arm, a render farm), linpose learns to tell the pose of a new image. It implements
+//! Okatani & Deguchi's linear model (MVA 2000: each pose parameter a linear function of the
+//! pixels, fitted as the minimum-norm exact solution through the N x N Gram matrix, circular
+//! parameters as (cos, sin)), the method that paper measures itself against, Murase & Nayar's
+//! parametric eigenspace, and a refined eigenspace of its own. The maths and the protocol are in
+//! the repository's `docs/method.md`.
 //!
 //! ```
 //! use linpose::{Dataset, Estimator, LinearParams, Param, PoseModel, PoseSpace};
@@ -21,6 +23,26 @@
 //! assert!((pose[0] - 90.0).abs() < 1e-3);
 //! # Ok::<(), linpose::Error>(())
 //! ```
+//!
+//! ## The pieces
+//!
+//! - **Data**: a [`Dataset`] holds images as feature rows with their poses in a [`PoseSpace`]
+//!   (parameters, [`Param`], linear or circular): built in memory ([`Dataset::new`]) or read from
+//!   a folder ([`Manifest::open`], then [`Dataset::load`]); [`TrainSelection`] picks the training
+//!   views. [`image_io`] says how images become features and reads query images.
+//! - **Methods**: each method's parameters are an [`Estimator`] that fits a [`PoseModel`]:
+//!   [`LinearParams`] / [`LinearModel`], [`EigenspaceParams`] / [`EigenspaceModel`],
+//!   [`RefinedParams`] / [`RefinedModel`] (one folder each under [`methods`]). [`METHODS`] lists
+//!   them as [`Method`]s; a method with its parameters is a [`MethodSpec`], or comes from
+//!   settings by name ([`Settings`], [`Method::spec`]); a fitted model of any method is an
+//!   [`AnyModel`].
+//! - **Model files**: [`model_file`] saves and loads models as safetensors.
+//! - **Evaluation**: [`evaluate`] estimates every view of a data set, optionally under pixel
+//!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views.
+//! - **The renderer**: [`render`] makes turntable data sets of built-in objects or meshes.
+//! - **The experiment**: [`experiment`] runs the paper's study on one object.
+//!
+//! Errors are one [`Error`] type that names the file, line or value at fault.
 #![deny(missing_docs)]
 // `!(x > t)` is how this crate rejects NaN together with the values at or below t (it is true for
 // NaN, where `x <= t` is false); the lint's rewrite would hide that.

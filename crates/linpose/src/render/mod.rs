@@ -19,7 +19,7 @@
 //! ```
 //!
 //! Rendering is deterministic: the same mesh, pose and parameters give the same bytes on every
-//! machine. Angles go through [`sin_cos_deg`] (exact at multiples of 90 degrees, so azimuth 0 and
+//! machine. Angles go through `sin_cos_deg` (exact at multiples of 90 degrees, so azimuth 0 and
 //! 360 are the same pose bit for bit), trigonometry through the pure-Rust `libm`, and per-pixel
 //! work uses only IEEE-exact operations.
 

@@ -60,7 +60,7 @@ impl LinearParams {
     }
 
     /// How lambda is chosen: the fixed [`ridge`](Self::ridge) value (default), exact
-    /// leave-one-out, or the noise-optimal N s^2 (see [`crate::ridge`]).
+    /// leave-one-out, or the noise-optimal N s^2 (see [`ridge`]).
     pub fn ridge_rule(mut self, rule: RidgeRule) -> Self {
         self.rule = rule;
         self
