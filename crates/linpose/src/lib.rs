@@ -61,6 +61,7 @@ pub mod manifest;
 pub mod methods;
 pub mod model;
 pub mod model_file;
+pub(crate) mod pixel_noise;
 pub mod pose;
 pub mod render;
 

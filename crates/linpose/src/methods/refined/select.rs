@@ -398,7 +398,7 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
 const NOISE_BLOCK: usize = 64;
 
 /// The noise threshold of a clean query ([`RefinedSettings::noise_threshold`]), from the training
-/// images alone: `clean`, the largest [`super::pixel_noise`] of a training image, and `noisy`,
+/// images alone: `clean`, the largest [`crate::pixel_noise::pixel_noise`] of a training image, and `noisy`,
 /// the smallest of the same images with simulated uniform noise at the smallest of
 /// [`NOISE_LEVELS`] (clipped, fixed seed). When they separate, the threshold is their geometric
 /// mean, the same factor from each; otherwise `clean`. A model that bins measures a query's
@@ -411,7 +411,7 @@ const NOISE_BLOCK: usize = 64;
 pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
     let spec = train.spec();
     let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), train.n_features());
-    let noise = |x: &[f32]| super::pixel_noise(x, w, h, ch);
+    let noise = |x: &[f32]| crate::pixel_noise::pixel_noise(x, w, h, ch);
     let clean = (0..train.len()).into_par_iter().map(|i| noise(train.row(i))).reduce(|| 0.0, f64::max);
     let level = NOISE_LEVELS.iter().copied().fold(f64::INFINITY, f64::min);
     let mut noisy = f64::INFINITY;

@@ -260,27 +260,6 @@ fn bad_parameters_are_errors() {
 }
 
 #[test]
-fn pixel_noise_ignores_planes_and_measures_white_noise() {
-    // Immerkaer's mask cancels any plane exactly, and for white noise of variance s^2 its mean
-    // absolute response is 6 s sqrt(2 / pi) (the mask's squared weights sum to 36).
-    let (w, h) = (64, 48);
-    let plane: Vec<f32> = (0..w * h).map(|i| 0.2 + 0.003 * (i % w) as f32 + 0.002 * (i / w) as f32).collect();
-    assert!(super::pixel_noise(&plane, w, h, 1) < 1e-9);
-    // Uniform noise of +-a (variance a^2 / 3) on a constant 0.5 image, from a fixed LCG.
-    let (a, mut state) = (0.05f32, 12345u64);
-    let noisy: Vec<f32> = (0..w * h)
-        .map(|_| {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            0.5 + a * (2.0 * (state >> 40) as f32 / (1u64 << 24) as f32 - 1.0)
-        })
-        .collect();
-    let ms = noisy.iter().map(|&v| v as f64 * v as f64).sum::<f64>() / (w * h) as f64;
-    let want = (a as f64).powi(2) / 3.0 / ms;
-    let got = super::pixel_noise(&noisy, w, h, 1);
-    assert!((got / want - 1.0).abs() < 0.25, "estimate {got}, expected {want}");
-}
-
-#[test]
 fn noisy_queries_take_the_affine_match_and_stay_close() {
     let d = train_set();
     // L fixed: no selection, so the weighted metric is kept and the threshold measured.
@@ -300,7 +279,7 @@ fn noisy_queries_take_the_affine_match_and_stay_close() {
     let spec = test.spec();
     let m = spec.features();
     for x in q.chunks_exact(m) {
-        assert!(super::pixel_noise(x, spec.width as usize, spec.height as usize, 1) > thr);
+        assert!(crate::pixel_noise::pixel_noise(x, spec.width as usize, spec.height as usize, 1) > thr);
     }
     let est = model.predict(&q).unwrap();
     for i in 0..test.len() {
@@ -423,7 +402,7 @@ fn u8_queries_match_f32_queries() {
     let n = test.len();
     for x in q8.chunks_exact(m) {
         let xf: Vec<f32> = x.iter().map(|&v| v as f32 / 255.0).collect();
-        let (a, b) = (super::pixel_variance_u8(x, W, H, 1) / (255.0 * 255.0), super::pixel_variance(&xf, W, H, 1));
+        let (a, b) = (crate::pixel_noise::pixel_variance_u8(x, W, H, 1) / (255.0 * 255.0), crate::pixel_noise::pixel_variance(&xf, W, H, 1));
         assert!((a - b).abs() <= 1e-5 * b.max(1e-12), "pixel variance {a} vs {b}");
     }
     let pf = model.predict(&qf).unwrap();
@@ -439,65 +418,6 @@ fn u8_queries_match_f32_queries() {
     assert!(model.predict_u8_into(&vec![0u8; m], &mut one).is_err(), "a black image is refused");
     assert!(model.predict_u8_into(&q8[..m - 1], &mut one).is_err(), "a short image is refused");
 }
-
-/// The 8-bit pixel-noise estimate (i16 lanes, u32 sums) is exact: it equals the mask responses
-/// summed plainly in i64, on random images and on a 0 / 255 checkerboard, whose responses reach
-/// the extreme +-2040, grey and in 3 channels.
-#[test]
-fn the_8_bit_pixel_variance_is_exact() {
-    let reference = |x: &[u8], w: usize, h: usize, ch: usize| -> f64 {
-        let at = |yy: usize, i: usize| x[yy * w * ch + i] as i64;
-        let (mut sum, mut count) = (0i64, 0usize);
-        for yy in (1..h - 1).step_by(super::NOISE_ROW_STEP) {
-            let dy = |i: usize| at(yy - 1, i) - 2 * at(yy, i) + at(yy + 1, i);
-            sum += (0..w * ch - 2 * ch).map(|i| (dy(i) - 2 * dy(i + ch) + dy(i + 2 * ch)).abs()).sum::<i64>();
-            count += 1;
-        }
-        let sigma = (std::f64::consts::PI / 2.0).sqrt() * sum as f64 / (6.0 * ((w * ch - 2 * ch) * count) as f64);
-        sigma * sigma
-    };
-    let mut state = 7u64;
-    let mut slot = None;
-    for &(w, h, ch) in &[(160usize, 120usize, 1usize), (37, 21, 3), (3, 3, 1), (1000, 9, 1)] {
-        let random: Vec<u8> = (0..w * h * ch)
-            .map(|_| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (state >> 56) as u8
-            })
-            .collect();
-        let checker: Vec<u8> = (0..w * h * ch).map(|i| if ((i / ch) % w + i / (w * ch)) % 2 == 0 { 255 } else { 0 }).collect();
-        // Row buffers reused from image to image and size to size (as batches do), and ones
-        // flushing their u32 lanes after every row (as a very wide image would).
-        let mut flushing = super::RowsU8::new(w * ch, ch);
-        flushing.flush_every = 1;
-        for x in [&random, &checker] {
-            let (got, want) = (super::pixel_variance_u8(x, w, h, ch), reference(x, w, h, ch));
-            assert_eq!(got, want, "{w} x {h} x {ch}");
-            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, super::RowsU8::reuse(&mut slot, w * ch, ch), 0.0), want, "reused, {w} x {h} x {ch}");
-            assert_eq!(super::pixel_variance_u8_in(x, w, h, ch, &mut flushing, 0.0), want, "flushed, {w} x {h} x {ch}");
-        }
-    }
-}
-
-/// The f32 pixel-noise estimate gives its portable body's bits on every build (the AVX-512 one
-/// sums the same lanes in the same order), on random images of several shapes: rows of whole
-/// vectors, with a tail, narrower than a vector, and of 1 to 3 channels.
-#[test]
-fn the_f32_pixel_variance_gives_the_portable_bits() {
-    let mut state = 11u64;
-    for &(w, h, ch) in &[(160usize, 120usize, 1usize), (128, 128, 1), (37, 21, 3), (3, 3, 1), (1000, 9, 1), (17, 5, 2), (9, 40, 1)] {
-        let x: Vec<f32> = (0..w * h * ch)
-            .map(|_| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (state >> 40) as f32 / (1u64 << 24) as f32
-            })
-            .collect();
-        let portable = super::immerkaer(&x, w, h, ch, &mut super::RowsF32::new(w * ch, h, ch));
-        assert_eq!(super::pixel_variance(&x, w, h, ch).to_bits(), portable.to_bits(), "{w} x {h} x {ch}");
-        assert!(portable > 0.0);
-    }
-}
-
 /// The noisy scan's pruned pass gives the full pass's bits at every coarse point within twice
 /// the least residual (the only ones the starts are taken from), and rules most others out.
 #[test]
@@ -577,7 +497,7 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     let spec = d.spec();
     let (w, h, m) = (spec.width as usize, spec.height as usize, d.n_features());
     let t = select::noise_threshold(&d).unwrap();
-    let clean = (0..d.len()).map(|i| super::pixel_noise(d.row(i), w, h, 1)).fold(0.0, f64::max);
+    let clean = (0..d.len()).map(|i| crate::pixel_noise::pixel_noise(d.row(i), w, h, 1)).fold(0.0, f64::max);
     assert_eq!(t.clean, clean, "the noisiest clean training view");
     assert!(t.noisy > 2.0 * t.clean, "simulated +-5% noise stands well above the clean views: {t:?}");
     assert!((t.threshold / (t.clean * t.noisy).sqrt() - 1.0).abs() < 1e-12, "{t:?}");
@@ -587,7 +507,7 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
         let mut q = d.features().to_vec();
         crate::eval::add_uniform_noise(&mut q, m, select::NOISE_LEVELS[0], seed).unwrap();
         for x in q.chunks_exact(m) {
-            assert!(super::pixel_noise(x, w, h, 1) > t.threshold);
+            assert!(crate::pixel_noise::pixel_noise(x, w, h, 1) > t.threshold);
         }
     }
     let model = RefinedParams::default().components(8).fit(&d).unwrap();
@@ -736,45 +656,6 @@ fn a_noisy_two_parameter_query_starts_from_the_noisy_tree() {
     let gap = (ct.poses[2 * first + 1] - ct.poses[2 * second + 1]).abs();
     assert!(gap.min(360.0 - gap) > nt.apart[1] || (ct.poses[2 * first] - ct.poses[2 * second]).abs() > nt.apart[0], "{first} and {second} apart");
 }
-
-/// The staged pixel-noise estimate stops on its first pass exactly when that pass's estimate is
-/// under `early`, and otherwise gives the whole estimate's bits, f32 and 8-bit, on random
-/// images of several shapes (one of fewer than 2 x 4 sampled rows is never staged).
-#[test]
-fn the_staged_pixel_variance_stops_only_under_its_early_level() {
-    let mut state = 5u64;
-    for &(w, h, ch) in &[(160usize, 120usize, 1usize), (128, 128, 1), (37, 64, 3), (9, 40, 1)] {
-        let x8: Vec<u8> = (0..w * h * ch)
-            .map(|_| {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (state >> 56) as u8
-            })
-            .collect();
-        let xf: Vec<f32> = x8.iter().map(|&v| v as f32 / 255.0).collect();
-        let staged = super::sampled_rows(h) >= 2 * super::FIRST_EVERY;
-        // f32: the first pass's estimate from the portable body.
-        let mut rows = super::RowsF32::new(w * ch, h, ch);
-        let (s, c) = super::immerkaer_pass(&xf, w, h, ch, &mut rows, super::Pass::First);
-        let first = super::variance_from(s, c, w * ch, ch);
-        let whole = super::pixel_variance(&xf, w, h, ch);
-        assert!(first > 0.0 && first != whole, "{w} x {h} x {ch}");
-        let mut slot = None;
-        let mut at = |early: f64| super::pixel_variance_in(&xf, w, h, ch, super::RowsF32::reuse(&mut slot, w * ch, ch), early).to_bits();
-        assert_eq!(at(first.next_up()), if staged { first } else { whole }.to_bits(), "f32 {w} x {h} x {ch}: stops");
-        assert_eq!(at(first), whole.to_bits(), "f32 {w} x {h} x {ch}: goes on");
-        assert_eq!(at(0.0), whole.to_bits());
-        // 8-bit.
-        let mut rows = super::RowsU8::new(w * ch, ch);
-        let (s, c) = super::immerkaer_pass(&x8, w, h, ch, &mut rows, super::Pass::First);
-        let first = super::variance_from(s, c, w * ch, ch);
-        let whole = super::pixel_variance_u8(&x8, w, h, ch);
-        let mut slot = None;
-        let mut at = |early: f64| super::pixel_variance_u8_in(&x8, w, h, ch, super::RowsU8::reuse(&mut slot, w * ch, ch), early);
-        assert_eq!(at(first.next_up()), if staged { first } else { whole }, "8-bit {w} x {h} x {ch}: stops");
-        assert_eq!(at(first), whole, "8-bit {w} x {h} x {ch}: goes on");
-    }
-}
-
 /// A query routed by the staged pixel-noise estimate gets the pose the whole estimate gives it
 /// (f32 and 8-bit, clean and under +-5% and +-10% noise), and clean queries do stop after the
 /// first pass: images 6 times as tall as the others here, so that 9 rows are sampled.
@@ -788,7 +669,7 @@ fn the_staged_noise_estimate_routes_queries_as_the_whole_one() {
     let test = grid_tiled(&[35.0, 55.0], &[7.5, 100.0, 200.0, 352.5], 6);
     let spec = test.spec();
     let (w, h, m) = (spec.width as usize, spec.height as usize, test.n_features());
-    assert!(super::sampled_rows(h) >= 2 * super::FIRST_EVERY);
+    assert!(crate::pixel_noise::sampled_rows(h) >= 2 * crate::pixel_noise::FIRST_EVERY);
     let mut stopped = 0;
     for a in [0.0, 0.05, 0.1] {
         let mut q = test.features().to_vec();
@@ -805,8 +686,8 @@ fn the_staged_noise_estimate_routes_queries_as_the_whole_one() {
         for x in q.chunks_exact(m) {
             let energy = crate::linalg::energy(x);
             let early = model.early(NoiseWant::Route, energy, m).unwrap();
-            let staged = super::pixel_variance_in(x, w, h, 1, &mut super::RowsF32::new(w, h, 1), early);
-            let full = super::pixel_variance(x, w, h, 1);
+            let staged = crate::pixel_noise::pixel_variance_in(x, w, h, 1, &mut crate::pixel_noise::RowsF32::new(w, h, 1), early);
+            let full = crate::pixel_noise::pixel_variance(x, w, h, 1);
             // The route's comparison: noise per unit energy times M against the threshold.
             let noisy = full * m as f64 / energy > t;
             assert_eq!(noisy, a > 0.0, "+-{a}: the whole estimate routes it");
@@ -855,7 +736,7 @@ fn a_binned_model_searches_as_a_model_of_the_binned_images() {
     let q = with_noise(test.features(), 0.05, 11);
     let s = d.spec();
     for x in q.chunks_exact(s.features()) {
-        assert!(super::pixel_noise(x, s.width as usize, s.height as usize, 1) > ta);
+        assert!(crate::pixel_noise::pixel_noise(x, s.width as usize, s.height as usize, 1) > ta);
     }
     let est = a.predict(&q).unwrap();
     for i in 0..test.len() {
