@@ -4,6 +4,7 @@
 //! smooth shading, so what is left is the noise (and the image's edges, a floor that clean
 //! images share).
 //!
+//! [`estimate_noise_sigma`] takes the whole of every image (the linear model's ridge rule).
 //! The estimate a query is routed on ([`pixel_noise`], [`pixel_variance_in`] and
 //! [`pixel_variance_u8_in`]) takes every [`NOISE_ROW_STEP`]-th row only: the estimate is a mean
 //! over pixels, and a sample of rows costs less than the query's projection. It can be staged: a
@@ -24,6 +25,30 @@ use crate::kernels::Level;
 
 /// Rows sampled by [`pixel_noise`]: every this many.
 const NOISE_ROW_STEP: usize = 8;
+
+/// Immerkaer's fast estimate of the standard deviation of additive white noise in gray images
+/// (CVIU 64(2), 1996): the mean absolute response to the Laplacian-difference mask
+/// [1 -2 1; -2 4 -2; 1 -2 1], times sqrt(pi / 2) / 6, over every image's interior. In the same
+/// units as the features (fractions of full brightness).
+pub(crate) fn estimate_noise_sigma(features: &[f32], width: usize, height: usize) -> f64 {
+    let m = width * height;
+    if width < 3 || height < 3 || m == 0 {
+        return 0.0;
+    }
+    let mut sum = 0.0f64;
+    let mut count = 0usize;
+    for img in features.chunks_exact(m) {
+        for y in 1..height - 1 {
+            for x in 1..width - 1 {
+                let p = |dx: isize, dy: isize| img[(y as isize + dy) as usize * width + (x as isize + dx) as usize] as f64;
+                let r = p(-1, -1) - 2.0 * p(0, -1) + p(1, -1) - 2.0 * p(-1, 0) + 4.0 * p(0, 0) - 2.0 * p(1, 0) + p(-1, 1) - 2.0 * p(0, 1) + p(1, 1);
+                sum += r.abs();
+                count += 1;
+            }
+        }
+    }
+    (std::f64::consts::PI / 2.0).sqrt() / 6.0 * sum / count.max(1) as f64
+}
 
 /// The pixel noise of an image (rows of `w` pixels of `ch` interleaved channels) relative to its
 /// energy: Immerkaer's estimate of the noise's standard deviation (Fast noise variance

@@ -2,6 +2,7 @@
 //! staged and whole, AVX-512 and portable) gives the same numbers.
 
 use super::*;
+use rand::{Rng, SeedableRng};
 
 #[test]
 fn pixel_noise_ignores_planes_and_measures_white_noise() {
@@ -118,4 +119,23 @@ fn the_staged_pixel_variance_stops_only_under_its_early_level() {
         assert_eq!(at(first.next_up()), if staged { first } else { whole }, "8-bit {w} x {h} x {ch}: stops");
         assert_eq!(at(first), whole, "8-bit {w} x {h} x {ch}: goes on");
     }
+}
+
+#[test]
+fn immerkaer_recovers_white_noise_on_a_smooth_image() {
+    let (w, h) = (64, 48);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+    let sigma = 0.03;
+    let img: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as f64, (i / w) as f64);
+            // A plane (the mask's response to it is zero) plus uniform noise of variance sigma^2.
+            let a = sigma * 3f64.sqrt();
+            (0.3 + 0.002 * x + 0.001 * y + rng.random_range(-a..a)) as f32
+        })
+        .collect();
+    let est = estimate_noise_sigma(&img, w, h);
+    assert!((est - sigma).abs() < 0.1 * sigma, "{est} vs {sigma}");
+    let clean: Vec<f32> = (0..w * h).map(|i| 0.3 + 0.002 * (i % w) as f32).collect();
+    assert!(estimate_noise_sigma(&clean, w, h) < 1e-6);
 }

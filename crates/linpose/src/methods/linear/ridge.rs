@@ -88,33 +88,8 @@ pub(crate) fn loo_curve(sys: &GramSystem, train: &Dataset) -> Result<LooCurve> {
     Ok(LooCurve { curve, lambda, loo_mean_deg })
 }
 
-/// Immerkaer's fast estimate of the standard deviation of additive white noise in gray images
-/// (CVIU 64(2), 1996): the mean absolute response to the Laplacian-difference mask
-/// [1 -2 1; -2 4 -2; 1 -2 1], times sqrt(pi / 2) / 6, over every image's interior. In the same
-/// units as the features (fractions of full brightness).
-pub fn estimate_noise_sigma(features: &[f32], width: usize, height: usize) -> f64 {
-    let m = width * height;
-    if width < 3 || height < 3 || m == 0 {
-        return 0.0;
-    }
-    let mut sum = 0.0f64;
-    let mut count = 0usize;
-    for img in features.chunks_exact(m) {
-        for y in 1..height - 1 {
-            for x in 1..width - 1 {
-                let p = |dx: isize, dy: isize| img[(y as isize + dy) as usize * width + (x as isize + dx) as usize] as f64;
-                let r = p(-1, -1) - 2.0 * p(0, -1) + p(1, -1) - 2.0 * p(-1, 0) + 4.0 * p(0, 0) - 2.0 * p(1, 0) + p(-1, 1) - 2.0 * p(0, 1) + p(1, 1);
-                sum += r.abs();
-                count += 1;
-            }
-        }
-    }
-    (std::f64::consts::PI / 2.0).sqrt() / 6.0 * sum / count.max(1) as f64
-}
-
 #[cfg(test)]
 mod tests {
-    use super::*;
     use rand::{Rng, SeedableRng};
 
     #[test]
@@ -128,24 +103,5 @@ mod tests {
         }
         // A black pixel brightens by a/4 on average.
         assert!((crate::methods::linear::expected_clipped(0.0, 0.2) - 0.05).abs() < 1e-15);
-    }
-
-    #[test]
-    fn immerkaer_recovers_white_noise_on_a_smooth_image() {
-        let (w, h) = (64, 48);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let sigma = 0.03;
-        let img: Vec<f32> = (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as f64, (i / w) as f64);
-                // A plane (the mask's response to it is zero) plus uniform noise of variance sigma^2.
-                let a = sigma * 3f64.sqrt();
-                (0.3 + 0.002 * x + 0.001 * y + rng.random_range(-a..a)) as f32
-            })
-            .collect();
-        let est = estimate_noise_sigma(&img, w, h);
-        assert!((est - sigma).abs() < 0.1 * sigma, "{est} vs {sigma}");
-        let clean: Vec<f32> = (0..w * h).map(|i| 0.3 + 0.002 * (i % w) as f32).collect();
-        assert!(estimate_noise_sigma(&clean, w, h) < 1e-6);
     }
 }
