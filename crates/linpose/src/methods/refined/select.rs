@@ -165,7 +165,7 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
                 CANDIDATES.iter().filter(|&&l| l <= l_max && l <= below).map(|&l| (l, false)).chain(params.weighted.then_some((plain_l, true))).collect();
             for (c, &(l, plain)) in cands.iter().enumerate() {
                 let sig = if plain { None } else { sigma2.as_ref().map(|s| s[..l].to_vec()) };
-                let scale = super::weights(sig.as_deref(), l);
+                let scale = super::fit::weights(sig.as_deref(), l);
                 let mut basis = Vec::with_capacity(l * m);
                 for (row, &s) in pca.basis.chunks_exact(m).zip(&scale).take(l) {
                     basis.extend(row.iter().map(|&v| (v * s) as f32));
@@ -344,7 +344,7 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
         let coord_variance = interpolation_variance(&fit, &sub_grid, &pca.coords, l, params.fixed_interpolant().unwrap_or_default())?;
         let knots: Vec<f32> = sub_grid.sample_at.iter().flat_map(|&i| pca.coords[i * l..(i + 1) * l].iter().map(|&v| v as f32)).collect();
         let fit_full = views.full.subset(keep)?;
-        let background = super::background_knots(Views { full: &fit_full, ..views }, &sub_grid.sample_at, &pca.basis, l);
+        let background = super::noisy::background_knots(Views { full: &fit_full, ..views }, &sub_grid.sample_at, &pca.basis, l);
         let settings = RefinedSettings {
             coord_variance: coord_variance.clone().unwrap_or_default(),
             bin: views.binning.factor(),

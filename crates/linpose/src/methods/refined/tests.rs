@@ -1,6 +1,16 @@
 //! Tests of the refined eigenspace on synthetic images made here (never /work/shared).
 
 use super::*;
+use crate::dataset::Dataset;
+use crate::kernels::Level;
+use crate::methods::eigenspace::manifold::Grid;
+use crate::methods::eigenspace::pca::Dimension;
+use crate::model::{Estimator, PoseModel};
+use noisy::NoiseScan;
+use query::NoiseWant;
+use scratch::QueryScratch;
+use search::smallest;
+use surface::Surface;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::{Manifest, Param, PoseSpace};
 
@@ -353,11 +363,11 @@ fn the_noisy_match_is_the_least_held_out_error_under_simulated_noise() {
 
 #[test]
 fn the_starts_are_the_smallest_within_twice_the_least() {
-    assert_eq!(super::smallest(&[3.0, 1.0, 1.5, 0.6, 5.0, 1.0], 3), vec![(0.6, 3), (1.0, 1), (1.0, 5)]);
-    assert_eq!(super::smallest(&[3.0, 1.0, 1.5, 0.6, 5.0, 1.0], 1), vec![(0.6, 3)]);
+    assert_eq!(smallest(&[3.0, 1.0, 1.5, 0.6, 5.0, 1.0], 3), vec![(0.6, 3), (1.0, 1), (1.0, 5)]);
+    assert_eq!(smallest(&[3.0, 1.0, 1.5, 0.6, 5.0, 1.0], 1), vec![(0.6, 3)]);
     // An exact match (distance 0) leaves only the exact matches; the least is always kept.
-    assert_eq!(super::smallest(&[0.2, 0.0, 0.1], 8), vec![(0.0, 1)]);
-    assert_eq!(super::smallest(&[7.0; 20].iter().enumerate().map(|(i, v)| v + i as f32).collect::<Vec<_>>(), 2), vec![(7.0, 0), (8.0, 1)]);
+    assert_eq!(smallest(&[0.2, 0.0, 0.1], 8), vec![(0.0, 1)]);
+    assert_eq!(smallest(&[7.0; 20].iter().enumerate().map(|(i, v)| v + i as f32).collect::<Vec<_>>(), 2), vec![(7.0, 0), (8.0, 1)]);
 }
 
 #[test]

@@ -1,0 +1,247 @@
+//! The parameters of the refined eigenspace as given, and what a fitted model records of them and of
+//! what it chose.
+
+use super::surface::Interpolant;
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// Most eigenimages considered by the automatic choice.
+pub const MAX_AUTO_COMPONENTS: usize = 40;
+
+/// Parameters of the refined eigenspace. The default chooses L from the training data, and
+/// searches from the 8 best of 4 coarse points per knot interval along each axis (fewer starts
+/// left the pot's search in the wrong region: 0.82 degrees clean with 3 of 2, 0.46 with 8 of 4).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RefinedParams {
+    pub(crate) components: Option<usize>,
+    pub(crate) starts: usize,
+    pub(crate) per_cell: usize,
+    pub(crate) weighted: bool,
+    pub(crate) resolution: f64,
+    /// Images binned by this factor before anything else ([`crate::binning`]; 1: as given;
+    /// None: chosen from the training data, [`BIN_CANDIDATES`]).
+    #[serde(default = "bin_one")]
+    pub(crate) bin: Option<usize>,
+    /// How the surface interpolates between knots (None: chosen from the training data among
+    /// [`INTERPOLANTS`]).
+    #[serde(default = "spline_interpolant")]
+    pub(crate) interpolant: Option<Interpolant>,
+}
+
+/// The interpolant asked for by models written before it existed: the spline.
+fn spline_interpolant() -> Option<Interpolant> {
+    Some(Interpolant::Spline)
+}
+
+/// The binning factor asked for by models written before it existed: none.
+fn bin_one() -> Option<usize> {
+    Some(1)
+}
+
+/// The binning factor of models written before it existed: 1.
+fn one() -> usize {
+    1
+}
+
+/// The binning factors the automatic choice scores (those that leave an image of at least 3 x 3
+/// pixels): each halving of the resolution up to a quarter.
+pub const BIN_CANDIDATES: &[usize] = &[1, 2, 4];
+
+/// The weight floor, relative to the mean interpolation variance.
+pub const WEIGHT_FLOOR: f64 = 0.01;
+
+impl Default for RefinedParams {
+    fn default() -> Self {
+        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: None, interpolant: None }
+    }
+}
+
+impl RefinedParams {
+    /// Keep `l` eigenimages (capped at N - 1 and the usable rank) instead of choosing L.
+    pub fn components(mut self, l: usize) -> Self {
+        self.components = Some(l);
+        self
+    }
+
+    /// Choose L from the training data (the default).
+    pub fn auto_components(mut self) -> Self {
+        self.components = None;
+        self
+    }
+
+    /// Refine from this many of the closest coarse points.
+    pub fn starts(mut self, k: usize) -> Self {
+        self.starts = k;
+        self
+    }
+
+    /// Coarse points per knot interval along each axis.
+    pub fn per_cell(mut self, k: usize) -> Self {
+        self.per_cell = k;
+        self
+    }
+
+    /// Weight each coordinate by the inverse of its interpolation error (the default).
+    pub fn weighted(mut self, yes: bool) -> Self {
+        self.weighted = yes;
+        self
+    }
+
+    /// Report poses on the lattice of this many degrees (anchored at the first training value
+    /// of each parameter), as the eigenspace's manifold resampled every 0.5 degrees does: the
+    /// closest lattice point around the continuous estimate. 0 reports the continuous estimate.
+    pub fn resolution(mut self, degrees: f64) -> Self {
+        self.resolution = degrees;
+        self
+    }
+
+    /// Bin the images by `factor` (each pixel the mean of a factor x factor block,
+    /// [`crate::binning`]) before fitting and before each query; 1 keeps them as given. Noise is
+    /// simulated on the images as given, then binned, as a query's would be.
+    pub fn bin(mut self, factor: usize) -> Self {
+        self.bin = Some(factor);
+        self
+    }
+
+    /// Choose the binning factor from the training data (the default): among
+    /// [`BIN_CANDIDATES`], the coarsest whose held-out error ([`select::choose`]) is within one
+    /// standard error of the least ([`select::coarsest_within`]: cheaper
+    /// queries and a smaller model where the training views cannot tell the factors apart).
+    pub fn auto_bin(mut self) -> Self {
+        self.bin = None;
+        self
+    }
+
+    /// Interpolate the surface between knots by `interpolant` instead of choosing it.
+    pub fn interpolant(mut self, interpolant: Interpolant) -> Self {
+        self.interpolant = Some(interpolant);
+        self
+    }
+
+    /// Choose the interpolant from the training data (the default): with L and the metric, by
+    /// the same held-out views ([`select::choose`]), the spline on a tie.
+    pub fn auto_interpolant(mut self) -> Self {
+        self.interpolant = None;
+        self
+    }
+
+    /// The interpolant asked for (None: chosen from the data).
+    pub fn fixed_interpolant(&self) -> Option<Interpolant> {
+        self.interpolant
+    }
+
+    /// The binning factor asked for (None: chosen from the data).
+    pub fn fixed_bin(&self) -> Option<usize> {
+        self.bin
+    }
+
+    /// The fixed L asked for (None: chosen from the data).
+    pub fn fixed_components(&self) -> Option<usize> {
+        self.components
+    }
+
+    pub(crate) fn validate(&self) -> Result<()> {
+        if self.components == Some(0) {
+            return Err(Error::invalid("components", 0, "at least one eigenimage is needed"));
+        }
+        if !(self.resolution.is_finite() && self.resolution >= 0.0) {
+            return Err(Error::invalid("resolution", self.resolution, "must be a number of degrees >= 0"));
+        }
+        if !(1..=64).contains(&self.starts) {
+            return Err(Error::invalid("starts", self.starts, "must be 1 to 64"));
+        }
+        if !(1..=16).contains(&self.per_cell) {
+            return Err(Error::invalid("per cell", self.per_cell, "must be 1 to 16"));
+        }
+        if let Some(b) = self.bin.filter(|b| !(1..=crate::binning::MAX_FACTOR).contains(b)) {
+            return Err(Error::invalid("bin", b, format!("must be 1 to {}", crate::binning::MAX_FACTOR)));
+        }
+        Ok(())
+    }
+}
+
+/// What a fitted model records in [`ModelMeta::settings`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RefinedSettings {
+    /// The parameters as given.
+    pub params: RefinedParams,
+    /// The binning factor of every image the model takes (1: none).
+    #[serde(default = "one")]
+    pub bin: usize,
+    /// The automatic choice of the binning factor: each candidate with its held-out error
+    /// (degrees), as [`Self::selection`]'s least and [`Self::plain_error`] (empty when fixed).
+    #[serde(default)]
+    pub bin_selection: Vec<(usize, f64)>,
+    /// The standard error of the least of [`Self::bin_selection`]'s errors: the coarsest factor
+    /// within it of the least was chosen ([`select::coarsest_within`]; 0 when fixed, and in
+    /// models written before it, which took the least).
+    #[serde(default)]
+    pub bin_tolerance: f64,
+    /// How the surface interpolates between knots (the spline in models written before the
+    /// choice existed).
+    #[serde(default)]
+    pub interpolant: Interpolant,
+    /// The automatic choice of the interpolant: each candidate with its least held-out error
+    /// (degrees) on the chosen binning factor's images (empty when fixed).
+    #[serde(default)]
+    pub interpolant_selection: Vec<(Interpolant, f64)>,
+    /// Eigenimages kept, L.
+    pub components: usize,
+    /// Eigenimages of the weighted search of a clean query (the first ones; 0: all). The rest
+    /// serve only noisy queries (the affine match, up to all L).
+    #[serde(default)]
+    pub search_components: usize,
+    /// Fraction of the training energy (about the mean) they hold.
+    pub energy_kept: f64,
+    /// Knots along each pose parameter.
+    pub knot_shape: Vec<usize>,
+    /// The automatic choice of L: each candidate with the mean pose error (degrees) of the
+    /// held-out training views (empty when L was fixed).
+    pub selection: Vec<(usize, f64)>,
+    /// The held-out error of the plain (unweighted) search in the first 20 coordinates, the
+    /// eigenspace's metric; when below every weighted L's, the model uses it for every query
+    /// (None when not scored).
+    #[serde(default)]
+    pub plain_error: Option<f64>,
+    /// Each coordinate's mean squared interpolation error over held-out knots (empty when the
+    /// coordinates are not weighted).
+    #[serde(default)]
+    pub interpolation_variance: Vec<f64>,
+    /// The training images' mean squared distance from the eigenspace (unit energy, mean
+    /// subtracted): the discarded eigenvalues over N. A query further off than this carries
+    /// noise, estimated per query (see the module doc).
+    #[serde(default)]
+    pub residual_energy: f64,
+    /// The noise threshold ([`select::noise_threshold`]): between the largest pixel-noise
+    /// estimate ([`pixel_noise`](crate::pixel_noise::pixel_noise)) of a training image and the smallest of the training images
+    /// with simulated noise. A query above it is treated as noisy and takes the affine match (0:
+    /// never).
+    #[serde(default)]
+    pub noise_threshold: f64,
+    /// Eigenimages of the affine match of a noisy query (the first ones).
+    #[serde(default)]
+    pub noise_components: usize,
+    /// Whether the noisy match weights each coordinate by 1 / (sigma_l^2 + floor + nu).
+    #[serde(default)]
+    pub noise_weighted: bool,
+    /// Each of the L coordinates' interpolation variance (unscaled, as `interpolation_variance`,
+    /// but for all L), which weights the noisy match (empty when no knots could be held out).
+    #[serde(default)]
+    pub coord_variance: Vec<f64>,
+    /// The automatic choice of the noisy match: each candidate (L, weighted) with the mean pose
+    /// error (degrees) of the held-out training views under simulated noise
+    /// ([`select::NOISE_LEVELS`]).
+    #[serde(default)]
+    pub noise_selection: Vec<(usize, bool, f64)>,
+}
+
+impl RefinedSettings {
+    /// Eigenimages of the weighted search.
+    pub fn search(&self) -> usize {
+        if self.search_components == 0 || self.search_components > self.components {
+            self.components
+        } else {
+            self.search_components
+        }
+    }
+}

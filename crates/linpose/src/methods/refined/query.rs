@@ -1,0 +1,194 @@
+//! A batch of queries: each projected, routed to the clean search or the noisy match by its
+//! pixel noise, and given its pose.
+
+use super::model::RefinedModel;
+use super::scratch::{QueryScratch, SearchScratch, SEARCH_SCRATCH};
+use super::search::{box_split, smallest_under};
+use crate::kernels::{dot_w, Level};
+use crate::model::batch_len;
+use crate::{Error, Result};
+use rayon::prelude::*;
+
+/// What a query's projection computes of its pixel noise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum NoiseWant {
+    /// Nothing (a model without the noisy match).
+    None,
+    /// The whole estimate: the noisy match weights its coordinates by it.
+    Full,
+    /// Enough to route the query: staged, a query whose first pass is under [`NOISE_EARLY`]
+    /// times the threshold is clean without the rest.
+    Route,
+}
+
+/// Where a staged pixel-noise estimate stops, relative to the model's noise threshold: a query
+/// whose estimate from the first quarter of the sampled rows ([`Pass::First`]) is under half
+/// the threshold is taken as clean without the rest (the estimate from every sampled row, as
+/// unstaged, decides every other). The first quarter's estimate of a noisy image is near the
+/// whole's: on the rendered objects' views (every 4th) and COIL-20's 72 per object under
+/// simulated +-5% and +-10% noise, at least 1.06 times the threshold (COIL-9, whose least whole
+/// estimate is 1.06 times it too), so half leaves a margin of 2. It stops at least 92% of the
+/// clean views of 18 of those 25 objects, 88% of COIL-20's 1440 clean views in all, the least
+/// COIL-17's 53% (whose clean views come to 0.45 times the threshold). (A numpy replica of the
+/// 8-bit estimate on the image files; BENCHMARKS.md, fifteenth session.)
+const NOISE_EARLY: f64 = 0.5;
+
+/// Queries projected and refined together by one rayon task (as the eigenspace chunks them).
+pub(crate) fn chunk_rows(n: usize) -> usize {
+    n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
+}
+
+/// The error for the first query left NaN (zero or non-finite energy), if any.
+fn no_black_query(out: &[f64], p: usize) -> Result<()> {
+    match out.chunks_exact(p).position(|o| o[0].is_nan()) {
+        Some(i) => Err(Error::invalid(
+            "query",
+            format!("#{i} of the batch"),
+            "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
+        )),
+        None => Ok(()),
+    }
+}
+
+impl RefinedModel {
+    /// Whether a query goes to the noisy match: all of them for `NoiseWant::Full`, none for
+    /// `None`, else when its route's value `route` (what [`Self::pose_routed`] compares) is over
+    /// the threshold.
+    #[inline]
+    pub(crate) fn routed_noisy(&self, noise: NoiseWant, route: f64) -> bool {
+        match noise {
+            NoiseWant::None => false,
+            NoiseWant::Full => true,
+            NoiseWant::Route => self.settings.noise_threshold > 0.0 && route > self.settings.noise_threshold,
+        }
+    }
+
+    /// The `early` of the staged pixel-noise estimate of a query of `m` pixels and energy
+    /// `energy` (in the estimate's units), `None` for no estimate. The route compares the
+    /// estimate times M / energy with the threshold ([`Self::poses_of`]).
+    #[inline]
+    pub(crate) fn early(&self, noise: NoiseWant, energy: f64, m: usize) -> Option<f64> {
+        match noise {
+            NoiseWant::None => None,
+            NoiseWant::Full => Some(0.0),
+            NoiseWant::Route => Some(NOISE_EARLY * self.settings.noise_threshold * energy / m as f64),
+        }
+    }
+
+    /// The pose (degrees, circular values in [0, period)) of eigenspace coordinates `y`, of a
+    /// query whose pixel noise is `noise` ([`pixel_noise`](crate::pixel_noise::pixel_noise) of the image the model works on).
+    pub fn pose_of_coords(&self, y: &[f32], residual: f64, noise: f64, out: &mut [f64]) {
+        self.pose_routed(y, residual, noise, noise / self.m as f64, out)
+    }
+
+    /// [`Self::pose_of_coords`] with the route's value (the query's [`pixel_noise`](crate::pixel_noise::pixel_noise), compared
+    /// with the threshold) and the noisy match's nu (its pixel noise per unit-energy
+    /// coordinate) given apart: a model that bins routes on the image as given and matches on
+    /// the binned one.
+    fn pose_routed(&self, y: &[f32], residual: f64, route: f64, noise_nu: f64, out: &mut [f64]) {
+        let (l, d) = (self.components(), self.axes.len());
+        // Noise per coordinate from the energy off the search's L_s coordinates beyond the
+        // training views' (isotropic noise puts (M - L_s) times its per-coordinate variance
+        // there: the residual the choice of L_s was scored with); the weights
+        // 1 / (sigma_l^2 + floor + nu) relative to the stored 1 / (sigma_l^2 + floor).
+        let (m, ls) = (self.m, self.settings.search());
+        let nu = ((residual - self.clean_residual_energy) / (m.saturating_sub(ls).max(1)) as f64).max(0.0);
+        if self.routed_noisy(NoiseWant::Route, route) {
+            return self.pose_of_noisy(y, noise_nu, out);
+        }
+        let k = self.settings.params.starts.min(self.start_len());
+        let mut t = [0f64; 8];
+        SEARCH_SCRATCH.with_borrow_mut(|sc| {
+            let SearchScratch { wt, w32, dist, buf, lb, .. } = sc;
+            wt.clear();
+            wt.extend(self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }));
+            if let Some(lat) = &self.lattice {
+                let uniform = wt[..ls].iter().all(|&w| w == wt[0]).then_some(wt[0]);
+                t[0] = lat.nearest(y, wt, uniform, buf);
+                return;
+            }
+            if let Some(c) = &self.tree {
+                let i = c.tree.nearest(&y[..ls]);
+                t[..d].copy_from_slice(&c.poses[i * d..(i + 1) * d]);
+                self.surface.climb(y, wt, &mut t[..d], self.settings.params.resolution);
+                return;
+            }
+            w32.clear();
+            w32.extend(wt.iter().map(|&w| w as f32));
+            // Every coarse point's distance, then the k closest.
+            dist.resize(self.start_len(), 0.0);
+            let split = box_split(self.components());
+            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, &self.start_boxes, split, y, w32, dist, lb);
+            let best = smallest_under(dist, k, lo);
+            buf.resize((d + 2) * l, 0.0);
+            let mut best_cost = f64::INFINITY;
+            for i in self.distinct_starts(&best) {
+                let mut s = [0f64; 8];
+                s[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
+                let c = self.surface.refine(y, wt, &mut s[..d], buf);
+                if c < best_cost {
+                    (best_cost, t) = (c, s);
+                }
+            }
+            if self.settings.params.resolution > 0.0 {
+                self.surface.snap(y, wt, &mut t[..d], self.settings.params.resolution, &mut buf[..l]);
+            }
+        });
+        self.write_pose(&t[..d], out);
+    }
+
+    /// The poses of a task's projected queries into `out` (NaN for a query that could not be
+    /// projected).
+    fn poses_of(&self, s: &QueryScratch, out: &mut [f64]) {
+        let (l, m, p) = (self.components(), self.m, self.meta.space.len());
+        for (i, ((c, o), &r)) in s.y.chunks_exact(l).zip(out.chunks_exact_mut(p)).zip(&s.resid).enumerate() {
+            if c[0].is_nan() {
+                o.fill(f64::NAN);
+            } else if self.binning.bins() {
+                self.pose_routed(c, r, s.route[i], s.noise[i], o);
+            } else {
+                self.pose_of_coords(c, r, s.noise[i] * m as f64, o);
+            }
+        }
+    }
+
+    /// What a query's projection computes of its pixel noise: enough to route it, when the
+    /// model has the noisy match.
+    pub(crate) fn noise_want(&self) -> NoiseWant {
+        if self.settings.noise_threshold > 0.0 {
+            NoiseWant::Route
+        } else {
+            NoiseWant::None
+        }
+    }
+
+    /// [`PoseModel::predict_into`], computing `noise` of each query's pixel noise.
+    pub(crate) fn predict_with(&self, queries: &[f32], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
+        let (m, p) = (self.meta.spec.features(), self.meta.space.len());
+        let n = batch_len(m, queries.len(), out.len(), p)?;
+        let rows = chunk_rows(n);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            self.project_binned(q, noise, s);
+            self.poses_of(s, o);
+        });
+        no_black_query(out, p)
+    }
+
+    /// [`PoseModel::predict_u8_into`], computing `noise` of each query's pixel noise.
+    pub(crate) fn predict_u8_with(&self, queries: &[u8], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
+        let (m, p) = (self.meta.spec.features(), self.meta.space.len());
+        let n = batch_len(m, queries.len(), out.len(), p)?;
+        let level = Level::detect();
+        let block = if self.words_at(level).is_some() { dot_w::BLOCK } else { self.quant.block(level) };
+        let rows = if n >= 8 { crate::methods::eigenspace::u8_task_rows(n, block) } else { n };
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+            if self.binning.bins() {
+                self.project_u8_binned(level, q, noise, s);
+            } else {
+                self.project_u8(level, q, noise, s);
+            }
+            self.poses_of(s, o);
+        });
+        no_black_query(out, p)
+    }
+}

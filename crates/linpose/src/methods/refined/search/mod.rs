@@ -1,0 +1,103 @@
+//! The clean query's search: the starts of Levenberg-Marquardt among the coarse points.
+
+mod tree;
+
+pub(crate) use tree::CoarseTree;
+
+use super::model::RefinedModel;
+use crate::kernels::Level;
+
+/// Most lattice poses of a one-parameter model searched exactly ([`lattice::Lattice`]; 720 at the
+/// default 0.5 degrees on a turntable); a finer `resolution` keeps the local search and snap.
+pub const MAX_LATTICE: usize = 16_384;
+
+/// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
+/// [`crate::kernels::scan::sq_dist_boxed`]) of a model of `l`: the leading 8. perf of duck's
+/// 8-bit views on one thread, the scan's samples over the product kernel's: boxes on 4
+/// coordinates 0.48, 8 0.38 and 0.39, 12 0.43 and 0.44; the partial sums on 4 coordinates that
+/// came before them 0.47.
+pub(crate) fn box_split(l: usize) -> usize {
+    8.min(l)
+}
+
+/// The `k` smallest of `dist` no more than twice the smallest (the only ones
+/// [`RefinedModel::distinct_starts`] keeps), with their indices, in increasing order (ties: the
+/// lower index). Two passes: the minimum (vectorised), then the few points under twice it.
+/// `k` is at least 1.
+pub(crate) fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
+    smallest_under(dist, k, crate::kernels::scan::least(Level::detect(), dist))
+}
+
+/// [`smallest`] given the least of `dist`, `lo`.
+pub(crate) fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
+    #[cfg(target_arch = "x86_64")]
+    if Level::detect() == Level::Avx512 {
+        // SAFETY: the CPU supports AVX-512 F/BW (detected).
+        return unsafe { simd::smallest_avx512(dist, k, lo) };
+    }
+    smallest_body(dist, k, lo)
+}
+
+/// The body of [`smallest_under`] (compiled for AVX-512 too: comparisons only, the same result).
+#[inline(always)]
+fn smallest_body(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
+    let cut = 2.0 * lo.max(0.0) + f32::MIN_POSITIVE;
+    let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
+    // Blocks of 16 tested without branches first: few hold a point under the cut.
+    for (b, c) in dist.chunks(16).enumerate() {
+        if !c.iter().fold(false, |hit, &v| hit | (v <= cut)) {
+            continue;
+        }
+        for (i, &v) in c.iter().enumerate() {
+            if v <= cut && (best.len() < k || v < best[best.len() - 1].0) {
+                let at = best.partition_point(|b| b.0 <= v);
+                best.insert(at, (v, 16 * b + i));
+                best.truncate(k);
+            }
+        }
+    }
+    best
+}
+
+/// The body of [`smallest_under`] compiled for AVX-512 (comparisons only: the same result).
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    /// # Safety
+    /// The CPU must support AVX-512 F and BW.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn smallest_avx512(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
+        super::smallest_body(dist, k, lo)
+    }
+}
+
+impl RefinedModel {
+    /// The starts worth a local search among the closest coarse points `best` (increasing
+    /// distance): those within twice the closest one's distance, less any next to a closer start
+    /// on the coarse grid (one step along every axis), whose basin it shares.
+    pub(crate) fn distinct_starts(&self, best: &[(f32, usize)]) -> Vec<usize> {
+        let first = best.first().map_or(0.0, |b| b.0);
+        let mut kept: Vec<usize> = Vec::with_capacity(best.len());
+        for &(v, i) in best {
+            if v > 2.0 * first.max(0.0) + f32::MIN_POSITIVE {
+                break;
+            }
+            if !kept.iter().any(|&j| self.adjacent(i, j)) {
+                kept.push(i);
+            }
+        }
+        kept
+    }
+
+    /// Whether coarse points `i` and `j` are at most one grid step apart along every axis.
+    fn adjacent(&self, mut i: usize, mut j: usize) -> bool {
+        for &(n, circular) in self.start_shape.iter().rev() {
+            let (a, b) = (i % n, j % n);
+            let gap = a.abs_diff(b);
+            if gap > 1 && !(circular && gap == n - 1) {
+                return false;
+            }
+            (i, j) = (i / n, j / n);
+        }
+        true
+    }
+}
