@@ -45,7 +45,7 @@
 //!    around the continuous estimate), or continuous with `resolution(0.0)`. With one pose
 //!    parameter (a turntable) a clean query skips the coarse scan and the local search: the
 //!    distance to the spline curve is a polynomial in the pose on each knot interval, and
-//!    [`lattice::Lattice`] finds its least over every lattice pose exactly (on COIL-20 the same
+//!    [`search::lattice::Lattice`] finds its least over every lattice pose exactly (on COIL-20 the same
 //!    estimates as the local search; perf of obj5's 8-bit queries on one thread, the search's
 //!    samples over the product kernel's: 0.12, the k-d tree of the eigenspace's 0.07). With two or
 //!    more, a clean query reported on a lattice skips them too (`CoarseTree`): the nearest of
@@ -136,7 +136,6 @@
 //! an f32 product, the iteration runs in f64 on the f32 numbers.
 
 mod fit;
-pub mod lattice;
 mod method;
 mod model;
 mod noisy;

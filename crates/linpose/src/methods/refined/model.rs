@@ -1,7 +1,7 @@
 //! The fitted model: what it holds, how it is built from its stored parts, and how it serves
 //! [`PoseModel`].
 
-use super::lattice;
+use super::search::lattice;
 use super::noisy::{NoiseScan, NoisyTree};
 use super::params::RefinedSettings;
 use super::search::{box_split, CoarseTree, MAX_LATTICE};

@@ -319,11 +319,11 @@ fn the_affine_fit_recovers_gain_and_offset_exactly() {
     let c = [0.1, 0.2, 0.3, 0.4, 0.5];
     let wt = [1.0, 2.0, 0.5, 1.5, 1.0];
     let z: Vec<f64> = (0..5).map(|q| 1.7 * (f[q] + c[q]) - 0.3 * g[q]).collect();
-    let (r, ab) = surface::affine_fit(&z, &c, &wt, &f, &g);
+    let (r, ab) = noisy::affine_fit(&z, &c, &wt, &f, &g);
     assert!(r < 1e-12, "residual {r}");
     assert!((ab[0] - 1.7).abs() < 1e-12 && (ab[1] + 0.3).abs() < 1e-12, "{ab:?}");
     // With no offset direction the gain alone is fitted.
-    let (r, ab) = surface::affine_fit(&z[..4], &c[..4], &wt[..4], &f[..4], &[0.0; 4]);
+    let (r, ab) = noisy::affine_fit(&z[..4], &c[..4], &wt[..4], &f[..4], &[0.0; 4]);
     assert!(ab[1] == 0.0 && r > 0.0);
 }
 
@@ -607,7 +607,7 @@ fn the_block_climb_walks_as_the_point_by_point_climb() {
         s.eval_pair(bg, q, &mut f, None, &mut g, None);
         let y: Vec<f32> = f.iter().enumerate().map(|(i, &v)| (v + 1e-3 * ((i + k) % 3) as f64) as f32).collect();
         let z: Vec<f64> = (0..l).map(|i| 0.8 * (f[i] + c[i]) + 0.05 * g[i] + 1e-3 * ((i + k) % 3) as f64).collect();
-        let aq = surface::AffineQuery::new(&z, &c, &wt);
+        let aq = noisy::AffineQuery::new(&z, &c, &wt);
         for start in [[30.0, 0.0], [45.5, 12.0], [70.0, 359.5], [q[0] - q[0] % 0.5, q[1] - q[1] % 0.5]] {
             let (mut a, mut b) = (start, start);
             let ca = s.climb(&y, &wt, &mut a, 0.5);
@@ -618,7 +618,7 @@ fn the_block_climb_walks_as_the_point_by_point_climb() {
             let ca = s.climb_pair(Some(bg), l, &mut a, 0.5, |fv, gv| aq.residual(fv, gv));
             let cb = s.climb_by(&mut b, 0.5, |t| {
                 s.eval_pair(bg, t, &mut f, None, &mut g, None);
-                surface::affine_fit(&z, &c, &wt, &f, &g).0
+                noisy::affine_fit(&z, &c, &wt, &f, &g).0
             });
             assert_eq!(a, b, "affine, start {start:?}");
             // The residual is z.z less the fit: rounding relative to z.z.

@@ -1,9 +1,11 @@
 //! The noisy match: a query detected as noisy is matched to the surface under a free gain and a
 //! free offset along what clipped noise adds.
 
+mod affine;
 mod scan;
 mod tree;
 
+pub(crate) use affine::{affine_fit, AffineQuery};
 pub(crate) use scan::NoiseScan;
 pub(crate) use tree::NoisyTree;
 
@@ -12,7 +14,6 @@ use super::params::WEIGHT_FLOOR;
 use super::query::{chunk_rows, NoiseWant};
 use super::scratch::{QueryScratch, SEARCH_SCRATCH};
 use super::search::smallest;
-use super::surface;
 use super::fit::Views;
 use crate::Result;
 use rayon::prelude::*;
@@ -100,7 +101,7 @@ impl RefinedModel {
             // A query with no length off the offset direction (never seen) starts from the
             // clean tree's nearest point.
             let (i, second) = nt.starts(&z, &ct.poses).unwrap_or_else(|| (ct.tree.nearest(&y[..s.search()]), None));
-            let aq = surface::AffineQuery::new(&z, &c, &wt);
+            let aq = AffineQuery::new(&z, &c, &wt);
             let mut cost = |f: &[f64], g: &[f64]| aq.residual(f, g);
             let mut best = (f64::INFINITY, [0f64; 8]);
             for j in std::iter::once(i).chain(second) {
@@ -133,7 +134,7 @@ impl RefinedModel {
             let g = &mut rest[..ln];
             fs.snap_by(&mut t[..d], s.params.resolution, |tt| {
                 fs.eval_pair(bs, tt, f, None, g, None);
-                surface::affine_fit(&z, &c, &wt, f, g).0
+                affine_fit(&z, &c, &wt, f, g).0
             });
         }
         self.write_pose(&t[..d], out);

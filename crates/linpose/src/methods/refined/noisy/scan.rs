@@ -3,7 +3,7 @@
 use crate::kernels::Level;
 use crate::methods::refined::model::RefinedModel;
 
-/// The coarse scan of the noisy match: the affine fit of [`surface::affine_fit`] at every coarse
+/// The coarse scan of the noisy match: the affine fit of [`super::affine_fit`] at every coarse
 /// point with fixed weights w0 (a clean query's: nu = 0; the local search then uses the query's
 /// own). With m_i = f_i + c and g_i the point's two surfaces, the w0-weighted products
 /// A = m.m, B = m.g, C = g.g depend on the point alone, so a query costs two products per point,

@@ -1,5 +1,6 @@
 //! The clean query's search: the starts of Levenberg-Marquardt among the coarse points.
 
+pub(crate) mod lattice;
 mod tree;
 
 pub(crate) use tree::CoarseTree;
