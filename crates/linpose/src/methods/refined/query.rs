@@ -2,8 +2,7 @@
 //! pixel noise, and given its pose.
 
 use super::model::RefinedModel;
-use super::scratch::{QueryScratch, SearchScratch, SEARCH_SCRATCH};
-use super::search::{box_split, smallest_under};
+use super::scratch::QueryScratch;
 use crate::kernels::{dot_w, Level};
 use crate::model::batch_len;
 use crate::{Error, Result};
@@ -86,7 +85,6 @@ impl RefinedModel {
     /// coordinate) given apart: a model that bins routes on the image as given and matches on
     /// the binned one.
     fn pose_routed(&self, y: &[f32], residual: f64, route: f64, noise_nu: f64, out: &mut [f64]) {
-        let (l, d) = (self.components(), self.axes.len());
         // Noise per coordinate from the energy off the search's L_s coordinates beyond the
         // training views' (isotropic noise puts (M - L_s) times its per-coordinate variance
         // there: the residual the choice of L_s was scored with); the weights
@@ -96,45 +94,7 @@ impl RefinedModel {
         if self.routed_noisy(NoiseWant::Route, route) {
             return self.pose_of_noisy(y, noise_nu, out);
         }
-        let k = self.settings.params.starts.min(self.start_len());
-        let mut t = [0f64; 8];
-        SEARCH_SCRATCH.with_borrow_mut(|sc| {
-            let SearchScratch { wt, w32, dist, buf, lb, .. } = sc;
-            wt.clear();
-            wt.extend(self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }));
-            if let Some(lat) = &self.lattice {
-                let uniform = wt[..ls].iter().all(|&w| w == wt[0]).then_some(wt[0]);
-                t[0] = lat.nearest(y, wt, uniform, buf);
-                return;
-            }
-            if let Some(c) = &self.tree {
-                let i = c.tree.nearest(&y[..ls]);
-                t[..d].copy_from_slice(&c.poses[i * d..(i + 1) * d]);
-                self.surface.climb(y, wt, &mut t[..d], self.settings.params.resolution);
-                return;
-            }
-            w32.clear();
-            w32.extend(wt.iter().map(|&w| w as f32));
-            // Every coarse point's distance, then the k closest.
-            dist.resize(self.start_len(), 0.0);
-            let split = box_split(self.components());
-            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, &self.start_boxes, split, y, w32, dist, lb);
-            let best = smallest_under(dist, k, lo);
-            buf.resize((d + 2) * l, 0.0);
-            let mut best_cost = f64::INFINITY;
-            for i in self.distinct_starts(&best) {
-                let mut s = [0f64; 8];
-                s[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
-                let c = self.surface.refine(y, wt, &mut s[..d], buf);
-                if c < best_cost {
-                    (best_cost, t) = (c, s);
-                }
-            }
-            if self.settings.params.resolution > 0.0 {
-                self.surface.snap(y, wt, &mut t[..d], self.settings.params.resolution, &mut buf[..l]);
-            }
-        });
-        self.write_pose(&t[..d], out);
+        self.pose_of_clean(y, nu, out)
     }
 
     /// The poses of a task's projected queries into `out` (NaN for a query that could not be

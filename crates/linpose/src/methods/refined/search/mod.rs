@@ -6,6 +6,7 @@ mod tree;
 pub(crate) use tree::CoarseTree;
 
 use super::model::RefinedModel;
+use super::scratch::{SearchScratch, SEARCH_SCRATCH};
 use crate::kernels::Level;
 
 /// Most lattice poses of a one-parameter model searched exactly ([`lattice::Lattice`]; 720 at the
@@ -100,5 +101,55 @@ impl RefinedModel {
             (i, j) = (i / n, j / n);
         }
         true
+    }
+}
+
+impl RefinedModel {
+    /// The pose (degrees, circular values in [0, period)) of a clean query's coordinates `y`
+    /// into `out`, its weights 1 / (sigma_l^2 + floor + nu) for noise `nu` per coordinate: on a
+    /// one-parameter lattice the lattice search, with two or more parameters on a lattice the
+    /// coarse tree's nearest point and the climb, else Levenberg-Marquardt from the distinct
+    /// closest coarse points, snapped to the lattice.
+    pub(crate) fn pose_of_clean(&self, y: &[f32], nu: f64, out: &mut [f64]) {
+        let (l, d, ls) = (self.components(), self.axes.len(), self.settings.search());
+        let k = self.settings.params.starts.min(self.start_len());
+        let mut t = [0f64; 8];
+        SEARCH_SCRATCH.with_borrow_mut(|sc| {
+            let SearchScratch { wt, w32, dist, buf, lb, .. } = sc;
+            wt.clear();
+            wt.extend(self.inv_weight.iter().enumerate().map(|(c, &iw)| if c < ls { iw / (iw + nu) } else { 0.0 }));
+            if let Some(lat) = &self.lattice {
+                let uniform = wt[..ls].iter().all(|&w| w == wt[0]).then_some(wt[0]);
+                t[0] = lat.nearest(y, wt, uniform, buf);
+                return;
+            }
+            if let Some(c) = &self.tree {
+                let i = c.tree.nearest(&y[..ls]);
+                t[..d].copy_from_slice(&c.poses[i * d..(i + 1) * d]);
+                self.surface.climb(y, wt, &mut t[..d], self.settings.params.resolution);
+                return;
+            }
+            w32.clear();
+            w32.extend(wt.iter().map(|&w| w as f32));
+            // Every coarse point's distance, then the k closest.
+            dist.resize(self.start_len(), 0.0);
+            let split = box_split(self.components());
+            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, &self.start_boxes, split, y, w32, dist, lb);
+            let best = smallest_under(dist, k, lo);
+            buf.resize((d + 2) * l, 0.0);
+            let mut best_cost = f64::INFINITY;
+            for i in self.distinct_starts(&best) {
+                let mut s = [0f64; 8];
+                s[..d].copy_from_slice(&self.start_poses[i * d..(i + 1) * d]);
+                let c = self.surface.refine(y, wt, &mut s[..d], buf);
+                if c < best_cost {
+                    (best_cost, t) = (c, s);
+                }
+            }
+            if self.settings.params.resolution > 0.0 {
+                self.surface.snap(y, wt, &mut t[..d], self.settings.params.resolution, &mut buf[..l]);
+            }
+        });
+        self.write_pose(&t[..d], out);
     }
 }
