@@ -144,16 +144,16 @@ mod projection;
 mod query;
 mod scratch;
 mod search;
-pub mod select;
-pub mod surface;
+pub(crate) mod select;
+pub(crate) mod surface;
 
-pub use fit::{Views, NOISE_COMPONENTS};
 pub use method::METHOD;
 pub use model::RefinedModel;
-pub use noisy::{clip_bias_shape, BIAS_AMPLITUDE};
-pub use params::{RefinedParams, RefinedSettings, BIN_CANDIDATES, MAX_AUTO_COMPONENTS, WEIGHT_FLOOR};
-pub use search::MAX_LATTICE;
+pub use params::{RefinedParams, RefinedSettings};
 pub use surface::{Interpolant, INTERPOLANTS};
+
+pub(crate) use fit::{Views, NOISE_COMPONENTS};
+pub(crate) use params::MAX_AUTO_COMPONENTS;
 
 #[cfg(test)]
 mod tests;

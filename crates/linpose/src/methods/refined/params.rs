@@ -135,11 +135,6 @@ impl RefinedParams {
         self.bin
     }
 
-    /// The fixed L asked for (None: chosen from the data).
-    pub fn fixed_components(&self) -> Option<usize> {
-        self.components
-    }
-
     pub(crate) fn validate(&self) -> Result<()> {
         if self.components == Some(0) {
             return Err(Error::invalid("components", 0, "at least one eigenimage is needed"));

@@ -76,7 +76,7 @@ impl RefinedModel {
 
     /// The pose (degrees, circular values in [0, period)) of eigenspace coordinates `y`, of a
     /// query whose pixel noise is `noise` ([`pixel_noise`](crate::pixel_noise::pixel_noise) of the image the model works on).
-    pub fn pose_of_coords(&self, y: &[f32], residual: f64, noise: f64, out: &mut [f64]) {
+    pub(crate) fn pose_of_coords(&self, y: &[f32], residual: f64, noise: f64, out: &mut [f64]) {
         self.pose_routed(y, residual, noise, noise / self.m as f64, out)
     }
 

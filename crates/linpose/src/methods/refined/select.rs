@@ -99,12 +99,6 @@ pub type Scores = Vec<(usize, f64)>;
 /// weighted, mean capped held-out error in degrees).
 pub type NoiseChoice = (usize, bool, Vec<(usize, bool, f64)>);
 
-/// Chooses L for `params` on `train` (laid out on `grid`, images as given: L at most
-/// [`below_eigenspace`]`(1)`): the chosen L and every candidate's mean held-out error (degrees).
-pub fn choose_components(train: &Dataset, grid: &Grid, params: &RefinedParams) -> Result<(usize, Scores)> {
-    choose(train, grid, params, 1).map(|c| (c.components, c.scored))
-}
-
 /// What [`choose`] found on one set of training images.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Choice {
@@ -126,7 +120,7 @@ pub struct Choice {
     pub standard_error: f64,
 }
 
-/// As [`choose_components`] on images binned by `bin` (which bounds L, [`below_eigenspace`]),
+/// Chooses L for `params` on `train` (laid out on `grid`) on images binned by `bin` (which bounds L, [`below_eigenspace`]),
 /// and when `params` weights the coordinates, also the mean held-out error of the plain
 /// (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates (within that bound): the
 /// eigenspace's own metric, which the model falls back to when it scores better; and the least

@@ -164,11 +164,6 @@ impl Surface {
         self.coef.len()
     }
 
-    /// Whether the surface holds nothing (never, once built).
-    pub fn is_empty(&self) -> bool {
-        self.coef.is_empty()
-    }
-
     /// Brings `t` into the domain: a circular parameter wrapped into [first knot, first knot +
     /// period), a linear one clamped to its knots' range.
     pub fn clamp(&self, t: &mut [f64]) {
