@@ -263,6 +263,9 @@ impl RefinedModel {
         if l == 0 || settings.knot_shape.len() != d || settings.knot_shape.iter().any(|&c| c == 0 || c > 1 << 16) {
             return Err(bad(format!("{l} components, knot shape {:?}", settings.knot_shape)));
         }
+        if !(1..=l).contains(&settings.search_components) {
+            return Err(bad(format!("a clean search on {} of {l} components", settings.search_components)));
+        }
         let basis = t.f32("basis", &[l, m])?;
         let mean = t.f32("mean", &[m])?;
         let mut shape = settings.knot_shape.clone();

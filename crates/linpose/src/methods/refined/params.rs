@@ -20,27 +20,10 @@ pub struct RefinedParams {
     pub(crate) resolution: f64,
     /// Images binned by this factor before anything else ([`crate::binning`]; 1: as given;
     /// None: chosen from the training data, [`BIN_CANDIDATES`]).
-    #[serde(default = "bin_one")]
     pub(crate) bin: Option<usize>,
     /// How the surface interpolates between knots (None: chosen from the training data among
     /// [`INTERPOLANTS`]).
-    #[serde(default = "spline_interpolant")]
     pub(crate) interpolant: Option<Interpolant>,
-}
-
-/// The interpolant asked for by models written before it existed: the spline.
-fn spline_interpolant() -> Option<Interpolant> {
-    Some(Interpolant::Spline)
-}
-
-/// The binning factor asked for by models written before it existed: none.
-fn bin_one() -> Option<usize> {
-    Some(1)
-}
-
-/// The binning factor of models written before it existed: 1.
-fn one() -> usize {
-    1
 }
 
 /// The binning factors the automatic choice scores (those that leave an image of at least 3 x 3
@@ -161,30 +144,22 @@ pub struct RefinedSettings {
     /// The parameters as given.
     pub params: RefinedParams,
     /// The binning factor of every image the model takes (1: none).
-    #[serde(default = "one")]
     pub bin: usize,
     /// The automatic choice of the binning factor: each candidate with its held-out error
     /// (degrees), as [`Self::selection`]'s least and [`Self::plain_error`] (empty when fixed).
-    #[serde(default)]
     pub bin_selection: Vec<(usize, f64)>,
     /// The standard error of the least of [`Self::bin_selection`]'s errors: the coarsest factor
-    /// within it of the least was chosen ([`select::coarsest_within`]; 0 when fixed, and in
-    /// models written before it, which took the least).
-    #[serde(default)]
+    /// within it of the least was chosen ([`select::coarsest_within`]; 0 when fixed).
     pub bin_tolerance: f64,
-    /// How the surface interpolates between knots (the spline in models written before the
-    /// choice existed).
-    #[serde(default)]
+    /// How the surface interpolates between knots.
     pub interpolant: Interpolant,
     /// The automatic choice of the interpolant: each candidate with its least held-out error
     /// (degrees) on the chosen binning factor's images (empty when fixed).
-    #[serde(default)]
     pub interpolant_selection: Vec<(Interpolant, f64)>,
     /// Eigenimages kept, L.
     pub components: usize,
-    /// Eigenimages of the weighted search of a clean query (the first ones; 0: all). The rest
-    /// serve only noisy queries (the affine match, up to all L).
-    #[serde(default)]
+    /// Eigenimages of the weighted search of a clean query (the first ones, at least one). The
+    /// rest serve only noisy queries (the affine match, up to all L).
     pub search_components: usize,
     /// Fraction of the training energy (about the mean) they hold.
     pub energy_kept: f64,
@@ -196,47 +171,35 @@ pub struct RefinedSettings {
     /// The held-out error of the plain (unweighted) search in the first 20 coordinates, the
     /// eigenspace's metric; when below every weighted L's, the model uses it for every query
     /// (None when not scored).
-    #[serde(default)]
     pub plain_error: Option<f64>,
     /// Each coordinate's mean squared interpolation error over held-out knots (empty when the
     /// coordinates are not weighted).
-    #[serde(default)]
     pub interpolation_variance: Vec<f64>,
     /// The training images' mean squared distance from the eigenspace (unit energy, mean
     /// subtracted): the discarded eigenvalues over N. A query further off than this carries
     /// noise, estimated per query (see the module doc).
-    #[serde(default)]
     pub residual_energy: f64,
     /// The noise threshold ([`select::noise_threshold`]): between the largest pixel-noise
     /// estimate ([`pixel_noise`](crate::pixel_noise::pixel_noise)) of a training image and the smallest of the training images
     /// with simulated noise. A query above it is treated as noisy and takes the affine match (0:
     /// never).
-    #[serde(default)]
     pub noise_threshold: f64,
     /// Eigenimages of the affine match of a noisy query (the first ones).
-    #[serde(default)]
     pub noise_components: usize,
     /// Whether the noisy match weights each coordinate by 1 / (sigma_l^2 + floor + nu).
-    #[serde(default)]
     pub noise_weighted: bool,
     /// Each of the L coordinates' interpolation variance (unscaled, as `interpolation_variance`,
     /// but for all L), which weights the noisy match (empty when no knots could be held out).
-    #[serde(default)]
     pub coord_variance: Vec<f64>,
     /// The automatic choice of the noisy match: each candidate (L, weighted) with the mean pose
     /// error (degrees) of the held-out training views under simulated noise
     /// ([`select::NOISE_LEVELS`]).
-    #[serde(default)]
     pub noise_selection: Vec<(usize, bool, f64)>,
 }
 
 impl RefinedSettings {
     /// Eigenimages of the weighted search.
     pub fn search(&self) -> usize {
-        if self.search_components == 0 || self.search_components > self.components {
-            self.components
-        } else {
-            self.search_components
-        }
+        self.search_components
     }
 }
