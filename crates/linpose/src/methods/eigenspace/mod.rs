@@ -44,16 +44,16 @@
 pub mod kdtree;
 pub mod manifold;
 pub mod pca;
+pub(crate) mod projector;
 pub mod search;
 pub mod spline;
 
 use crate::dataset::Dataset;
-use crate::kernels::{dot_q, dot_u8, AlignedF32, Level};
+use crate::kernels::{dot_q, dot_u8, Level};
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::{Error, Result};
-use faer::linalg::matmul::matmul;
-use faer::{Accum, MatMut, MatRef, Par};
 use manifold::{pose_of, Grid, Manifold};
+use projector::{unit_coords, Projector};
 pub use pca::Dimension;
 use rayon::prelude::*;
 use search::NearestIndex;
@@ -241,8 +241,10 @@ impl Estimator for EigenspaceParams {
 pub struct EigenspaceModel {
     meta: ModelMeta,
     settings: EigenspaceSettings,
-    /// L x M, row-major; 64-byte aligned, so the 8-bit products read it in place.
-    basis: AlignedF32,
+    /// The basis (L x M, row-major; 64-byte aligned, so the 8-bit products read it in place),
+    /// with its 16-bit fixed-point form for 8-bit queries where [`dot_q::fast`] (derived, not
+    /// stored in the file).
+    proj: Projector,
     /// M.
     mean: Vec<f32>,
     /// u_l . mean, subtracted from each projection (summed in f64 from the f32 values, so a model
@@ -253,9 +255,6 @@ pub struct EigenspaceModel {
     /// Sample positions per pose parameter.
     axes: Vec<Vec<f64>>,
     index: NearestIndex,
-    /// The basis in 16-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived, not
-    /// stored in the file).
-    quant: dot_q::FastRows,
 }
 
 impl EigenspaceModel {
@@ -264,9 +263,10 @@ impl EigenspaceModel {
         let index = NearestIndex::new(&points, l, settings.params.search)?;
         settings.search = index.kind();
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
-        let mean_proj = basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
-        let quant = dot_q::FastRows::new(&basis, m);
-        Ok(EigenspaceModel { meta, settings, basis: AlignedF32::new(&basis), mean, mean_proj, points, axes, index, quant })
+        let rows = 0..basis.len() / m;
+        let proj = Projector::new(&basis, m).with_u8(rows.clone());
+        let mean_proj = proj.dots_f64(&rows, &mean);
+        Ok(EigenspaceModel { meta, settings, proj, mean, mean_proj, points, axes, index })
     }
 
     /// The settings as given and as resolved.
@@ -281,7 +281,12 @@ impl EigenspaceModel {
 
     /// The eigenimages, one row of M values each (L x M).
     pub fn basis(&self) -> &[f32] {
-        &self.basis
+        self.proj.rows()
+    }
+
+    /// The basis's rows in [`Self::proj`]: all of them.
+    fn eigen(&self) -> std::ops::Range<usize> {
+        0..self.components()
     }
 
     /// The mean unit-energy training image.
@@ -330,7 +335,7 @@ impl EigenspaceModel {
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
         if n >= 8 {
-            let rows = u8_task_rows(n, self.quant.block(level));
+            let rows = u8_task_rows(n, self.proj.u8_block(level, &self.eigen()));
             queries
                 .par_chunks(rows * m)
                 .zip(out.par_chunks_mut(rows * l))
@@ -341,13 +346,14 @@ impl EigenspaceModel {
         Ok(())
     }
 
-    /// At most [`U8_BATCH`] 8-bit queries: the products by [`dot_q::FastRows::dots_batch`] (the
-    /// same bits as its kernel one image at a time), then each row scaled as in `project_one_u8`.
+    /// At most [`U8_BATCH`] 8-bit queries: the products by the batch kernel
+    /// ([`Projector::u8_batch`], the same bits as its kernel one image at a time), then each row
+    /// scaled as in `project_one_u8`.
     fn project_u8_batch(&self, level: Level, queries: &[u8], out: &mut [f32], scratch: &mut dot_q::Scratch) {
         let m = self.mean.len();
         let mut energy = [0u64; U8_BATCH];
         let energy = &mut energy[..queries.len() / m];
-        self.quant.dots_batch(level, queries, m, &self.basis, out, energy, scratch);
+        self.proj.u8_batch(level, &self.eigen(), queries, out, energy, scratch);
         for (y, &ss) in out.chunks_exact_mut(self.components()).zip(energy.iter()) {
             self.scale(ss, y);
         }
@@ -355,7 +361,7 @@ impl EigenspaceModel {
 
     #[inline]
     fn project_one_u8(&self, level: Level, x: &[u8], y: &mut [f32]) {
-        self.quant.dots(level, x, &self.basis, y);
+        self.proj.u8_one(level, &self.eigen(), x, y);
         self.scale_u8(x, y);
     }
 
@@ -369,10 +375,7 @@ impl EigenspaceModel {
     /// As `scale_u8`, given the query's sum of squared pixel values.
     #[inline]
     fn scale(&self, ss: u64, y: &mut [f32]) {
-        if ss > 0 {
-            let inv = (1.0 / (ss as f64).sqrt()) as f32;
-            y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
-        } else {
+        if unit_coords(ss as f64, &self.mean_proj, y).is_none() {
             y.fill(f32::NAN);
         }
     }
@@ -382,16 +385,9 @@ impl EigenspaceModel {
     /// each row scaled by 1 / ||x|| and shifted by u_l . mean.
     fn project_chunk(&self, queries: &[f32], out: &mut [f32]) {
         let (l, m) = (self.components(), self.mean.len());
-        let n = queries.len() / m;
-        let q = MatRef::from_row_major_slice(queries, n, m);
-        let ut = MatRef::from_column_major_slice(&self.basis, m, l);
-        matmul(MatMut::from_row_major_slice_mut(out, n, l), Accum::Replace, q, ut, 1.0f32, Par::Seq);
+        self.proj.f32_products(&self.eigen(), queries, out);
         for (x, y) in queries.chunks_exact(m).zip(out.chunks_exact_mut(l)) {
-            let norm = crate::linalg::energy(x).sqrt();
-            if norm > 0.0 && norm.is_finite() {
-                let inv = (1.0 / norm) as f32;
-                y.iter_mut().zip(&self.mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
-            } else {
+            if unit_coords(crate::linalg::energy(x), &self.mean_proj, y).is_none() {
                 y.fill(f32::NAN);
             }
         }
@@ -489,7 +485,7 @@ impl PoseModel for EigenspaceModel {
             }
         };
         if n >= 8 {
-            let rows = u8_task_rows(n, self.quant.block(level));
+            let rows = u8_task_rows(n, self.proj.u8_block(level, &self.eigen()));
             queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
                 || (dot_q::Scratch::default(), vec![0f32; rows * l]),
                 |(scratch, y), (q, o)| {
@@ -515,7 +511,7 @@ impl PoseModel for EigenspaceModel {
     /// Every stored number: (manifold points + basis + mean) x 4 bytes, plus the manifold's sample
     /// positions (8 bytes each), which turn a point's index into its pose.
     fn model_bytes(&self) -> usize {
-        (self.points.len() + self.basis.len() + self.mean.len()) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
+        (self.points.len() + self.basis().len() + self.mean.len()) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
     }
 
     fn storage(&self) -> Storage {
@@ -528,7 +524,7 @@ impl PoseModel for EigenspaceModel {
         let mut shape = self.settings.manifold_shape.clone();
         shape.push(l);
         let mut v = vec![
-            Tensor::f32("basis", vec![l, m], self.basis.to_vec()),
+            Tensor::f32("basis", vec![l, m], self.basis().to_vec()),
             Tensor::f32("mean", vec![m], self.mean.clone()),
             Tensor::f32("manifold", shape, self.points.clone()),
         ];

@@ -9,7 +9,8 @@ use super::surface::Surface;
 use super::fit::search_scale;
 use super::METHOD;
 use crate::binning::Binning;
-use crate::kernels::{dot_q, dot_w, AlignedF32, Level};
+use crate::kernels::{dot_q, Level};
+use crate::methods::eigenspace::projector::Projector;
 use crate::model::{Method, ModelMeta, PoseModel, Storage, Tensor, TensorSet};
 use crate::pose::wrap_positive;
 use crate::Result;
@@ -23,18 +24,11 @@ pub struct RefinedModel {
     /// The mean image, then the L eigenimages (rows of M, scaled): one matrix, so that the
     /// rows a query's route takes are one range of it ([`Self::clean_rows`]: the mean's, for
     /// the residual, and the clean search's L_s; [`Self::noisy_rows`]: the noisy match's L;
-    /// [`Self::extra_range`]: the L past L_s), each one pass; 64-byte aligned, so the 8-bit
-    /// products read it in place.
-    pub(crate) rows: AlignedF32,
-    /// The clean rows in 16-bit fixed point, for 8-bit queries where [`dot_q::fast`] (derived,
-    /// not stored in the file); none when `words` serves.
-    pub(crate) quant: dot_q::FastRows,
-    /// The extra rows ([`Self::extra_range`]) as `quant`.
-    pub(crate) quant_x: dot_q::FastRows,
-    /// For a model that bins, where [`dot_q::fast`]: the clean and noisy rows in 16-bit fixed
-    /// point for the 16-bit block sums of 8-bit queries ([`dot_w`]; derived, not stored in the
-    /// file).
-    pub(crate) words: Option<Words>,
+    /// [`Self::extra_range`]: the L past L_s), each one pass. With their forms for 8-bit
+    /// queries (derived, not stored in the file): for a model that bins, where [`dot_q::fast`],
+    /// the clean and noisy rows for the 16-bit block sums ([`crate::kernels::dot_w`]); otherwise
+    /// the clean and extra rows in 16-bit fixed point for the 8-bit products.
+    pub(crate) proj: Projector,
     /// The training views' mean residual energy off the clean search's L_s coordinates (the
     /// stored `residual_energy`, off all L, plus the knots' mean square in coordinates L_s..L):
     /// the level of a clean query's residual that means no noise.
@@ -78,14 +72,6 @@ pub struct RefinedModel {
     pub(crate) noisy_tree: Option<NoisyTree>,
 }
 
-/// A binned model's rows for [`dot_w`] ([`RefinedModel`]'s `words`): the clean rows, and the
-/// noisy rows when they differ (none: the same rows, no mean and L = L_s).
-#[derive(Debug, Clone)]
-pub(crate) struct Words {
-    pub(crate) clean: dot_w::WordRows,
-    pub(crate) noisy: Option<dot_w::WordRows>,
-}
-
 impl RefinedModel {
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
@@ -118,7 +104,6 @@ impl RefinedModel {
             bg_surface.eval(t, &mut f, None);
             f.iter().enumerate().for_each(|(c, &v)| bg_start[c * n_start + i] = v as f32);
         }
-        let mean_proj = basis.chunks_exact(m).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum::<f64>() as f32).collect();
         let mean_sq = mean.iter().map(|&v| v as f64 * v as f64).sum();
         let ls = settings.search();
         let sigma2 = (settings.interpolation_variance.len() == ls).then_some(&settings.interpolation_variance[..]);
@@ -134,21 +119,19 @@ impl RefinedModel {
         // Only the clean coarse scan reads the boxes; the lattice and the tree replace it.
         let scanned = lattice.is_none() && tree.is_none();
         let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };
-        let rows = [mean, basis].concat();
+        let n_rows = 1 + basis.len() / m;
+        let mut proj = Projector::new(&[mean, basis].concat(), m);
+        let mean_proj = proj.dots_f64(&(1..n_rows), &proj.rows()[..m]);
         // The rows of each route (as clean_rows, noisy_rows, extra_range): the mean's only when
         // the residual is used.
         let r = uses_residual(&settings) as usize;
-        let (clean, noisy, extra) = (&rows[(1 - r) * m..(1 + ls) * m], &rows[m..(1 + l) * m], &rows[(1 + ls) * m..]);
-        let words = (binning.bins() && dot_q::fast(Level::detect()))
-            .then(|| {
-                let w = |r: &[f32]| dot_w::WordRows::new(r, m, binning.max_sum());
-                let clean = w(clean)?;
-                let noisy = if noisy.len() == clean.rows() * m && r == 0 { None } else { Some(w(noisy)?) };
-                Some(Words { clean, noisy })
-            })
-            .flatten();
-        let fast = |r: &[f32]| if words.is_some() || r.is_empty() { dot_q::FastRows::default() } else { dot_q::FastRows::new(r, m) };
-        let (quant, quant_x) = (fast(clean), fast(extra));
+        let (clean, noisy, extra) = (1 - r..1 + ls, 1..1 + l, 1 + ls..n_rows);
+        if binning.bins() && dot_q::fast(Level::detect()) {
+            proj = proj.with_words(&[clean.clone(), noisy], binning.max_sum());
+        }
+        if !proj.has_words() {
+            proj = proj.with_u8(clean).with_u8(extra);
+        }
         // Coordinates L_s.. are unscaled (search_scale), and the knots are the training views
         // (a full grid, one view a point): their mean square is the eigenvalue over N.
         let nk = knots.len() / l.max(1);
@@ -157,11 +140,8 @@ impl RefinedModel {
         Ok(RefinedModel {
             meta,
             settings,
-            quant,
-            quant_x,
-            words,
+            proj,
             clean_residual_energy,
-            rows: AlignedF32::new(&rows),
             m,
             binning,
             mean_proj,
@@ -326,7 +306,7 @@ impl PoseModel for RefinedModel {
     /// values and slopes (2^D N L), the coarse start points with their poses, the knot positions,
     /// the lattice search or the coarse tree with its poses.
     fn model_bytes(&self) -> usize {
-        (self.rows.len()
+        (self.proj.rows().len()
             + self.mean_proj.len()
             + self.surface.len()
             + self.bg_surface.len()
@@ -346,8 +326,8 @@ impl PoseModel for RefinedModel {
         let mut shape = self.settings.knot_shape.clone();
         shape.push(l);
         let mut v = vec![
-            Tensor::f32("basis", vec![l, m], self.rows[m..].to_vec()),
-            Tensor::f32("mean", vec![m], self.rows[..m].to_vec()),
+            Tensor::f32("basis", vec![l, m], self.proj.rows()[m..].to_vec()),
+            Tensor::f32("mean", vec![m], self.proj.rows()[..m].to_vec()),
             Tensor::f32("knots", shape.clone(), self.knots.clone()),
             Tensor::f32("background", shape, self.background.clone()),
         ];

@@ -139,7 +139,7 @@ impl RefinedModel {
         let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
-        let block = if self.words_at(level).is_some() { dot_w::BLOCK } else { self.quant.block(level) };
+        let block = if self.words_at(level) { dot_w::BLOCK } else { self.proj.u8_block(level, &self.clean_rows()) };
         let rows = if n >= 8 { crate::methods::eigenspace::u8_task_rows(n, block) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             if self.binning.bins() {

@@ -2,7 +2,7 @@
 //! or as two 8-bit digit planes.
 
 use super::{scatter, selected};
-use crate::methods::refined::model::{RefinedModel, Words};
+use crate::methods::refined::model::RefinedModel;
 use crate::methods::refined::query::NoiseWant;
 use crate::methods::refined::scratch::{BinScratch, QueryScratch, BIN_SCRATCH};
 use crate::kernels::{dot_q, dot_w, Level};
@@ -14,9 +14,10 @@ use crate::pixel_noise::{pixel_variance_u8_in, RowsU8};
 const BIN_SUB_U8: usize = 4 * dot_w::BLOCK;
 
 impl RefinedModel {
-    /// The 16-bit product rows when 8-bit queries at `level` take them (a model that bins, VNNI).
-    pub(crate) fn words_at(&self, level: Level) -> Option<&Words> {
-        self.words.as_ref().filter(|_| dot_q::fast(level))
+    /// Whether 8-bit queries at `level` take the 16-bit products of block sums (a model that
+    /// bins, VNNI).
+    pub(crate) fn words_at(&self, level: Level) -> bool {
+        self.proj.has_words() && dot_q::fast(level)
     }
 
     /// [`Self::project_u8`] for a model that bins: each image's block sums, exact in integers
@@ -54,33 +55,30 @@ impl RefinedModel {
                 (e_binned, pv * m as f64 / e_full, pv)
             };
             let mut sel = std::mem::take(&mut s.xidx);
-            match words {
+            match words.then(|| self.proj.words(&self.clean_rows()).expect("the clean rows' 16-bit form")) {
                 // In sub-chunks whose sums are still cached for the products; each query routed
                 // first, then its route's rows alone (the clean ones' mean and L_s, the noisy
                 // ones' L), each route's queries copied apart when the sub-chunk mixes them.
-                Some(wd) => {
-                    let steps = wd.clean.steps();
+                Some(wc) => {
+                    let steps = wc.steps();
                     for (c, xq) in queries.chunks(BIN_SUB_U8 * m).enumerate() {
                         let (i0, nn) = (c * BIN_SUB_U8, xq.len() / m);
-                        wd.clean.lines_of(nn, lines);
+                        wc.lines_of(nn, lines);
                         let values = dot_w::WordRows::values_mut(lines);
                         for ((i, x), v) in (i0..).zip(xq.chunks_exact(m)).zip(values.chunks_exact_mut(steps * dot_w::STEP)) {
                             (s.energy[i], s.route[i], s.pv_full[i]) = sum_one(x, v);
                             s.noisy[i] = self.routed_noisy(noise, s.route[i]);
                         }
                         let (two, one);
-                        let routes: &[(Option<bool>, &dot_w::WordRows, std::ops::Range<usize>)] = match &wd.noisy {
-                            Some(wn) => {
-                                two = [(Some(false), &wd.clean, self.clean_rows()), (Some(true), wn, self.noisy_rows())];
-                                &two
-                            }
+                        let routes: &[(Option<bool>, std::ops::Range<usize>)] = if self.clean_rows() != self.noisy_rows() {
+                            two = [(Some(false), self.clean_rows()), (Some(true), self.noisy_rows())];
+                            &two
+                        } else {
                             // The same rows for both routes: one pass.
-                            None => {
-                                one = [(None, &wd.clean, self.clean_rows())];
-                                &one
-                            }
+                            one = [(None, self.clean_rows())];
+                            &one
                         };
-                        for (route, wr, rr) in routes.iter().cloned() {
+                        for (route, rr) in routes.iter().cloned() {
                             sel.clear();
                             sel.extend((0..nn).filter(|&j| route.is_none_or(|r| s.noisy[i0 + j] == r)));
                             let k = rr.len();
@@ -89,7 +87,7 @@ impl RefinedModel {
                                 continue;
                             }
                             s.xout.resize(nx * k, 0.0);
-                            wr.dots_batch(level, src, &mut s.xout, idx);
+                            self.proj.words_products(level, &rr, src, &mut s.xout, idx);
                             scatter(&s.xout, k, Some(&sel[..]), i0, 1 + l, rr.start, &mut s.raw);
                         }
                     }
@@ -108,11 +106,11 @@ impl RefinedModel {
                         }
                     }
                     // Every query's clean rows, then the noisy ones' extra rows.
-                    self.planes_pass(level, &self.quant, self.clean_rows(), &planes[..2 * n * mb], None, raw, energy, s);
+                    self.planes_pass(level, self.clean_rows(), &planes[..2 * n * mb], None, raw, energy, s);
                     if self.extra_rows() > 0 {
                         sel.clear();
                         sel.extend((0..n).filter(|&i| s.noisy[i]));
-                        self.planes_pass(level, &self.quant_x, self.extra_range(), &planes[..2 * n * mb], Some(&sel[..]), raw, energy, s);
+                        self.planes_pass(level, self.extra_range(), &planes[..2 * n * mb], Some(&sel[..]), raw, energy, s);
                     }
                 }
             }
@@ -121,7 +119,7 @@ impl RefinedModel {
                 // The noisy match's nu in units of the block sums (b^2 times a binned pixel's
                 // mean): a pixel's noise pv gives a block mean's pv / b^2, a block sum's b^2 pv.
                 let energy = s.energy[i] as f64;
-                let mean = words.is_none() || !s.noisy[i];
+                let mean = !words || !s.noisy[i];
                 (s.resid[i], _) = self.finish_query(i, mean, energy, 0.0, s);
                 s.noise[i] = b2 * s.pv_full[i] / energy;
             }
@@ -130,14 +128,12 @@ impl RefinedModel {
 
     /// The products of binned 8-bit queries given as digit planes (`planes`: per query its low
     /// then its high plane, of M each; those at `sel` when given, else all) with the rows `rr`
-    /// by `fr` (those rows in 16-bit fixed point) into `s.raw` as [`Self::pass_f32`]: each
-    /// plane as an image (`raw` and `energy` hold their products and sums of squares), a
-    /// query's products low + 256 high.
+    /// into `s.raw` as [`Self::pass_f32`] ([`Projector::planes_products`](crate::methods::eigenspace::projector::Projector::planes_products); `raw` and `energy`
+    /// hold the planes' products and sums of squares).
     #[allow(clippy::too_many_arguments)]
     fn planes_pass(
         &self,
         level: Level,
-        fr: &dot_q::FastRows,
         rr: std::ops::Range<usize>,
         planes: &[u8],
         sel: Option<&[usize]>,
@@ -150,21 +146,8 @@ impl RefinedModel {
         if nx == 0 || k == 0 {
             return;
         }
-        let rows = &self.rows[rr.start * mb..rr.end * mb];
-        raw.resize(2 * nx * k, 0.0);
-        energy.resize(2 * nx, 0);
-        if 2 * nx >= 8 {
-            fr.dots_batch(level, src, mb, rows, raw, energy, &mut s.products);
-        } else {
-            for (x, r) in src.chunks_exact(mb).zip(raw.chunks_exact_mut(k)) {
-                fr.dots(level, x, rows, r);
-            }
-        }
         s.xout.resize(nx * k, 0.0);
-        for (o, pair) in s.xout.chunks_exact_mut(k).zip(raw.chunks_exact(2 * k)) {
-            let (lo, hi) = pair.split_at(k);
-            o.iter_mut().zip(lo.iter().zip(hi)).for_each(|(r, (&a, &b))| *r = a + 256.0 * b);
-        }
+        self.proj.planes_products(level, &rr, src, &mut s.xout, raw, energy, &mut s.products);
         scatter(&s.xout, k, sel, 0, 1 + self.components(), rr.start, &mut s.raw);
     }
 }

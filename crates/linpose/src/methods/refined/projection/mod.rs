@@ -7,9 +7,8 @@ use super::model::RefinedModel;
 use super::query::NoiseWant;
 use super::scratch::QueryScratch;
 use crate::kernels::{dot_q, dot_u8, Level};
+use crate::methods::eigenspace::projector::unit_coords;
 use crate::pixel_noise::{pixel_variance_in, pixel_variance_u8_in, RowsF32, RowsU8};
-use faer::linalg::matmul::matmul;
-use faer::{Accum, MatMut, MatRef, Par};
 
 /// The items of `xs` (runs of `m`) at `sel` (all when None) and their count: `xs` itself when
 /// those are all of them, else a copy of them in `buf`.
@@ -64,16 +63,13 @@ impl RefinedModel {
             return;
         }
         s.xout.resize(nx * k, 0.0);
-        let ut = MatRef::from_column_major_slice(&self.rows[rr.start * m..rr.end * m], m, k);
-        matmul(MatMut::from_row_major_slice_mut(&mut s.xout, nx, k), Accum::Replace, MatRef::from_row_major_slice(src, nx, m), ut, 1.0f32, Par::Seq);
+        self.proj.f32_products(&rr, src, &mut s.xout);
         scatter(&s.xout, k, sel, i0, kr, rr.start, &mut s.raw);
     }
 
-    /// As [`Self::pass_f32`] for 8-bit images of M pixel values, by `fr` (the rows `rr` in
-    /// 16-bit fixed point, see [`dot_q::FastRows`]): from 8 queries on in one batch, else one at
-    /// a time; their sums of squares into `s.xenergy` (by selected query).
-    #[allow(clippy::too_many_arguments)]
-    fn pass_u8(&self, level: Level, fr: &dot_q::FastRows, xq: &[u8], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
+    /// As [`Self::pass_f32`] for 8-bit images of M pixel values ([`Projector::u8_products`](crate::methods::eigenspace::projector::Projector::u8_products));
+    /// their sums of squares into `s.xenergy` (by selected query).
+    fn pass_u8(&self, level: Level, xq: &[u8], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
         let (m, kr, k) = (self.m, 1 + self.components(), rr.len());
         let (src, nx) = selected(xq, m, sel, &mut s.gather_u8);
         if nx == 0 || k == 0 {
@@ -81,15 +77,7 @@ impl RefinedModel {
         }
         s.xout.resize(nx * k, 0.0);
         s.xenergy.resize(nx, 0);
-        let rows = &self.rows[rr.start * m..rr.end * m];
-        if nx >= 8 {
-            fr.dots_batch(level, src, m, rows, &mut s.xout, &mut s.xenergy, &mut s.products);
-        } else {
-            for ((x, r), e) in src.chunks_exact(m).zip(s.xout.chunks_exact_mut(k)).zip(s.xenergy.iter_mut()) {
-                fr.dots(level, x, rows, r);
-                *e = dot_u8::sum_squares(x);
-            }
-        }
+        self.proj.u8_products(level, &rr, src, &mut s.xout, &mut s.xenergy, &mut s.products);
         scatter(&s.xout, k, sel, i0, kr, rr.start, &mut s.raw);
     }
 
@@ -131,7 +119,7 @@ impl RefinedModel {
                 // The product with the mean, where the query takes it, in the pass that sums
                 // its energy.
                 let energy = if take_mean && !(routed && s.noisy[i]) {
-                    let (energy, dot) = crate::linalg::energy_and_dot(x, &self.rows[..m]);
+                    let (energy, dot) = crate::linalg::energy_and_dot(x, &self.proj.rows()[..m]);
                     s.raw[i * (1 + l)] = dot as f32;
                     energy
                 } else {
@@ -174,7 +162,7 @@ impl RefinedModel {
         // In sub-chunks whose images stay in cache from the products to the noise pass.
         for (c, xq) in queries.chunks(NOISE_SUB_U8 * m).enumerate() {
             let (i0, nn) = (c * NOISE_SUB_U8, xq.len() / m);
-            self.pass_u8(level, &self.quant, xq, i0, None, self.clean_rows(), s);
+            self.pass_u8(level, xq, i0, None, self.clean_rows(), s);
             for (i, x) in (i0..).zip(xq.chunks_exact(m)) {
                 s.energy[i] = s.xenergy[i - i0];
                 let energy = s.energy[i] as f64;
@@ -188,7 +176,7 @@ impl RefinedModel {
             if self.extra_rows() > 0 {
                 sel.clear();
                 sel.extend((0..nn).filter(|&j| s.noisy[i0 + j]));
-                self.pass_u8(level, &self.quant_x, xq, i0, Some(&sel[..]), self.extra_range(), s);
+                self.pass_u8(level, xq, i0, Some(&sel[..]), self.extra_range(), s);
             }
             for i in i0..i0 + nn {
                 (s.resid[i], s.noise[i]) = self.finish_query(i, true, s.energy[i] as f64, s.pv[i], s);
@@ -207,15 +195,13 @@ impl RefinedModel {
     fn finish_query(&self, i: usize, mean: bool, energy: f64, pv: f64, s: &mut QueryScratch) -> (f64, f64) {
         let (l, ls) = (self.components(), self.settings.search());
         let y = &mut s.y[i * l..(i + 1) * l];
-        let norm = energy.sqrt();
-        if !(norm > 0.0 && norm.is_finite()) {
-            y.fill(f32::NAN);
-            return (0.0, 0.0);
-        }
         let raw = &s.raw[i * (1 + l)..(i + 1) * (1 + l)];
         let took = if s.noisy[i] { l } else { ls };
-        let inv = (1.0 / norm) as f32;
-        y[..took].iter_mut().zip(&raw[1..1 + took]).zip(&self.mean_proj).for_each(|((v, &r), &c)| *v = r * inv - c);
+        y[..took].copy_from_slice(&raw[1..1 + took]);
+        let Some(norm) = unit_coords(energy, &self.mean_proj[..took], &mut y[..took]) else {
+            y.fill(f32::NAN);
+            return (0.0, 0.0);
+        };
         y[took..].fill(0.0);
         let resid = if mean && self.uses_residual() {
             // Unscaled coordinates: each scaled one's square times 1 / w_l.
