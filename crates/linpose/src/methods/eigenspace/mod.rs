@@ -91,7 +91,7 @@ const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
 /// every thread a few tasks.
-fn chunk_rows(n: usize) -> usize {
+pub(crate) fn chunk_rows(n: usize) -> usize {
     n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
 }
 

@@ -24,7 +24,7 @@ use faer::{Accum, MatMut, MatRef, Par};
 use std::ops::Range;
 
 /// From this many 8-bit images on, a product takes the batch kernel.
-const BATCH_FROM: usize = 8;
+pub(crate) const BATCH_FROM: usize = 8;
 
 /// Rows of M values with the forms of some of their ranges that 8-bit queries take (see the
 /// module doc).

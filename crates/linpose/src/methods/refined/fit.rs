@@ -3,7 +3,8 @@
 
 use super::model::RefinedModel;
 use super::noisy::background_knots;
-use super::params::{RefinedParams, RefinedSettings, BIN_CANDIDATES, WEIGHT_FLOOR};
+use super::params::{RefinedParams, RefinedSettings};
+use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, WEIGHT_FLOOR};
 use super::select;
 use super::METHOD;
 use crate::binning::Binning;
@@ -13,9 +14,6 @@ use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::model::{Estimator, Method, ModelMeta};
 use crate::Result;
 
-/// The most eigenimages the noisy match's choice considers (the eigenspace's default L); the
-/// model keeps only as many as the chosen matches use.
-pub const NOISE_COMPONENTS: usize = 20;
 
 impl Estimator for RefinedParams {
     type Model = RefinedModel;
@@ -68,7 +66,7 @@ impl Estimator for RefinedParams {
         };
         let (l_max, selection, plain_error) = match (self.components, chosen) {
             (None, Some(c)) => (c.components, c.scored, c.plain),
-            (l, _) => (l.unwrap_or(select::FALLBACK_COMPONENTS), Vec::new(), None),
+            (l, _) => (l.unwrap_or(FALLBACK_COMPONENTS), Vec::new(), None),
         };
         // Everything fitted from here on interpolates as the model will.
         let inner = RefinedParams { interpolant: Some(interpolant), ..inner };

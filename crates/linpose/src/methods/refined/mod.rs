@@ -144,6 +144,7 @@ mod projection;
 mod query;
 mod scratch;
 mod search;
+mod tuning;
 pub(crate) mod select;
 pub(crate) mod surface;
 
@@ -152,8 +153,7 @@ pub use model::RefinedModel;
 pub use params::{RefinedParams, RefinedSettings};
 pub use surface::{Interpolant, INTERPOLANTS};
 
-pub(crate) use fit::{Views, NOISE_COMPONENTS};
-pub(crate) use params::MAX_AUTO_COMPONENTS;
+pub(crate) use fit::Views;
 
 #[cfg(test)]
 mod tests;

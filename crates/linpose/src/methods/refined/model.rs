@@ -4,7 +4,8 @@
 use super::search::lattice;
 use super::noisy::{NoiseScan, NoisyTree};
 use super::params::RefinedSettings;
-use super::search::{box_split, CoarseTree, MAX_LATTICE};
+use super::search::{box_split, CoarseTree};
+use super::tuning::{MAX_LATTICE, TREE_STEP};
 use super::surface::Surface;
 use super::fit::search_scale;
 use super::METHOD;
@@ -115,7 +116,7 @@ impl RefinedModel {
             .line_parts()
             .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
-        let tree = if lattice.is_none() { CoarseTree::new(&surface, &meta.space, &axes, ls, 2.0 * step) } else { None };
+        let tree = if lattice.is_none() { CoarseTree::new(&surface, &meta.space, &axes, ls, TREE_STEP * step) } else { None };
         // Only the clean coarse scan reads the boxes; the lattice and the tree replace it.
         let scanned = lattice.is_none() && tree.is_none();
         let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };

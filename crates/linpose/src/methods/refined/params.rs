@@ -2,15 +2,15 @@
 //! what it chose.
 
 use super::surface::Interpolant;
+use super::tuning::{DEFAULT_PER_CELL, DEFAULT_RESOLUTION, DEFAULT_STARTS, MAX_PER_CELL, MAX_STARTS};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
-/// Most eigenimages considered by the automatic choice.
-pub const MAX_AUTO_COMPONENTS: usize = 40;
 
-/// Parameters of the refined eigenspace. The default chooses L from the training data, and
-/// searches from the 8 best of 4 coarse points per knot interval along each axis (fewer starts
-/// left the pot's search in the wrong region: 0.82 degrees clean with 3 of 2, 0.46 with 8 of 4).
+/// Parameters of the refined eigenspace. The default chooses L, the metric, the interpolant and
+/// the binning factor from the training data, reports poses on the 0.5-degree lattice, and where
+/// a local search serves, searches from the best [`DEFAULT_STARTS`] of [`DEFAULT_PER_CELL`]
+/// coarse points per knot interval along each axis.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RefinedParams {
     pub(crate) components: Option<usize>,
@@ -26,16 +26,19 @@ pub struct RefinedParams {
     pub(crate) interpolant: Option<Interpolant>,
 }
 
-/// The binning factors the automatic choice scores (those that leave an image of at least 3 x 3
-/// pixels): each halving of the resolution up to a quarter.
-pub const BIN_CANDIDATES: &[usize] = &[1, 2, 4];
 
-/// The weight floor, relative to the mean interpolation variance.
-pub const WEIGHT_FLOOR: f64 = 0.01;
 
 impl Default for RefinedParams {
     fn default() -> Self {
-        RefinedParams { components: None, starts: 8, per_cell: 4, weighted: true, resolution: 0.5, bin: None, interpolant: None }
+        RefinedParams {
+            components: None,
+            starts: DEFAULT_STARTS,
+            per_cell: DEFAULT_PER_CELL,
+            weighted: true,
+            resolution: DEFAULT_RESOLUTION,
+            bin: None,
+            interpolant: None,
+        }
     }
 }
 
@@ -125,11 +128,11 @@ impl RefinedParams {
         if !(self.resolution.is_finite() && self.resolution >= 0.0) {
             return Err(Error::invalid("resolution", self.resolution, "must be a number of degrees >= 0"));
         }
-        if !(1..=64).contains(&self.starts) {
-            return Err(Error::invalid("starts", self.starts, "must be 1 to 64"));
+        if !(1..=MAX_STARTS).contains(&self.starts) {
+            return Err(Error::invalid("starts", self.starts, format!("must be 1 to {MAX_STARTS}")));
         }
-        if !(1..=16).contains(&self.per_cell) {
-            return Err(Error::invalid("per cell", self.per_cell, "must be 1 to 16"));
+        if !(1..=MAX_PER_CELL).contains(&self.per_cell) {
+            return Err(Error::invalid("per cell", self.per_cell, format!("must be 1 to {MAX_PER_CELL}")));
         }
         if let Some(b) = self.bin.filter(|b| !(1..=crate::binning::MAX_FACTOR).contains(b)) {
             return Err(Error::invalid("bin", b, format!("must be 1 to {}", crate::binning::MAX_FACTOR)));

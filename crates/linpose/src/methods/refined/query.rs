@@ -2,6 +2,9 @@
 //! pixel noise, and given its pose.
 
 use super::model::RefinedModel;
+use super::tuning::NOISE_EARLY;
+use crate::methods::eigenspace::chunk_rows;
+use crate::methods::eigenspace::projector::BATCH_FROM;
 use super::scratch::QueryScratch;
 use crate::kernels::{dot_w, Level};
 use crate::model::batch_len;
@@ -20,22 +23,7 @@ pub(crate) enum NoiseWant {
     Route,
 }
 
-/// Where a staged pixel-noise estimate stops, relative to the model's noise threshold: a query
-/// whose estimate from the first quarter of the sampled rows ([`Pass::First`]) is under half
-/// the threshold is taken as clean without the rest (the estimate from every sampled row, as
-/// unstaged, decides every other). The first quarter's estimate of a noisy image is near the
-/// whole's: on the rendered objects' views (every 4th) and COIL-20's 72 per object under
-/// simulated +-5% and +-10% noise, at least 1.06 times the threshold (COIL-9, whose least whole
-/// estimate is 1.06 times it too), so half leaves a margin of 2. It stops at least 92% of the
-/// clean views of 18 of those 25 objects, 88% of COIL-20's 1440 clean views in all, the least
-/// COIL-17's 53% (whose clean views come to 0.45 times the threshold). (A numpy replica of the
-/// 8-bit estimate on the image files; BENCHMARKS.md, fifteenth session.)
-const NOISE_EARLY: f64 = 0.5;
 
-/// Queries projected and refined together by one rayon task (as the eigenspace chunks them).
-pub(crate) fn chunk_rows(n: usize) -> usize {
-    n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
-}
 
 /// The error for the first query left NaN (zero or non-finite energy), if any.
 fn no_black_query(out: &[f64], p: usize) -> Result<()> {
@@ -140,7 +128,7 @@ impl RefinedModel {
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
         let block = if self.words_at(level) { dot_w::BLOCK } else { self.proj.u8_block(level, &self.clean_rows()) };
-        let rows = if n >= 8 { crate::methods::eigenspace::u8_task_rows(n, block) } else { n };
+        let rows = if n >= BATCH_FROM { crate::methods::eigenspace::u8_task_rows(n, block) } else { n };
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
             if self.binning.bins() {
                 self.project_u8_binned(level, q, noise, s);

@@ -31,7 +31,8 @@
 //! When no axis has enough knots (fewer than 4), L falls back to [`FALLBACK_COMPONENTS`], the
 //! eigenspace's default, and the interpolant to the spline.
 
-use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, MAX_AUTO_COMPONENTS, METHOD};
+use super::tuning::{CANDIDATES, FALLBACK_COMPONENTS, MAX_AUTO_COMPONENTS, MIN_FOLD_KNOTS, NOISE_BLOCK, NOISE_COMPONENTS, NOISE_LEVELS, NOISE_SEED, QUERY_OVERHEAD_ROWS};
+use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, METHOD};
 use crate::dataset::Dataset;
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
@@ -39,11 +40,7 @@ use crate::model::{ModelMeta, PoseModel};
 use crate::Result;
 use rayon::prelude::*;
 
-/// L when the training grid is too small to hold views out.
-pub const FALLBACK_COMPONENTS: usize = 20;
 
-/// The candidates for L, capped by what the held-out fits can give.
-pub const CANDIDATES: &[usize] = &[8, 12, 16, 20];
 
 /// The held-out folds of `grid`: for each usable axis, which training samples are kept (every
 /// other knot held out, the odd ones).
@@ -68,7 +65,7 @@ fn folds_of(train: &Dataset, grid: &Grid, parity: usize) -> Vec<Vec<bool>> {
     let mut out = Vec::new();
     for j in 0..d {
         let n = shape[j];
-        if n < 4 {
+        if n < MIN_FOLD_KNOTS {
             continue;
         }
         let circular = train.space().params()[j].period.is_some();
@@ -122,7 +119,7 @@ pub struct Choice {
 
 /// Chooses L for `params` on `train` (laid out on `grid`) on images binned by `bin` (which bounds L, [`below_eigenspace`]),
 /// and when `params` weights the coordinates, also the mean held-out error of the plain
-/// (unweighted) search in [`super::NOISE_COMPONENTS`] coordinates (within that bound): the
+/// (unweighted) search in [`NOISE_COMPONENTS`] coordinates (within that bound): the
 /// eigenspace's own metric, which the model falls back to when it scores better; and the least
 /// error's standard error, which the choice of the binning factor weighs.
 pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) -> Result<Choice> {
@@ -149,7 +146,7 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
         let (fit, test, sub_grid) = split(train, keep)?;
         let pca = pca::fit(&fit, Dimension::Fixed(MAX_AUTO_COMPONENTS))?;
         let l_max = pca.dim();
-        let plain_l = super::NOISE_COMPONENTS.min(l_max).min(below);
+        let plain_l = NOISE_COMPONENTS.min(l_max).min(below);
         // The interpolants on this fold's eigenspace, side by side (each model's trees and
         // tables are built on one thread).
         tallies.par_iter_mut().zip(&interpolants).try_for_each(|(tally, &interpolant)| -> Result<()> {
@@ -230,14 +227,9 @@ impl Tally {
     }
 }
 
-/// A query's work besides its product with the eigenimages, in rows of that product on the
-/// image as given: the mean's row (the weighted metric's residual), the pixel-noise pass and the
-/// search. perf of COIL-9's unbinned 8-bit queries (plain metric, 16 rows), samples over one
-/// row's: the noise pass 1.3, the lattice search 1.0; with the mean's row 3.3, rounded up.
-pub const QUERY_OVERHEAD_ROWS: usize = 4;
 
 /// The most eigenimages whose query on images binned by `bin` costs less than the eigenspace's
-/// product ([`super::NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels):
+/// product ([`NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels):
 /// the largest of [`CANDIDATES`] with L + [`QUERY_OVERHEAD_ROWS`] under NOISE_COMPONENTS bin^2
 /// (the eigenspace's own mean row and tree not counted, a margin for timing noise). Unbinned,
 /// 12. At 20 the plain metric's query was the eigenspace's own product plus the noise route and
@@ -245,7 +237,7 @@ pub const QUERY_OVERHEAD_ROWS: usize = 4;
 /// eigenspace's samples on COIL-9's 8-bit queries, but 0.90-1.04 of its time in nine timed runs
 /// (twenty-first session, BENCHMARKS.md).
 pub fn below_eigenspace(bin: usize) -> usize {
-    let bound = super::NOISE_COMPONENTS * bin * bin;
+    let bound = NOISE_COMPONENTS * bin * bin;
     CANDIDATES.iter().copied().filter(|&l| l + QUERY_OVERHEAD_ROWS < bound).max().unwrap_or(CANDIDATES[0])
 }
 
@@ -306,12 +298,7 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
     }
 }
 
-/// The noise amplitudes (fractions of full brightness, uniform noise clipped to [0, 1]) under
-/// which the noisy match is chosen: the paper's +-5% and +-10% (Fig. 4).
-pub const NOISE_LEVELS: &[f64] = &[0.05, 0.1];
 
-/// Seed of the simulated noise on held-out training views.
-pub const NOISE_SEED: u64 = 0x5e1ec7;
 
 /// Chooses the match of noisy queries ([`RefinedModel`]'s affine match) from the training views
 /// alone: on the folds of [`folds`], the held-out views get simulated uniform noise at each of
@@ -328,7 +315,7 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
     }
     let space = train.space();
     let d = space.len();
-    let l_fit = super::NOISE_COMPONENTS.min(l_cap);
+    let l_fit = NOISE_COMPONENTS.min(l_cap);
     let mut scores: Vec<(usize, bool, f64, usize)> = Vec::new();
     let cap = error_cap(grid);
     for keep in &folds {
@@ -388,8 +375,6 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
     Ok(best.map(|(c, w, _)| (c, w, scored.clone())))
 }
 
-/// Rows of training images given simulated noise at once by [`noise_threshold`].
-const NOISE_BLOCK: usize = 64;
 
 /// The noise threshold of a clean query ([`RefinedSettings::noise_threshold`]), from the training
 /// images alone: `clean`, the largest [`crate::pixel_noise::pixel_noise`] of a training image, and `noisy`,

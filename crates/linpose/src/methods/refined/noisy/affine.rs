@@ -2,6 +2,7 @@
 //! gain and a free offset along a second surface, solved in closed form.
 
 use crate::methods::refined::surface::BLOCK_DIM;
+use crate::methods::refined::tuning::DEGENERATE;
 
 /// Where a query's coordinates `z` meet the surface `alpha (f(t) + c) + beta g(t)` with the gain
 /// alpha and the offset beta fitted (weighted least squares, `wt`) for each pose: the affine
@@ -83,7 +84,7 @@ impl AffineQuery {
 /// m = f + c, and z.z.
 fn affine_solve(zz: f64, [a, b, cc, u, v]: [f64; 5]) -> (f64, [f64; 2]) {
     let det = a * cc - b * b;
-    if det > 1e-9 * a * cc && det > 0.0 {
+    if det > DEGENERATE * a * cc && det > 0.0 {
         let (al, be) = ((cc * u - b * v) / det, (a * v - b * u) / det);
         ((zz - al * u - be * v).max(0.0), [al, be])
     } else if a > 0.0 {

@@ -10,16 +10,15 @@ pub(crate) use scan::NoiseScan;
 pub(crate) use tree::NoisyTree;
 
 use super::model::RefinedModel;
-use super::params::WEIGHT_FLOOR;
-use super::query::{chunk_rows, NoiseWant};
+use super::tuning::{BIAS_AMPLITUDE, WEIGHT_FLOOR};
+use super::query::NoiseWant;
+use crate::methods::eigenspace::chunk_rows;
 use super::scratch::{QueryScratch, SEARCH_SCRATCH};
 use super::search::smallest;
 use super::fit::Views;
 use crate::Result;
 use rayon::prelude::*;
 
-/// Reference amplitude of [`clip_bias_shape`].
-pub const BIAS_AMPLITUDE: f32 = 0.1;
 
 /// How uniform noise of +-a clipped to [0, 1] moves a pixel of value v on average, up to the
 /// factor a / 4: E[clip(v + n)] - v = (a / 4) (1 - v / a)^2 for v < a (brightening, 1 on black),

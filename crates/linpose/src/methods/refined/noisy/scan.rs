@@ -1,6 +1,7 @@
 //! The noisy scan: the affine fit at every coarse point, pruned on the leading coordinates.
 
 use crate::kernels::Level;
+use crate::methods::refined::tuning::{DEGENERATE, NOISE_SCAN_BLOCK, NOISE_SCAN_SLACK, NOISE_SCAN_SPLIT_FROM, START_RATIO};
 use crate::methods::refined::model::RefinedModel;
 
 /// The coarse scan of the noisy match: the affine fit of [`super::affine_fit`] at every coarse
@@ -57,7 +58,7 @@ impl AffineTables {
             if a[i] > 0.0 {
                 (inv_a[i], b_over_a[i]) = (1.0 / a[i], b[i] / a[i]);
                 let schur = cc[i] - b[i] * b[i] / a[i];
-                if schur > 1e-9 * cc[i] && schur > 0.0 {
+                if schur > DEGENERATE * cc[i] && schur > 0.0 {
                     inv_s[i] = 1.0 / schur;
                 }
             }
@@ -119,10 +120,10 @@ impl NoiseScan {
         self.full.residuals(first..first + 1, &mut u1, &v1, ac, zz);
         // Twice that residual bounds the cut of the starts; the slack covers the rounding of
         // the f32 products (about 1e-6 of z.z) many times over.
-        let cut = (2.0 * u1[0] as f64 * (1.0 + 1e-4) + 1e-4 * zz) as f32;
-        for (b, (ub, vb)) in u.chunks_mut(64).zip(v.chunks_mut(64)).enumerate() {
+        let cut = (START_RATIO as f64 * u1[0] as f64 * (1.0 + NOISE_SCAN_SLACK) + NOISE_SCAN_SLACK * zz) as f32;
+        for (b, (ub, vb)) in u.chunks_mut(NOISE_SCAN_BLOCK).zip(v.chunks_mut(NOISE_SCAN_BLOCK)).enumerate() {
             if ub.iter().fold(false, |hit, &x| hit | !(x > cut)) {
-                let i0 = b * 64;
+                let i0 = b * NOISE_SCAN_BLOCK;
                 crate::kernels::scan::dots2_at(level, &cols[..ln * n], &gcols[..ln * n], n, i0, &a, ub, vb);
                 self.full.residuals(i0..i0 + ub.len(), ub, vb, ac, zz);
             } else {
@@ -159,7 +160,7 @@ impl NoiseScan {
 /// too, so it pays from 16 on: perf of 8-bit +-5% queries, the scan's time over the product
 /// kernel's, pot 1.58 -> 1.23, cap 1.31 -> 1.10 (two runs), but duck (12) 1.61 -> 1.72.
 fn noise_scan_split(ln: usize) -> usize {
-    if ln >= 16 {
+    if ln >= NOISE_SCAN_SPLIT_FROM {
         ln / 2
     } else {
         0

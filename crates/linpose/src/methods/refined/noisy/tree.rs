@@ -2,6 +2,7 @@
 
 use crate::methods::refined::scratch::SEARCH_SCRATCH;
 use crate::methods::refined::surface::Surface;
+use crate::methods::refined::tuning::{SECOND_BASIN_APART, SECOND_BASIN_RATIO};
 
 /// The start of a noisy query's search on a manifold of two or more parameters reported on a
 /// lattice (beside a [`CoarseTree`], on its poses): a k-d tree over the surface points
@@ -58,7 +59,7 @@ impl NoisyTree {
             }
         }
         let periods = space.params().iter().map(|p| p.period).collect();
-        let apart = axes.iter().map(|a| 2.0 * a.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)).collect();
+        let apart = axes.iter().map(|a| SECOND_BASIN_APART * a.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)).collect();
         Some(NoisyTree { tree: crate::methods::eigenspace::kdtree::KdTree::new(&points, ln), scale, dir, periods, apart })
     }
 
@@ -91,7 +92,7 @@ impl NoisyTree {
         // One search for the nearest point and those within twice its squared distance, among
         // which the nearest of another basin (ties to the lower index).
         SEARCH_SCRATCH.with_borrow_mut(|sc| {
-            let (i, _) = self.tree.nearest_and_near(&q[..ln], 2.0, &mut sc.near);
+            let (i, _) = self.tree.nearest_and_near(&q[..ln], SECOND_BASIN_RATIO, &mut sc.near);
             let first = &poses[i * d..(i + 1) * d];
             let away = |k: usize| {
                 poses[k * d..(k + 1) * d].iter().zip(first).zip(periods).zip(apart).any(|(((&a, &b), p), &r)| {

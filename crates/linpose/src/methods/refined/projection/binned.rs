@@ -4,14 +4,11 @@
 use super::{scatter, selected};
 use crate::methods::refined::model::RefinedModel;
 use crate::methods::refined::query::NoiseWant;
+use crate::methods::refined::tuning::BIN_SUB_U8;
 use crate::methods::refined::scratch::{BinScratch, QueryScratch, BIN_SCRATCH};
 use crate::kernels::{dot_q, dot_w, Level};
 use crate::pixel_noise::{pixel_variance_u8_in, RowsU8};
 
-/// 8-bit queries per sub-chunk of the 16-bit products of [`RefinedModel::project_u8_binned`]:
-/// whole register blocks, and few enough that their sums (9.6 KB each at 160 x 120 by 2) are
-/// still in the L2 cache for the products (a task's 192 held 1.8 MB).
-const BIN_SUB_U8: usize = 4 * dot_w::BLOCK;
 
 impl RefinedModel {
     /// Whether 8-bit queries at `level` take the 16-bit products of block sums (a model that

@@ -6,7 +6,8 @@ mod binned;
 use super::model::RefinedModel;
 use super::query::NoiseWant;
 use super::scratch::QueryScratch;
-use crate::kernels::{dot_q, dot_u8, Level};
+use super::tuning::{NOISE_SUB_F32, NOISE_SUB_F32_BYTES, NOISE_SUB_U8};
+use crate::kernels::Level;
 use crate::methods::eigenspace::projector::unit_coords;
 use crate::pixel_noise::{pixel_variance_in, pixel_variance_u8_in, RowsF32, RowsU8};
 
@@ -33,23 +34,8 @@ fn scatter(out: &[f32], k: usize, sel: Option<&[usize]>, i0: usize, kr: usize, c
     }
 }
 
-/// 8-bit queries per sub-chunk of [`RefinedModel::project_u8`]: whole register blocks of
-/// [`dot_u8::BATCH_IMAGES`] and whole groups of [`dot_q::dots_batch`], and few enough that their
-/// images (19.2 KB each at 160 x 120) are still in the L2 cache when the noise pass reads them
-/// after the products (with the chunk's 192, that pass read them from memory: 2 us of a 17 us
-/// query on one thread).
-const NOISE_SUB_U8: usize = 8 * dot_u8::BATCH_IMAGES;
-const _: () = assert!(NOISE_SUB_U8.is_multiple_of(dot_q::GROUP * dot_q::BLOCK));
 
-/// f32 queries per sub-chunk of [`RefinedModel::project_f32`] (77 KB each at 160 x 120), for the
-/// same reason, when the task's queries come to more than [`NOISE_SUB_F32_BYTES`].
-const NOISE_SUB_F32: usize = 16;
 
-/// Up to this many bytes, a task's f32 queries go as one product: a sub-chunk's product packs its
-/// queries in blocks of 32 rows, so a task split into 16 and 2 (COIL's 72 views on one thread)
-/// packed twice as much as one of 18 (perf: the pack 4,364 samples against the eigenspace's
-/// 2,237, of 14,145 in all), and 18 COIL images (1.2 MB) stay in the 2 MB L2 cache anyway.
-const NOISE_SUB_F32_BYTES: usize = 5 << 18;
 
 impl RefinedModel {
     /// The products of the queries `xq` (rows of M, the first the task's query `i0`; those at

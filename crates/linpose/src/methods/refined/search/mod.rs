@@ -6,12 +6,10 @@ mod tree;
 pub(crate) use tree::CoarseTree;
 
 use super::model::RefinedModel;
+use super::tuning::{BOX_SPLIT, START_RATIO};
 use super::scratch::{SearchScratch, SEARCH_SCRATCH};
 use crate::kernels::Level;
 
-/// Most lattice poses of a one-parameter model searched exactly ([`lattice::Lattice`]; 720 at the
-/// default 0.5 degrees on a turntable); a finer `resolution` keeps the local search and snap.
-pub const MAX_LATTICE: usize = 16_384;
 
 /// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
 /// [`crate::kernels::scan::sq_dist_boxed`]) of a model of `l`: the leading 8. perf of duck's
@@ -19,7 +17,7 @@ pub const MAX_LATTICE: usize = 16_384;
 /// coordinates 0.48, 8 0.38 and 0.39, 12 0.43 and 0.44; the partial sums on 4 coordinates that
 /// came before them 0.47.
 pub(crate) fn box_split(l: usize) -> usize {
-    8.min(l)
+    BOX_SPLIT.min(l)
 }
 
 /// The `k` smallest of `dist` no more than twice the smallest (the only ones
@@ -43,7 +41,7 @@ pub(crate) fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize
 /// The body of [`smallest_under`] (compiled for AVX-512 too: comparisons only, the same result).
 #[inline(always)]
 fn smallest_body(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
-    let cut = 2.0 * lo.max(0.0) + f32::MIN_POSITIVE;
+    let cut = START_RATIO * lo.max(0.0) + f32::MIN_POSITIVE;
     let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
     // Blocks of 16 tested without branches first: few hold a point under the cut.
     for (b, c) in dist.chunks(16).enumerate() {
@@ -80,7 +78,7 @@ impl RefinedModel {
         let first = best.first().map_or(0.0, |b| b.0);
         let mut kept: Vec<usize> = Vec::with_capacity(best.len());
         for &(v, i) in best {
-            if v > 2.0 * first.max(0.0) + f32::MIN_POSITIVE {
+            if v > START_RATIO * first.max(0.0) + f32::MIN_POSITIVE {
                 break;
             }
             if !kept.iter().any(|&j| self.adjacent(i, j)) {

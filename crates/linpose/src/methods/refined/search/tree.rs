@@ -1,6 +1,7 @@
 //! The coarse tree: the start of a clean query's search on a manifold of two or more parameters.
 
 use crate::methods::refined::surface::Surface;
+use crate::methods::refined::tuning::MAX_TREE_POSES;
 
 /// The start of a clean query's search on a manifold of two or more parameters reported on a
 /// lattice: a k-d tree over the surface at every pose of the lattice of twice the reporting
@@ -14,8 +15,6 @@ pub(crate) struct CoarseTree {
     pub(crate) poses: Vec<f64>,
 }
 
-/// Most poses of a [`CoarseTree`].
-const MAX_TREE_POSES: usize = 1 << 20;
 
 impl CoarseTree {
     /// The tree over `surface` on the lattice of `step` degrees anchored at each axis's first

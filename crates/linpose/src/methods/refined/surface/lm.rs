@@ -3,20 +3,10 @@
 
 use super::Surface;
 use crate::methods::refined::noisy::affine_fit;
+use crate::methods::refined::tuning::{AFFINE_STEP_TOL, DAMPING_DOWN, DAMPING_MIN, DAMPING_START, DAMPING_TRIES, DAMPING_UP, MAX_ITER, STEP_TOL};
 
-/// Most Levenberg-Marquardt iterations per start.
-const MAX_ITER: usize = 8;
 
-/// A step below this many degrees ends the iteration.
-const STEP_TOL: f64 = 1e-2;
 
-/// The step tolerance of the noisy match ([`Surface::refine_affine`]): its iteration converges
-/// only linearly (Kaufman's Jacobian leaves out part of the gain's and offset's dependence on the
-/// pose), and its pose is reported on the 0.5-degree lattice anyway. On the paper's grid at
-/// +-5% it took a third fewer Jacobian evaluations than 0.01 (twin 12.4 -> 8.3 a query), the
-/// unseen errors moving by -0.001 to +0.37 degrees (twin +-10% 16.52 -> 16.89; every one still
-/// below the eigenspace's); 0.1 moved twin +-5% to 14.03, near the eigenspace's 14.43.
-const AFFINE_STEP_TOL: f64 = 5e-2;
 
 impl Surface {
     /// Levenberg-Marquardt from `t` (in the domain) on sum_l wt_l (y_l - f_l(t))^2; returns the squared
@@ -44,7 +34,7 @@ impl Surface {
                 }
             }
             if mu < 0.0 {
-                mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+                mu = DAMPING_START * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
             let Some(c) = self.damped_step(&h, &g, &mut mu, t, cost, STEP_TOL, |cand| {
                 self.eval(cand, ftry, None);
@@ -78,7 +68,7 @@ impl Surface {
     ) -> Option<f64> {
         let d = self.params();
         let mut cand = [0f64; 8];
-        for _ in 0..12 {
+        for _ in 0..DAMPING_TRIES {
             let mut a = *h;
             for (k, row) in a.iter_mut().enumerate().take(d) {
                 row[k] += *mu;
@@ -98,10 +88,10 @@ impl Surface {
             let c = cost_at(&cand[..d]);
             if c < cost {
                 t.copy_from_slice(&cand[..d]);
-                *mu = (*mu / 3.0).max(1e-12);
+                *mu = (*mu / DAMPING_DOWN).max(DAMPING_MIN);
                 return Some(c);
             }
-            *mu *= 4.0;
+            *mu *= DAMPING_UP;
         }
         None
     }
@@ -146,7 +136,7 @@ impl Surface {
                 }
             }
             if mu < 0.0 {
-                mu = 1e-3 * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
+                mu = DAMPING_START * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
             let mut trial = ab;
             let Some(cst) = self.damped_step(&h, &grad, &mut mu, t, cost, AFFINE_STEP_TOL, |cand| {

@@ -110,7 +110,7 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     // Other noise draws at the smallest level land above it too.
     for seed in [1, 2, 3] {
         let mut q = d.features().to_vec();
-        crate::eval::add_uniform_noise(&mut q, m, select::NOISE_LEVELS[0], seed).unwrap();
+        crate::eval::add_uniform_noise(&mut q, m, NOISE_LEVELS[0], seed).unwrap();
         for x in q.chunks_exact(m) {
             assert!(crate::pixel_noise::pixel_noise(x, w, h, 1) > t.threshold);
         }

@@ -44,6 +44,8 @@ mod simd;
 #[cfg(test)]
 mod tests;
 
+use crate::methods::refined::tuning::PRUNE_MAX;
+
 
 /// The lattice search of one model's curve (see the module doc).
 #[derive(Debug, Clone, Default)]
@@ -94,9 +96,6 @@ pub struct Lattice {
     span_max: f64,
 }
 
-/// Most intervals the pruned scan of an even lattice evaluates; with more left it scans every
-/// pose (a query with very unequal weights bounds little).
-const PRUNE_MAX: usize = 8;
 
 /// [`Lattice::nearest_even`]'s buffers: the products and distances, and the poses left.
 type EvenScratch = (Vec<f32>, Vec<(usize, usize)>);
