@@ -67,7 +67,7 @@ pub unsafe fn pixel_variance_avx512(x: &[f32], w: usize, h: usize, ch: usize, ro
     (sum, count)
 }
 
-/// [`super::pixel_variance_u8`] in AVX-512 BW registers, whole image in one call (a call
+/// [`super::pixel_variance_u8_in`] in AVX-512 BW registers, whole image in one call (a call
 /// per row cost as much as the row's 4 vectors at 128 pixels): per sampled row, the
 /// differences across its rows, 32 pixels a vector in i16 (0 past the row), the next
 /// vector's too, and from the two the differences at offsets ch and 2 ch (a permutation

@@ -23,7 +23,9 @@ mod tests;
 
 use crate::kernels::Level;
 
-/// Rows sampled by [`pixel_noise`]: every this many.
+/// Rows sampled by [`pixel_noise`]: every this many. Fewer rows cost less and estimate the noise
+/// from fewer pixels (a 128-row image keeps 16). A tuning constant, not tuned: 8 since the
+/// estimate was introduced (2026-11-21).
 const NOISE_ROW_STEP: usize = 8;
 
 /// Immerkaer's fast estimate of the standard deviation of additive white noise in gray images
@@ -133,7 +135,7 @@ fn immerkaer_pass<T, R: MaskRows<T>>(x: &[T], w: usize, h: usize, ch: usize, row
     (sum, count)
 }
 
-/// How many rows [`immerkaer`] samples in an image of `h` rows: rows 1, 1 + [`NOISE_ROW_STEP`],
+/// How many rows [`immerkaer_pass`] samples in an image of `h` rows: rows 1, 1 + [`NOISE_ROW_STEP`],
 /// .. up to h - 2.
 pub(crate) fn sampled_rows(h: usize) -> usize {
     if h < 3 {
@@ -153,10 +155,13 @@ enum Pass {
     Rest,
 }
 
-/// The first pass of a staged noise estimate takes every this many sampled rows...
+/// The first pass of a staged noise estimate takes every this many sampled rows (a quarter: a
+/// clean image settled there costs a quarter of the estimate; fewer rows would tell noise from
+/// detail less surely). Chosen with the refined method's stop level (its `tuning::NOISE_EARLY`,
+/// 2026-11-22); other fractions were not tried.
 pub(crate) const FIRST_EVERY: usize = 4;
 /// ... from this one (rows 17, 49, 81, 113 of a 128-row image: away from the top edge, which on a
-/// turntable is background).
+/// turntable is background). Not tuned.
 const FIRST_AT: usize = 2;
 
 impl Pass {
@@ -181,7 +186,7 @@ impl Pass {
     }
 }
 
-/// The rows [`immerkaer`] samples that a [`Pass`] sums, each as its index among the sampled
+/// The rows [`immerkaer_pass`] samples that a [`Pass`] sums, each as its index among the sampled
 /// rows with the rows above and below it (an image of `row` values a row, at least 3 rows); the
 /// next sample's cache lines are asked for while one is summed (they are too far apart for the
 /// hardware prefetcher).
@@ -269,10 +274,10 @@ fn prefetch<T>(v: &[T]) {
     let _ = v;
 }
 
-/// The row sums of [`immerkaer`]: the absolute responses along row b (its neighbours a and c) of
+/// The row sums of [`immerkaer_pass`]: the absolute responses along row b (its neighbours a and c) of
 /// the second difference along x of the second difference across the three rows, over the row's
 /// pixels less `ch` at each end. A trait with always-inlined methods (not a closure), so that the
-/// AVX-512 builds of [`pixel_variance`] and [`pixel_variance_u8`] compile it for AVX-512 too.
+/// AVX-512 builds of [`pixel_variance_in`] and [`pixel_variance_u8_in`] compile it for AVX-512 too.
 trait MaskRows<T> {
     fn row_sum(&mut self, a: &[T], b: &[T], c: &[T]) -> f64;
     /// Keeps sampled row `k`'s sum `s` (as returned by `row_sum`) where the rows are summed
@@ -426,17 +431,17 @@ impl MaskRows<u8> for RowsU8 {
     }
 }
 
-/// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
-/// that of its features, pixel / 255): the same mask and rows, summed exactly in integers (the
-/// f32 path rounds, so the two agree to about 1e-6 relative).
+/// [`pixel_variance_u8_in`], unstaged and with buffers of its own (for tests).
 #[cfg(test)]
 pub(crate) fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
     pixel_variance_u8_in(x, w, h, ch, &mut RowsU8::new(w * ch, ch), 0.0)
 }
 
-/// [`pixel_variance_u8`] with the row buffers `rows` (made for rows of w x ch values), so a
-/// batch allocates them once; staged when `early` > 0, as [`pixel_variance_in`] (the two
-/// passes' integer sums add up to the one pass's exactly).
+/// [`pixel_variance`] of an 8-bit image given as raw pixel values, in their units (255^2 times
+/// that of its features, pixel / 255): the same mask and rows, summed exactly in integers (the
+/// f32 path rounds, so the two agree to about 1e-6 relative). With the row buffers `rows` (made
+/// for rows of w x ch values), so a batch allocates them once; staged when `early` > 0, as
+/// [`pixel_variance_in`] (the two passes' integer sums add up to the one pass's exactly).
 pub(crate) fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8, early: f64) -> f64 {
     let pass = |rows: &mut RowsU8, pass: Pass| {
         #[cfg(target_arch = "x86_64")]

@@ -297,7 +297,7 @@ impl PoseModel for RefinedModel {
     }
 
     /// 8-bit queries: the projection by [`dot_q::FastRows`] (16-bit fixed point where VNNI runs
-    /// it, else [`dot_u8::dots_batch`]), then the search; the estimates of
+    /// it, else [`crate::kernels::dot_u8::dots_batch`]), then the search; the estimates of
     /// [`PoseModel::predict_into`] on the same images as features but for near ties.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         self.predict_u8_with(queries, self.noise_want(), out)

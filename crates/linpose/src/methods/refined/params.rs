@@ -6,11 +6,10 @@ use super::tuning::{DEFAULT_PER_CELL, DEFAULT_RESOLUTION, DEFAULT_STARTS, MAX_PE
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
-
 /// Parameters of the refined eigenspace. The default chooses L, the metric, the interpolant and
 /// the binning factor from the training data, reports poses on the 0.5-degree lattice, and where
-/// a local search serves, searches from the best [`DEFAULT_STARTS`] of [`DEFAULT_PER_CELL`]
-/// coarse points per knot interval along each axis.
+/// a local search serves, searches from the best 8 of 4 coarse points per knot interval along
+/// each axis.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RefinedParams {
     pub(crate) components: Option<usize>,
@@ -18,15 +17,13 @@ pub struct RefinedParams {
     pub(crate) per_cell: usize,
     pub(crate) weighted: bool,
     pub(crate) resolution: f64,
-    /// Images binned by this factor before anything else ([`crate::binning`]; 1: as given;
-    /// None: chosen from the training data, [`BIN_CANDIDATES`]).
+    /// Images binned by this factor before anything else (1: as given; None: chosen from the
+    /// training data among 1, 2 and 4).
     pub(crate) bin: Option<usize>,
     /// How the surface interpolates between knots (None: chosen from the training data among
-    /// [`INTERPOLANTS`]).
+    /// [`INTERPOLANTS`](super::INTERPOLANTS)).
     pub(crate) interpolant: Option<Interpolant>,
 }
-
-
 
 impl Default for RefinedParams {
     fn default() -> Self {
@@ -81,18 +78,18 @@ impl RefinedParams {
         self
     }
 
-    /// Bin the images by `factor` (each pixel the mean of a factor x factor block,
-    /// [`crate::binning`]) before fitting and before each query; 1 keeps them as given. Noise is
-    /// simulated on the images as given, then binned, as a query's would be.
+    /// Bin the images by `factor` (each pixel the mean of a factor x factor block) before fitting
+    /// and before each query; 1 keeps them as given. Noise is simulated on the images as given,
+    /// then binned, as a query's would be.
     pub fn bin(mut self, factor: usize) -> Self {
         self.bin = Some(factor);
         self
     }
 
-    /// Choose the binning factor from the training data (the default): among
-    /// [`BIN_CANDIDATES`], the coarsest whose held-out error ([`select::choose`]) is within one
-    /// standard error of the least ([`select::coarsest_within`]: cheaper
-    /// queries and a smaller model where the training views cannot tell the factors apart).
+    /// Choose the binning factor from the training data (the default): among 1, 2 and 4, the
+    /// coarsest whose error on held-out training views is within one standard error of the
+    /// least (cheaper queries and a smaller model where the training views cannot tell the
+    /// factors apart).
     pub fn auto_bin(mut self) -> Self {
         self.bin = None;
         self
@@ -105,7 +102,7 @@ impl RefinedParams {
     }
 
     /// Choose the interpolant from the training data (the default): with L and the metric, by
-    /// the same held-out views ([`select::choose`]), the spline on a tie.
+    /// the same held-out training views, the spline on a tie.
     pub fn auto_interpolant(mut self) -> Self {
         self.interpolant = None;
         self
@@ -141,7 +138,7 @@ impl RefinedParams {
     }
 }
 
-/// What a fitted model records in [`ModelMeta::settings`].
+/// What a fitted model records in [`ModelMeta::settings`](crate::ModelMeta::settings).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RefinedSettings {
     /// The parameters as given.
@@ -152,7 +149,7 @@ pub struct RefinedSettings {
     /// (degrees), as [`Self::selection`]'s least and [`Self::plain_error`] (empty when fixed).
     pub bin_selection: Vec<(usize, f64)>,
     /// The standard error of the least of [`Self::bin_selection`]'s errors: the coarsest factor
-    /// within it of the least was chosen ([`select::coarsest_within`]; 0 when fixed).
+    /// within it of the least was chosen (the one-standard-error rule; 0 when fixed).
     pub bin_tolerance: f64,
     /// How the surface interpolates between knots.
     pub interpolant: Interpolant,
@@ -180,12 +177,11 @@ pub struct RefinedSettings {
     pub interpolation_variance: Vec<f64>,
     /// The training images' mean squared distance from the eigenspace (unit energy, mean
     /// subtracted): the discarded eigenvalues over N. A query further off than this carries
-    /// noise, estimated per query (see the module doc).
+    /// noise, estimated per query (see the [module doc](super)).
     pub residual_energy: f64,
-    /// The noise threshold ([`select::noise_threshold`]): between the largest pixel-noise
-    /// estimate ([`pixel_noise`](crate::pixel_noise::pixel_noise)) of a training image and the smallest of the training images
-    /// with simulated noise. A query above it is treated as noisy and takes the affine match (0:
-    /// never).
+    /// The noise threshold: between the largest pixel-noise estimate (Immerkaer's, over the mean
+    /// square pixel) of a training image and the smallest of the training images with simulated
+    /// +-5% noise. A query above it is treated as noisy and takes the affine match (0: never).
     pub noise_threshold: f64,
     /// Eigenimages of the affine match of a noisy query (the first ones).
     pub noise_components: usize,
@@ -195,8 +191,7 @@ pub struct RefinedSettings {
     /// but for all L), which weights the noisy match (empty when no knots could be held out).
     pub coord_variance: Vec<f64>,
     /// The automatic choice of the noisy match: each candidate (L, weighted) with the mean pose
-    /// error (degrees) of the held-out training views under simulated noise
-    /// ([`select::NOISE_LEVELS`]).
+    /// error (degrees) of the held-out training views under simulated +-5% and +-10% noise.
     pub noise_selection: Vec<(usize, bool, f64)>,
 }
 

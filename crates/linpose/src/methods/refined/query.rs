@@ -110,7 +110,7 @@ impl RefinedModel {
         }
     }
 
-    /// [`PoseModel::predict_into`], computing `noise` of each query's pixel noise.
+    /// [`PoseModel::predict_into`](crate::PoseModel::predict_into), computing `noise` of each query's pixel noise.
     pub(crate) fn predict_with(&self, queries: &[f32], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
         let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
@@ -122,7 +122,7 @@ impl RefinedModel {
         no_black_query(out, p)
     }
 
-    /// [`PoseModel::predict_u8_into`], computing `noise` of each query's pixel noise.
+    /// [`PoseModel::predict_u8_into`](crate::PoseModel::predict_u8_into), computing `noise` of each query's pixel noise.
     pub(crate) fn predict_u8_with(&self, queries: &[u8], noise: NoiseWant, out: &mut [f64]) -> Result<()> {
         let (m, p) = (self.meta.spec.features(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;

@@ -12,7 +12,7 @@ pub(crate) struct SearchScratch {
     pub(crate) dist: Vec<f32>,
     pub(crate) buf: Vec<f64>,
     pub(crate) lb: Vec<f32>,
-    /// The noisy tree's points near a query ([`NoisyTree::starts`]).
+    /// The noisy tree's points near a query ([`NoisyTree::starts`](super::noisy::NoisyTree::starts)).
     pub(crate) near: Vec<(f32, u32)>,
 }
 
@@ -21,7 +21,7 @@ thread_local! {
 }
 
 /// A query task's buffers: coordinates (rows of L), residuals and noise, the products (rows of
-/// 1 + L: the mean's, then the eigenimages', see [`RefinedModel::finish_query`]), the 8-bit
+/// 1 + L: the mean's, then the eigenimages', see [`RefinedModel::finish_query`](super::RefinedModel::finish_query)), the 8-bit
 /// queries' energies and the 8-bit products' buffers.
 #[derive(Default)]
 pub(crate) struct QueryScratch {
@@ -56,7 +56,7 @@ pub(crate) struct QueryScratch {
     pub(crate) rows_u8_full: Option<RowsU8>,
 }
 
-/// A thread's buffers for binned 8-bit queries ([`RefinedModel::project_u8_binned`]): for the
+/// A thread's buffers for binned 8-bit queries ([`RefinedModel::project_u8_binned`](super::RefinedModel::project_u8_binned)): for the
 /// 8-bit products, a task's block sums, their digit planes, the planes' products and sums of
 /// squares; for the 16-bit ones, a sub-chunk's sums in lines and the kernel's step list; the
 /// binning's scratch. Per thread, not per task, so that the buffers are not allocated for

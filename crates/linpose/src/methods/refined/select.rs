@@ -1,4 +1,7 @@
-//! The automatic choice of the number of eigenimages L, from the training views alone.
+//! The automatic choices of a fit, from the training views alone: the number of eigenimages L,
+//! the metric, the interpolant and the binning factor ([`choose`], [`coarsest_within`]), the
+//! noisy match ([`choose_noise`]), the noise threshold ([`noise_threshold`]) and the
+//! coordinates' interpolation errors that weight the metric ([`interpolation_variance`]).
 //!
 //! Along each pose axis with enough knots in turn, the training views at every other knot are
 //! held out, the odd ones and then the even ones ([`both_folds`]: every knot once; a linear axis
@@ -7,29 +10,25 @@
 //! components of that one fit). The candidate with the least mean pose error over all held-out
 //! views wins; a tie goes to the smaller L (cheaper queries). The manifold fitted without the
 //! held-out views has twice the knot spacing of the final one, so this scores each L where
-//! interpolation matters most, on views no fit has seen. Holding out the even knots too doubles
-//! the views behind each score (COIL-20: 36 against 18), at the same spacing.
+//! interpolation matters most, on views no fit has seen; holding out the even knots too doubles
+//! the views behind each score at the same spacing. The same views score the plain metric (the
+//! eigenspace's unweighted distance), which the model uses when it beats every weighted L.
 //!
-//! No candidate costs as much as the eigenspace: on images as given L is at most 12
-//! ([`below_eigenspace`]: its product and the query's other work), the plain metric's too. The
-//! binning factor is chosen by the one-standard-error rule ([`coarsest_within`]): the coarsest
-//! whose least error is within one standard error of the least of all. On COIL-20 the factors'
-//! held-out errors differ by a view or two in 36 (a standard error of 0.07 to 0.2 degrees where
-//! they come to 0.5 to 1.5), while each halving of the resolution makes a query's product 4 times
-//! cheaper; by the least error alone, 10 of the comparison's 35 rows took factor 1, and 5 of them
-//! the plain metric in 20 coordinates, whose query was the eigenspace's own product plus the noise
-//! route and the search: slower than the eigenspace's, and no more accurate (BENCHMARKS.md,
-//! twentieth session).
+//! No candidate's query costs as much as the eigenspace's ([`below_eigenspace`]: its product on
+//! the binned image plus the query's other work, against the eigenspace's product). The binning
+//! factor is chosen by the one-standard-error rule ([`coarsest_within`]): the coarsest whose least
+//! error is within one standard error of the least of all. The factors' held-out errors often
+//! differ by a view or two, within chance, while each halving of the resolution makes a query's
+//! product 4 times cheaper; the rule takes the cheaper model unless the held-out views can tell
+//! them apart.
 //!
 //! The interpolant of the surface ([`Interpolant`]) is chosen with L: each fold's eigenspace
 //! gives both interpolants' models (side by side, on separate threads), and the interpolant
-//! whose best candidate has the least error wins, the spline on a tie. Double the knot spacing
-//! favours the local cubic more than the final spacing does: on the paper's grid it won the
-//! held-out views of pot and twin and lost their unseen ones (pot 0.246 -> 0.375 degrees, still
-//! under the eigenspace's 0.508; BENCHMARKS.md, twenty-first session).
+//! whose best candidate has the least error wins, the spline on a tie. The folds' doubled knot
+//! spacing favours the local cubic somewhat more than the final spacing does.
 //!
-//! When no axis has enough knots (fewer than 4), L falls back to [`FALLBACK_COMPONENTS`], the
-//! eigenspace's default, and the interpolant to the spline.
+//! When no axis has enough knots, L falls back to the eigenspace's default and the interpolant to
+//! the spline.
 
 use super::tuning::{CANDIDATES, FALLBACK_COMPONENTS, MAX_AUTO_COMPONENTS, MIN_FOLD_KNOTS, NOISE_BLOCK, NOISE_COMPONENTS, NOISE_LEVELS, NOISE_SEED, QUERY_OVERHEAD_ROWS};
 use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, METHOD};
@@ -229,13 +228,9 @@ impl Tally {
 
 
 /// The most eigenimages whose query on images binned by `bin` costs less than the eigenspace's
-/// product ([`NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels):
-/// the largest of [`CANDIDATES`] with L + [`QUERY_OVERHEAD_ROWS`] under NOISE_COMPONENTS bin^2
-/// (the eigenspace's own mean row and tree not counted, a margin for timing noise). Unbinned,
-/// 12. At 20 the plain metric's query was the eigenspace's own product plus the noise route and
-/// the search, never cheaper (nineteenth and twentieth sessions); at 16 it was 0.84 of the
-/// eigenspace's samples on COIL-9's 8-bit queries, but 0.90-1.04 of its time in nine timed runs
-/// (twenty-first session, BENCHMARKS.md).
+/// product (its [`NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels): the
+/// largest of [`CANDIDATES`] with L + [`QUERY_OVERHEAD_ROWS`] under NOISE_COMPONENTS bin^2 (the
+/// eigenspace's own mean row and search not counted: a margin for timing noise). Unbinned, 12.
 pub fn below_eigenspace(bin: usize) -> usize {
     let bound = NOISE_COMPONENTS * bin * bin;
     CANDIDATES.iter().copied().filter(|&l| l + QUERY_OVERHEAD_ROWS < bound).max().unwrap_or(CANDIDATES[0])

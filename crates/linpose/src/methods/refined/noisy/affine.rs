@@ -50,7 +50,7 @@ impl AffineQuery {
     }
 
     /// The residual at the surface point `f` with offset `g`: the query's coordinates rounded up
-    /// to a multiple of 8 values (as [`Surface::climb_pair`] gives them), zero beyond.
+    /// to a multiple of 8 values (as [`Surface::climb_pair`](crate::methods::refined::surface::Surface::climb_pair) gives them), zero beyond.
     pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {

@@ -1,5 +1,20 @@
 //! The noisy match: a query detected as noisy is matched to the surface under a free gain and a
-//! free offset along what clipped noise adds.
+//! free offset along what clipped noise adds ([`RefinedModel::pose_of_noisy`]).
+//!
+//! The query's coordinates z (the mean added back) are matched against alpha (f(t) + c) +
+//! beta g(t): f the surface, c the mean's coordinates, alpha a gain (noise adds energy, so a
+//! unit-energy noisy query is a shrunk clean one) and beta a multiple of the offset direction g,
+//! the surface through the training views' [`clip_bias_shape`] projected on the eigenimages
+//! ([`background_knots`]): what uniform noise clipped to [0, 1] adds to each pixel on average,
+//! which on a black background is a brightening of the background's silhouette. Both are solved
+//! per pose in closed form ([`affine`]), in the first L_n coordinates, weighted by 1 or by
+//! 1 / (sigma_l^2 + floor + nu) (nu the query's pixel noise per coordinate), as the fit chose on
+//! held-out views under simulated noise.
+//!
+//! With two or more pose parameters reported on a lattice, the starts are the [`NoisyTree`]'s
+//! nearest point and, within a ratio of its distance, the nearest of another basin, and from each
+//! the climb on the reporting lattice; otherwise the [`NoiseScan`] of the coarse points gives the
+//! starts of Levenberg-Marquardt, whose best end is snapped to the lattice.
 
 mod affine;
 mod scan;
@@ -85,9 +100,9 @@ impl RefinedModel {
     ///
     /// With a [`NoisyTree`] (two or more parameters reported on a lattice) the starts are its
     /// nearest point and, within twice its distance, the nearest of another basin; from each
-    /// [`Surface::climb_pair`] walks the reporting lattice on the affine match, and the closer
+    /// [`Surface::climb_pair`](super::surface::Surface::climb_pair) walks the reporting lattice on the affine match, and the closer
     /// end is the pose. Otherwise the coarse scan ([`NoiseScan`]) gives the starts of
-    /// Levenberg-Marquardt ([`Surface::refine_affine`]), snapped to the lattice.
+    /// Levenberg-Marquardt ([`Surface::refine_affine`](super::surface::Surface::refine_affine)), snapped to the lattice.
     pub(crate) fn pose_of_noisy(&self, y: &[f32], nu: f64, out: &mut [f64]) {
         let (l, d) = (self.components(), self.axes.len());
         let s = &self.settings;

@@ -153,12 +153,9 @@ impl NoiseScan {
 }
 
 /// Coordinates of the noisy scan's first pass ([`NoiseScan::scan`]) for a match on `ln`: half
-/// of them, from 16 on (0: no first pass). The fit's two free parameters absorb much of a few
-/// coordinates, so fewer prune little: at +-5% on the paper's grid, blocks of 64 coarse points
-/// summed in full with 4 of twin's 12: 67%, 6: 18%, 8: 7.5%; duck (12) with 6: 6.5%, cap (16)
-/// with 8: 4.6%, pot (20) with 10: 5.4% (with 6: 27%). The first pass costs a residual per point
-/// too, so it pays from 16 on: perf of 8-bit +-5% queries, the scan's time over the product
-/// kernel's, pot 1.58 -> 1.23, cap 1.31 -> 1.10 (two runs), but duck (12) 1.61 -> 1.72.
+/// of them, from [`NOISE_SCAN_SPLIT_FROM`] on (0: no first pass). The fit's two free parameters
+/// absorb much of a few coordinates, so a short first pass rules little out, and it costs a
+/// residual per point.
 fn noise_scan_split(ln: usize) -> usize {
     if ln >= NOISE_SCAN_SPLIT_FROM {
         ln / 2

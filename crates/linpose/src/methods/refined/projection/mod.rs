@@ -69,7 +69,7 @@ impl RefinedModel {
 
     /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
     /// (rows of L), `s.resid` and `s.noise`. In sub-chunks whose queries stay in cache from the
-    /// products to the energy and noise (rayon splits the batch, see [`chunk_rows`]). Without
+    /// products to the energy and noise (rayon splits the batch, see [`chunk_rows`](crate::methods::eigenspace::chunk_rows)). Without
     /// `routed`: the products of every query with [`Self::clean_rows`] (the mean's, when used,
     /// summed with the query's energy in one pass, [`crate::linalg::energy_and_dot`]: a row
     /// fewer in the product, whose kernel takes 4 at a time), then each query's energy and,
@@ -135,8 +135,8 @@ impl RefinedModel {
     }
 
     /// As [`Self::project_f32`] (not routed) for 8-bit images given as raw pixel values (n of
-    /// them): the products by [`dot_q::FastRows::dots_batch`] (the integer kernel where it is
-    /// fast, else [`dot_u8::dots_batch`]) from 8 queries on (one at a time below), the energy
+    /// them): the products by [`dot_q::FastRows::dots_batch`](crate::kernels::dot_q::FastRows::dots_batch) (the integer kernel where it is
+    /// fast, else [`dot_u8::dots_batch`](crate::kernels::dot_u8::dots_batch)) from 8 queries on (one at a time below), the energy
     /// exact in integers, the pixel noise by [`pixel_variance_u8`](crate::pixel_noise::pixel_variance_u8_in), all in pixel values: the
     /// 1 / 255 of the features cancels in each ratio.
     pub(crate) fn project_u8(&self, level: Level, queries: &[u8], noise: NoiseWant, s: &mut QueryScratch) {
@@ -201,9 +201,9 @@ impl RefinedModel {
 
     /// [`Self::project_f32`] of f32 queries as given: binned first when the model bins. Then
     /// the query's pixel noise is measured on the image as given, where noise stands out from
-    /// the image's own detail at every factor (least +-5% estimate over largest clean one on
-    /// duck's training views: 53.9 as given, 4.1 binned by 2, 0.69 by 4, where no threshold
-    /// separates them), routing it against the threshold of the training images as given;
+    /// the image's own detail at every factor (binning averages noise away faster than detail:
+    /// on binned training images no threshold separates the noisy from the clean), routing it
+    /// against the threshold of the training images as given;
     /// the noisy match's nu is that noise binned (pv / b^2 for independent noise) per unit
     /// energy of the binned image.
     pub(crate) fn project_binned(&self, queries: &[f32], noise: NoiseWant, s: &mut QueryScratch) {

@@ -1,4 +1,17 @@
-//! The clean query's search: the starts of Levenberg-Marquardt among the coarse points.
+//! The clean query's search ([`RefinedModel::pose_of_clean`]): the least of the weighted distance
+//! to the surface, found in one of three ways by the model's shape.
+//!
+//! - One pose parameter reported on a lattice (a turntable): the exact least over every lattice
+//!   pose ([`lattice`]), without a local search.
+//! - Two or more, reported on a lattice: the nearest point of the coarse tree ([`CoarseTree`]:
+//!   the surface on a lattice of [`crate::methods::refined::tuning::TREE_STEP`] reporting steps,
+//!   in the coordinates weighted for nu = 0), then the climb on the reporting lattice with the
+//!   query's own weights.
+//! - Otherwise (a continuous estimate, or a lattice too large for those): the distance to every
+//!   coarse surface point (by bounding boxes of points, which rule most of them out on the leading
+//!   coordinates first), Levenberg-Marquardt in the pose from the distinct closest ones (a start
+//!   next to a closer one on the coarse grid shares its basin), and the best end snapped to the
+//!   lattice.
 
 pub(crate) mod lattice;
 mod tree;
@@ -12,10 +25,7 @@ use crate::kernels::Level;
 
 
 /// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
-/// [`crate::kernels::scan::sq_dist_boxed`]) of a model of `l`: the leading 8. perf of duck's
-/// 8-bit views on one thread, the scan's samples over the product kernel's: boxes on 4
-/// coordinates 0.48, 8 0.38 and 0.39, 12 0.43 and 0.44; the partial sums on 4 coordinates that
-/// came before them 0.47.
+/// [`crate::kernels::scan::sq_dist_boxed`]) of a model of `l`: the leading [`BOX_SPLIT`].
 pub(crate) fn box_split(l: usize) -> usize {
     BOX_SPLIT.min(l)
 }

@@ -217,7 +217,7 @@ impl Surface {
     }
 
     /// For D = 2: the first `lo` values of this surface (into `fv`) and of `other` (into `gv`)
-    /// at the 3 x 3 poses (p0[a], p1[b]), point a + 3 b; a None position is skipped. For each
+    /// at the 3 x 3 poses (`p0[a]`, `p1[b]`), point a + 3 b; a None position is skipped. For each
     /// position b and each knot interval of the first axis among the p0, the 4 sums along the
     /// second axis (value and slope at the interval's two knots) are formed once; each point
     /// then sums those 4 with its first-axis weights.

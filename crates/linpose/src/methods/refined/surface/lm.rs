@@ -80,7 +80,8 @@ impl Surface {
             self.clamp(&mut cand[..d]);
             // A step below the tolerance ends the iteration without being tried: at the
             // minimum, every damped step fails to lower the cost (by rounding), and trying them
-            // all until the damping has grown 4^12-fold was two thirds of the evaluations.
+            // all until the damping has grown 4^12-fold would take most of a search's
+            // evaluations.
             let step = (0..d).map(|k| (cand[k] - t[k]).abs()).fold(0.0, f64::max);
             if step < tol {
                 return None;

@@ -102,7 +102,7 @@ pub struct Surface {
     stride: Vec<usize>,
     /// Coordinates per point, L.
     dim: usize,
-    /// For each derivative mask (2^D), each knot's L values: [mask][knot][L].
+    /// For each derivative mask (2^D), each knot's L values: `[mask][knot][L]`.
     coef: Vec<f32>,
 }
 

@@ -4,7 +4,7 @@
 use super::{Surface, BLOCK_DIM};
 use std::arch::x86_64::*;
 
-/// [`super::lane_distance`] compiled for AVX-512.
+/// [`super::climb::lane_distance`] compiled for AVX-512.
 ///
 /// # Safety
 /// The CPU must support AVX-512F.

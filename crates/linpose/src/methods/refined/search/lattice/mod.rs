@@ -13,31 +13,27 @@
 //!
 //! When the knots are evenly spaced on the lattice (a turntable: every interval holds the
 //! lattice at the same offsets u_j), the model keeps ||f||^2 at every lattice pose (720 f32 at
-//! 0.5 degrees, 2.9 KB; the eigenspace keeps the 720 points) and a query takes the unweighted
+//! 0.5 degrees, where the eigenspace keeps the 720 points) and a query takes the unweighted
 //! distance ||y||^2 + ||f||^2 - 2 sum_a H_a(u_j) c_a at all of them from two products per knot
 //! (c with unit weights), in f32, 16 poses a vector. The weighted distance lies between w_min
 //! and w_max times it (the extreme weights), so only the poses whose lower bound (less the f32
 //! rounding) is within the least upper bound can hold the least; those alone are measured
-//! exactly in f64, and a single one is the answer unmeasured. On COIL-20's 72 views per object
-//! (f32 and 8-bit, 2,880 searches) one pose was left for 2,210, two to six for the rest (the
-//! query's own weights are close to uniform). On AVX-512 the distances are computed only on the
-//! intervals that can hold such a pose: each interval's distances are bounded below from its
-//! two knots' products (the Hermite value weights sum to 1, the slope weights keep their sign)
-//! and its least ||f||^2, and compared with the cut of the least distance at the intervals'
-//! first poses. On COIL-20 (f32 and 8-bit, 2,880 searches, a throwaway counter) 2,872 were
-//! left with at most 8 of the 36 intervals and evaluate 2 vectors an interval instead of 60 for
-//! all; 4 views of COIL-19 (twice) take the full scan (perf of COIL-5's 8-bit queries on one
-//! thread: the search 579-659 -> 377-442 samples, the eigenspace's k-d tree 272-307;
-//! BENCHMARKS.md). The search went from 0.66-1.03 us to about
-//! 0.25-0.33 us (objects 5 and 2, one thread) against the lower bounds it replaced: each of 8
-//! intervals' polynomials bounded by its Bernstein coefficients, then Horner at each offset of
-//! the groups that could hold the least. Otherwise each interval's polynomial is evaluated at its own lattice poses, per
-//! query two products per knot (c) and, when the weights are not uniform, seven (G; uniform
-//! weights scale sums kept in the model). Either way the result is the least over the whole
-//! lattice, where the eigenspace keeps the lattice's points and searches a k-d tree and the
-//! local search needed starts, a spline evaluation per step and a snap. The distance at a
-//! lattice pose is the one [`crate::methods::refined::surface::Surface::snap`] measures there, up to rounding;
-//! ties go to the lowest lattice pose.
+//! exactly in f64, and a single one is the answer unmeasured (a query's own weights are close to
+//! uniform, so few are left). On AVX-512 the distances are computed only on the intervals that
+//! can hold such a pose: each interval's distances are bounded below from its two knots'
+//! products (the Hermite value weights sum to 1, the slope weights keep their sign) and its
+//! least ||f||^2, and compared with the cut of the least distance at the intervals' first poses;
+//! with more than [`PRUNE_MAX`] intervals left, every pose is computed.
+//!
+//! Otherwise (knots not evenly spaced on the lattice) each interval's polynomial is evaluated at
+//! its own lattice poses, per query two products per knot (c) and, when the weights are not
+//! uniform, seven (G; uniform weights scale sums kept in the model).
+//!
+//! Either way the result is the least over the whole lattice, without the lattice's points (the
+//! eigenspace's k-d tree searches them) and without a local search's starts, steps and snap. The
+//! distance at a lattice pose is the one
+//! [`Surface::snap`](crate::methods::refined::surface::Surface::snap) measures there, up to
+//! rounding; ties go to the lowest lattice pose.
 
 #[cfg(target_arch = "x86_64")]
 mod simd;
@@ -45,7 +41,6 @@ mod simd;
 mod tests;
 
 use crate::methods::refined::tuning::PRUNE_MAX;
-
 
 /// The lattice search of one model's curve (see the module doc).
 #[derive(Debug, Clone, Default)]
@@ -78,12 +73,12 @@ pub struct Lattice {
     /// (h00, h h10, h01, h h11) at u_j.
     herm: Vec<[f32; 4]>,
     /// For an even lattice: the curve's squared norm over the searched coordinates at each
-    /// lattice pose, [offset j][interval] in rows of the intervals rounded up to 16 (+inf past
+    /// lattice pose, `[offset j][interval]` in rows of the intervals rounded up to 16 (+inf past
     /// the last interval).
     norms: Vec<f32>,
     /// For an even lattice, what the pruned scan reads ([`simd::pruned_avx512`]): the norms
-    /// again as [interval][offset] in rows of the offsets rounded up to 16 (+inf past the last
-    /// offset), the Hermite weights as [weight][offset] (0 past it), each interval's least norm
+    /// again as `[interval][offset]` in rows of the offsets rounded up to 16 (+inf past the last
+    /// offset), the Hermite weights as `[weight][offset]` (0 past it), each interval's least norm
     /// (rows of `norms`' length, +inf past the last interval), and the largest h h10 and
     /// -h h11 over the offsets.
     norms_t: Vec<f32>,
@@ -415,7 +410,7 @@ impl Lattice {
     /// The f32 distances of [`Lattice::nearest_even`] into `buf` (cp, cs, each `cols` + 16
     /// long, then d laid out as `norms`): cp = sum_l y_l values_l and cs = sum_l y_l slopes_l
     /// (l in increasing order), then d = (yy + norm) - 2 y.f with y.f = ((h0 cp_i + h1 cs_i) +
-    /// h2 cp_i+1) + h3 cs_i+1; returns the least d. [`simd::even_avx512`]'s operations.
+    /// h2 cp_i+1) + h3 cs_i+1; returns the least d. [`simd::even_poses_avx512`]'s operations.
     fn even_distances(&self, y: &[f32], yy: f32, buf: &mut [f32]) -> f32 {
         let (c, nj) = (self.cols, self.even.len());
         let np = self.norms.len() / nj;
