@@ -16,7 +16,7 @@
 //! beside the rest.
 //!
 //! cargo run --release --example query_timing [-- REPS]
-use linpose::kernels::peak::{fma_flops_f64, read_seconds};
+use linpose::bench::{fma_flops_f64, read_seconds};
 use linpose::{EigenspaceParams, Estimator, LinearParams, PoseModel};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -142,7 +142,7 @@ fn main() {
         m[14] / batch as f64 * 1e6,
         100.0 * bound_b / (m[14] / batch as f64)
     );
-    let digits = linpose::kernels::dot_q::DIGITS as f64;
+    let digits = linpose::bench::DIGITS as f64;
     let copy_b = m[0] / batch as f64;
     let vnni_b = copy_b.max(digits / 4.0 * flops / m[7]);
     println!(

@@ -77,16 +77,11 @@ fn lanes_sum(s: &[f32; ENERGY_LANES]) -> f64 {
 }
 
 /// ||x||^2: 64 independent f32 lanes (four chains of one AVX-512 vector), each block of 2048
-/// values (32 a lane) summed into f64 in eight chains. Compiled for AVX-512 where the CPU has
-/// it (the same operations, so the same bits: queries are scaled by it, and both methods'
+/// values (32 a lane) summed into f64 in eight chains. Compiled for the detected SIMD level
+/// (the same operations, so the same bits: queries are scaled by it, and both methods'
 /// projections take it).
 pub fn energy(x: &[f32]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
-        // SAFETY: AVX-512F was detected.
-        return unsafe { x86::energy_avx512(x) };
-    }
-    energy_body(x)
+    energy_built(crate::kernels::Level::detect(), x)
 }
 
 /// (||x||^2, x . w): [`energy`] (the same bits) with x . w summed alongside it the same way, in
@@ -94,12 +89,17 @@ pub fn energy(x: &[f32]) -> f64 {
 /// takes, without a row of its own in the product with the eigenimages).
 pub fn energy_and_dot(x: &[f32], w: &[f32]) -> (f64, f64) {
     assert_eq!(x.len(), w.len(), "x and w of one length");
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
-        // SAFETY: AVX-512F was detected.
-        return unsafe { x86::energy_and_dot_avx512(x, w) };
-    }
-    energy_and_dot_body(x, w)
+    energy_and_dot_built(crate::kernels::Level::detect(), x, w)
+}
+
+crate::kernels::dispatch! {
+    /// [`energy`] at `level`.
+    fn energy_built(x: &[f32]) -> f64 = energy_body;
+}
+
+crate::kernels::dispatch! {
+    /// [`energy_and_dot`] at `level`.
+    fn energy_and_dot_built(x: &[f32], w: &[f32]) -> (f64, f64) = energy_and_dot_body;
 }
 
 #[inline(always)]
@@ -136,27 +136,6 @@ fn energy_and_dot_body(x: &[f32], w: &[f32]) -> (f64, f64) {
         dot += lanes_sum(&t) + xr.iter().zip(wr).map(|(&v, &u)| v as f64 * u as f64).sum::<f64>();
     }
     (sq, dot)
-}
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    /// [`super::energy_body`] compiled for AVX-512 (the same operations, so the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn energy_avx512(x: &[f32]) -> f64 {
-        super::energy_body(x)
-    }
-
-    /// [`super::energy_and_dot_body`] compiled for AVX-512 (the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn energy_and_dot_avx512(x: &[f32], w: &[f32]) -> (f64, f64) {
-        super::energy_and_dot_body(x, w)
-    }
 }
 
 /// Dot product of two f32 vectors with eight independent accumulators (vectorises well and
@@ -209,8 +188,8 @@ mod tests {
     }
 
     /// The energy and the energy with a product: within f32 rounding of the f64 sums, the
-    /// energy the same bits alone and beside the product, and on every build (the AVX-512 one
-    /// where the CPU has it), at lengths around the lanes and blocks (remainders included).
+    /// energy the same bits alone and beside the product, and on every build (every SIMD level
+    /// this CPU runs), at lengths around the lanes and blocks (remainders included).
     #[test]
     fn energy_and_its_product_are_the_f64_sums_on_every_build() {
         for m in [0, 1, 63, 64, 65, 2047, 2048, 2049, 16384, 19200 + 7] {
@@ -225,6 +204,11 @@ mod tests {
                 (a.to_bits(), b.to_bits())
             });
             assert_eq!(energy_body(&x).to_bits(), e.to_bits(), "m {m}");
+            for level in crate::kernels::Level::supported() {
+                let (a, b) = energy_and_dot_built(level, &x, &w);
+                assert_eq!((a.to_bits(), b.to_bits()), (e.to_bits(), d.to_bits()), "m {m} {level:?}");
+                assert_eq!(energy_built(level, &x).to_bits(), e.to_bits(), "m {m} {level:?}");
+            }
             assert!((e - xx).abs() <= 1e-6 * xx.max(1e-30), "m {m}: {e} against {xx}");
             let scale: f64 = x.iter().zip(&w).map(|(&v, &u)| (v as f64 * u as f64).abs()).sum();
             assert!((d - xw).abs() <= 1e-6 * scale.max(1e-30), "m {m}: {d} against {xw}");
