@@ -1,4 +1,4 @@
-//! Times the Gram matrix G = X X^T for the training-set sizes of issue 7 (M = 19,200) against the
+//! Times the Gram matrix G = X X^T for N = 222 and 2000 images of M = 19,200 pixels against the
 //! machine's peaks measured in the same run (an AVX-512 FMA loop on every thread, a large square
 //! faer matmul, and the VNNI loop of the 8-bit Gram), alternating, medians of REPS.
 //!
@@ -9,8 +9,7 @@
 //! cargo run --release --example gram_timing [-- REPS]
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat};
-use linpose::bench::gram_f32_fma;
-use linpose::bench::{fma_flops_f64, vnni_gram_flops};
+use linpose::bench::{fma_flops_f64, gram_f32_fma, vnni_gram_flops};
 use linpose::linalg::{gram_f32, par};
 use std::time::Instant;
 

@@ -5,13 +5,13 @@
 //! eigenspace on the rendered duck (trained on the 9-degree views, queried with all 1760 views
 //! repeated), so that its k-d tree search behaves as on real data. The 8-bit products skip
 //! black steps (85% of the duck's pixels are background): the eigenspace's integer products
-//! (`kernels::dot_q`) skip a step of 64 pixels where all 8 views of a register block are black,
+//! skip a step of 64 pixels where all 8 views of a register block are black,
 //! so the eigenspace batch is also timed on the same views with every 0 raised to 1: no step
 //! skipped, the dense work; once against the model above (the raised views lie off its
 //! manifold, and its search costs more there than on real views) and once against a model
 //! trained on the raised views (a background that is not black, as a user's would be). The FMA
 //! bound counts that work as f32 fused multiply-adds; the integer kernel's `vpdpbusd` runs at
-//! the same instruction rate and needs `dot_q::DIGITS` (2) where they need 4, so its own
+//! the same instruction rate and needs `bench::DIGITS` (2) where they need 4, so its own
 //! compute bound is DIGITS / 4 of the FMA bound; the larger of that and the copy is printed
 //! beside the rest.
 //!

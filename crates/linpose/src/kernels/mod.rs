@@ -1,17 +1,20 @@
 //! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
 //! ([`syrk`]; [`gram`] drives it for X X^T in memory, [`gram8`] for 8-bit features in exact
 //! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`] in f32; [`dot_q`] exact
-//! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI runs
-//! it; [`dot_w`] the same for the 16-bit block sums of binned images) and the refined eigenspace's coarse scan ([`scan`]).
+//! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI
+//! runs it; [`dot_w`] the same for the 16-bit block sums of binned images) and the refined
+//! eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in
 //! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
 //! every path gives bit-identical results; the paths are tested against each other and against a
 //! plain reference. The instruction set is detected once at run time, as a token that only
-//! detection makes ([`Level`]), so no safe function can run an instruction the CPU lacks.
+//! detection makes ([`Level`], in [`isa`] with [`dispatch!`], which compiles a portable body
+//! for each level), so no safe function can run an instruction the CPU lacks.
 //!
 //! The module is private to the crate; the benchmarks and examples reach what they time through
-//! [`bench`], whose functions detect the level themselves.
+//! [`bench`], whose functions detect the level themselves, and [`peak`] measures the machine's
+//! peaks for them to report against.
 
 pub mod bench;
 pub(crate) mod dot_q;

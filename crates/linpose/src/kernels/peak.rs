@@ -151,8 +151,8 @@ mod x86 {
 /// after one warm-up pass, so a buffer that fits in the caches is read from them. The bound of
 /// a read-only kernel on the same bytes: a copy also writes, and costs about twice as much.
 /// The words lie on 64-byte boundaries, as the models' weights do: from the allocator's 16-byte
-/// alignment three loads in four straddle two cache lines, which made this bound 1.5-1.9x
-/// slower or not depending on where the buffer landed.
+/// alignment three loads in four would straddle two cache lines, and the bound would depend on
+/// where the buffer landed.
 pub fn read_seconds(buf: &[u8], reps: usize) -> f64 {
     let lines: Vec<Line64> = buf
         .chunks(64)
