@@ -41,10 +41,14 @@ pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
 /// symmetric; the same bits whatever the thread count).
 pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
     let (m, n) = (xt.nrows(), xt.ncols());
-    crate::kernels::gram::gram_rows(n, m, |i, k0, out| {
-        let col = xt.col(i);
-        out.iter_mut().enumerate().for_each(|(k, o)| *o = col[k0 + k]);
-    })
+    let cols: Option<Vec<&[f64]>> = (0..n).map(|j| xt.col(j).try_as_col_major().map(|c| c.as_slice())).collect();
+    match cols {
+        Some(cols) => crate::kernels::gram::gram_f64(&cols, m),
+        None => crate::kernels::gram::gram_rows(n, m, |i, k0, out| {
+            let col = xt.col(i);
+            out.iter_mut().enumerate().for_each(|(k, o)| *o = col[k0 + k]);
+        }),
+    }
 }
 
 /// The Gram matrix G = X X^T (N x N) of N row-major f32 feature rows, each optionally minus
