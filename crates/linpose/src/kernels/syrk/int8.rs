@@ -25,6 +25,8 @@ fn tile_rows(r: usize, c0: usize, n16: usize) -> (usize, usize) {
     (rs, re.saturating_sub(rs) / GROUP16)
 }
 
+/// One band of C += s * P P^T for an 8-bit panel of `kcp` step pairs: `a` the 16-row groups,
+/// `b` the broadcast side at `bs` lanes a step; rows of C at or past `n16` are padding.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn band_update_u8(band: &mut Band, n16: usize, a: &[i32], b: &[i32], bs: usize, kcp: usize, s: f64, level: Level) {
     let ld = band.rows;
@@ -60,6 +62,8 @@ pub(super) fn band_update_u8(band: &mut Band, n16: usize, a: &[i32], b: &[i32], 
     }
 }
 
+/// One band of C += s * (K^T R + R^T K) for a cross panel of `kcq` step quads (as
+/// [`band_update_u8`], the levels and the signed values side by side).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn band_update_u8_cross(band: &mut Band, n16: usize, [ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, s: f64, level: Level) {
     let ld = band.rows;
