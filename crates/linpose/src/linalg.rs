@@ -37,8 +37,9 @@ pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
     mu
 }
 
-/// The Gram matrix G = X X^T (N x N) from X^T (M x N): see [`crate::kernels::gram`] (exactly
-/// symmetric; the same bits whatever the thread count).
+/// The Gram matrix G = X X^T (N x N) from X^T (M x N), lower triangle by the crate's f64
+/// symmetric rank-k kernel (AVX-512 where the CPU has it), mirrored: exactly symmetric, and the
+/// same bits whatever the thread count.
 pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
     let (m, n) = (xt.nrows(), xt.ncols());
     let cols: Option<Vec<&[f64]>> = (0..n).map(|j| xt.col(j).try_as_col_major().map(|c| c.as_slice())).collect();
@@ -54,7 +55,7 @@ pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
 /// The Gram matrix G = X X^T (N x N) of N row-major f32 feature rows, each optionally minus
 /// `mean`, in f64 (every f32 product is exact in f64), without an f64 copy of X. Uncentred
 /// 8-bit features (what PNG images give) are summed exactly in integers where the CPU has
-/// AVX-512 VNNI ([`crate::kernels::gram8`]), within about 1e-14 of the f64 sums.
+/// AVX-512 VNNI, within about 1e-14 of the f64 sums.
 pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     crate::kernels::gram::gram_f32(features, n, m, mean)
 }

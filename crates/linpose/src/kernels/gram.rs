@@ -190,7 +190,7 @@ pub fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64>
     gram_f32_fma(x, n, m, mean)
 }
 
-/// [`gram_f32`] by the f64 kernel whatever the values.
+/// `gram_f32` by the f64 kernel whatever the values.
 pub fn gram_f32_fma(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     gram_f32_with(x, n, m, mean, Level::detect(), chunks(n, m))
 }

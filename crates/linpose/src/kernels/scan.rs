@@ -55,7 +55,7 @@ fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: 
 /// Points per box of [`boxes`] and [`sq_dist_boxed`]: one AVX-512 vector.
 pub const BOX: usize = 16;
 
-/// The bounding boxes of every [`BOX`] consecutive points (the last box maybe fewer) in the
+/// The bounding boxes of every `BOX` (16) consecutive points (the last box maybe fewer) in the
 /// first `split` rows of `cols` (rows of `n` values): for each row q, the boxes' least values,
 /// then their greatest (`2 split` rows of `n.div_ceil(BOX)`).
 pub fn boxes(cols: &[f32], n: usize, split: usize) -> Vec<f32> {
