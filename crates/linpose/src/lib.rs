@@ -55,7 +55,7 @@ pub mod error;
 pub mod eval;
 pub mod experiment;
 pub mod image_io;
-pub mod kernels;
+pub(crate) mod kernels;
 pub mod linalg;
 pub mod manifest;
 pub mod methods;
@@ -67,6 +67,8 @@ pub mod render;
 pub use dataset::Dataset;
 pub use error::{Error, Result};
 pub use eval::{evaluate, EvalReport};
+#[doc(hidden)]
+pub use kernels::bench;
 pub use manifest::{Manifest, TrainSelection};
 pub use methods::eigenspace::{EigenspaceModel, EigenspaceParams};
 pub use methods::linear::ridge::RidgeRule;

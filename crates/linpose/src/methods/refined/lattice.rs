@@ -302,7 +302,7 @@ impl Lattice {
     /// alike when `uniform` gives their common value). `scratch` is reused between calls.
     pub fn nearest(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::nearest_avx512(self, y, wt, uniform, scratch) };
         }
@@ -950,7 +950,7 @@ mod tests {
                     if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
                 assert_eq!(got.to_bits(), portable.to_bits(), "the AVX-512 build gives the portable one's pose");
                 #[cfg(target_arch = "x86_64")]
-                if !lat.even.is_empty() && crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+                if !lat.even.is_empty() && crate::kernels::Level::detect().avx512() {
                     pruned += pruned_as_full(&lat, &y, &wt) as usize;
                 }
                 let all = brute(&s, &y, &wt, 0.5);
@@ -961,7 +961,7 @@ mod tests {
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             assert!(pruned >= 20, "the uniform queries near the curve take the pruned scan: {pruned}");
         }
     }

@@ -1575,7 +1575,7 @@ pub fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
 fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32, early: f64) -> f64 {
     let pass = |rows: &mut RowsF32, pass: Pass| {
         #[cfg(target_arch = "x86_64")]
-        if Level::detect() == Level::Avx512 {
+        if Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512 F/BW (detected).
             return unsafe { simd::pixel_variance_avx512(x, w, h, ch, rows, pass) };
         }
@@ -2092,7 +2092,7 @@ pub fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 {
 fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8, early: f64) -> f64 {
     let pass = |rows: &mut RowsU8, pass: Pass| {
         #[cfg(target_arch = "x86_64")]
-        if Level::detect() == Level::Avx512 && std::arch::is_x86_feature_detected!("avx512vl") {
+        if Level::detect().avx512_vl() {
             // SAFETY: the CPU supports AVX-512 F/BW/VL (detected).
             return unsafe { simd::pixel_variance_u8_avx512(x, w, h, ch, rows, pass) };
         }
@@ -2213,7 +2213,7 @@ fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
 /// [`smallest`] given the least of `dist`, `lo`.
 fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
     #[cfg(target_arch = "x86_64")]
-    if Level::detect() == Level::Avx512 {
+    if Level::detect().avx512() {
         // SAFETY: the CPU supports AVX-512 F/BW (detected).
         return unsafe { simd::smallest_avx512(dist, k, lo) };
     }

@@ -177,7 +177,7 @@ impl Surface {
     /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
     pub fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::eval_avx512(self, t, f, jac) };
         }
@@ -191,7 +191,7 @@ impl Surface {
     pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
         assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::eval_pair_avx512(self, other, t, f, jac, g, jac_g) };
         }
@@ -207,7 +207,7 @@ impl Surface {
         let d = self.params();
         if d == 2 && jac.is_none() && other.as_ref().is_none_or(|o| o.2.is_none()) {
             #[cfg(target_arch = "x86_64")]
-            if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            if crate::kernels::Level::detect().avx512() {
                 // SAFETY: the CPU supports AVX-512F (detected).
                 return unsafe { simd::values2_avx512(self, t, f, other.map(|(o, g, _)| (o, g))) };
             }
@@ -483,7 +483,7 @@ impl AffineQuery {
     /// to a multiple of 8 values (as [`Surface::climb_pair`] gives them), zero beyond.
     pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::affine_residual_avx512(self, f, g) };
         }
@@ -514,7 +514,7 @@ impl AffineQuery {
 /// weight beyond the coordinates), summed 8 lanes at a time.
 fn lane_distance(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+    if crate::kernels::Level::detect().avx512() {
         // SAFETY: the CPU supports AVX-512F (detected).
         return unsafe { simd::lane_distance_avx512(y, w, f) };
     }
@@ -873,7 +873,7 @@ impl Surface {
         gv: &mut [[f64; BLOCK_DIM]; 9],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::block2_avx512(self, other, lo, p0, p1, fv, gv) };
         }
