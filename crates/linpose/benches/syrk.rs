@@ -17,8 +17,8 @@
 //! cargo bench -p linpose --bench syrk [-- REPS]
 use faer::linalg::matmul::triangular::{matmul, BlockStructure};
 use faer::{Accum, Mat, MatMut, MatRef, Par};
+use linpose::bench::{gram, transpose_features};
 use linpose::bench::{gram_f32_fma, pack_columns, padded, SyrkAcc, KC};
-use linpose::linalg::{gram, transpose_features};
 use std::hint::black_box;
 use std::time::Instant;
 

@@ -10,7 +10,7 @@
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat};
 use linpose::bench::{fma_flops_f64, gram_f32_fma, vnni_gram_flops};
-use linpose::linalg::{gram_f32, par};
+use linpose::bench::{gram_f32, par};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {

@@ -56,7 +56,7 @@ pub mod eval;
 pub mod experiment;
 pub mod image_io;
 pub(crate) mod kernels;
-pub mod linalg;
+pub(crate) mod linalg;
 pub mod manifest;
 pub mod methods;
 pub mod model;
