@@ -9,9 +9,9 @@
 //!
 //! cargo bench -p linpose --bench gram
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use linpose::kernels::gram::gram_f32_fma;
-use linpose::kernels::peak::{fma_flops_f64, vnni_gram_flops};
-use linpose::linalg::gram_f32;
+use linpose::bench::gram_f32;
+use linpose::bench::gram_f32_fma;
+use linpose::bench::{fma_flops_f64, vnni_gram_flops};
 use std::hint::black_box;
 
 mod common;

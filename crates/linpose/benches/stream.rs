@@ -9,8 +9,8 @@
 //!
 //! cargo bench -p linpose --bench stream
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode, Throughput};
-use linpose::kernels::peak::fma_flops_f64;
-use linpose::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
+use linpose::bench::fma_flops_f64;
+use linpose::bench::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 use std::time::Duration;
 
 mod common;

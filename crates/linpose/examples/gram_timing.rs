@@ -1,4 +1,4 @@
-//! Times the Gram matrix G = X X^T for the training-set sizes of issue 7 (M = 19,200) against the
+//! Times the Gram matrix G = X X^T for N = 222 and 2000 images of M = 19,200 pixels against the
 //! machine's peaks measured in the same run (an AVX-512 FMA loop on every thread, a large square
 //! faer matmul, and the VNNI loop of the 8-bit Gram), alternating, medians of REPS.
 //!
@@ -9,9 +9,8 @@
 //! cargo run --release --example gram_timing [-- REPS]
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat};
-use linpose::kernels::gram::gram_f32_fma;
-use linpose::kernels::peak::{fma_flops_f64, vnni_gram_flops};
-use linpose::linalg::{gram_f32, par};
+use linpose::bench::{fma_flops_f64, gram_f32_fma, vnni_gram_flops};
+use linpose::bench::{gram_f32, par};
 use std::time::Instant;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -54,7 +53,7 @@ fn main() {
         mm / 1e9,
         vnni / 1e9
     );
-    let integer = linpose::kernels::gram8::gram_levels(&data[0].1[..m], 1, m).is_some();
+    let integer = linpose::bench::gram_levels(&data[0].1[..m], 1, m).is_some();
     for (k, (n, _)) in data.iter().enumerate() {
         let done = (n * (n + 1) / 2 * m) as f64 * 2.0; // the lower triangle's multiply-adds
         for (p, name) in [(0, if integer { "gram_f32 (8-bit integer path)" } else { "gram_f32 (f64 kernel: no VNNI)" }), (1, "gram_f32_fma (f64 kernel)")] {

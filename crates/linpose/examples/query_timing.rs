@@ -5,18 +5,18 @@
 //! eigenspace on the rendered duck (trained on the 9-degree views, queried with all 1760 views
 //! repeated), so that its k-d tree search behaves as on real data. The 8-bit products skip
 //! black steps (85% of the duck's pixels are background): the eigenspace's integer products
-//! (`kernels::dot_q`) skip a step of 64 pixels where all 8 views of a register block are black,
+//! skip a step of 64 pixels where all 8 views of a register block are black,
 //! so the eigenspace batch is also timed on the same views with every 0 raised to 1: no step
 //! skipped, the dense work; once against the model above (the raised views lie off its
 //! manifold, and its search costs more there than on real views) and once against a model
 //! trained on the raised views (a background that is not black, as a user's would be). The FMA
 //! bound counts that work as f32 fused multiply-adds; the integer kernel's `vpdpbusd` runs at
-//! the same instruction rate and needs `dot_q::DIGITS` (2) where they need 4, so its own
+//! the same instruction rate and needs `bench::DIGITS` (2) where they need 4, so its own
 //! compute bound is DIGITS / 4 of the FMA bound; the larger of that and the copy is printed
 //! beside the rest.
 //!
 //! cargo run --release --example query_timing [-- REPS]
-use linpose::kernels::peak::{fma_flops_f64, read_seconds};
+use linpose::bench::{fma_flops_f64, read_seconds};
 use linpose::{EigenspaceParams, Estimator, LinearParams, PoseModel};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -142,7 +142,7 @@ fn main() {
         m[14] / batch as f64 * 1e6,
         100.0 * bound_b / (m[14] / batch as f64)
     );
-    let digits = linpose::kernels::dot_q::DIGITS as f64;
+    let digits = linpose::bench::DIGITS as f64;
     let copy_b = m[0] / batch as f64;
     let vnni_b = copy_b.max(digits / 4.0 * flops / m[7]);
     println!(

@@ -141,19 +141,19 @@ impl Binning {
     /// of squares and that of `x` itself (both exact). `acc` is scratch. Gray images binned by 2
     /// or 4 go through AVX-512 BW where `level` allows (the same integers, the image's own
     /// squares summed in the same pass).
-    pub fn sums_energies_u8(&self, level: Level, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> (u64, u64) {
+    pub(crate) fn sums_energies_u8(&self, level: Level, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> (u64, u64) {
         let s = self.spec();
         let mb = s.features();
         assert!(x.len() == self.full.features() && out.len() >= mb);
         #[cfg(target_arch = "x86_64")]
-        if level == Level::Avx512 && self.factor == 2 && self.full.color.channels() == 1 {
-            // SAFETY: AVX-512 F/BW detected (Level::Avx512); the slices hold the full and binned
-            // images (asserted above).
+        if level.avx512() && self.factor == 2 && self.full.color.channels() == 1 {
+            // SAFETY: the level is a token of detection that found AVX-512 F and BW; the slices
+            // hold the full and binned images (asserted above).
             return unsafe { simd::sums_2x2_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, out) };
         }
         #[cfg(target_arch = "x86_64")]
-        if level == Level::Avx512 && self.factor == 4 && self.full.color.channels() == 1 {
-            // SAFETY: as above.
+        if level.avx512() && self.factor == 4 && self.full.color.channels() == 1 {
+            // SAFETY: as above (AVX-512 F and BW detected, the slices asserted).
             return unsafe { simd::sums_4x4_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, out) };
         }
         let _ = level;

@@ -37,20 +37,25 @@ pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
     mu
 }
 
-/// The Gram matrix G = X X^T (N x N) from X^T (M x N): see [`crate::kernels::gram`] (exactly
-/// symmetric; the same bits whatever the thread count).
+/// The Gram matrix G = X X^T (N x N) from X^T (M x N), lower triangle by the crate's f64
+/// symmetric rank-k kernel (AVX-512 where the CPU has it), mirrored: exactly symmetric, and the
+/// same bits whatever the thread count.
 pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
     let (m, n) = (xt.nrows(), xt.ncols());
-    crate::kernels::gram::gram_rows(n, m, |i, k0, out| {
-        let col = xt.col(i);
-        out.iter_mut().enumerate().for_each(|(k, o)| *o = col[k0 + k]);
-    })
+    let cols: Option<Vec<&[f64]>> = (0..n).map(|j| xt.col(j).try_as_col_major().map(|c| c.as_slice())).collect();
+    match cols {
+        Some(cols) => crate::kernels::gram::gram_f64(&cols, m),
+        None => crate::kernels::gram::gram_rows(n, m, |i, k0, out| {
+            let col = xt.col(i);
+            out.iter_mut().enumerate().for_each(|(k, o)| *o = col[k0 + k]);
+        }),
+    }
 }
 
 /// The Gram matrix G = X X^T (N x N) of N row-major f32 feature rows, each optionally minus
 /// `mean`, in f64 (every f32 product is exact in f64), without an f64 copy of X. Uncentred
 /// 8-bit features (what PNG images give) are summed exactly in integers where the CPU has
-/// AVX-512 VNNI ([`crate::kernels::gram8`]), within about 1e-14 of the f64 sums.
+/// AVX-512 VNNI, within about 1e-14 of the f64 sums.
 pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     crate::kernels::gram::gram_f32(features, n, m, mean)
 }
@@ -77,16 +82,11 @@ fn lanes_sum(s: &[f32; ENERGY_LANES]) -> f64 {
 }
 
 /// ||x||^2: 64 independent f32 lanes (four chains of one AVX-512 vector), each block of 2048
-/// values (32 a lane) summed into f64 in eight chains. Compiled for AVX-512 where the CPU has
-/// it (the same operations, so the same bits: queries are scaled by it, and both methods'
+/// values (32 a lane) summed into f64 in eight chains. Compiled for the detected SIMD level
+/// (the same operations, so the same bits: queries are scaled by it, and both methods'
 /// projections take it).
 pub fn energy(x: &[f32]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
-        // SAFETY: AVX-512F was detected.
-        return unsafe { x86::energy_avx512(x) };
-    }
-    energy_body(x)
+    energy_built(crate::kernels::Level::detect(), x)
 }
 
 /// (||x||^2, x . w): [`energy`] (the same bits) with x . w summed alongside it the same way, in
@@ -94,12 +94,17 @@ pub fn energy(x: &[f32]) -> f64 {
 /// takes, without a row of its own in the product with the eigenimages).
 pub fn energy_and_dot(x: &[f32], w: &[f32]) -> (f64, f64) {
     assert_eq!(x.len(), w.len(), "x and w of one length");
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
-        // SAFETY: AVX-512F was detected.
-        return unsafe { x86::energy_and_dot_avx512(x, w) };
-    }
-    energy_and_dot_body(x, w)
+    energy_and_dot_built(crate::kernels::Level::detect(), x, w)
+}
+
+crate::kernels::dispatch! {
+    /// [`energy`] at `level`.
+    fn energy_built(x: &[f32]) -> f64 = energy_body;
+}
+
+crate::kernels::dispatch! {
+    /// [`energy_and_dot`] at `level`.
+    fn energy_and_dot_built(x: &[f32], w: &[f32]) -> (f64, f64) = energy_and_dot_body;
 }
 
 #[inline(always)]
@@ -136,27 +141,6 @@ fn energy_and_dot_body(x: &[f32], w: &[f32]) -> (f64, f64) {
         dot += lanes_sum(&t) + xr.iter().zip(wr).map(|(&v, &u)| v as f64 * u as f64).sum::<f64>();
     }
     (sq, dot)
-}
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    /// [`super::energy_body`] compiled for AVX-512 (the same operations, so the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn energy_avx512(x: &[f32]) -> f64 {
-        super::energy_body(x)
-    }
-
-    /// [`super::energy_and_dot_body`] compiled for AVX-512 (the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn energy_and_dot_avx512(x: &[f32], w: &[f32]) -> (f64, f64) {
-        super::energy_and_dot_body(x, w)
-    }
 }
 
 /// Dot product of two f32 vectors with eight independent accumulators (vectorises well and
@@ -209,8 +193,8 @@ mod tests {
     }
 
     /// The energy and the energy with a product: within f32 rounding of the f64 sums, the
-    /// energy the same bits alone and beside the product, and on every build (the AVX-512 one
-    /// where the CPU has it), at lengths around the lanes and blocks (remainders included).
+    /// energy the same bits alone and beside the product, and on every build (every SIMD level
+    /// this CPU runs), at lengths around the lanes and blocks (remainders included).
     #[test]
     fn energy_and_its_product_are_the_f64_sums_on_every_build() {
         for m in [0, 1, 63, 64, 65, 2047, 2048, 2049, 16384, 19200 + 7] {
@@ -225,6 +209,11 @@ mod tests {
                 (a.to_bits(), b.to_bits())
             });
             assert_eq!(energy_body(&x).to_bits(), e.to_bits(), "m {m}");
+            for level in crate::kernels::Level::supported() {
+                let (a, b) = energy_and_dot_built(level, &x, &w);
+                assert_eq!((a.to_bits(), b.to_bits()), (e.to_bits(), d.to_bits()), "m {m} {level:?}");
+                assert_eq!(energy_built(level, &x).to_bits(), e.to_bits(), "m {m} {level:?}");
+            }
             assert!((e - xx).abs() <= 1e-6 * xx.max(1e-30), "m {m}: {e} against {xx}");
             let scale: f64 = x.iter().zip(&w).map(|(&v, &u)| (v as f64 * u as f64).abs()).sum();
             assert!((d - xw).abs() <= 1e-6 * scale.max(1e-30), "m {m}: {d} against {xw}");

@@ -11,7 +11,7 @@
 //! adding ±0), so every path skips such steps, and the weights they would have read. That is
 //! exact, not an approximation: the sums are the bits of the dense ones (tested).
 
-use super::Level;
+use super::{dispatch, Level};
 
 /// Pixels per vector step.
 const LANES: usize = 16;
@@ -69,7 +69,7 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
     assert_eq!(energy.len(), n, "one energy per image");
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
-    if level == Level::Avx512 && rows > 0 {
+    if level.avx512() && rows > 0 {
         done = n / BATCH_IMAGES * BATCH_IMAGES;
         for ((xg, og), eg) in xs[..done * m].chunks(BATCH_GROUP * m).zip(out.chunks_mut(BATCH_GROUP * rows)).zip(energy.chunks_mut(BATCH_GROUP)) {
             let g = xg.len() / m;
@@ -89,18 +89,16 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
                 let (p0, p1) = (c0 * LANES, ((c0 + PIXEL_CHUNK / LANES).min(steps)) * LANES);
                 let pc = p1 - p0;
                 // The lines of each image two blocks ahead, into the L2 cache: one stream per
-                // image is more than the hardware prefetcher follows, and one block ahead into
-                // L1 arrived too late (a third of the widening's time stalled on its loads; two
-                // blocks ahead into L2 took the projection of the rendered duck's views from
-                // 5.0-5.8 to 3.5-4.2 us a query on two threads, alternated in one sitting).
+                // image is more than the hardware prefetcher follows, and one block ahead would
+                // arrive too late for the widening's loads.
                 let ahead = (p1 + PIXEL_CHUNK..(p1 + 2 * PIXEL_CHUNK).min(m)).step_by(64);
                 for (((f, x), sq), nz) in xf.chunks_exact_mut(PIXEL_CHUNK).zip(xg.chunks_exact(m)).zip(&mut sq).zip(&mut nonzero) {
-                    // SAFETY: as below; both slices hold pc values, a multiple of 16.
+                    // SAFETY: the level is a token of detection that found AVX-512 F and BW
+                    // (checked above); both slices hold pc <= PIXEL_CHUNK values, a multiple of 16.
                     let (s, z) = unsafe { x86::widen_avx512(&x[p0..p1], &mut f[..pc]) };
                     (*sq, *nz) = (*sq + s as u64, z);
                     for p in ahead.clone() {
-                        // SAFETY: p < m, inside the image.
-                        unsafe { x86::prefetch(x.as_ptr().add(p)) };
+                        x86::prefetch(x.as_ptr().wrapping_add(p));
                     }
                 }
                 let (wb, stride): (&[f32], usize) = if in_place {
@@ -119,7 +117,7 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
                     if steps == 0 {
                         continue;
                     }
-                    // SAFETY: Level::Avx512 was detected by the caller; the blocks hold
+                    // SAFETY: AVX-512F was detected (the level, checked above); the blocks hold
                     // BATCH_IMAGES images of PIXEL_CHUNK values and `rows` weight rows `stride`
                     // apart, all from 64-byte boundaries, and the steps lie below pc / 16 <=
                     // PIXEL_CHUNK / 16 (checked in the kernel).
@@ -152,16 +150,16 @@ pub fn sum_squares(x: &[u8]) -> u64 {
 
 #[inline(always)]
 fn pass<const R: usize>(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
-    let acc = match level {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: Level::Avx512 / Avx2 come from Level::detect or Level::supported, which check
-        // the CPU; `w` holds R rows of x.len() values (asserted in `dots`).
-        Level::Avx512 => unsafe { x86::lanes_avx512::<R>(x, w) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above (avx2 and fma detected).
-        Level::Avx2 => unsafe { x86::lanes_avx2::<R>(x, w) },
-        _ => lanes_portable::<R>(x, w),
+    #[cfg(target_arch = "x86_64")]
+    let acc = if level.avx512() {
+        // SAFETY: the level is a token of detection that found AVX-512F; `w` holds R rows of
+        // x.len() values (asserted in `dots`, and again by the kernel).
+        unsafe { x86::lanes_avx512::<R>(x, w) }
+    } else {
+        lanes_built::<R>(level, x, w)
     };
+    #[cfg(not(target_arch = "x86_64"))]
+    let acc = lanes_built::<R>(level, x, w);
     for (o, a) in out.iter_mut().zip(&acc) {
         *o = reduce(a);
     }
@@ -193,6 +191,11 @@ fn tail<const R: usize>(x: &[u8], w: &[f32], acc: &mut [[f32; LANES]; R]) {
     }
 }
 
+dispatch! {
+    /// [`lanes_portable`] at `level` (where no intrinsics kernel serves it).
+    fn lanes_built<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] = lanes_portable;
+}
+
 #[inline(always)]
 fn lanes_portable<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
     let m = x.len();
@@ -218,15 +221,8 @@ fn lanes_portable<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
 // Register blocks index several arrays (accumulators, loaded vectors) by the same loop variables.
 #[allow(clippy::needless_range_loop)]
 mod x86 {
-    use super::{lanes_portable, tail, BATCH_IMAGES, BATCH_ROWS, LANES, PIXEL_CHUNK};
+    use super::{tail, BATCH_IMAGES, BATCH_ROWS, LANES, PIXEL_CHUNK};
     use std::arch::x86_64::*;
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn lanes_avx2<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
-        lanes_portable::<R>(x, w)
-    }
 
     /// `out[i] = x[i] as f32`, 16 at a time (`x.len()` a multiple of 16, at most 512, `out`
     /// as long); returns the sum of the squares of `x`, exact, and the mask of the vector steps
@@ -253,8 +249,10 @@ mod x86 {
 
     /// Hints the cache line at `p` into the L2 cache.
     #[inline(always)]
-    pub unsafe fn prefetch(p: *const u8) {
-        _mm_prefetch::<_MM_HINT_T1>(p as *const i8);
+    pub fn prefetch(p: *const u8) {
+        // SAFETY: a prefetch is a hint that never faults, whatever the address, and SSE is part
+        // of every x86_64 CPU.
+        unsafe { _mm_prefetch::<_MM_HINT_T1>(p as *const i8) };
     }
 
     /// One cache block: the vector steps in the mask `mask` (bit c for step c, below `steps`)
@@ -282,6 +280,10 @@ mod x86 {
     }
 
     /// Rows r0..r0 + R of one cache block, the steps in `mask`, in registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F; the slices must have the lengths and alignment
+    /// [`block_avx512`] asserts, and r0 + R <= rows.
     #[target_feature(enable = "avx512f")]
     unsafe fn regs<const R: usize>(xf: &[f32], wf: &[f32], stride: usize, rows: usize, r0: usize, mask: u32, acc: &mut [f32]) {
         let (xp, wp, ap) = (xf.as_ptr(), wf.as_ptr().add(r0 * stride), acc.as_mut_ptr());

@@ -64,27 +64,25 @@ impl WordRows {
         Some(WordRows { rows, m, scale, lines, span })
     }
 
-    /// Rows stored.
-    pub fn rows(&self) -> usize {
-        self.rows
-    }
-
     /// Steps of the lines of one image ([`Self::lines_of`]).
     pub fn steps(&self) -> usize {
         self.m.div_ceil(STEP)
     }
 
     /// Steps summed in i32 lanes before they are added into i64.
+    #[cfg(test)]
     pub fn span(&self) -> usize {
         self.span
     }
 
     /// The stored integer of row r at pixel p.
+    #[cfg(test)]
     pub fn int(&self, r: usize, p: usize) -> i32 {
         self.lines[r * self.steps() + p / STEP].0[p % STEP] as i32
     }
 
     /// The scale of row r.
+    #[cfg(test)]
     pub fn scale(&self, r: usize) -> f64 {
         self.scale[r]
     }
@@ -208,6 +206,11 @@ mod x86 {
 
     /// Rows r.. (R of them) against B images over the listed steps: i32 lanes for `span` steps
     /// at a time, then added into i64 lanes; the sums into `sums[j][b]`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F, BW and VNNI; `xp` must hold B images of `steps` lines
+    /// and `wp` rows r..r + R of `steps` lines, all on 64-byte boundaries, and every step of
+    /// `idx` must be below `steps`.
     #[inline]
     #[allow(clippy::needless_range_loop)]
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]

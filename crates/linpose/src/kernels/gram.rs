@@ -35,8 +35,8 @@ pub const KC: usize = 128;
 /// Rows of C per band (a multiple of 24, so that tiles start on the band's groups). Small
 /// items balance the threads at the end of each panel's fork-join, and the bands store less
 /// above the diagonal, so that for N = 2000 two partial Grams fit [`PARTIALS_BYTES`] (each
-/// thread then updates its own partial). Measured alternating: 48 beats 192 (N = 2000 about 15%
-/// faster) and 96 at both sizes, and 24 beats 48 (N = 2000 about 10%).
+/// thread then updates its own partial). Chosen by timing 24, 48, 96 and 192 rows at N = 222
+/// and 2000 (M = 19,200), alternated.
 const BAND: usize = 24;
 /// Most columns of C per work item.
 pub const COLS: usize = 192;
@@ -190,7 +190,7 @@ pub fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64>
     gram_f32_fma(x, n, m, mean)
 }
 
-/// [`gram_f32`] by the f64 kernel whatever the values.
+/// `gram_f32` by the f64 kernel whatever the values.
 pub fn gram_f32_fma(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     gram_f32_with(x, n, m, mean, Level::detect(), chunks(n, m))
 }
@@ -212,9 +212,9 @@ pub fn pack_group_f32(out: &mut [f64], x: &[f32], n: usize, m: usize, i0: usize,
     let rows = n.saturating_sub(i0).min(GROUP);
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
-    if level == Level::Avx512 {
-        // SAFETY: Level::Avx512 is only detected with avx512f; the kernel reads rows i0..i0 +
-        // rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 8)].
+    if level.avx512() {
+        // SAFETY: the level is a token of detection that found AVX-512F; the kernel reads rows
+        // i0..i0 + rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 8)].
         unsafe { x86::pack_group_f32_avx512(out, x, m, i0, rows, k0, kc, mean) };
         done = kc - kc % GROUP;
     }
@@ -231,10 +231,83 @@ pub fn pack_group_f32(out: &mut [f64], x: &[f32], n: usize, m: usize, i0: usize,
     }
 }
 
+/// G = X X^T for the f64 rows `rows` (one image each, at least `m` values), by the f64 kernel.
+/// The same bits as [`gram_rows`] on the same values; the rows are packed 8 at a time by an
+/// AVX-512 transpose where the level has it ([`pack_group_f64`]).
+pub fn gram_f64(rows: &[&[f64]], m: usize) -> Mat<f64> {
+    let (n, level) = (rows.len(), Level::detect());
+    assert!(rows.iter().all(|r| r.len() >= m), "rows of m values");
+    gram_with(n, m, level, chunks(n, m), |panel, k0, kc| {
+        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_f64(p, &rows[(g * GROUP).min(n)..(g * GROUP + GROUP).min(n)], k0, kc, level))
+    })
+}
+
+/// Packs the rows `rows` (at most 8; the rest of the group zero), steps `k0..k0 + kc`, into
+/// `out` (`8 * kc`: step k's 8 rows at `out[8 k..]`).
+pub fn pack_group_f64(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize, level: Level) {
+    assert!(out.len() == GROUP * kc && rows.len() <= GROUP && rows.iter().all(|r| r.len() >= k0 + kc), "packed group size");
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if level.avx512() {
+        // SAFETY: the level is a token of detection that found AVX-512F; the kernel asserts the
+        // lengths it reads and writes.
+        unsafe { x86::pack_group_f64_avx512(out, rows, k0, kc) };
+        done = kc - kc % GROUP;
+    }
+    let _ = level;
+    for k in done..kc {
+        for l in 0..GROUP {
+            out[k * GROUP + l] = rows.get(l).map_or(0.0, |r| r[k0 + k]);
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::GROUP;
     use std::arch::x86_64::*;
+
+    /// Stores the 8 x 8 transpose of `r` (row l's 8 steps in `r[l]`) at `o`: step j's 8 rows at
+    /// `o[8 j..]`. Pairs of rows are unpacked, then quads and halves permuted.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F (this is inlined into kernels that enable it); `o` must be
+    /// valid for writes of 64 values.
+    #[inline(always)]
+    unsafe fn store_transposed(r: &[__m512d; 8], o: *mut f64) {
+        let lo2 = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+        let hi2 = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+        let lo4 = _mm512_setr_epi64(0, 1, 2, 3, 8, 9, 10, 11);
+        let hi4 = _mm512_setr_epi64(4, 5, 6, 7, 12, 13, 14, 15);
+        // t[2j] = (r[2j][0], r[2j+1][0], r[2j][2], r[2j+1][2], ..), t[2j+1] the odd steps.
+        let t = [
+            _mm512_unpacklo_pd(r[0], r[1]),
+            _mm512_unpackhi_pd(r[0], r[1]),
+            _mm512_unpacklo_pd(r[2], r[3]),
+            _mm512_unpackhi_pd(r[2], r[3]),
+            _mm512_unpacklo_pd(r[4], r[5]),
+            _mm512_unpackhi_pd(r[4], r[5]),
+            _mm512_unpacklo_pd(r[6], r[7]),
+            _mm512_unpackhi_pd(r[6], r[7]),
+        ];
+        // u: rows 0-3 at steps (0, 4), (1, 5), (2, 6), (3, 7); v: rows 4-7.
+        let u = [
+            _mm512_permutex2var_pd(t[0], lo2, t[2]),
+            _mm512_permutex2var_pd(t[1], lo2, t[3]),
+            _mm512_permutex2var_pd(t[0], hi2, t[2]),
+            _mm512_permutex2var_pd(t[1], hi2, t[3]),
+        ];
+        let v = [
+            _mm512_permutex2var_pd(t[4], lo2, t[6]),
+            _mm512_permutex2var_pd(t[5], lo2, t[7]),
+            _mm512_permutex2var_pd(t[4], hi2, t[6]),
+            _mm512_permutex2var_pd(t[5], hi2, t[7]),
+        ];
+        for j in 0..4 {
+            _mm512_storeu_pd(o.add(j * GROUP), _mm512_permutex2var_pd(u[j], lo4, v[j]));
+            _mm512_storeu_pd(o.add((j + 4) * GROUP), _mm512_permutex2var_pd(u[j], hi4, v[j]));
+        }
+    }
 
     /// Steps `0..kc - kc % 8` of [`super::pack_group_f32`]: per 8 steps, 8 row vectors
     /// converted (and the mean subtracted), transposed in registers, stored as 8 steps.
@@ -248,11 +321,6 @@ mod x86 {
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
         assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
         let (xp, o) = (x.as_ptr(), out.as_mut_ptr());
-        // Index vectors of the transpose: pairs of rows (unpack), then quads, then halves.
-        let lo2 = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
-        let hi2 = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
-        let lo4 = _mm512_setr_epi64(0, 1, 2, 3, 8, 9, 10, 11);
-        let hi4 = _mm512_setr_epi64(4, 5, 6, 7, 12, 13, 14, 15);
         for k in (0..kc - kc % GROUP).step_by(GROUP) {
             let mut r = [_mm512_setzero_pd(); 8];
             let mu = mean.map(|u| _mm512_loadu_pd(u.as_ptr().add(k0 + k)));
@@ -270,35 +338,29 @@ mod x86 {
                     None => v,
                 };
             }
-            // t[2j] = (r[2j][0], r[2j+1][0], r[2j][2], r[2j+1][2], ..), t[2j+1] the odd steps.
-            let t = [
-                _mm512_unpacklo_pd(r[0], r[1]),
-                _mm512_unpackhi_pd(r[0], r[1]),
-                _mm512_unpacklo_pd(r[2], r[3]),
-                _mm512_unpackhi_pd(r[2], r[3]),
-                _mm512_unpacklo_pd(r[4], r[5]),
-                _mm512_unpackhi_pd(r[4], r[5]),
-                _mm512_unpacklo_pd(r[6], r[7]),
-                _mm512_unpackhi_pd(r[6], r[7]),
-            ];
-            // u: rows 0-3 at steps (0, 4), (1, 5), (2, 6), (3, 7); v: rows 4-7.
-            let u = [
-                _mm512_permutex2var_pd(t[0], lo2, t[2]),
-                _mm512_permutex2var_pd(t[1], lo2, t[3]),
-                _mm512_permutex2var_pd(t[0], hi2, t[2]),
-                _mm512_permutex2var_pd(t[1], hi2, t[3]),
-            ];
-            let v = [
-                _mm512_permutex2var_pd(t[4], lo2, t[6]),
-                _mm512_permutex2var_pd(t[5], lo2, t[7]),
-                _mm512_permutex2var_pd(t[4], hi2, t[6]),
-                _mm512_permutex2var_pd(t[5], hi2, t[7]),
-            ];
-            let p = o.add(k * GROUP);
-            for j in 0..4 {
-                _mm512_storeu_pd(p.add(j * GROUP), _mm512_permutex2var_pd(u[j], lo4, v[j]));
-                _mm512_storeu_pd(p.add((j + 4) * GROUP), _mm512_permutex2var_pd(u[j], hi4, v[j]));
+            store_transposed(&r, o.add(k * GROUP));
+        }
+    }
+
+    /// Steps `0..kc - kc % 8` of [`super::pack_group_f64`]: per 8 steps, 8 row vectors
+    /// transposed in registers, stored as 8 steps.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub unsafe fn pack_group_f64_avx512(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize) {
+        assert!(out.len() >= GROUP * kc && rows.len() <= GROUP && rows.iter().all(|r| r.len() >= k0 + kc));
+        let o = out.as_mut_ptr();
+        for k in (0..kc - kc % GROUP).step_by(GROUP) {
+            let mut r = [_mm512_setzero_pd(); 8];
+            // As in pack_group_f32_avx512: the rows' lines 8 ahead (one line a row a step).
+            for row in rows {
+                _mm_prefetch::<_MM_HINT_T0>(row.as_ptr().wrapping_add(k0 + k + 64) as *const i8);
             }
+            for (rl, row) in r.iter_mut().zip(rows) {
+                *rl = _mm512_loadu_pd(row.as_ptr().add(k0 + k));
+            }
+            store_transposed(&r, o.add(k * GROUP));
         }
     }
 }
@@ -340,6 +402,27 @@ mod tests {
                     assert!(f.as_ref() == g.as_ref(), "{level:?} differs from the first path at n {n}");
                 } else {
                     first = Some(g);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn f64_rows_give_the_bits_of_the_row_reader() {
+        for &(n, m) in &SIZES {
+            let x: Vec<f64> = data(n, m).iter().map(|&v| v as f64 * 1.3 - 0.01).collect();
+            let rows: Vec<&[f64]> = x.chunks_exact(m).collect();
+            let want = gram_rows(n, m, |i, k0, out| out.copy_from_slice(&x[i * m + k0..i * m + k0 + out.len()]));
+            assert!(gram_f64(&rows, m).as_ref() == want.as_ref(), "n {n} m {m}");
+            for level in Level::supported() {
+                for (k0, kc) in [(0, m), (m / 3, m - m / 3), (m - 1, 1)] {
+                    for g in 0..n.div_ceil(GROUP) + 1 {
+                        let group = &rows[(g * GROUP).min(n)..(g * GROUP + GROUP).min(n)];
+                        let (mut got, mut want) = (vec![1.0; GROUP * kc], vec![1.0; GROUP * kc]);
+                        pack_group_f64(&mut got, group, k0, kc, level);
+                        super::super::syrk::pack_rows(&mut want, group.len(), kc, k0, |i, k0, out| out.copy_from_slice(&group[i][k0..k0 + out.len()]));
+                        assert!(got == want, "{level:?} group {g} steps {k0}+{kc}");
+                    }
                 }
             }
         }

@@ -1,9 +1,10 @@
 //! The Gram matrix G = X X^T of 8-bit features (every value k * S8, see [`super::levels`]),
 //! summed exactly in integers by the AVX-512 VNNI kernels of [`super::syrk`]: per panel of
 //! 512 or 1024 pixels (`kc8`), [`SCALE_PAIRS`] times sum k_p k_q (`vpdpwssd` on pixel pairs) and
-//! [`SCALE_CROSS`] times sum (k_p r_q + r_p k_q) (`vpdpbusd` on pixel quads). On this machine a
-//! VNNI instruction does twice the f64 FMA's lanes at the same rate, so the triangle costs
-//! about half the f64 kernel's instructions ([`super::peak::vnni_gram_flops`] measures it).
+//! [`SCALE_CROSS`] times sum (k_p r_q + r_p k_q) (`vpdpbusd` on pixel quads). A VNNI
+//! instruction does twice the f64 FMA's lanes, so where it issues at the FMA's rate the
+//! triangle costs about half the f64 kernel's time ([`super::peak::vnni_gram_flops`] measures
+//! that rate).
 //!
 //! Packing reads the f32 rows once per panel: for each group of 16 images, 64 pixels at a time,
 //! each row's values are turned into levels (checked: a value that is not an 8-bit feature
@@ -29,9 +30,9 @@ use faer::Mat;
 use rayon::prelude::*;
 
 /// Pixels per panel: 512 for up to [`SMALL`] rows, 1024 above; an i32 lane of a tile then
-/// sums at most 2 * 512 * 255^2 < 2^31. Measured alternating on two cores (M = 19,200): at N =
-/// 222, 512 beat 1024 in four alternating rounds (medians 8.1-11.1 ms against 8.8-17.6) and 256
-/// did not beat 512 in three; at N = 2000, 1024 took 0.57 s against 0.73 s for 512 (one round).
+/// sums at most 2 * 512 * 255^2 < 2^31. Shorter panels leave a small Gram more panels to share
+/// between the partials, longer ones give a large Gram fewer passes over its triangle; chosen by
+/// timing 256, 512 and 1024 at N = 222 and 2000 (M = 19,200), alternated.
 fn kc8(n: usize) -> usize {
     if padded(n) <= SMALL {
         512
@@ -57,9 +58,8 @@ pub fn gram_levels(x: &[f32], n: usize, m: usize) -> Option<Mat<f64>> {
     gram_levels_with(x, n, m, || SyrkAcc::new(n), Level::detect())
 }
 
-/// Most partial Grams: measured once on two cores at N = 222, M = 19,200 (panels of 1024
-/// pixels), two partials (each thread sums one, with no fork-join per panel) took 8.7 ms
-/// (median), one 14.0 ms and four 11.8 ms.
+/// Most partial Grams: with two, each of two threads sums one with no fork-join per panel;
+/// chosen by timing one, two and four at N = 222, M = 19,200 on two cores (two were fastest).
 const MAX_CHUNKS8: usize = 2;
 
 /// How many partial Grams (runs of consecutive panels) the 8-bit Gram sums: a function of n
@@ -180,9 +180,9 @@ impl Words {
 fn convert(src: &[f32], [lv, rv, w0, w1]: [&mut [u8]; 4], r: &[i8; 256], level: Level) -> bool {
     assert!(src.len() <= CHUNK && [&*lv, &*rv, &*w0, &*w1].iter().all(|o| o.len() == CHUNK));
     #[cfg(target_arch = "x86_64")]
-    if level == Level::Avx512 && src.len() == CHUNK {
-        // SAFETY: Level::Avx512 is only detected with avx512f and avx512bw; src and every output
-        // hold 64 values (asserted above).
+    if level.avx512() && src.len() == CHUNK {
+        // SAFETY: the level is a token of detection that found AVX-512 F and BW; src and every
+        // output hold 64 values (asserted above).
         return unsafe { x86::convert_avx512(src, [lv, rv, w0, w1]) };
     }
     let _ = level;
@@ -203,8 +203,9 @@ fn transpose(src: &Words, out: &mut [i32], level: Level) {
     let count = out.len() / GROUP16;
     assert!(count <= 16 && out.len() == count * GROUP16);
     #[cfg(target_arch = "x86_64")]
-    if level == Level::Avx512 {
-        // SAFETY: Level::Avx512 is only detected with avx512f; out holds count * 16 words.
+    if level.avx512() {
+        // SAFETY: the level is a token of detection that found AVX-512F; out holds count * 16
+        // words, count <= 16 (asserted above).
         unsafe { x86::transpose_avx512(src, out) };
         return;
     }
@@ -361,7 +362,7 @@ mod tests {
                 let ok = pack_panel(x, n, m, k0, kc, &mut a, &mut ak, &mut ar, level);
                 (ok, a, ak, ar)
             };
-            let want = pack(&x, Level::Portable);
+            let want = pack(&x, Level::supported()[0]);
             let (ok, a, ak, ar) = &want;
             assert!(ok);
             // The layout, read back: pairs, quads of levels and of residuals.

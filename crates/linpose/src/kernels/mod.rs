@@ -1,23 +1,34 @@
 //! SIMD kernels behind the hot loops: the symmetric rank-k update that builds Gram matrices
 //! ([`syrk`]; [`gram`] drives it for X X^T in memory, [`gram8`] for 8-bit features in exact
 //! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`] in f32; [`dot_q`] exact
-//! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI runs
-//! it; [`dot_w`] the same for the 16-bit block sums of binned images) and the refined eigenspace's coarse scan ([`scan`]).
+//! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI
+//! runs it; [`dot_w`] the same for the 16-bit block sums of binned images) and the refined
+//! eigenspace's coarse scan ([`scan`]).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in
 //! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
 //! every path gives bit-identical results; the paths are tested against each other and against a
-//! plain reference. The instruction set is detected once at run time ([`Level::detect`]).
+//! plain reference. The instruction set is detected once at run time, as a token that only
+//! detection makes ([`Level`], in [`isa`] with [`dispatch!`], which compiles a portable body
+//! for each level), so no safe function can run an instruction the CPU lacks.
+//!
+//! The module is private to the crate; the benchmarks and examples reach what they time through
+//! [`bench`], whose functions detect the level themselves, and [`peak`] measures the machine's
+//! peaks for them to report against.
 
-pub mod dot_q;
-pub mod dot_u8;
-pub mod dot_w;
-pub mod gram;
-pub mod gram8;
-pub mod levels;
-pub mod peak;
-pub mod scan;
-pub mod syrk;
+pub mod bench;
+pub(crate) mod dot_q;
+pub(crate) mod dot_u8;
+pub(crate) mod dot_w;
+pub(crate) mod gram;
+pub(crate) mod gram8;
+mod isa;
+pub(crate) mod levels;
+pub(crate) mod peak;
+pub(crate) mod scan;
+pub(crate) mod syrk;
+
+pub(crate) use isa::{dispatch, Isa, Level};
 
 /// The sum of the 16 u32 lanes of `v` (the binning kernels' and the noise estimate's squares
 /// and responses, summed in u32 lanes between flushes).
@@ -34,7 +45,7 @@ pub(crate) fn sum_u32_lanes(v: std::arch::x86_64::__m512i) -> u64 {
 /// kernel can load them aligned in place instead of copying them ([`dot_u8::dots_batch`] reads
 /// model weights this way). Read-only once made; a clone is aligned afresh.
 #[derive(Default)]
-pub struct AlignedF32 {
+pub(crate) struct AlignedF32 {
     buf: Vec<f32>,
     off: usize,
     len: usize,
@@ -42,7 +53,7 @@ pub struct AlignedF32 {
 
 impl AlignedF32 {
     /// A 64-byte aligned copy of `v`.
-    pub fn new(v: &[f32]) -> Self {
+    pub(crate) fn new(v: &[f32]) -> Self {
         let mut buf = vec![0f32; v.len() + 15];
         let off = buf.as_ptr().align_offset(64).min(15);
         buf[off..off + v.len()].copy_from_slice(v);
@@ -86,49 +97,5 @@ mod test_data {
             }
         }
         g
-    }
-}
-
-/// The SIMD instruction set a kernel runs with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Level {
-    /// Plain Rust, whatever the target's baseline gives.
-    Portable,
-    /// AVX2 with FMA (the portable body compiled for it).
-    Avx2,
-    /// AVX-512 F/BW intrinsics.
-    Avx512,
-}
-
-impl Level {
-    /// The best level this CPU supports (cached after the first call). The environment variable
-    /// `LINPOSE_SIMD=portable|avx2|avx512` caps it, for testing and benchmarking the other paths.
-    pub fn detect() -> Level {
-        use std::sync::OnceLock;
-        static LEVEL: OnceLock<Level> = OnceLock::new();
-        *LEVEL.get_or_init(|| {
-            let cap = match std::env::var("LINPOSE_SIMD").as_deref() {
-                Ok("portable") => Level::Portable,
-                Ok("avx2") => Level::Avx2,
-                _ => Level::Avx512,
-            };
-            Self::supported().into_iter().filter(|&l| l <= cap).max().unwrap_or(Level::Portable)
-        })
-    }
-
-    /// Every level this CPU can run (always includes [`Level::Portable`]).
-    pub fn supported() -> Vec<Level> {
-        #[allow(unused_mut)]
-        let mut v = vec![Level::Portable];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
-                v.push(Level::Avx2);
-            }
-            if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512bw") {
-                v.push(Level::Avx512);
-            }
-        }
-        v
     }
 }

@@ -1,5 +1,5 @@
 //! The machine's measured peak, for benchmarks to report kernels against: fused multiply-add
-//! throughput on registers (no memory traffic) and memory bandwidth (a large copy).
+//! throughput on registers (no memory traffic) and the time to read a buffer.
 
 use rayon::prelude::*;
 use std::time::Instant;
@@ -146,33 +146,13 @@ mod x86 {
     }
 }
 
-/// Bytes per second of copying a buffer of `bytes` into another, on every rayon thread (each
-/// copies its share), median of `reps` repetitions after one warm-up; counts the bytes read (the
-/// bytes written are as many again).
-pub fn copy_bandwidth(bytes: usize, reps: usize) -> f64 {
-    let src = vec![1u8; bytes];
-    let mut dst = vec![0u8; bytes];
-    let chunk = bytes.div_ceil(rayon::current_num_threads()).max(4096);
-    let mut times = Vec::with_capacity(reps);
-    for r in 0..=reps {
-        let t = Instant::now();
-        dst.par_chunks_mut(chunk).zip(src.par_chunks(chunk)).for_each(|(d, s)| d.copy_from_slice(s));
-        std::hint::black_box(&dst);
-        if r > 0 {
-            times.push(t.elapsed().as_secs_f64());
-        }
-    }
-    times.sort_by(f64::total_cmp);
-    bytes as f64 / times[times.len() / 2]
-}
-
 /// Seconds for one thread to read `buf` (summed as 64-bit words in 8-lane vectors, 4
 /// independent sums, the widest loads available: the loads are the only cost), median of `reps`
 /// after one warm-up pass, so a buffer that fits in the caches is read from them. The bound of
 /// a read-only kernel on the same bytes: a copy also writes, and costs about twice as much.
 /// The words lie on 64-byte boundaries, as the models' weights do: from the allocator's 16-byte
-/// alignment three loads in four straddle two cache lines, which made this bound 1.5-1.9x
-/// slower or not depending on where the buffer landed.
+/// alignment three loads in four would straddle two cache lines, and the bound would depend on
+/// where the buffer landed.
 pub fn read_seconds(buf: &[u8], reps: usize) -> f64 {
     let lines: Vec<Line64> = buf
         .chunks(64)

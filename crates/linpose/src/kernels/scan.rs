@@ -1,22 +1,17 @@
 //! The refined eigenspace's coarse scan: every coarse surface point scored against one query,
 //! the points in SIMD lanes (coordinate-major tables, L rows of n points).
 //!
+//! Each kernel is one portable body, compiled for AVX2 and for AVX-512 by [`dispatch!`].
 //! The bodies are element-wise along the points (each point's sum runs over the coordinates in
-//! the same order on every path, with no fused multiply-add), so the AVX2 and AVX-512 builds of
-//! the one portable body give bit-identical results; they only widen the lanes.
+//! the same order on every path, with no fused multiply-add), so every build gives bit-identical
+//! results; the wider ones only widen the lanes.
 
-use super::Level;
+use super::{dispatch, Level};
 
-/// `dist[i] = sum_q wt[q] (cols[q][i] - y[q])^2` over the coordinates with a non-zero weight
-/// (`cols`: rows of `dist.len()` values, at least `y.len()` rows).
-pub fn sq_dist(level: Level, cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::sq_dist_avx512(cols, y, wt, dist) },
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { x86::sq_dist_avx2(cols, y, wt, dist) },
-        _ => sq_dist_portable(cols, y, wt, dist),
-    }
+dispatch! {
+    /// `dist[i] = sum_q wt[q] (cols[q][i] - y[q])^2` over the coordinates with a non-zero weight
+    /// (`cols`: rows of `dist.len()` values, at least `y.len()` rows).
+    pub fn sq_dist(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) = sq_dist_portable;
 }
 
 /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]` (rows of `u.len()` values).
@@ -29,28 +24,22 @@ pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32]
 #[allow(clippy::too_many_arguments)]
 pub fn dots2_at(level: Level, cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
     assert!(i0 + u.len() <= n && u.len() == v.len(), "points inside the rows");
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::dots2_avx512(cols, gcols, n, i0, a, u, v) },
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { x86::dots2_avx2(cols, gcols, n, i0, a, u, v) },
-        _ => dots2_portable(cols, gcols, n, i0, a, u, v),
-    }
+    dots2_built(level, cols, gcols, n, i0, a, u, v)
 }
 
-/// The affine match's residual at every point, in place of `u`:
-/// `u[i] = max(zz - uu^2 inv_a[i] - e^2 inv_s[i], 0)` with `uu = u[i] + ac` and
-/// `e = v[i] - b_over_a[i] uu`, in f64 (the refined eigenspace's noisy scan; the per-point
-/// sums `u`, `v` from [`dots2`]).
-#[allow(clippy::too_many_arguments)]
-pub fn affine_residuals(level: Level, u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::affine_residuals_avx512(u, v, b_over_a, inv_a, inv_s, ac, zz) },
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { x86::affine_residuals_avx2(u, v, b_over_a, inv_a, inv_s, ac, zz) },
-        _ => affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz),
-    }
+dispatch! {
+    /// [`dots2_at`] at `level`.
+    #[allow(clippy::too_many_arguments)]
+    fn dots2_built(cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) = dots2_portable;
+}
+
+dispatch! {
+    /// The affine match's residual at every point, in place of `u`:
+    /// `u[i] = max(zz - uu^2 inv_a[i] - e^2 inv_s[i], 0)` with `uu = u[i] + ac` and
+    /// `e = v[i] - b_over_a[i] uu`, in f64 (the refined eigenspace's noisy scan; the per-point
+    /// sums `u`, `v` from [`dots2`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn affine_residuals(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) = affine_residuals_portable;
 }
 
 #[inline(always)]
@@ -66,7 +55,7 @@ fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: 
 /// Points per box of [`boxes`] and [`sq_dist_boxed`]: one AVX-512 vector.
 pub const BOX: usize = 16;
 
-/// The bounding boxes of every [`BOX`] consecutive points (the last box maybe fewer) in the
+/// The bounding boxes of every `BOX` (16) consecutive points (the last box maybe fewer) in the
 /// first `split` rows of `cols` (rows of `n` values): for each row q, the boxes' least values,
 /// then their greatest (`2 split` rows of `n.div_ceil(BOX)`).
 pub fn boxes(cols: &[f32], n: usize, split: usize) -> Vec<f32> {
@@ -81,23 +70,17 @@ pub fn boxes(cols: &[f32], n: usize, split: usize) -> Vec<f32> {
     out
 }
 
-/// [`sq_dist`] for the points that can lie within twice the least distance, +inf for the
-/// others; returns the least distance. Each box of [`BOX`] points ([`boxes`], over the first
-/// `split` coordinates) gets a lower bound of its points' distances: the weighted squared
-/// distance from the query to the box in those coordinates, the same terms as a point's in the
-/// same order, each no larger (rounding is monotone), so no larger than any of its points'
-/// sums. The points of the box of least bound are scored in full; twice their least distance
-/// bounds the cut, and only boxes whose bound is within it are scored. Every distance given has
-/// the bits of [`sq_dist`]'s. `lb` is scratch.
-#[allow(clippy::too_many_arguments)]
-pub fn sq_dist_boxed(level: Level, cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::sq_dist_boxed_avx512(cols, boxes, split, y, wt, dist, lb) },
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx2 => unsafe { x86::sq_dist_boxed_avx2(cols, boxes, split, y, wt, dist, lb) },
-        _ => sq_dist_boxed_portable(cols, boxes, split, y, wt, dist, lb),
-    }
+dispatch! {
+    /// [`sq_dist`] for the points that can lie within twice the least distance, +inf for the
+    /// others; returns the least distance. Each box of [`BOX`] points ([`boxes`], over the first
+    /// `split` coordinates) gets a lower bound of its points' distances: the weighted squared
+    /// distance from the query to the box in those coordinates, the same terms as a point's in the
+    /// same order, each no larger (rounding is monotone), so no larger than any of its points'
+    /// sums. The points of the box of least bound are scored in full; twice their least distance
+    /// bounds the cut, and only boxes whose bound is within it are scored. Every distance given has
+    /// the bits of [`sq_dist`]'s. `lb` is scratch.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sq_dist_boxed(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 = sq_dist_boxed_portable;
 }
 
 #[inline(always)]
@@ -158,13 +141,9 @@ fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut 
     out.copy_from_slice(&acc[..len]);
 }
 
-/// The least of `v` (+inf when empty or all NaN).
-pub fn least(level: Level, v: &[f32]) -> f32 {
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::least_avx512(v) },
-        _ => least_portable(v),
-    }
+dispatch! {
+    /// The least of `v` (+inf when empty or all NaN).
+    pub fn least(v: &[f32]) -> f32 = least_portable;
 }
 
 #[inline(always)]
@@ -174,13 +153,9 @@ fn least_portable(v: &[f32]) -> f32 {
     reduce_min(&lanes)
 }
 
-/// The index of the least of `v` (the first of equals; None when empty or all NaN).
-pub fn argmin(level: Level, v: &[f32]) -> Option<usize> {
-    match level {
-        #[cfg(target_arch = "x86_64")]
-        Level::Avx512 => unsafe { x86::argmin_avx512(v) },
-        _ => argmin_portable(v),
-    }
+dispatch! {
+    /// The index of the least of `v` (the first of equals; None when empty or all NaN).
+    pub fn argmin(v: &[f32]) -> Option<usize> = argmin_portable;
 }
 
 #[inline(always)]
@@ -285,85 +260,6 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32]
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::{affine_residuals_portable, argmin_portable, dots2_portable, least_portable, sq_dist_boxed_portable, sq_dist_portable};
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn least_avx512(v: &[f32]) -> f32 {
-        least_portable(v)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn sq_dist_boxed_avx2(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
-        sq_dist_boxed_portable(cols, boxes, split, y, wt, dist, lb)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn sq_dist_boxed_avx512(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
-        sq_dist_boxed_portable(cols, boxes, split, y, wt, dist, lb)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn argmin_avx512(v: &[f32]) -> Option<usize> {
-        argmin_portable(v)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn affine_residuals_avx2(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
-        affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn affine_residuals_avx512(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
-        affine_residuals_portable(u, v, b_over_a, inv_a, inv_s, ac, zz)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn sq_dist_avx2(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
-        sq_dist_portable(cols, y, wt, dist)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn sq_dist_avx512(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) {
-        sq_dist_portable(cols, y, wt, dist)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2 and FMA.
-    #[target_feature(enable = "avx2,fma")]
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn dots2_avx2(cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
-        dots2_portable(cols, gcols, n, i0, a, u, v)
-    }
-
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    #[allow(clippy::too_many_arguments)]
-    pub unsafe fn dots2_avx512(cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
-        dots2_portable(cols, gcols, n, i0, a, u, v)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -447,7 +343,7 @@ mod tests {
             let y: Vec<f32> = (0..l).map(|q| cols[q * n + at] + 0.003 * (q as f32 - 4.0)).collect();
             let wt: Vec<f32> = (0..l).map(|q| if q == 5 && qi % 2 == 1 { 0.0 } else { 1.0 / (1.0 + q as f32) }).collect();
             let mut full = vec![0f32; n];
-            sq_dist(Level::Portable, &cols, &y, &wt, &mut full);
+            sq_dist(Level::supported()[0], &cols, &y, &wt, &mut full);
             let lo = full.iter().cloned().fold(f32::INFINITY, f32::min);
             for level in Level::supported() {
                 for split in [0, 1, 3, l, l + 2] {

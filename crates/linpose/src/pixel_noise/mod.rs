@@ -78,7 +78,7 @@ pub(crate) fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
 pub(crate) fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32, early: f64) -> f64 {
     let pass = |rows: &mut RowsF32, pass: Pass| {
         #[cfg(target_arch = "x86_64")]
-        if Level::detect() == Level::Avx512 {
+        if Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512 F/BW (detected).
             return unsafe { avx512::pixel_variance_avx512(x, w, h, ch, rows, pass) };
         }
@@ -445,7 +445,7 @@ pub(crate) fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 
 pub(crate) fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8, early: f64) -> f64 {
     let pass = |rows: &mut RowsU8, pass: Pass| {
         #[cfg(target_arch = "x86_64")]
-        if Level::detect() == Level::Avx512 && std::arch::is_x86_feature_detected!("avx512vl") {
+        if Level::detect().avx512_vl() {
             // SAFETY: the CPU supports AVX-512 F/BW/VL (detected).
             return unsafe { avx512::pixel_variance_u8_avx512(x, w, h, ch, rows, pass) };
         }

@@ -1,12 +1,10 @@
 //! An exact k-d tree for the nearest manifold point.
 //!
-//! Each node splits its points at the median of its widest coordinate (the spread measured over
+//! Each node splits its points at the median of its widest coordinate (the spread taken over
 //! the node's own points), so on an eigenspace manifold the splits fall on the leading
-//! components, where the points spread, again and again. A tree that cycles through the
-//! coordinates instead (kiddo's, used before, buckets of 32) splits the first 11 of 20
-//! components once each on 65,520 points and never the leading ones twice; on the rendered
-//! duck's manifold it took 2.1-2.3 us a query against 0.73-0.80 for this one (one thread, the
-//! 1760 views' projections, the same points; BENCHMARKS.md, issue 7).
+//! components, where the points spread, again and again. (A tree that cycles through the
+//! coordinates would split each of the first components once and the leading ones no more
+//! often than the rest, though a manifold's points vary most along them.)
 //!
 //! The search is the classic branch and bound with the incremental cell distance (Arya & Mount):
 //! the nearer child first, the farther one only when the squared distance from the query to its
@@ -120,12 +118,12 @@ impl KdTree {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
-        let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
+        let simd = crate::kernels::Level::detect().avx512();
         self.visit(0, 0.0, 1.0, &mut off, q, &mut best, &mut |rows, items, best| {
             #[cfg(target_arch = "x86_64")]
             if simd {
-                // SAFETY: `simd` is true only when Level::detect() found AVX-512F; `rows` holds
-                // q.len() rows of LEAF values.
+                // SAFETY: `simd` is the detected level's avx512(), true only where detection
+                // found AVX-512F; `rows` holds q.len() rows of LEAF values (asserted by the kernel).
                 return unsafe { x86::scan_avx512(rows, items, q, best) };
             }
             let _ = simd;
@@ -157,11 +155,12 @@ impl KdTree {
         near.clear();
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
-        let simd = crate::kernels::Level::detect() == crate::kernels::Level::Avx512;
+        let simd = crate::kernels::Level::detect().avx512();
         self.visit(0, 0.0, reach, &mut off, q, &mut best, &mut |rows, items, best| {
             #[cfg(target_arch = "x86_64")]
             if simd {
-                // SAFETY: as in nearest_with_distance.
+                // SAFETY: `simd` is true only where detection found AVX-512F (as in
+                // nearest_with_distance); the kernel asserts the lengths it reads.
                 return unsafe { x86::scan_near_avx512(rows, items, q, best, reach, near) };
             }
             let _ = simd;
@@ -280,6 +279,9 @@ mod x86 {
     /// A leaf's squared distances in one AVX-512 vector, summed a coordinate at a time: the
     /// subtractions, products and sums of [`super::scan`] in the same order (no fused
     /// multiply-add), so the same bits.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn leaf_distances(rows: &[f32], q: &[f32]) -> __m512 {

@@ -53,7 +53,7 @@ impl AffineQuery {
     /// to a multiple of 8 values (as [`Surface::climb_pair`](crate::methods::refined::surface::Surface::climb_pair) gives them), zero beyond.
     pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::affine_residual_avx512(self, f, g) };
         }

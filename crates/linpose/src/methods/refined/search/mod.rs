@@ -41,7 +41,7 @@ pub(crate) fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
 /// [`smallest`] given the least of `dist`, `lo`.
 pub(crate) fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
     #[cfg(target_arch = "x86_64")]
-    if Level::detect() == Level::Avx512 {
+    if Level::detect().avx512() {
         // SAFETY: the CPU supports AVX-512 F/BW (detected).
         return unsafe { simd::smallest_avx512(dist, k, lo) };
     }

@@ -231,7 +231,7 @@ impl Surface {
         gv: &mut [[f64; BLOCK_DIM]; 9],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::block2_avx512(self, other, lo, p0, p1, fv, gv) };
         }
@@ -318,7 +318,7 @@ impl Surface {
 /// weight beyond the coordinates), summed 8 lanes at a time.
 pub(crate) fn lane_distance(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+    if crate::kernels::Level::detect().avx512() {
         // SAFETY: the CPU supports AVX-512F (detected).
         return unsafe { simd::lane_distance_avx512(y, w, f) };
     }

@@ -14,7 +14,7 @@ impl Surface {
     /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
     pub fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::eval_avx512(self, t, f, jac) };
         }
@@ -28,7 +28,7 @@ impl Surface {
     pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
         assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::eval_pair_avx512(self, other, t, f, jac, g, jac_g) };
         }
@@ -44,7 +44,7 @@ impl Surface {
         let d = self.params();
         if d == 2 && jac.is_none() && other.as_ref().is_none_or(|o| o.2.is_none()) {
             #[cfg(target_arch = "x86_64")]
-            if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            if crate::kernels::Level::detect().avx512() {
                 // SAFETY: the CPU supports AVX-512F (detected).
                 return unsafe { simd::values2_avx512(self, t, f, other.map(|(o, g, _)| (o, g))) };
             }

@@ -302,7 +302,7 @@ impl Lattice {
     /// alike when `uniform` gives their common value). `scratch` is reused between calls.
     pub fn nearest(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+        if crate::kernels::Level::detect().avx512() {
             // SAFETY: the CPU supports AVX-512F (detected).
             return unsafe { simd::nearest_avx512(self, y, wt, uniform, scratch) };
         }

@@ -84,7 +84,7 @@ fn the_lattice_search_finds_the_least_of_every_lattice_pose() {
                 if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
             assert_eq!(got.to_bits(), portable.to_bits(), "the AVX-512 build gives the portable one's pose");
             #[cfg(target_arch = "x86_64")]
-            if !lat.even.is_empty() && crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+            if !lat.even.is_empty() && crate::kernels::Level::detect().avx512() {
                 pruned += pruned_as_full(&lat, &y, &wt) as usize;
             }
             let all = brute(&s, &y, &wt, 0.5);
@@ -95,7 +95,7 @@ fn the_lattice_search_finds_the_least_of_every_lattice_pose() {
         }
     }
     #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect() == crate::kernels::Level::Avx512 {
+    if crate::kernels::Level::detect().avx512() {
         assert!(pruned >= 20, "the uniform queries near the curve take the pruned scan: {pruned}");
     }
 }
