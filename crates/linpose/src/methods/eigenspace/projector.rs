@@ -198,3 +198,112 @@ pub(crate) fn unit_coords(energy: f64, mean_proj: &[f32], y: &mut [f32]) -> Opti
     y.iter_mut().zip(mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
     Some(norm)
 }
+
+#[cfg(test)]
+mod tests {
+    //! Every product path against the rows' products summed plainly in f64, within the
+    //! fixed-point forms' quantisation (a weight within 1 / 65,278 of its row's largest).
+    use super::*;
+
+    const M: usize = 150;
+
+    /// `n` rows of M deterministic values in [-1, 1).
+    fn rows(n: usize) -> Vec<f32> {
+        (0..n * M).map(|i| ((i * 7919) % 1013) as f32 / 506.5 - 1.0).collect()
+    }
+
+    /// `n` images of M deterministic 8-bit values.
+    fn images(n: usize, seed: usize) -> Vec<u8> {
+        (0..n * M).map(|i| ((i * 104_729 + seed * 31) % 256) as u8).collect()
+    }
+
+    /// Every image's plain products with rows `r` of `w`, and the tolerance of the 8-bit paths.
+    fn reference(w: &[f32], r: &Range<usize>, xs: &[f64]) -> (Vec<f64>, f64) {
+        let wmax = w.iter().fold(0f32, |a, v| a.max(v.abs())) as f64;
+        let mut want = Vec::new();
+        let mut tol: f64 = 0.0;
+        for x in xs.chunks_exact(M) {
+            for row in w[r.start * M..r.end * M].chunks_exact(M) {
+                want.push(x.iter().zip(row).map(|(&a, &b)| a * b as f64).sum());
+            }
+            tol = tol.max(1e-4 * x.iter().map(|v| v.abs()).sum::<f64>() * wmax);
+        }
+        (want, tol)
+    }
+
+    fn close(got: &[f32], want: &[f64], tol: f64, what: &str) {
+        assert_eq!(got.len(), want.len(), "{what}");
+        for (i, (&g, &w)) in got.iter().zip(want).enumerate() {
+            assert!((g as f64 - w).abs() <= tol, "{what}, product {i}: {g} against {w}");
+        }
+    }
+
+    #[test]
+    fn every_path_gives_the_rows_products() {
+        let w = rows(6);
+        let r = 1..5;
+        let p = Projector::new(&w, M).with_u8(r.clone()).with_words(std::slice::from_ref(&r), 4 * 255);
+        let level = Level::detect();
+        // f32 queries.
+        let xf: Vec<f32> = images(3, 1).iter().map(|&v| v as f32 / 255.0).collect();
+        let (want, _) = reference(&w, &r, &xf.iter().map(|&v| v as f64).collect::<Vec<_>>());
+        let mut out = vec![0f32; 3 * r.len()];
+        p.f32_products(&r, &xf, &mut out);
+        close(&out, &want, 1e-4, "f32");
+        // 8-bit queries one at a time (3) and in the batch kernel (9): the same bits image by
+        // image, and each image's exact sum of squares.
+        let mut scratch = dot_q::Scratch::default();
+        for n in [3, 9] {
+            let x8 = images(n, 2);
+            let (want, tol) = reference(&w, &r, &x8.iter().map(|&v| v as f64).collect::<Vec<_>>());
+            let (mut out, mut energy) = (vec![0f32; n * r.len()], vec![0u64; n]);
+            p.u8_products(level, &r, &x8, &mut out, &mut energy, &mut scratch);
+            close(&out, &want, tol, "8-bit");
+            for (i, x) in x8.chunks_exact(M).enumerate() {
+                let mut one = vec![0f32; r.len()];
+                p.u8_one(level, &r, x, &mut one);
+                assert_eq!(one, &out[i * r.len()..(i + 1) * r.len()], "batch of {n}, image {i}");
+                assert_eq!(energy[i], x.iter().map(|&v| v as u64 * v as u64).sum::<u64>());
+            }
+        }
+        // Block sums of up to 4 x 255, as digit planes (1 image: one at a time; 5: the batch
+        // kernel) and as 16-bit lines.
+        for n in [1, 5] {
+            let sums: Vec<u16> = (0..n * M).map(|i| ((i * 7 + n) % 1021) as u16).collect();
+            let (want, tol) = reference(&w, &r, &sums.iter().map(|&v| v as f64).collect::<Vec<_>>());
+            let mut planes = vec![0u8; 2 * n * M];
+            for (v, pl) in sums.chunks_exact(M).zip(planes.chunks_exact_mut(2 * M)) {
+                let (lo, hi) = pl.split_at_mut(M);
+                for ((&v, lo), hi) in v.iter().zip(lo).zip(hi) {
+                    (*lo, *hi) = (v as u8, (v >> 8) as u8);
+                }
+            }
+            let (mut out, mut raw, mut energy) = (vec![0f32; n * r.len()], Vec::new(), Vec::new());
+            p.planes_products(level, &r, &planes, &mut out, &mut raw, &mut energy, &mut scratch);
+            close(&out, &want, tol, "digit planes");
+            let wr = p.words(&r).expect("sums of at most 1,020 take 16-bit rows");
+            let mut lines = Vec::new();
+            wr.lines_of(n, &mut lines);
+            let values = dot_w::WordRows::values_mut(&mut lines);
+            for (v, dst) in sums.chunks_exact(M).zip(values.chunks_exact_mut(wr.steps() * dot_w::STEP)) {
+                dst[..M].copy_from_slice(v);
+            }
+            let mut out = vec![0f32; n * r.len()];
+            p.words_products(level, &r, &lines, &mut out, &mut Vec::new());
+            close(&out, &want, tol, "16-bit lines");
+        }
+    }
+
+    #[test]
+    fn unit_coords_scale_and_refuse_what_cannot_be_scaled() {
+        let c = [0.5f32, -0.25];
+        let mut y = [2.0f32, 4.0];
+        assert_eq!(unit_coords(4.0, &c, &mut y), Some(2.0));
+        assert_eq!(y, [0.5, 2.25]);
+        for energy in [0.0, f64::NAN, f64::INFINITY] {
+            let mut y = [2.0f32, 4.0];
+            assert_eq!(unit_coords(energy, &c, &mut y), None);
+            assert_eq!(y, [2.0, 4.0], "left as it is");
+        }
+    }
+}
