@@ -490,8 +490,8 @@ impl PoseModel for LinearModel {
         Ok(())
     }
 
-    /// 8-bit queries: K products of the pixels with the weights / 255 by the SIMD kernel of
-    /// [`crate::kernels::dot_u8`].
+    /// 8-bit queries: K products of the pixels with the weights / 255 by the crate's 8-bit SIMD
+    /// product kernel.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let m = self.meta.spec.features();
         let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());

@@ -19,7 +19,7 @@
 //! On the least-squares path a reader thread decodes the next block while the current one is
 //! accumulated. Blocks whose values are all 8-bit levels (what every 8-bit image gives: the
 //! feature of level k is the f32 value k * fl(1/255) = V_k 2^-31 with V_k an integer) are summed
-//! in integers by the AVX-512 VNNI kernels of [`crate::kernels::syrk`]: with V_k = k m + r_k
+//! in integers by the crate's AVX-512 VNNI SYRK kernels: with V_k = k m + r_k
 //! (m = fl(1/255) 2^31, |r_k| <= 127), the products of two features are
 //! 2^-62 (m^2 k_p k_q + m (k_p r_q + r_p k_q) + r_p r_q). The first two sums are exact in
 //! integers, in two passes (`vpdpwssd` on pairs of images, `vpdpbusd` on quads) that together
@@ -29,7 +29,7 @@
 //! (16-bit images, say), the rest is summed in f64; so is everything on a CPU without AVX-512
 //! VNNI (the same model to about 1e-14 in X^T X, not the same bits).
 //!
-//! Blocks are summed in manifest order, each by the kernels of [`crate::kernels::syrk`], so the
+//! Blocks are summed in manifest order, each by the same SYRK kernels, so the
 //! result does not depend on the thread count.
 
 use crate::dataset::Dataset;
