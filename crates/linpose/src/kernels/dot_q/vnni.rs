@@ -78,8 +78,12 @@ pub unsafe fn group_vnni(xs: &[u8], q: &QuantRows, out: &mut [f32], energy: &mut
         // products' lanes take at most 1024 steps of 4 x 255 x 128 (below 2^31).
         energy[i] = _mm512_reduce_add_epi32(sq[i]) as u32 as u64;
         for r in 0..rows {
-            let a = |k: usize| lanes_i64(_mm512_loadu_si512(scratch.as_ptr().add((g * rows + r) * per_row + (b * DIGITS + k) * 16) as *const _));
-            let s: i64 = (0..DIGITS).map(|k| radix(k) * a(k)).sum();
+            // A loop, not an iterator's sum over a closure: the compiler did not always inline
+            // the closure (the sum is of integers: exact in any order).
+            let mut s = 0i64;
+            for k in 0..DIGITS {
+                s += radix(k) * lanes_i64(_mm512_loadu_si512(scratch.as_ptr().add((g * rows + r) * per_row + (b * DIGITS + k) * 16) as *const _));
+            }
             out[i * rows + r] = (s as f64 * q.scale[r]) as f32;
         }
     }
