@@ -4,8 +4,8 @@
 use super::model::RefinedModel;
 use super::noisy::background_knots;
 use super::params::{RefinedParams, RefinedSettings};
-use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, WEIGHT_FLOOR};
 use super::select;
+use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, WEIGHT_FLOOR};
 use super::METHOD;
 use crate::binning::Binning;
 use crate::dataset::Dataset;
@@ -13,7 +13,6 @@ use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::model::{Estimator, Method, ModelMeta};
 use crate::Result;
-
 
 impl Estimator for RefinedParams {
     type Model = RefinedModel;

@@ -1,13 +1,12 @@
 //! The fitted model: what it holds, how it is built from its stored parts, and how it serves
 //! [`PoseModel`].
 
-use super::search::lattice;
+use super::fit::search_scale;
 use super::noisy::{NoiseScan, NoisyTree};
 use super::params::RefinedSettings;
-use super::search::{box_split, CoarseTree};
-use super::tuning::{MAX_LATTICE, TREE_STEP};
+use super::search::{box_split, lattice, CoarseTree};
 use super::surface::Surface;
-use super::fit::search_scale;
+use super::tuning::{MAX_LATTICE, TREE_STEP};
 use super::METHOD;
 use crate::binning::Binning;
 use crate::kernels::{dot_q, Level};

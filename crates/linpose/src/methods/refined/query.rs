@@ -2,11 +2,11 @@
 //! pixel noise, and given its pose.
 
 use super::model::RefinedModel;
+use super::scratch::QueryScratch;
 use super::tuning::NOISE_EARLY;
+use crate::kernels::{dot_w, Level};
 use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::projector::BATCH_FROM;
-use super::scratch::QueryScratch;
-use crate::kernels::{dot_w, Level};
 use crate::model::batch_len;
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -22,8 +22,6 @@ pub(crate) enum NoiseWant {
     /// times the threshold is clean without the rest.
     Route,
 }
-
-
 
 /// The error for the first query left NaN (zero or non-finite energy), if any.
 fn no_black_query(out: &[f64], p: usize) -> Result<()> {

@@ -39,8 +39,6 @@ use crate::model::{ModelMeta, PoseModel};
 use crate::Result;
 use rayon::prelude::*;
 
-
-
 /// The held-out folds of `grid`: for each usable axis, which training samples are kept (every
 /// other knot held out, the odd ones).
 pub fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
@@ -226,7 +224,6 @@ impl Tally {
     }
 }
 
-
 /// The most eigenimages whose query on images binned by `bin` costs less than the eigenspace's
 /// product (its [`NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels): the
 /// largest of [`CANDIDATES`] with L + [`QUERY_OVERHEAD_ROWS`] under NOISE_COMPONENTS bin^2 (the
@@ -292,8 +289,6 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
         noise_selection: vec![],
     }
 }
-
-
 
 /// Chooses the match of noisy queries ([`RefinedModel`]'s affine match) from the training views
 /// alone: on the folds of [`folds`], the held-out views get simulated uniform noise at each of
@@ -369,7 +364,6 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
     });
     Ok(best.map(|(c, w, _)| (c, w, scored.clone())))
 }
-
 
 /// The noise threshold of a clean query ([`RefinedSettings::noise_threshold`]), from the training
 /// images alone: `clean`, the largest [`crate::pixel_noise::pixel_noise`] of a training image, and `noisy`,

@@ -24,16 +24,15 @@ pub(crate) use affine::{affine_fit, AffineQuery};
 pub(crate) use scan::NoiseScan;
 pub(crate) use tree::NoisyTree;
 
+use super::fit::Views;
 use super::model::RefinedModel;
-use super::tuning::{BIAS_AMPLITUDE, WEIGHT_FLOOR};
 use super::query::NoiseWant;
-use crate::methods::eigenspace::chunk_rows;
 use super::scratch::{QueryScratch, SEARCH_SCRATCH};
 use super::search::smallest;
-use super::fit::Views;
+use super::tuning::{BIAS_AMPLITUDE, WEIGHT_FLOOR};
+use crate::methods::eigenspace::chunk_rows;
 use crate::Result;
 use rayon::prelude::*;
-
 
 /// How uniform noise of +-a clipped to [0, 1] moves a pixel of value v on average, up to the
 /// factor a / 4: E[clip(v + n)] - v = (a / 4) (1 - v / a)^2 for v < a (brightening, 1 on black),

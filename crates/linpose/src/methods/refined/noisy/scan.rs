@@ -1,8 +1,8 @@
 //! The noisy scan: the affine fit at every coarse point, pruned on the leading coordinates.
 
 use crate::kernels::Level;
-use crate::methods::refined::tuning::{DEGENERATE, NOISE_SCAN_BLOCK, NOISE_SCAN_SLACK, NOISE_SCAN_SPLIT_FROM, START_RATIO};
 use crate::methods::refined::model::RefinedModel;
+use crate::methods::refined::tuning::{DEGENERATE, NOISE_SCAN_BLOCK, NOISE_SCAN_SLACK, NOISE_SCAN_SPLIT_FROM, START_RATIO};
 
 /// The coarse scan of the noisy match: the affine fit of [`super::affine_fit`] at every coarse
 /// point with fixed weights w0 (a clean query's: nu = 0; the local search then uses the query's

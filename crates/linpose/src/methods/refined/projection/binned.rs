@@ -2,13 +2,12 @@
 //! or as two 8-bit digit planes.
 
 use super::{scatter, selected};
+use crate::kernels::{dot_q, dot_w, Level};
 use crate::methods::refined::model::RefinedModel;
 use crate::methods::refined::query::NoiseWant;
-use crate::methods::refined::tuning::BIN_SUB_U8;
 use crate::methods::refined::scratch::{BinScratch, QueryScratch, BIN_SCRATCH};
-use crate::kernels::{dot_q, dot_w, Level};
+use crate::methods::refined::tuning::BIN_SUB_U8;
 use crate::pixel_noise::{pixel_variance_u8_in, RowsU8};
-
 
 impl RefinedModel {
     /// Whether 8-bit queries at `level` take the 16-bit products of block sums (a model that

@@ -34,9 +34,6 @@ fn scatter(out: &[f32], k: usize, sel: Option<&[usize]>, i0: usize, kr: usize, c
     }
 }
 
-
-
-
 impl RefinedModel {
     /// The products of the queries `xq` (rows of M, the first the task's query `i0`; those at
     /// `sel` when given, else all) with `rows` rows `rr` into `s.raw` (rows of 1 + L, the mean's

@@ -19,10 +19,9 @@ mod tree;
 pub(crate) use tree::CoarseTree;
 
 use super::model::RefinedModel;
-use super::tuning::{BOX_SPLIT, START_RATIO};
 use super::scratch::{SearchScratch, SEARCH_SCRATCH};
+use super::tuning::{BOX_SPLIT, START_RATIO};
 use crate::kernels::Level;
-
 
 /// Coordinates of the coarse points' bounding boxes ([`RefinedModel::start_boxes`],
 /// [`crate::kernels::scan::sq_dist_boxed`]) of a model of `l`: the leading [`BOX_SPLIT`].

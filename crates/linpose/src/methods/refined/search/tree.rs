@@ -15,7 +15,6 @@ pub(crate) struct CoarseTree {
     pub(crate) poses: Vec<f64>,
 }
 
-
 impl CoarseTree {
     /// The tree over `surface` on the lattice of `step` degrees anchored at each axis's first
     /// knot, in the first `ls` coordinates; None for one parameter, more than

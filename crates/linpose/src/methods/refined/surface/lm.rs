@@ -5,9 +5,6 @@ use super::Surface;
 use crate::methods::refined::noisy::affine_fit;
 use crate::methods::refined::tuning::{AFFINE_STEP_TOL, DAMPING_DOWN, DAMPING_MIN, DAMPING_START, DAMPING_TRIES, DAMPING_UP, MAX_ITER, STEP_TOL};
 
-
-
-
 impl Surface {
     /// Levenberg-Marquardt from `t` (in the domain) on sum_l wt_l (y_l - f_l(t))^2; returns the squared
     /// distance reached, with `t` moved to where it is reached. `buf` holds at least (D + 2) L

@@ -9,18 +9,18 @@ mod noisy_match;
 mod queries;
 
 use super::*;
-use crate::dataset::Dataset;
-use crate::kernels::Level;
-use crate::methods::eigenspace::manifold::Grid;
-use crate::methods::eigenspace::pca::Dimension;
-use crate::model::{Estimator, PoseModel};
 use super::noisy::{clip_bias_shape, NoiseScan};
 use super::query::NoiseWant;
 use super::scratch::QueryScratch;
 use super::search::smallest;
-use super::tuning::{BIAS_AMPLITUDE, BIN_CANDIDATES, MAX_LATTICE, NOISE_LEVELS};
 use super::surface::Surface;
+use super::tuning::{BIAS_AMPLITUDE, BIN_CANDIDATES, MAX_LATTICE, NOISE_LEVELS};
+use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
+use crate::kernels::Level;
+use crate::methods::eigenspace::manifold::Grid;
+use crate::methods::eigenspace::pca::Dimension;
+use crate::model::{Estimator, PoseModel};
 use crate::{Manifest, Param, PoseSpace};
 
 // The eigenspace tests' synthetic turntable images.

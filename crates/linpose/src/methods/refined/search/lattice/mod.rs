@@ -91,7 +91,6 @@ pub struct Lattice {
     span_max: f64,
 }
 
-
 /// [`Lattice::nearest_even`]'s buffers: the products and distances, and the poses left.
 type EvenScratch = (Vec<f32>, Vec<(usize, usize)>);
 
