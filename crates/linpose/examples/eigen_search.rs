@@ -7,7 +7,8 @@
 //! parameters) in L dimensions, as appearance manifolds do; queries are points between them plus
 //! a little noise, one thread, time per query in microseconds.
 
-use linpose::methods::eigenspace::search::{NearestIndex, SearchKind};
+use linpose::bench::NearestIndex;
+use linpose::methods::eigenspace::SearchKind;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;

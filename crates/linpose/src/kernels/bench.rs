@@ -8,6 +8,7 @@ pub use super::gram8::gram_levels;
 pub use super::peak::{fma_flops_f64, read_seconds, vnni_gram_flops};
 pub use super::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 pub use crate::linalg::{gram, gram_f32, par, transpose_features};
+pub use crate::methods::eigenspace::search::NearestIndex;
 
 /// The refined eigenspace's coarse-scan kernels (`crate::kernels::scan`), each at the detected
 /// level.

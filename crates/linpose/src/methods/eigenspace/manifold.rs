@@ -180,16 +180,13 @@ impl Manifold {
     }
 
     /// Number of manifold points.
+    #[cfg(test)]
     pub fn len(&self) -> usize {
         self.axes.iter().map(Vec::len).product()
     }
 
-    /// Whether the manifold has no point (never, once built).
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
     /// The pose of point `k` into `out`, circular values wrapped into [0, period).
+    #[cfg(test)]
     pub fn pose(&self, space: &PoseSpace, k: usize, out: &mut [f64]) {
         pose_of(&self.axes, space, k, out)
     }

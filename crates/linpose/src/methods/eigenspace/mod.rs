@@ -41,19 +41,19 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-pub mod kdtree;
-pub mod manifold;
-pub mod pca;
+pub(crate) mod kdtree;
+pub(crate) mod manifold;
+pub(crate) mod pca;
 pub(crate) mod projector;
-pub mod search;
-pub mod spline;
+pub(crate) mod search;
+pub(crate) mod spline;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::{Error, Result};
 use manifold::{pose_of, Grid, Manifold};
-use projector::{unit_coords, Projector};
+use projector::{unit_coords, Projector, BATCH_FROM};
 pub use pca::Dimension;
 use rayon::prelude::*;
 use search::NearestIndex;
@@ -334,7 +334,7 @@ impl EigenspaceModel {
         let (l, m) = (self.components(), self.mean.len());
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
-        if n >= 8 {
+        if n >= BATCH_FROM {
             let rows = u8_task_rows(n, self.proj.u8_block(level, &self.eigen()));
             queries
                 .par_chunks(rows * m)
@@ -484,7 +484,7 @@ impl PoseModel for EigenspaceModel {
                 pose_of(&self.axes, space, self.index.nearest(y), o);
             }
         };
-        if n >= 8 {
+        if n >= BATCH_FROM {
             let rows = u8_task_rows(n, self.proj.u8_block(level, &self.eigen()));
             queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
                 || (dot_q::Scratch::default(), vec![0f32; rows * l]),

@@ -117,7 +117,7 @@ impl LinearParams {
 }
 
 /// The training set's encoded poses P (N x K, row-major).
-pub fn encoded_poses(train: &Dataset) -> Vec<f64> {
+pub(crate) fn encoded_poses(train: &Dataset) -> Vec<f64> {
     let space = train.space();
     let k = space.encoded_len();
     let mut p = vec![0.0; train.len() * k];
@@ -294,7 +294,7 @@ fn with_expected_noisy_views(train: &Dataset, a: f64) -> Result<Dataset> {
 
 /// E[clip(x + u, 0, 1)] for u uniform in [-a, a] (0 < a <= 1/2 keeps the two branches apart;
 /// larger a is handled by the same formulas clamped to [0, 1]).
-pub fn expected_clipped(x: f64, a: f64) -> f64 {
+pub(crate) fn expected_clipped(x: f64, a: f64) -> f64 {
     let v = if x < a {
         (x + a).powi(2) / (4.0 * a)
     } else if x > 1.0 - a {

@@ -77,7 +77,7 @@ pub fn choose_path(n: usize, m: usize) -> SolverPath {
 }
 
 /// Images decoded per block on the least-squares path (one 8-bit panel).
-pub const BLOCK: usize = 2 * KCP;
+pub(crate) const BLOCK: usize = 2 * KCP;
 
 /// What a streamed fit did and where its time went.
 #[derive(Debug, Clone, PartialEq)]
@@ -199,7 +199,7 @@ struct Block {
 /// The least-squares path on images delivered by `read(start, block)`, which fills `block`
 /// (rows of M features) with images `start..`, `block.len() / M` of them. `read` runs on a thread
 /// of its own, one block ahead of the accumulation.
-pub fn fit_least_squares(
+pub(crate) fn fit_least_squares(
     manifest: &Manifest,
     spec: ImageSpec,
     params: &LinearParams,
