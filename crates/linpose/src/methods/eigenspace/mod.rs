@@ -3,20 +3,20 @@
 //! (the same splines as SciPy's `CubicSpline`, the same resampling positions as numpy's `arange`):
 //!
 //! 1. each training image scaled to unit energy (||x|| = 1) and the mean image subtracted;
-//! 2. the eigenspace: the top L eigenimages, from the N x N Gram matrix ([`pca`]), L fixed
+//! 2. the eigenspace: the top L eigenimages, from the N x N Gram matrix (`pca.rs`), L fixed
 //!    (default 20, capped at N - 1) or the fewest holding an energy fraction;
 //! 3. the appearance manifold: the training images' coordinates on the training grid, joined by
 //!    cubic splines along each pose axis (periodic along a circular one) and resampled every
-//!    `manifold_step` degrees ([`manifold`], [`spline`]);
+//!    `manifold_step` degrees (`manifold.rs`, `spline.rs`);
 //! 4. a query is scaled to unit energy, projected (L dot products of length M) and given the pose
-//!    of the nearest manifold point ([`search`]).
+//!    of the nearest manifold point (`search.rs`, a k-d tree or brute force).
 //!
 //! Trained in f64, served in f32: the basis (L x M), the mean image (M) and the manifold points
 //! (N_dense x L) are stored as f32, and a query's projection is an f32 product. The f32 rounding
 //! of a projection, about sqrt(M) * eps_f32 relative (1e-5 for M = 19,200), is far below the
 //! distance between manifold points 0.5 degrees apart, so f32 serving returns the same manifold
 //! point as f64 would except on exact near-ties; so do 8-bit queries through the 16-bit
-//! fixed-point weights of [`crate::kernels::dot_q`], whose error is of the same order. Tests that
+//! fixed-point weights of the crate's 8-bit product kernels, whose error is of the same order. Tests that
 //! compare them therefore check poses, and identities on the f64 fit (back-projection, knots) use
 //! tolerances of a few eps times the size of the sums involved.
 //!
@@ -325,8 +325,8 @@ impl EigenspaceModel {
 
     /// As [`EigenspaceModel::project_into`] for 8-bit images given as raw pixel values: with
     /// AVX-512 VNNI the L products are summed exactly in integers against the basis in 16-bit
-    /// fixed point ([`crate::kernels::dot_q`]: each weight within half a step of 1 / 32,639 of
-    /// its row's largest), elsewhere in f32 lanes by [`crate::kernels::dot_u8`] (the integer
+    /// fixed point (each weight within half a step of 1 / 32,639 of
+    /// its row's largest), elsewhere in f32 lanes (the integer
     /// sums without VNNI measured 3.5x slower on AVX2); the two agree within that quantisation.
     /// The energy is summed exactly (the 1 / 255 of the features cancels in the unit-energy
     /// scaling).

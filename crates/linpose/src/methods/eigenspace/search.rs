@@ -17,10 +17,10 @@ pub const MAX_TREE_DIM: usize = super::kdtree::MAX_DIM;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SearchKind {
-    /// The faster of the two for the manifold's size and dimension (see [`auto_kind`]).
+    /// The faster of the two for the manifold's size and dimension (measured by the `eigen_search` example).
     #[default]
     Auto,
-    /// A k-d tree (at most [`MAX_TREE_DIM`] dimensions).
+    /// A k-d tree (at most 32 dimensions).
     KdTree,
     /// Every point, every query.
     Brute,

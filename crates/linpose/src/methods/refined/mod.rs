@@ -4,6 +4,28 @@
 //! every setting chosen from held-out training views. `docs/refined.md` describes the method for
 //! users; this is the map of its code.
 //!
+//! ```
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//! use linpose::{Dataset, Estimator, Param, PoseModel, PoseSpace, RefinedParams};
+//!
+//! // A turntable seen every 10 degrees: 36 "images" of 64 pixels, a bright lobe turning round.
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let poses: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
+//! let image = |a: f64| (0..64).map(move |p| {
+//!     let u = p as f64 / 64.0 * std::f64::consts::TAU;
+//!     (0.2 + (3.0 * ((u - a.to_radians()).cos() - 1.0)).exp()) as f32
+//! });
+//! let pixels = poses.iter().flat_map(|&a| image(a)).collect();
+//! let data = Dataset::new(ImageSpec { width: 64, height: 1, color: ColorMode::Gray }, pixels, space, poses)?;
+//!
+//! // Every setting chosen from held-out training views; `settings()` says what was chosen.
+//! let model = RefinedParams::default().fit(&data)?;
+//! let view: Vec<f32> = image(123.0).collect(); // between two training views
+//! let pose = model.predict(&view)?;
+//! assert!((pose[0] - 123.0).abs() <= 1.0, "{pose:?} with {:?}", model.settings().interpolant);
+//! # Ok::<(), linpose::Error>(())
+//! ```
+//!
 //! # A query
 //!
 //! 1. **Route** (`query.rs`). A model that bins takes the query's b x b block means

@@ -295,8 +295,8 @@ impl PoseModel for RefinedModel {
         self.predict_with(queries, self.noise_want(), out)
     }
 
-    /// 8-bit queries: the projection by [`dot_q::FastRows`] (16-bit fixed point where VNNI runs
-    /// it, else [`crate::kernels::dot_u8::dots_batch`]), then the search; the estimates of
+    /// 8-bit queries: the projection in 16-bit fixed point where AVX-512 VNNI runs it, else in
+    /// f32 lanes, then the search; the estimates of
     /// [`PoseModel::predict_into`] on the same images as features but for near ties.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         self.predict_u8_with(queries, self.noise_want(), out)

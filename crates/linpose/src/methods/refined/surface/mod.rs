@@ -45,11 +45,11 @@ pub type LineParts<'a> = (&'a [f64], Option<f64>, &'a [f32], &'a [f32], usize);
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Interpolant {
-    /// The C2 cubic spline ([`Spline::new`]): the eigenspace's own manifold, every knot's slope
+    /// The C2 cubic spline: the eigenspace's own manifold, every knot's slope
     /// tied to every value.
     #[default]
     Spline,
-    /// The local cubic ([`Spline::local`]): each slope the derivative of the parabola through
+    /// The local cubic: each slope the derivative of the parabola through
     /// the knot and its two neighbours (Catmull-Rom on uniform knots), C1. A coordinate that
     /// changes abruptly between two training views (an edge or a highlight passing) moves it
     /// only on the pieces around them, where the spline rings along the whole axis.
@@ -62,7 +62,7 @@ pub const INTERPOLANTS: &[Interpolant] = &[Interpolant::Spline, Interpolant::Loc
 impl Interpolant {
     /// The curve of this interpolant through `knots` with `boundary` ([`Spline::new`] or
     /// [`Spline::local`]).
-    pub fn along(self, knots: &[f64], boundary: Boundary) -> Result<Spline> {
+    pub(crate) fn along(self, knots: &[f64], boundary: Boundary) -> Result<Spline> {
         match self {
             Interpolant::Spline => Spline::new(knots, boundary),
             Interpolant::Local => Spline::local(knots, boundary),
