@@ -90,11 +90,6 @@ impl Spline {
         Ok(Spline { x, n, slope_op })
     }
 
-    /// Number of values a curve through these knots has.
-    pub fn n_values(&self) -> usize {
-        self.n
-    }
-
     /// The slopes s = S y of every curve at the distinct knots; `values` holds n rows of `width`
     /// values (one curve per column), row-major, and so does the result.
     pub fn slopes(&self, values: &[f64], width: usize) -> Vec<f64> {
@@ -152,6 +147,7 @@ impl Spline {
     }
 
     /// Evaluates one curve (its n values and n slopes) at `t`.
+    #[cfg(test)]
     pub fn eval(&self, y: &[f64], s: &[f64], t: f64) -> f64 {
         let (w, i, j) = self.weights(t);
         w[0] * y[i] + w[1] * s[i] + w[2] * y[j] + w[3] * s[j]
