@@ -26,9 +26,8 @@ pub struct TrainArgs {
     #[command(flatten)]
     pub settings: MethodArgs,
     /// Read the images from disk in blocks instead of all at once, for training sets larger than
-    /// memory (the linear model: with N <= M images the usual minimum-norm fit; with N > M least
-    /// squares / ridge through X^T X, M x M, which needs --ridge when some pixels never vary).
-    /// Says which path it took.
+    /// memory, with a method that can (an error names them; docs/cli.md says how each does it).
+    /// Says how it fitted.
     #[arg(long)]
     pub stream: bool,
     /// How colour images become features.
