@@ -1,6 +1,10 @@
 //! Evaluation: estimate every sample of a data set, optionally under pixel noise, and measure the
-//! error of docs/method.md over all samples and over the unseen ones.
+//! error of docs/method.md over all samples and over the unseen ones; and how well the model's
+//! confidence ([`crate::confidence`]) tells its gross errors: the share of views flagged, the
+//! share of gross errors flagged, whether the truth was among the top hypotheses, and a
+//! reliability table of confidence bins against error.
 
+use crate::confidence::{Estimate, Hypothesis, FLAG_BELOW, GROSS_DEG};
 use crate::dataset::Dataset;
 use crate::model::PoseModel;
 use crate::pose::ErrorSummary;
@@ -45,6 +49,121 @@ pub struct SampleResult {
     pub error_deg: f64,
     /// Whether the pose is one of the model's training poses.
     pub seen: bool,
+    /// The model's confidence in the estimate, in [0, 1] (absent when not asked for).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<f64>,
+    /// Whether the confidence is under the report's `flag_below`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flagged: Option<bool>,
+    /// The ranked hypotheses, the estimate first (at most the report's `top`).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub hypotheses: Vec<Hypothesis>,
+    /// Whether one of `hypotheses` is within [`GROSS_DEG`] of the true pose.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub in_top: Option<bool>,
+}
+
+/// How to evaluate: the query noise and whether (and how) to ask for confidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvalOptions {
+    /// Uniform noise of +-`noise` (a fraction of full brightness) added to every query (0: none).
+    pub noise: f64,
+    /// The noise's seed.
+    pub seed: u64,
+    /// Hypotheses kept per sample; 0 asks for no confidence at all (the estimates alone).
+    pub top: usize,
+    /// The confidence under which an estimate is flagged.
+    pub flag_below: f64,
+}
+
+impl EvalOptions {
+    /// Noise +-`noise` from `seed`, the top 3 hypotheses, flagged under [`FLAG_BELOW`].
+    pub fn new(noise: f64, seed: u64) -> Self {
+        EvalOptions { noise, seed, top: 3, flag_below: FLAG_BELOW }
+    }
+}
+
+/// One bin of a reliability table: the views whose confidence fell in [lo, hi).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReliabilityBin {
+    /// Lower end of the bin.
+    pub lo: f64,
+    /// Upper end (the last bin includes 1).
+    pub hi: f64,
+    /// Views in it.
+    pub n: usize,
+    /// Their mean error (degrees; NaN, written null, for an empty bin).
+    pub mean_error_deg: f64,
+    /// The share of them with an error over [`GROSS_DEG`].
+    pub gross_share: f64,
+}
+
+/// How well the confidence tells the gross errors, over the unseen views (all views when every
+/// one is a training view).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ConfidenceSummary {
+    /// "unseen" or "all": the views these figures are over.
+    pub over: String,
+    /// Views counted.
+    pub n: usize,
+    /// The share of them with an error over [`GROSS_DEG`].
+    pub gross_share: f64,
+    /// The share of the gross errors that were flagged (1 when there is none).
+    pub gross_flagged_share: f64,
+    /// The share of all of them flagged.
+    pub flagged_share: f64,
+    /// The share whose true pose is within [`GROSS_DEG`] of one of the top hypotheses.
+    pub in_top_share: f64,
+    /// Confidence bins [0, 0.5), [0.5, 0.9), [0.9, 0.99), [0.99, 1] against error.
+    pub reliability: Vec<ReliabilityBin>,
+}
+
+/// The reliability table's bin edges.
+const BINS: [f64; 5] = [0.0, 0.5, 0.9, 0.99, 1.0];
+
+impl ConfidenceSummary {
+    /// The summary of `samples` (each with a confidence) over `over`.
+    fn of(samples: &[&SampleResult], over: &str) -> Option<Self> {
+        let n = samples.len();
+        if n == 0 || samples.iter().any(|s| s.confidence.is_none()) {
+            return None;
+        }
+        let share = |k: usize, of: usize| if of == 0 { 1.0 } else { k as f64 / of as f64 };
+        let gross: Vec<&&SampleResult> = samples.iter().filter(|s| s.error_deg > GROSS_DEG).collect();
+        let flagged = samples.iter().filter(|s| s.flagged == Some(true)).count();
+        let gross_flagged = gross.iter().filter(|s| s.flagged == Some(true)).count();
+        let reliability = BINS
+            .windows(2)
+            .enumerate()
+            .map(|(b, w)| {
+                let last = b == BINS.len() - 2;
+                let inside: Vec<&&SampleResult> = samples
+                    .iter()
+                    .filter(|s| {
+                        let c = s.confidence.unwrap_or(0.0);
+                        c >= w[0] && (c < w[1] || last)
+                    })
+                    .collect();
+                let k = inside.len();
+                ReliabilityBin {
+                    lo: w[0],
+                    hi: w[1],
+                    n: k,
+                    mean_error_deg: if k == 0 { f64::NAN } else { inside.iter().map(|s| s.error_deg).sum::<f64>() / k as f64 },
+                    gross_share: share(inside.iter().filter(|s| s.error_deg > GROSS_DEG).count(), k),
+                }
+            })
+            .collect();
+        Some(ConfidenceSummary {
+            over: over.to_string(),
+            n,
+            gross_share: share(gross.len(), n),
+            gross_flagged_share: share(gross_flagged, gross.len()),
+            flagged_share: share(flagged, n),
+            in_top_share: share(samples.iter().filter(|s| s.in_top == Some(true)).count(), n),
+            reliability,
+        })
+    }
 }
 
 /// The outcome of an evaluation.
@@ -70,13 +189,36 @@ pub struct EvalReport {
     pub all: ErrorSummary,
     /// Errors over the samples whose pose is not a training pose (absent when all are seen).
     pub unseen: Option<ErrorSummary>,
+    /// Hypotheses kept per sample (0: no confidence asked for).
+    pub top: usize,
+    /// The confidence under which a sample is flagged.
+    pub flag_below: f64,
+    /// The share of the views (unseen, or all when every one is seen) flagged
+    /// ([`ConfidenceSummary::flagged_share`]; absent without confidence).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub flagged_share: Option<f64>,
+    /// The share of their gross errors flagged ([`ConfidenceSummary::gross_flagged_share`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gross_flagged_share: Option<f64>,
+    /// The confidence's figures in full.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub confidence: Option<ConfidenceSummary>,
     /// Every sample.
     pub samples: Vec<SampleResult>,
 }
 
 /// Estimates every sample of `data` with `model`, with uniform noise of +-`noise` added to the
-/// queries (0 for none) from `seed`.
+/// queries (0 for none) from `seed`, with the confidence of [`EvalOptions::new`].
 pub fn evaluate(model: &dyn PoseModel, data: &Dataset, noise: f64, seed: u64) -> Result<EvalReport> {
+    evaluate_with(model, data, &EvalOptions::new(noise, seed))
+}
+
+/// Estimates every sample of `data` with `model` as `opt` says.
+pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Result<EvalReport> {
+    let (noise, seed) = (opt.noise, opt.seed);
+    if !(opt.flag_below.is_finite() && (0.0..=1.0).contains(&opt.flag_below)) {
+        return Err(Error::invalid("flag threshold", opt.flag_below, "must be a confidence in [0, 1]"));
+    }
     let meta = model.meta();
     let got = data.spec();
     if (got.width, got.height) != (meta.spec.width, meta.spec.height) {
@@ -111,20 +253,31 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, noise: f64, seed: u64) ->
     let t0 = Instant::now();
     let est = model.predict(q)?;
     let predict_s = t0.elapsed().as_secs_f64();
+    let estimates: Option<Vec<Estimate>> = if opt.top > 0 { Some(model.estimate(q, opt.top)?) } else { None };
     let p = meta.space.len();
     let samples: Vec<SampleResult> = (0..data.len())
         .map(|i| {
             let truth = data.pose(i);
             let e = &est[i * p..(i + 1) * p];
+            let h = estimates.as_ref().map(|v| &v[i]);
             SampleResult {
                 image: data.manifest().images()[i].clone(),
                 r#true: truth.to_vec(),
                 estimated: e.to_vec(),
                 error_deg: meta.space.error_deg(truth, e),
                 seen: meta.is_seen(truth),
+                confidence: h.map(|h| h.confidence),
+                flagged: h.map(|h| h.flagged(opt.flag_below)),
+                hypotheses: h.map(|h| h.hypotheses.clone()).unwrap_or_default(),
+                in_top: h.map(|h| h.hypotheses.iter().any(|k| meta.space.error_deg(truth, &k.pose) <= GROSS_DEG)),
             }
         })
         .collect();
+    let unseen: Vec<&SampleResult> = samples.iter().filter(|s| !s.seen).collect();
+    let confidence = match unseen.is_empty() {
+        false => ConfidenceSummary::of(&unseen, "unseen"),
+        true => ConfidenceSummary::of(&samples.iter().collect::<Vec<_>>(), "all"),
+    };
     let all_e: Vec<f64> = samples.iter().map(|s| s.error_deg).collect();
     let unseen_e: Vec<f64> = samples.iter().filter(|s| !s.seen).map(|s| s.error_deg).collect();
     Ok(EvalReport {
@@ -138,6 +291,11 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, noise: f64, seed: u64) ->
         predict_s,
         all: ErrorSummary::of(&all_e).expect("a data set has samples"),
         unseen: ErrorSummary::of(&unseen_e),
+        top: opt.top,
+        flag_below: opt.flag_below,
+        flagged_share: confidence.as_ref().map(|c| c.flagged_share),
+        gross_flagged_share: confidence.as_ref().map(|c| c.gross_flagged_share),
+        confidence,
         samples,
     })
 }

@@ -7,7 +7,7 @@
 //! figure or table shows is in the returned [`ObjectResult`].
 
 use crate::dataset::Dataset;
-use crate::eval::evaluate;
+use crate::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};
 use crate::manifest::TrainSelection;
 use crate::model::MethodSpec;
 use crate::model::{AnyModel, PoseModel};
@@ -85,10 +85,15 @@ pub struct Run {
     pub param_mean_abs_err_deg: Vec<f64>,
     /// Fraction of unseen samples with an error above [`GROSS_ERROR_DEG`].
     pub gross_frac: f64,
+    /// Each sample's confidence ([`crate::confidence`]), in data set order.
+    pub confidences: Vec<f64>,
+    /// How well the confidence told the gross errors (flagged shares, reliability table).
+    pub confidence: Option<ConfidenceSummary>,
 }
 
-/// An error above this many degrees counts as a gross failure (a wrong side, a lost parameter).
-pub const GROSS_ERROR_DEG: f64 = 20.0;
+/// An error above this many degrees counts as a gross failure (a wrong side, a lost parameter):
+/// [`crate::confidence::GROSS_DEG`].
+pub const GROSS_ERROR_DEG: f64 = crate::confidence::GROSS_DEG;
 
 /// One method at one training-set size.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -256,6 +261,8 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
                 seen: r.samples.iter().map(|s| s.seen).collect(),
                 param_mean_abs_err_deg: param_err,
                 gross_frac: gross,
+                confidences: r.samples.iter().map(|s| s.confidence.unwrap_or(f64::NAN)).collect(),
+                confidence: r.confidence,
             });
         }
         models.push(model);
@@ -272,7 +279,7 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
                 Err(crate::Error::InvalidParameter { .. }) | Err(crate::Error::Dataset { .. }) => continue,
                 Err(e) => return Err(e),
             };
-            let r = evaluate(&model, data, 0.0, p.seed)?;
+            let r = evaluate_with(&model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, p.seed) })?;
             let loo_mean_deg = match method.leave_one_out(&train).transpose()? {
                 Some(loo) => {
                     let k = train.space().len();

@@ -50,6 +50,7 @@
 
 pub mod atomic;
 pub(crate) mod binning;
+pub mod confidence;
 pub mod dataset;
 pub mod error;
 pub mod eval;
@@ -65,9 +66,10 @@ pub(crate) mod pixel_noise;
 pub mod pose;
 pub mod render;
 
+pub use confidence::{Estimate, Hypothesis};
 pub use dataset::Dataset;
 pub use error::{Error, Result};
-pub use eval::{evaluate, EvalReport};
+pub use eval::{evaluate, evaluate_with, EvalOptions, EvalReport};
 #[doc(hidden)]
 pub use kernels::bench;
 pub use manifest::{Manifest, TrainSelection};

@@ -21,6 +21,12 @@ pub struct EvalArgs {
     /// Write the full report (summary and every sample) as JSON.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Hypotheses kept per sample (in the JSON), and counted for "truth among the top K".
+    #[arg(long, value_name = "K", default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=8))]
+    pub top: u64,
+    /// The confidence under which an estimate is flagged.
+    #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW)]
+    pub flag_below: f64,
 }
 
 /// Runs `linpose eval`.
@@ -34,7 +40,11 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
     let model = linpose::model_file::load(&a.model)?;
     let manifest = a.data.manifest()?;
     let data = load_dataset(manifest, model.meta().spec.color)?;
-    let r = linpose::evaluate(&model, &data, a.noise, a.seed)?;
+    if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {
+        anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
+    }
+    let opt = linpose::EvalOptions { top: a.top as usize, flag_below: a.flag_below, ..linpose::EvalOptions::new(a.noise, a.seed) };
+    let r = linpose::evaluate_with(&model, &data, &opt)?;
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
     let line =
@@ -45,6 +55,24 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
         None => println!("unseen   (every sample is a training view)"),
     }
     println!("errors in degrees; model {} bytes; estimation {:.4} s", r.model_bytes, r.predict_s);
+    if let Some(c) = &r.confidence {
+        println!(
+            "confidence ({} views): {:.1}% flagged (under {}); {:.1}% gross errors (over {} degrees), {:.1}% of them flagged; truth among the top {}: {:.1}%",
+            c.over,
+            100.0 * c.flagged_share,
+            r.flag_below,
+            100.0 * c.gross_share,
+            linpose::confidence::GROSS_DEG,
+            100.0 * c.gross_flagged_share,
+            r.top,
+            100.0 * c.in_top_share
+        );
+        println!("{:<14} {:>6} {:>12} {:>8}", "confidence", "n", "mean error", "gross");
+        for b in &c.reliability {
+            let close = if b.hi >= 1.0 { ']' } else { ')' };
+            println!("[{:.2}, {:.2}{close}   {:>6} {:>12.4} {:>7.1}%", b.lo, b.hi, b.n, b.mean_error_deg, 100.0 * b.gross_share);
+        }
+    }
     if let Some(j) = &a.json {
         write_json(j, &r)?;
     }

@@ -29,12 +29,32 @@ pub struct PredictArgs {
     /// Print one JSON object per image instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also give the K best distinct poses the model considered, with their scores (each one's
+    /// probability of being right, as the model judges it) and the estimate's confidence; an
+    /// estimate whose confidence is under --flag-below is marked FLAGGED.
+    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..=8))]
+    pub top: Option<u64>,
+    /// The confidence under which an estimate is flagged (with --top).
+    #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW, requires = "top")]
+    pub flag_below: f64,
 }
 
 #[derive(Serialize)]
 struct Estimate<'a> {
     image: &'a str,
     pose: BTreeMap<&'a str, f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    confidence: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    flagged: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hypotheses: Option<Vec<Hypothesis<'a>>>,
+}
+
+#[derive(Serialize)]
+struct Hypothesis<'a> {
+    pose: BTreeMap<&'a str, f64>,
+    score: f64,
 }
 
 /// Expands folders into their image files.
@@ -65,6 +85,9 @@ fn is_image_name(p: &Path) -> bool {
 
 /// Runs `linpose predict`.
 pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
+    if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {
+        anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
+    }
     let model = linpose::model_file::load(&a.model)?;
     let meta = model.meta();
     let (spec, space) = (meta.spec, &meta.space);
@@ -96,7 +119,21 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
             .into_iter()
             .all(|b| b);
         let est = &mut poses[..chunk.len() * space.len()];
-        if all_u8 {
+        let mut ranked = None;
+        if let Some(top) = a.top {
+            // Hypotheses are ranked on features: the 8-bit path's estimates agree but for near
+            // ties, and the first hypothesis must be the estimate printed.
+            for (f, p) in feats.chunks_exact_mut(m).zip(pix.chunks_exact(m)) {
+                if f[0].is_nan() {
+                    f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
+                }
+            }
+            let r = model.estimate(feats, top as usize)?;
+            for (o, e) in est.chunks_exact_mut(space.len()).zip(&r) {
+                o.copy_from_slice(&e.pose);
+            }
+            ranked = Some(r);
+        } else if all_u8 {
             model.predict_u8_into(pix, est)?;
         } else {
             for (f, p) in feats.chunks_exact_mut(m).zip(pix.chunks_exact(m)) {
@@ -106,16 +143,37 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
             }
             model.predict_into(feats, est)?;
         }
-        for (path, pose) in chunk.iter().zip(est.chunks_exact(space.len())) {
+        let named = |pose: &[f64]| -> BTreeMap<&str, f64> { space.params().iter().map(|p| p.name.as_str()).zip(pose.iter().copied()).collect() };
+        for (i, (path, pose)) in chunk.iter().zip(est.chunks_exact(space.len())).enumerate() {
             let name = path.display().to_string();
+            let r = ranked.as_ref().map(|r| &r[i]);
             if a.json {
-                let e = Estimate { image: &name, pose: space.params().iter().map(|p| p.name.as_str()).zip(pose.iter().copied()).collect() };
+                let e = Estimate {
+                    image: &name,
+                    pose: named(pose),
+                    confidence: r.map(|r| r.confidence),
+                    flagged: r.map(|r| r.flagged(a.flag_below)),
+                    hypotheses: r.map(|r| r.hypotheses.iter().map(|h| Hypothesis { pose: named(&h.pose), score: h.score }).collect()),
+                };
                 serde_json::to_writer(&mut out, &e)?;
                 writeln!(out)?;
             } else {
                 write!(out, "{name}")?;
                 for (p, v) in space.params().iter().zip(pose) {
                     write!(out, "\t{}={v:.4}", p.name)?;
+                }
+                if let Some(r) = r {
+                    write!(out, "\tconfidence={:.3}", r.confidence)?;
+                    if r.flagged(a.flag_below) {
+                        write!(out, "\tFLAGGED")?;
+                    }
+                    for (k, h) in r.hypotheses.iter().enumerate().skip(1) {
+                        write!(out, "\t#{}:", k + 1)?;
+                        for (p, v) in space.params().iter().zip(&h.pose) {
+                            write!(out, " {}={v:.4}", p.name)?;
+                        }
+                        write!(out, " score={:.3}", h.score)?;
+                    }
                 }
                 writeln!(out)?;
             }

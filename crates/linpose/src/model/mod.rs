@@ -13,6 +13,7 @@ mod tensor;
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
 pub use tensor::{Tensor, TensorData, TensorSet};
 
+use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::pose::PoseSpace;
@@ -69,6 +70,11 @@ pub trait PoseModel: Any + Send + Sync + std::fmt::Debug {
         self.predict_into(queries, &mut out)?;
         Ok(out)
     }
+
+    /// Estimates the poses of `queries` (as [`PoseModel::predict`]) with, for each, up to `top`
+    /// ranked hypotheses and a confidence ([`crate::confidence`]): the estimate's pose is the
+    /// one `predict` gives.
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>>;
 
     /// Bytes of the numbers the model stores to serve queries (the storage of the paper's
     /// Table 1), counted at the precision they are served in.
@@ -187,6 +193,9 @@ impl PoseModel for AnyModel {
     }
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         self.0.predict_u8_into(queries, out)
+    }
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
+        self.0.estimate(queries, top)
     }
     fn model_bytes(&self) -> usize {
         self.0.model_bytes()

@@ -41,6 +41,7 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
+mod hypotheses;
 pub(crate) mod kdtree;
 pub(crate) mod manifold;
 pub(crate) mod pca;
@@ -197,6 +198,11 @@ pub struct EigenspaceSettings {
     pub manifold_shape: Vec<usize>,
     /// The search in use.
     pub search: SearchKind,
+    /// Each coordinate's mean squared error on held-out training views (each knot against the
+    /// manifold through the others, every other knot held out along each axis; empty when no
+    /// axis has enough knots): the level of a query's distance that calibrates its confidence
+    /// ([`crate::confidence`]).
+    pub held_out_variance: Vec<f64>,
 }
 
 impl Estimator for EigenspaceParams {
@@ -223,6 +229,8 @@ impl Estimator for EigenspaceParams {
             energy_kept: pca.energy_kept(),
             manifold_shape: dense.axes.iter().map(Vec::len).collect(),
             search: self.search,
+            held_out_variance: crate::methods::refined::select::interpolation_variance(train, &grid, &pca.coords, l, crate::methods::refined::Interpolant::Spline)?
+                .unwrap_or_default(),
         };
         let meta = ModelMeta {
             method: METHOD.name.into(),
@@ -408,6 +416,9 @@ impl EigenspaceModel {
         let settings: EigenspaceSettings = serde_json::from_value(meta.settings.clone()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         settings.params.validate().map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let (l, m, d) = (settings.components, meta.spec.features(), meta.space.len());
+        if !settings.held_out_variance.is_empty() && settings.held_out_variance.len() != l || settings.held_out_variance.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(t.error(format!("damaged eigenspace settings: {} held-out variances for {l} components", settings.held_out_variance.len())));
+        }
         if l == 0 || settings.manifold_shape.len() != d || settings.manifold_shape.contains(&0) {
             return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
         }
@@ -470,6 +481,10 @@ impl PoseModel for EigenspaceModel {
             ));
         }
         Ok(())
+    }
+
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<crate::Estimate>> {
+        self.estimate_with(queries, top)
     }
 
     /// 8-bit queries: [`EigenspaceModel::project_u8_into`]'s projection, then the search.

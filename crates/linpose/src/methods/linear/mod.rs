@@ -36,8 +36,10 @@ pub mod stream;
 use crate::dataset::Dataset;
 use crate::kernels::{dot_u8::dots, Level};
 use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
+use crate::confidence::{pair_confidence, Estimate};
 use crate::methods::linear::ridge::{loo_curve, RidgeRule};
 use crate::pixel_noise::estimate_noise_sigma;
+use crate::pose::PoseSpace;
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::{Error, Result};
 use faer::linalg::solvers::{DenseSolveCore, Solve};
@@ -141,6 +143,27 @@ impl LinearParams {
     }
 }
 
+/// Most training rows whose leave-one-out residuals measure the pairs' spread
+/// ([`GramSystem::pair_spread`]): each costs a solve with the Gram matrix's factor (N^2), so the
+/// spread costs at most 256 N^2 beside the fit's N^3 / 3. The RMS of 256 residuals is within
+/// about 5% (one standard error) of that of all. Not tuned.
+pub(crate) const LOO_SAMPLE: usize = 256;
+
+/// The first encoded column of each circular parameter's (cos, sin) pair.
+pub(crate) fn pair_columns(space: &PoseSpace) -> Vec<usize> {
+    let mut k = 0;
+    let mut out = Vec::new();
+    for p in space.params() {
+        if p.period.is_some() {
+            out.push(k);
+            k += 2;
+        } else {
+            k += 1;
+        }
+    }
+    out
+}
+
 /// The training set's encoded poses P (N x K, row-major).
 pub(crate) fn encoded_poses(train: &Dataset) -> Vec<f64> {
     let space = train.space();
@@ -195,22 +218,8 @@ impl<'a> GramSystem<'a> {
     /// Solves (G + lambda I) D = P by Cholesky, refusing a numerically singular system.
     pub fn solve(&self, lambda: f64, train: &Dataset) -> Result<Mat<f64>> {
         let n = self.g.nrows();
-        let mut a = self.g.clone();
-        for i in 0..n {
-            a[(i, i)] += lambda;
-        }
+        let a = self.system(lambda);
         let scale = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max);
-        if self.mean_x.is_some() {
-            // Centred rows sum to zero, so G always has the ones vector in its null space. P is
-            // centred too (orthogonal to it) and X^T 1 = 0, so adding c 1 1^T changes nothing in
-            // W = X^T D while making the system definite: D = (G + c 1 1^T)^-1 P = G^+ P.
-            let c = scale / n as f64;
-            for j in 0..n {
-                for i in 0..n {
-                    a[(i, j)] += c;
-                }
-            }
-        }
         let llt = a.llt(Side::Lower).map_err(|e| singular(train, &format!("{e:?}"), lambda))?;
         // A pivot tiny against the largest diagonal entry means G is singular up to rounding:
         // the solution would be noise amplified by 1/pivot.
@@ -220,6 +229,48 @@ impl<'a> GramSystem<'a> {
             return Err(singular(train, &format!("pivot {imin} is {dmin:.3e}, against a largest diagonal of {scale:.3e}"), lambda));
         }
         Ok(llt.solve(self.p.as_ref()))
+    }
+
+    /// The matrix [`Self::solve`] factors: G + lambda I, and for a centred system c 1 1^T added.
+    fn system(&self, lambda: f64) -> Mat<f64> {
+        let n = self.g.nrows();
+        let mut a = self.g.clone();
+        for i in 0..n {
+            a[(i, i)] += lambda;
+        }
+        if self.mean_x.is_some() {
+            // Centred rows sum to zero, so G always has the ones vector in its null space. P is
+            // centred too (orthogonal to it) and X^T 1 = 0, so adding c 1 1^T changes nothing in
+            // W = X^T D while making the system definite: D = (G + c 1 1^T)^-1 P = G^+ P.
+            let c = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max) / n as f64;
+            for j in 0..n {
+                for i in 0..n {
+                    a[(i, j)] += c;
+                }
+            }
+        }
+        a
+    }
+
+    /// The spread of each circular parameter's (cos, sin) pair's exact leave-one-out residuals
+    /// (the RMS per component) of the fit `d` (= [`Self::solve`] with `lambda`), over at most
+    /// [`LOO_SAMPLE`] evenly spaced training rows: e_i = D_i / [(G + lambda I)^-1]_ii. What the
+    /// confidence of a query's pair is measured against ([`crate::confidence`]). For a centred
+    /// model this is the residual of the uncentred system, an approximation.
+    pub fn pair_spread(&self, lambda: f64, d: &Mat<f64>, space: &PoseSpace, train: &Dataset) -> Result<Vec<f64>> {
+        let n = self.g.nrows();
+        let rows: Vec<usize> = (0..n.min(LOO_SAMPLE)).map(|j| j * n / n.min(LOO_SAMPLE)).collect();
+        let llt = self.system(lambda).llt(Side::Lower).map_err(|e| singular(train, &format!("{e:?}"), lambda))?;
+        let unit = Mat::from_fn(n, rows.len(), |i, j| if i == rows[j] { 1.0 } else { 0.0 });
+        let inv = llt.solve(unit.as_ref());
+        let residual = |i: usize, j: usize, col: usize| d[(i, col)] / inv[(i, j)];
+        Ok(pair_columns(space)
+            .into_iter()
+            .map(|c| {
+                let ss: f64 = rows.iter().enumerate().map(|(j, &i)| residual(i, j, c).powi(2) + residual(i, j, c + 1).powi(2)).sum();
+                (ss / (2 * rows.len()).max(1) as f64).sqrt()
+            })
+            .collect())
     }
 
     /// W^T = D^T X (K x M), row-major: each row is one coefficient image w_j (paper Fig. 2).
@@ -407,6 +458,7 @@ impl Estimator for LinearParams {
         };
         let d = sys.solve(lambda, fit_set)?;
         let w = sys.weights(&d);
+        let spread = sys.pair_spread(lambda, &d, train.space(), fit_set)?;
         let k = train.space().encoded_len();
         // Centred: p = W^T (x - mu_x) + mu_p, so the bias is mu_p - W^T mu_x.
         let bias = match (&sys.mean_x, &sys.mean_p) {
@@ -423,7 +475,7 @@ impl Estimator for LinearParams {
             train_poses: train.poses().to_vec(),
             settings: serde_json::json!({ "params": self, "lambda": lambda, "loo_mean_deg": loo }),
         };
-        Ok(LinearModel::new(meta, w, bias))
+        Ok(LinearModel::new(meta, w, bias, spread))
     }
 }
 
@@ -436,17 +488,30 @@ pub struct LinearModel {
     /// The f32 weights / 255, for 8-bit queries.
     w8: Vec<f32>,
     bias: Vec<f64>,
+    /// Each circular parameter's pair's leave-one-out spread ([`GramSystem::pair_spread`]).
+    spread: Vec<f64>,
 }
 
 impl LinearModel {
-    pub(crate) fn new(meta: ModelMeta, w64: Vec<f64>, bias: Vec<f64>) -> Self {
+    /// The model of weights `w64` and `bias`, whose circular pairs' residuals spread by `spread`
+    /// (recorded in the settings as `pair_spread`).
+    pub(crate) fn new(mut meta: ModelMeta, w64: Vec<f64>, bias: Vec<f64>, spread: Vec<f64>) -> Self {
+        if let Some(o) = meta.settings.as_object_mut() {
+            o.insert("pair_spread".into(), serde_json::json!(spread));
+        }
         let w32 = w64.iter().map(|&v| v as f32).collect();
-        Self::with_u8(meta, w64, w32, bias)
+        Self::with_u8(meta, w64, w32, bias, spread)
     }
 
-    fn with_u8(meta: ModelMeta, w64: Vec<f64>, w32: Vec<f32>, bias: Vec<f64>) -> Self {
+    fn with_u8(meta: ModelMeta, w64: Vec<f64>, w32: Vec<f32>, bias: Vec<f64>, spread: Vec<f64>) -> Self {
         let w8 = w64.iter().map(|&v| (v / 255.0) as f32).collect();
-        LinearModel { meta, w64, w32, w8, bias }
+        LinearModel { meta, w64, w32, w8, bias, spread }
+    }
+
+    /// Each circular parameter's (cos, sin) pair's leave-one-out spread (RMS per component),
+    /// against which a query's pair length sets the confidence.
+    pub fn pair_spread(&self) -> &[f64] {
+        &self.spread
     }
 
     /// The coefficient vectors w_j, one row of M values per encoded parameter (paper Fig. 2), in
@@ -482,8 +547,16 @@ impl LinearModel {
         if w32.iter().any(|v| !v.is_finite()) || bias.iter().any(|v| !v.is_finite()) {
             return Err(t.error("the weights hold non-finite values"));
         }
+        let spread: Vec<f64> = meta
+            .settings
+            .get("pair_spread")
+            .and_then(|v| serde_json::from_value(v.clone()).ok())
+            .ok_or_else(|| t.error("damaged linear settings: no pair_spread"))?;
+        if spread.len() != pair_columns(&meta.space).len() || spread.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(t.error(format!("damaged linear settings: pair_spread {spread:?}")));
+        }
         let w64 = w32.iter().map(|&v| v as f64).collect();
-        Ok(Self::with_u8(meta, w64, w32, bias))
+        Ok(Self::with_u8(meta, w64, w32, bias, spread))
     }
 }
 
@@ -513,6 +586,27 @@ impl PoseModel for LinearModel {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
         }
         Ok(())
+    }
+
+    /// One hypothesis, the estimate; its confidence from the lengths of its (cos, sin) pairs
+    /// against their leave-one-out spread ([`crate::confidence`]).
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
+        let _ = top;
+        let m = self.meta.spec.features();
+        let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());
+        crate::model::check_queries(m, queries.len(), "query batch")?;
+        let cols = pair_columns(&self.meta.space);
+        Ok(queries
+            .par_chunks_exact(m)
+            .map(|x| {
+                let mut enc = vec![0f64; k];
+                self.encoded_f32(x, &mut enc);
+                let mut pose = vec![0.0; p];
+                self.meta.space.decode(&enc, &mut pose);
+                let lengths: Vec<f64> = cols.iter().map(|&c| enc[c].hypot(enc[c + 1])).collect();
+                Estimate::single(pose, pair_confidence(&lengths, &self.spread))
+            })
+            .collect())
     }
 
     /// 8-bit queries: K products of the pixels with the weights / 255 by the crate's 8-bit SIMD

@@ -37,8 +37,8 @@ use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::kernels::levels::{quantize, residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
 use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 use crate::manifest::Manifest;
-use crate::methods::linear::{LinearModel, LinearParams, METHOD};
 use crate::methods::linear::ridge::RidgeRule;
+use crate::methods::linear::{LinearModel, LinearParams, METHOD};
 use crate::model::{AnyModel, Estimator, ModelMeta, Settings};
 use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -175,7 +175,11 @@ pub(crate) fn fit_streamed(manifest: &Manifest, color: ColorMode, settings: &Set
     if params.rule() != RidgeRule::Fixed {
         let r = settings.reader(&METHOD)?;
         let (name, value) = r.text("noise-level").map(|v| ("noise-level", v)).unwrap_or(("ridge", r.text("ridge").unwrap_or("auto")));
-        return Err(r.error(name, value, "a streamed fit takes a fixed ridge (0 for the exact fit): the leave-one-out and noise rules need the training set in memory"));
+        return Err(r.error(
+            name,
+            value,
+            "a streamed fit takes a fixed ridge (0 for the exact fit): the leave-one-out and noise rules need the training set in memory",
+        ));
     }
     if params.is_centered() {
         return Err(Error::invalid("center", true, "a streamed fit is uncentred (the paper's form)"));
@@ -216,8 +220,9 @@ pub(crate) fn fit_least_squares(
     let np = padded(m);
     let mut acc = SyrkAcc::new(m);
     let mut xtp = vec![0f64; m * k]; // X^T P, row-major M x K
-                                     // Every block so far 8-bit, on a CPU with AVX-512 VNNI (without it the portable integer
-                                     // kernel gives the same bits but is slower than the f64 kernel, so the f64 path is taken).
+    let mut ptp = vec![0f64; k]; // each encoded column's sum of squares
+                                 // Every block so far 8-bit, on a CPU with AVX-512 VNNI (without it the portable integer
+                                 // kernel gives the same bits but is slower than the f64 kernel, so the f64 path is taken).
     let mut exact = acc.uses_vnni();
     let r = level_residuals();
     // C += s1 sum k_p k_q + s2 sum (k_p r_q + r_p k_q): 2^-62 m^2 and 2^-62 m, exact powers of two
@@ -273,6 +278,7 @@ pub(crate) fn fit_least_squares(
             exact &= blk.exact; // from the first block that is not 8-bit on, f64
             for i in 0..b {
                 space.encode(manifest.pose(start + i), &mut p[i * k..(i + 1) * k]);
+                ptp.iter_mut().zip(&p[i * k..(i + 1) * k]).for_each(|(s, &v)| *s += v * v);
             }
             // X^T X over the block, in panels, in order.
             let mut r0 = 0;
@@ -346,6 +352,14 @@ pub(crate) fn fit_least_squares(
             w[j * m + i] = wm[(i, j)];
         }
     }
+    // The pairs' spread from the training residuals: RSS_j = P_j^T P_j - W_j^T X^T P_j - lambda
+    // |W_j|^2 (X^T X W = X^T P - lambda W), over N - M degrees of freedom.
+    let rss = |j: usize| {
+        let wj = &w[j * m..(j + 1) * m];
+        ptp[j] - wj.iter().enumerate().map(|(i, &v)| v * (xtp[i * k + j] + lambda * v)).sum::<f64>()
+    };
+    let dof = n.saturating_sub(m).max(1) as f64;
+    let spread = super::pair_columns(space).into_iter().map(|c| ((rss(c) + rss(c + 1)).max(0.0) / (2.0 * dof)).sqrt()).collect();
     let solve_s = t.elapsed().as_secs_f64();
     let meta = ModelMeta {
         method: METHOD.name.into(),
@@ -360,7 +374,7 @@ pub(crate) fn fit_least_squares(
         }),
     };
     let stats = StreamStats { path: SolverPath::LeastSquares, n, m, read_s, wait_s, accumulate_s, solve_s, integer_8bit: exact };
-    Ok((LinearModel::new(meta, w, vec![0.0; k]), stats))
+    Ok((LinearModel::new(meta, w, vec![0.0; k], spread), stats))
 }
 
 fn singular(lambda: f64, detail: &str) -> Error {

@@ -84,6 +84,7 @@
 //! `scratch.rs` (per-thread buffers), `tuning.rs`, `method.rs` (the registry entry), `tests/`.
 
 mod fit;
+mod hypotheses;
 mod method;
 mod model;
 mod noisy;

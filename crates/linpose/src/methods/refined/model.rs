@@ -295,6 +295,10 @@ impl PoseModel for RefinedModel {
         self.predict_with(queries, self.noise_want(), out)
     }
 
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<crate::Estimate>> {
+        self.estimate_with(queries, top)
+    }
+
     /// 8-bit queries: the projection in 16-bit fixed point where AVX-512 VNNI runs it, else in
     /// f32 lanes, then the search; the estimates of
     /// [`PoseModel::predict_into`] on the same images as features but for near ties.

@@ -11,6 +11,15 @@ use crate::model::batch_len;
 use crate::{Error, Result};
 use rayon::prelude::*;
 
+/// Where a query goes, with its noise per coordinate there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Route {
+    /// The clean search, its weights 1 / (sigma_l^2 + floor + nu) for this nu.
+    Clean(f64),
+    /// The noisy match, its weights for this nu.
+    Noisy(f64),
+}
+
 /// What a query's projection computes of its pixel noise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum NoiseWant {
@@ -24,7 +33,7 @@ pub(crate) enum NoiseWant {
 }
 
 /// The error for the first query left NaN (zero or non-finite energy), if any.
-fn no_black_query(out: &[f64], p: usize) -> Result<()> {
+pub(crate) fn no_black_query(out: &[f64], p: usize) -> Result<()> {
     match out.chunks_exact(p).position(|o| o[0].is_nan()) {
         Some(i) => Err(Error::invalid(
             "query",
@@ -60,40 +69,52 @@ impl RefinedModel {
         }
     }
 
-    /// The pose (degrees, circular values in [0, period)) of eigenspace coordinates `y`, of a
-    /// query whose pixel noise is `noise` ([`pixel_noise`](crate::pixel_noise::pixel_noise) of the image the model works on).
-    pub(crate) fn pose_of_coords(&self, y: &[f32], residual: f64, noise: f64, out: &mut [f64]) {
-        self.pose_routed(y, residual, noise, noise / self.m as f64, out)
-    }
-
-    /// [`Self::pose_of_coords`] with the route's value (the query's [`pixel_noise`](crate::pixel_noise::pixel_noise), compared
-    /// with the threshold) and the noisy match's nu (its pixel noise per unit-energy
-    /// coordinate) given apart: a model that bins routes on the image as given and matches on
+    /// The pose (degrees, circular values in [0, period)) of eigenspace coordinates `y` of a
+    /// query with residual `residual` off the eigenspace, by its route: the route's value (the
+    /// query's [`pixel_noise`](crate::pixel_noise::pixel_noise), compared with the threshold)
+    /// and the noisy match's nu (its pixel noise per unit-energy coordinate) are given apart, since
+    /// a model that bins routes on the image as given and matches on
     /// the binned one.
     fn pose_routed(&self, y: &[f32], residual: f64, route: f64, noise_nu: f64, out: &mut [f64]) {
+        match self.route_of(residual, route, noise_nu) {
+            Route::Noisy(nu) => self.pose_of_noisy(y, nu, out),
+            Route::Clean(nu) => self.pose_of_clean(y, nu, out),
+        }
+    }
+
+    /// Where a query goes ([`Self::pose_routed`]'s arguments), with its noise for that route.
+    pub(crate) fn route_of(&self, residual: f64, route: f64, noise_nu: f64) -> Route {
         // Noise per coordinate from the energy off the search's L_s coordinates beyond the
         // training views' (isotropic noise puts (M - L_s) times its per-coordinate variance
         // there: the residual the choice of L_s was scored with); the weights
         // 1 / (sigma_l^2 + floor + nu) relative to the stored 1 / (sigma_l^2 + floor).
         let (m, ls) = (self.m, self.settings.search());
-        let nu = ((residual - self.clean_residual_energy) / (m.saturating_sub(ls).max(1)) as f64).max(0.0);
         if self.routed_noisy(NoiseWant::Route, route) {
-            return self.pose_of_noisy(y, noise_nu, out);
+            return Route::Noisy(noise_nu);
         }
-        self.pose_of_clean(y, nu, out)
+        Route::Clean(((residual - self.clean_residual_energy) / (m.saturating_sub(ls).max(1)) as f64).max(0.0))
+    }
+
+    /// The route's values of query `i` of a task's projected queries `s`: its residual, the
+    /// value compared with the noise threshold and the noisy match's nu.
+    pub(crate) fn route_values(&self, s: &QueryScratch, i: usize) -> (f64, f64, f64) {
+        if self.binning.bins() {
+            (s.resid[i], s.route[i], s.noise[i])
+        } else {
+            (s.resid[i], s.noise[i] * self.m as f64, s.noise[i])
+        }
     }
 
     /// The poses of a task's projected queries into `out` (NaN for a query that could not be
     /// projected).
     fn poses_of(&self, s: &QueryScratch, out: &mut [f64]) {
-        let (l, m, p) = (self.components(), self.m, self.meta.space.len());
-        for (i, ((c, o), &r)) in s.y.chunks_exact(l).zip(out.chunks_exact_mut(p)).zip(&s.resid).enumerate() {
+        let (l, p) = (self.components(), self.meta.space.len());
+        for (i, (c, o)) in s.y.chunks_exact(l).zip(out.chunks_exact_mut(p)).enumerate() {
             if c[0].is_nan() {
                 o.fill(f64::NAN);
-            } else if self.binning.bins() {
-                self.pose_routed(c, r, s.route[i], s.noise[i], o);
             } else {
-                self.pose_of_coords(c, r, s.noise[i] * m as f64, o);
+                let (r, route, nu) = self.route_values(s, i);
+                self.pose_routed(c, r, route, nu, o);
             }
         }
     }

@@ -89,7 +89,7 @@ impl RefinedModel {
         self.noise_scan = if self.noisy_tree.is_some() { NoiseScan::default() } else { NoiseScan::new(self, &w0) };
     }
 
-    /// The pose of a noisy query's coordinates `y` (as [`Self::pose_of_coords`]), whose pixel
+    /// The pose of a noisy query's coordinates `y` (as [`Self::pose_routed`]), whose pixel
     /// noise puts variance `nu` on each unit-energy coordinate: the affine match. Clipped noise
     /// brightens a black background by a / 4 and adds energy, so the query is matched to
     /// alpha (f(t) + c) + beta g(t), the surface point (c the mean's coordinates) scaled by a free

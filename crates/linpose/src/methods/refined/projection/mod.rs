@@ -114,7 +114,7 @@ impl RefinedModel {
                     None => 0.0,
                 };
                 if !routed {
-                    // The route's value as pose_of_coords forms it.
+                    // The route's value as route_values forms it.
                     s.noisy[i] = self.routed_noisy(noise, s.pv[i] / energy * m as f64);
                 }
             }
@@ -153,7 +153,7 @@ impl RefinedModel {
                     Some(early) => pixel_variance_u8_in(x, w, h, ch, RowsU8::reuse(&mut s.rows_u8, w * ch, ch), early),
                     None => 0.0,
                 };
-                // The route's value as pose_of_coords forms it.
+                // The route's value as route_values forms it.
                 s.noisy[i] = self.routed_noisy(noise, s.pv[i] / energy * m as f64);
             }
             if self.extra_rows() > 0 {

@@ -1,0 +1,210 @@
+//! Ranked hypotheses and a confidence for every estimate ([`Estimate`]), so an estimate can say
+//! "45 or 225, I can't tell" instead of a confident 45 when the truth is 225.
+//!
+//! Every method returns, beside its pose, the best few *distinct* poses it considered
+//! ([`Hypothesis`]): local minima of its search separated from the estimate and from each other
+//! by at least [`GROSS_DEG`] on the error measure, so that every alternative is one whose choice
+//! would be a gross error. A nearly symmetric object (front resembling back) has two such minima
+//! at almost the same distance; an asymmetric one has one far below the rest.
+//!
+//! **The eigenspace and the refined method** score a hypothesis by its squared distance d_k from
+//! the query to the manifold at its pose, in the metric of the method's search. If a query lay at
+//! its true pose's manifold point plus independent Gaussian errors of variance s^2 per coordinate,
+//! hypothesis k would be the true one with posterior probability proportional to
+//! exp(-d_k / 2 s^2): each hypothesis's [`Hypothesis::score`] is that probability among the
+//! hypotheses found, and the estimate's is the [`Estimate::confidence`]. The variance comes from
+//! the training views alone: D_0, the mean squared distance of a held-out training view to the
+//! manifold fitted without it (every other knot held out along each axis), spread over the L
+//! coordinates; a query farther from the manifold than that (noise, an unseen appearance) uses
+//! its own distance instead, s^2 = max(D_0, d_1) / L, so a query the model explains badly is
+//! not trusted to tell two near hypotheses apart.
+//!
+//! **The linear model** considers one pose only; its confidence is the probability that its
+//! estimate is within [`GROSS_DEG`] of the truth if each (cos, sin) pair's error were isotropic
+//! Gaussian with the spread of the model's exact leave-one-out residuals on its training set: a
+//! pair of length r then points within delta of its noiseless direction with probability about
+//! erf(r sin(delta) / (s sqrt 2)). A short pair (the model torn between directions) or a model
+//! whose left-out views scatter widely is not trusted.
+//!
+//! An estimate whose confidence is under [`FLAG_BELOW`] is *flagged*: not to be trusted without
+//! a look.
+
+use crate::pose::PoseSpace;
+use serde::{Deserialize, Serialize};
+
+/// An error of more than this many degrees is gross (a flip, a wrong side): hypotheses are at
+/// least this far apart, and evaluation counts how many gross errors were flagged.
+pub const GROSS_DEG: f64 = 20.0;
+
+/// The confidence under which an estimate is flagged. Chosen on the procedural zoo's development
+/// seeds (BENCHMARKS.md, "Confidence on the zoo") to flag at least 90% of the gross errors of
+/// the eigenspace and the refined method while flagging few views: raising it flags more views,
+/// gross or not; lowering it lets more gross errors through unflagged.
+pub const FLAG_BELOW: f64 = 0.9;
+
+/// Most hypotheses a model considers for one query (the best first): the confidence is the
+/// estimate's share of the probability among these.
+pub const MAX_HYPOTHESES: usize = 8;
+
+/// One pose a model considered for a query.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hypothesis {
+    /// The pose (degrees, circular values in [0, period)).
+    pub pose: Vec<f64>,
+    /// Its probability of being the right one among the hypotheses found, in [0, 1].
+    pub score: f64,
+    /// Its squared distance from the query in the method's metric (the linear model: 0).
+    pub distance: f64,
+}
+
+/// A query's estimate with its ranked hypotheses and its confidence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// The estimated pose: what [`crate::PoseModel::predict`] returns.
+    pub pose: Vec<f64>,
+    /// The probability, in [0, 1], that the estimate is within [`GROSS_DEG`] of the truth, as the
+    /// model judges it from its training views.
+    pub confidence: f64,
+    /// The estimate first, then the distinct alternatives by decreasing score (at most the number
+    /// asked for).
+    pub hypotheses: Vec<Hypothesis>,
+}
+
+impl Estimate {
+    /// Whether the estimate is flagged at threshold `below` (confidence under it).
+    pub fn flagged(&self, below: f64) -> bool {
+        !(self.confidence >= below)
+    }
+
+    /// An estimate of one pose only, with its confidence (the linear model's).
+    pub(crate) fn single(pose: Vec<f64>, confidence: f64) -> Self {
+        Estimate { hypotheses: vec![Hypothesis { pose: pose.clone(), score: confidence, distance: 0.0 }], pose, confidence }
+    }
+}
+
+/// The estimate of a manifold search: `best` (its pose and squared distance d_1) and the
+/// local minima `others` (any order, any separation), ranked. The others are taken by increasing
+/// distance while at least [`GROSS_DEG`] from the estimate and from every one taken, at most
+/// [`MAX_HYPOTHESES`] in all; each is scored exp(-d_k / 2 s^2) normalised over them with
+/// s^2 = max(`held_out`, d_1) / `dims` (see the module doc). `top` hypotheses are kept (at least 1).
+pub(crate) fn ranked(space: &PoseSpace, best: (Vec<f64>, f64), mut others: Vec<(Vec<f64>, f64)>, held_out: f64, dims: usize, top: usize) -> Estimate {
+    others.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut kept: Vec<(Vec<f64>, f64)> = vec![best];
+    for (pose, d) in others {
+        if kept.len() == MAX_HYPOTHESES {
+            break;
+        }
+        if d.is_finite() && kept.iter().all(|(p, _)| space.error_deg(p, &pose) >= GROSS_DEG) {
+            kept.push((pose, d));
+        }
+    }
+    let d1 = kept[0].1;
+    let s2 = held_out.max(d1).max(f64::MIN_POSITIVE) / dims.max(1) as f64;
+    let lo = kept.iter().map(|k| k.1).fold(f64::INFINITY, f64::min);
+    let w: Vec<f64> = kept.iter().map(|k| (-(k.1 - lo) / (2.0 * s2)).exp()).collect();
+    let total: f64 = w.iter().sum();
+    let mut hyps: Vec<Hypothesis> = kept.into_iter().zip(&w).map(|((pose, distance), &wk)| Hypothesis { pose, score: wk / total, distance }).collect();
+    hyps[1..].sort_by(|a, b| b.score.total_cmp(&a.score));
+    hyps.truncate(top.max(1));
+    Estimate { pose: hyps[0].pose.clone(), confidence: hyps[0].score, hypotheses: hyps }
+}
+
+/// The local minima of `cost` over a grid of `shape` (points per axis and whether the axis is
+/// circular; row-major, the last axis fastest): the points no greater than any neighbour one step
+/// along an axis (a circular axis wraps). NaN costs are never minima.
+pub(crate) fn grid_minima(shape: &[(usize, bool)], cost: &[f64]) -> Vec<usize> {
+    let d = shape.len();
+    let mut stride = vec![1usize; d];
+    for j in (0..d.saturating_sub(1)).rev() {
+        stride[j] = stride[j + 1] * shape[j + 1].0;
+    }
+    (0..cost.len())
+        .filter(|&k| {
+            let c = cost[k];
+            if c.is_nan() {
+                return false;
+            }
+            (0..d).all(|j| {
+                let (n, circular) = shape[j];
+                let i = k / stride[j] % n;
+                let base = k - i * stride[j];
+                let neighbour = |i2: usize| !(cost[base + i2 * stride[j]] < c);
+                let lower = if i > 0 {
+                    Some(i - 1)
+                } else if circular && n > 1 {
+                    Some(n - 1)
+                } else {
+                    None
+                };
+                let upper = if i + 1 < n {
+                    Some(i + 1)
+                } else if circular && n > 1 {
+                    Some(0)
+                } else {
+                    None
+                };
+                lower.is_none_or(neighbour) && upper.is_none_or(neighbour)
+            })
+        })
+        .collect()
+}
+
+/// The linear model's confidence in a pose decoded from pairs of length `lengths` (one per
+/// circular parameter), each pair's error having spread `spread` per component (the leave-one-out
+/// residuals' RMS): the product over the pairs of erf(r sin([`GROSS_DEG`]) / (s sqrt 2)).
+pub(crate) fn pair_confidence(lengths: &[f64], spread: &[f64]) -> f64 {
+    lengths
+        .iter()
+        .zip(spread)
+        .map(|(&r, &s)| if s > 0.0 { libm::erf(r.max(0.0) * GROSS_DEG.to_radians().sin() / (s * std::f64::consts::SQRT_2)) } else { 1.0 })
+        .product()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Param;
+
+    fn turntable() -> PoseSpace {
+        PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap()
+    }
+
+    #[test]
+    fn two_equal_minima_half_a_turn_apart_split_the_confidence() {
+        let est = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 1.0), (vec![15.0], 0.5)], 1.0, 4, 3);
+        // 15 is within GROSS_DEG of the estimate: not a distinct hypothesis.
+        assert_eq!(est.hypotheses.len(), 2);
+        assert!((est.confidence - 0.5).abs() < 1e-12);
+        assert_eq!(est.hypotheses[1].pose, vec![190.0]);
+    }
+
+    #[test]
+    fn a_far_alternative_leaves_the_estimate_confident() {
+        let est = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 40.0)], 1.0, 4, 2);
+        assert!(est.confidence > 0.999, "{est:?}");
+        let near = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 1.2)], 1.0, 4, 2);
+        assert!(near.confidence < 0.6 && near.confidence > 0.5, "{near:?}");
+        // A query far from the manifold (d_1 beyond the held-out level) trusts the gap less.
+        let far = ranked(&turntable(), (vec![10.0], 8.0), vec![(vec![190.0], 16.0)], 1.0, 4, 2);
+        let close = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 9.0)], 1.0, 4, 2);
+        assert!(far.confidence < close.confidence);
+        assert!((far.hypotheses.iter().map(|h| h.score).sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn grid_minima_wrap_on_circular_axes() {
+        let cost = [0.0, 1.0, 2.0, 1.5, 3.0, 0.5];
+        assert_eq!(grid_minima(&[(6, true)], &cost), vec![0, 3]);
+        assert_eq!(grid_minima(&[(6, false)], &cost), vec![0, 3, 5]);
+        // 2 x 3, the last axis fastest and circular.
+        let cost = [5.0, 1.0, 5.0, 0.0, 5.0, 5.0];
+        assert_eq!(grid_minima(&[(2, false), (3, true)], &cost), vec![1, 3]);
+    }
+
+    #[test]
+    fn pair_confidence_falls_with_the_pairs_length() {
+        assert!(pair_confidence(&[1.0], &[0.05]) > 0.999);
+        assert!(pair_confidence(&[0.1], &[0.05]) < 0.6);
+        assert!(pair_confidence(&[1.0, 0.1], &[0.05, 0.05]) < pair_confidence(&[1.0, 1.0], &[0.05, 0.05]));
+    }
+}
