@@ -95,3 +95,38 @@ fn experiment_refuses_bad_arguments_before_any_work() {
     d.fails(&["experiment", "--quick", "--out", "file"], &["file", "not a folder"]);
     assert!(!d.path("rep").exists());
 }
+
+#[test]
+fn quick_experiment_reports_every_runs_confidence() {
+    let d = Dir::new();
+    d.ok(&["experiment", "--quick", "--objects", "duck", "--open-cases", "twin", "--noise", "0,0.1", "--size-steps", "36", "--out", "rep"]);
+    assert!(d.path("rep/figures/confidence-vs-error.svg").is_file(), "the confidence figure is written");
+    let md = std::fs::read_to_string(d.path("rep/report.md")).unwrap();
+    for s in
+        ["## Confidence: does each estimate say when it is unsure?", "**Confidence.**", "**Confidence on the open cases.**", "figures/confidence-vs-error.svg"]
+    {
+        assert!(md.contains(s), "report.md lacks {s}");
+    }
+    assert!(!md.contains("NaN") && !md.contains("inf%"), "no number is written as NaN or inf");
+    // One table row per run with a confidence, its gross errors flagged as results.json says.
+    let r = json(&d.path("rep/results.json"));
+    let mut runs = 0;
+    for o in r["objects"].as_array().unwrap() {
+        for run in o["runs"].as_array().unwrap() {
+            let Some(c) = run.get("confidence").filter(|c| !c.is_null()) else { continue };
+            runs += 1;
+            let noise =
+                if run["noise"].as_f64().unwrap() == 0.0 { "clean".to_string() } else { format!("+-{}%", (run["noise"].as_f64().unwrap() * 100.0).round()) };
+            let start = format!("| {} | {noise} | {} | ", o["name"].as_str().unwrap(), run["method"].as_str().unwrap());
+            let row = md.lines().find(|l| l.starts_with(&start)).unwrap_or_else(|| panic!("no confidence row {start}"));
+            let cells: Vec<&str> = row.trim_matches('|').split(" | ").map(str::trim).collect();
+            let gross = (c["gross_share"].as_f64().unwrap() * c["n"].as_f64().unwrap()).round();
+            if gross == 0.0 {
+                assert_eq!(cells[6], "none", "{row}");
+            } else {
+                assert!(cells[6].starts_with(&format!("{:.1}%", 100.0 * c["gross_flagged_share"].as_f64().unwrap())), "{row}");
+            }
+        }
+    }
+    assert!(runs >= 4, "every method has a confidence on both objects");
+}

@@ -106,6 +106,12 @@ pub struct ConfidenceSummary {
     pub over: String,
     /// Views counted.
     pub n: usize,
+    /// How many of them have an error over [`GROSS_DEG`].
+    pub gross: usize,
+    /// How many of them were flagged.
+    pub flagged: usize,
+    /// How many of the gross errors were flagged.
+    pub gross_flagged: usize,
     /// The share of them with an error over [`GROSS_DEG`].
     pub gross_share: f64,
     /// The share of the gross errors that were flagged (1 when there is none).
@@ -157,6 +163,9 @@ impl ConfidenceSummary {
         Some(ConfidenceSummary {
             over: over.to_string(),
             n,
+            gross: gross.len(),
+            flagged,
+            gross_flagged,
             gross_share: share(gross.len(), n),
             gross_flagged_share: share(gross_flagged, gross.len()),
             flagged_share: share(flagged, n),

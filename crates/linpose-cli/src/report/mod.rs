@@ -1,8 +1,11 @@
 //! The experiment's report: Markdown and a self-contained HTML page built from one document, the
 //! figures, and `results.json` with every number behind them.
 
+mod confidence;
 pub mod doc;
 pub mod plots;
+
+use confidence::{confidence_finding, confidence_section};
 
 use doc::{Block, Doc, FigureData};
 use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
@@ -35,7 +38,7 @@ pub struct StudyInfo {
     pub total_s: f64,
 }
 
-fn f(v: f64, d: usize) -> String {
+pub(super) fn f(v: f64, d: usize) -> String {
     if v.is_finite() {
         format!("{v:.d$}")
     } else {
@@ -56,7 +59,7 @@ fn mean_over<'a>(objs: impl Iterator<Item = &'a ObjectResult>, method: &str, noi
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
-fn pct(noise: f64) -> String {
+pub(super) fn pct(noise: f64) -> String {
     if noise == 0.0 {
         "clean".into()
     } else {
@@ -194,6 +197,8 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
         b.push(Block::Para("twin: front and back look alike but for a small mark, so an estimate can land on the wrong side (an azimuth error near 180 degrees). column: its appearance changes strongly with azimuth but weakly with elevation, so the elevation signal is small beside the azimuth one.".into()));
     }
 
+    confidence_section(&mut b, objects)?;
+
     // Figures.
     b.push(Block::Heading(1, "Figures".into()));
     figures(&mut b, info, objects)?;
@@ -314,6 +319,11 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
             ));
         }
         out.push(text);
+    }
+    for (label, objs) in [("Confidence", main), ("Confidence on the open cases", open)] {
+        if let Some(text) = confidence_finding(label, objs) {
+            out.push(text);
+        }
     }
     for o in open {
         let parts: Vec<String> = info

@@ -261,3 +261,64 @@ pub fn coefficient_png(images: &[&[f64]], w: u32, h: u32, scale: u32) -> Result<
     image::DynamicImage::ImageRgb8(canvas).write_to(&mut std::io::Cursor::new(&mut out), image::ImageFormat::Png).map_err(|e| e.to_string())?;
     Ok(out)
 }
+
+/// Unseen-view error (y, degrees, log scale) against confidence (x, in [0, 1]) for several named
+/// series of (confidence, error) points, one colour each, with the flag threshold `flag_below`
+/// drawn as a vertical line and the gross-error bound `gross_deg` as a horizontal one. Points
+/// with a non-finite coordinate are left out; errors under the axis' floor (zero included) are
+/// drawn on it.
+pub fn confidence_scatter(title: &str, series: &[(String, Vec<(f64, f64)>)], flag_below: f64, gross_deg: f64) -> Result<String, String> {
+    let finite = |&&(x, y): &&(f64, f64)| x.is_finite() && y.is_finite();
+    let positive: Vec<f64> = series.iter().flat_map(|(_, s)| s.iter().filter(finite).map(|p| p.1).filter(|&y| y > 0.0)).collect();
+    let (lo, hi) = positive.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| (a.min(y), b.max(y)));
+    let (ymin, ymax) = if lo.is_finite() { ((lo * 0.7).min(gross_deg * 0.5), (hi * 1.4).max(gross_deg * 2.0)) } else { (gross_deg * 0.01, gross_deg * 10.0) };
+    svg((640, 400), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, (FONT, 16))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(-0.02..1.02, (ymin..ymax).log_scale())
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc("confidence")
+            .y_desc("pose error (degrees, log scale)")
+            .label_style((FONT, 12))
+            .axis_desc_style((FONT, 13))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let grey = RGBColor(110, 110, 110);
+        chart
+            .draw_series(LineSeries::new(vec![(flag_below, ymin), (flag_below, ymax)], grey.stroke_width(2)))
+            .map_err(|e| e.to_string())?
+            .label(format!("flagged below {flag_below}"))
+            .legend(move |(x, y)| PathElement::new(vec![(x + 9, y - 6), (x + 9, y + 6)], grey.stroke_width(2)));
+        chart
+            .draw_series(DashedLineSeries::new(vec![(-0.02, gross_deg), (1.02, gross_deg)], 6, 4, grey.stroke_width(1)))
+            .map_err(|e| e.to_string())?
+            .label(format!("gross: over {gross_deg} degrees"))
+            .legend(move |(x, y)| plotters::element::DashedPathElement::new(vec![(x, y), (x + 18, y)], 5, 3, grey.stroke_width(1)));
+        let colors =
+            [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14), RGBColor(23, 190, 207)];
+        for (i, (name, s)) in series.iter().enumerate() {
+            let c = colors[i % colors.len()];
+            let pts: Vec<(f64, f64)> = s.iter().filter(finite).map(|&(x, y)| (x.clamp(0.0, 1.0), y.max(ymin))).collect();
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.mix(0.55).filled())))
+                .map_err(|e| e.to_string())?
+                .label(name.clone())
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, c.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 12))
+            .position(SeriesLabelPosition::LowerLeft)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        Ok(())
+    })
+}
