@@ -5,7 +5,7 @@ use anyhow::bail;
 use indicatif::{ProgressBar, ProgressStyle};
 use linpose::render::synth::{write_dataset, PoseGrid};
 use linpose::render::{objects, Camera, Grid, Light, Mesh, RenderParams};
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 /// Arguments of `linpose synth`.
@@ -45,12 +45,18 @@ pub struct SynthArgs {
 
 /// Runs `linpose synth`.
 pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
+    // A closed pipe (`linpose synth --list | head -1`) is an error that main treats as success,
+    // where the print macro would panic.
+    let mut stdout = std::io::stdout().lock();
     if args.list {
         let width = objects::OBJECTS.iter().map(|o| o.0.len()).max().unwrap_or(0);
         for (name, about) in objects::OBJECTS {
-            println!("{name:width$}  {about}");
+            writeln!(stdout, "{name:width$}  {about}")?;
         }
-        println!("\n--random SEED  a generated object instead: asymmetric, front-back symmetric but for a mark, or a body of revolution with one feature");
+        writeln!(
+            stdout,
+            "\n--random SEED  a generated object instead: asymmetric, front-back symmetric but for a mark, or a body of revolution with one feature"
+        )?;
         return Ok(());
     }
     let Some(out) = &args.out else { bail!("--out DIR is required") };
@@ -61,7 +67,7 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
         _ => bail!("give one of --object NAME, --random SEED or --mesh FILE.obj"),
     };
     if let Some(seed) = args.random {
-        println!("{name}: {}", objects::random_kind(seed).description);
+        writeln!(stdout, "{name}: {}", objects::random_kind(seed).description)?;
     }
     let grid = PoseGrid::new(Grid::parse("elevation", &args.elevation)?, Grid::parse("azimuth", &args.azimuth)?)?;
     let (width, height) = parse_size(&args.size)?;
@@ -79,7 +85,7 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
     // The library's errors name the folder or file at fault.
     let n = write_dataset(&mesh, &grid, &params, out, &|k| bar.inc(k))?;
     bar.finish_and_clear();
-    println!("wrote {n} images of {name} at {width}x{height} and poses.csv to {}", out.display());
+    writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv to {}", out.display())?;
     Ok(())
 }
 
