@@ -310,3 +310,27 @@ fn streamed_training_matches_the_in_memory_ridge_fit() {
     eprintln!("streamed against in-memory: relative difference {:.2e}", (num / den).sqrt());
     assert!((num / den).sqrt() < 1e-6, "relative difference {}", (num / den).sqrt());
 }
+
+#[test]
+fn synth_renders_a_generated_object_reproducibly() {
+    let d = Dir::new();
+    let args = |out: &'static str| ["synth", "--random", "3", "--out", out, "--size", "40x30", "--azimuth", "0:350:10", "--elevation", "32"];
+    let out = d.ok(&args("a"));
+    assert!(out.contains("random-3"), "{out}");
+    d.ok(&args("b"));
+    let poses = std::fs::read_to_string(d.path("a/poses.csv")).unwrap();
+    assert_eq!(poses.lines().count(), 1 + 36, "{poses}");
+    assert!(poses.starts_with("image,elevation,azimuth\ne032.0_a000.0.png,32,0\n"), "{poses}");
+    for line in poses.lines().skip(1) {
+        let name = line.split(',').next().unwrap();
+        let (a, b) = (std::fs::read(d.path(&format!("a/{name}"))).unwrap(), std::fs::read(d.path(&format!("b/{name}"))).unwrap());
+        assert_eq!(a, b, "{name} differs between two runs");
+        let img = image::load_from_memory(&a).unwrap().to_luma8();
+        assert_eq!(img.dimensions(), (40, 30));
+        assert!(img.pixels().any(|p| p.0[0] > 0), "{name} is empty");
+    }
+    let err = d.fails(&["synth", "--random", "3", "--object", "duck", "--out", "c"], &["--random", "--object"]);
+    assert!(err.contains("cannot be used with"), "{err}");
+    assert!(!d.path("c").exists());
+    assert!(d.ok(&["synth", "--list"]).contains("--random SEED"));
+}

@@ -1,22 +1,25 @@
-//! `linpose synth`: render a built-in object or an OBJ mesh on a turntable grid of poses and write
+//! `linpose synth`: render a built-in object, a generated one or an OBJ mesh on a turntable grid of poses and write
 //! the data set (poses.csv, dataset.toml and PNG images).
 
 use anyhow::bail;
 use indicatif::{ProgressBar, ProgressStyle};
 use linpose::render::synth::{write_dataset, PoseGrid};
 use linpose::render::{objects, Camera, Grid, Light, Mesh, RenderParams};
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
 /// Arguments of `linpose synth`.
 #[derive(clap::Args, Debug)]
 pub struct SynthArgs {
     /// Built-in object to render (see --list).
-    #[arg(long, value_name = "NAME", conflicts_with = "mesh", required_unless_present_any = ["mesh", "list"])]
+    #[arg(long, value_name = "NAME", conflicts_with_all = ["mesh", "random"], required_unless_present_any = ["mesh", "random", "list"])]
     pub object: Option<String>,
     /// Wavefront OBJ mesh to render (its Y axis stands on the turntable).
-    #[arg(long, value_name = "FILE.obj")]
+    #[arg(long, value_name = "FILE.obj", conflicts_with = "random")]
     pub mesh: Option<PathBuf>,
+    /// A generated object instead: the one of this seed (the same seed, the same images).
+    #[arg(long, value_name = "SEED")]
+    pub random: Option<u64>,
     /// Output folder for the data set; it must not exist yet or be empty.
     #[arg(long, value_name = "DIR", required_unless_present = "list")]
     pub out: Option<PathBuf>,
@@ -42,19 +45,30 @@ pub struct SynthArgs {
 
 /// Runs `linpose synth`.
 pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
+    // A closed pipe (`linpose synth --list | head -1`) is an error that main treats as success,
+    // where the print macro would panic.
+    let mut stdout = std::io::stdout().lock();
     if args.list {
         let width = objects::OBJECTS.iter().map(|o| o.0.len()).max().unwrap_or(0);
         for (name, about) in objects::OBJECTS {
-            println!("{name:width$}  {about}");
+            writeln!(stdout, "{name:width$}  {about}")?;
         }
+        writeln!(
+            stdout,
+            "\n--random SEED  a generated object instead: asymmetric, front-back symmetric but for a mark, or a body of revolution with one feature"
+        )?;
         return Ok(());
     }
     let Some(out) = &args.out else { bail!("--out DIR is required") };
-    let mesh = match (&args.object, &args.mesh) {
-        (Some(name), None) => objects::builtin(name)?,
-        (None, Some(path)) => Mesh::from_obj(path)?,
-        _ => bail!("give either --object NAME or --mesh FILE.obj"),
+    let (mesh, name) = match (&args.object, &args.mesh, args.random) {
+        (Some(name), None, None) => (objects::builtin(name)?, name.clone()),
+        (None, Some(path), None) => (Mesh::from_obj(path)?, path.display().to_string()),
+        (None, None, Some(seed)) => (objects::random(seed)?, objects::random_name(seed)),
+        _ => bail!("give one of --object NAME, --random SEED or --mesh FILE.obj"),
     };
+    if let Some(seed) = args.random {
+        writeln!(stdout, "{name}: {}", objects::random_kind(seed).description)?;
+    }
     let grid = PoseGrid::new(Grid::parse("elevation", &args.elevation)?, Grid::parse("azimuth", &args.azimuth)?)?;
     let (width, height) = parse_size(&args.size)?;
     let camera = if args.perspective { Camera::perspective() } else { Camera::default() };
@@ -71,7 +85,7 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
     // The library's errors name the folder or file at fault.
     let n = write_dataset(&mesh, &grid, &params, out, &|k| bar.inc(k))?;
     bar.finish_and_clear();
-    println!("wrote {n} images of {width}x{height} and poses.csv to {}", out.display());
+    writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv to {}", out.display())?;
     Ok(())
 }
 

@@ -27,6 +27,7 @@ pub mod grid;
 pub mod mesh;
 pub mod objects;
 mod params;
+pub mod random;
 mod raster;
 pub mod synth;
 

@@ -6,8 +6,11 @@
 //! cases its conclusion leaves open: an object whose front and back differ only by a small mark,
 //! and one whose appearance changes much more with azimuth than with elevation. Every object faces
 //! +x (the camera at azimuth 0) with z up.
+//!
+//! [`random`] generates any number of further objects from a seed (see [`super::random`]).
 
 use super::mesh::{builtin_path, Mesh};
+pub use super::random::{random, random_kind, random_name, RandomClass, RandomKind};
 use crate::{Error, Result};
 use std::f64::consts::PI;
 
@@ -37,11 +40,11 @@ pub fn builtin(name: &str) -> Result<Mesh> {
     b.finish(name)
 }
 
-type P3 = [f64; 3];
+pub(super) type P3 = [f64; 3];
 
 /// Collects surfaces into one mesh.
 #[derive(Default)]
-struct Builder {
+pub(super) struct Builder {
     positions: Vec<P3>,
     albedo: Vec<f64>,
     triangles: Vec<[u32; 3]>,
@@ -51,7 +54,7 @@ impl Builder {
     /// A parametric patch of `nu x nv` quads over (u, v) in [0, 1]^2; `f` gives each grid
     /// point's position and albedo. With `wrap_u` the column u = 1 is the column u = 0 (a closed
     /// surface around an axis), so normals are smooth across the seam.
-    fn surface(&mut self, nu: usize, nv: usize, wrap_u: bool, f: impl Fn(f64, f64) -> (P3, f64)) {
+    pub(super) fn surface(&mut self, nu: usize, nv: usize, wrap_u: bool, f: impl Fn(f64, f64) -> (P3, f64)) {
         let base = self.positions.len() as u32;
         let cols = if wrap_u { nu } else { nu + 1 };
         for j in 0..=nv {
@@ -73,7 +76,7 @@ impl Builder {
 
     /// An ellipsoid at `c` with semi-axes `r`; `paint` gets the unit direction from the centre
     /// (before scaling by the axes) and the surface point.
-    fn ellipsoid(&mut self, c: P3, r: P3, n: usize, paint: impl Fn(P3, P3) -> f64) {
+    pub(super) fn ellipsoid(&mut self, c: P3, r: P3, n: usize, paint: impl Fn(P3, P3) -> f64) {
         self.surface(2 * n, n, true, |u, v| {
             let d = sphere_dir(u, v);
             let p = [c[0] + r[0] * d[0], c[1] + r[1] * d[1], c[2] + r[2] * d[2]];
@@ -83,7 +86,7 @@ impl Builder {
 
     /// A tube of radius `radius(t)` along the curve `path(t)`, t in [0, 1], which lies in the
     /// xz-plane (the tube's cross-sections are spanned by y and the in-plane normal).
-    fn tube(&mut self, nu: usize, nv: usize, path: impl Fn(f64) -> P3, radius: impl Fn(f64) -> f64, paint: impl Fn(f64, f64) -> f64) {
+    pub(super) fn tube(&mut self, nu: usize, nv: usize, path: impl Fn(f64) -> P3, radius: impl Fn(f64) -> f64, paint: impl Fn(f64, f64) -> f64) {
         self.surface(nu, nv, true, |u, t| {
             let h = 1e-4;
             let (a, b) = (path((t - h).max(0.0)), path((t + h).min(1.0)));
@@ -96,7 +99,7 @@ impl Builder {
         });
     }
 
-    fn finish(self, name: &str) -> Result<Mesh> {
+    pub(super) fn finish(self, name: &str) -> Result<Mesh> {
         Mesh::new(self.positions, self.triangles, self.albedo).map_err(|e| match e {
             Error::Mesh { message, .. } => Error::Mesh { path: builtin_path(name), message },
             e => e,
@@ -105,39 +108,39 @@ impl Builder {
 }
 
 /// Unit direction at longitude 2 pi u and colatitude pi v (v = 0 the top).
-fn sphere_dir(u: f64, v: f64) -> P3 {
+pub(super) fn sphere_dir(u: f64, v: f64) -> P3 {
     let (st, ct) = (libm::sin(PI * v), libm::cos(PI * v));
     let (sp, cp) = (libm::sin(2.0 * PI * u), libm::cos(2.0 * PI * u));
     [st * cp, st * sp, ct]
 }
 
 /// 0 below `a`, 1 above `b`, a smooth cubic between.
-fn smooth(a: f64, b: f64, x: f64) -> f64 {
+pub(super) fn smooth(a: f64, b: f64, x: f64) -> f64 {
     let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
 
 /// 1 at the centre of a spot of radius `r` (distance `d`), fading to 0 over `soft`.
-fn spot(d: f64, r: f64, soft: f64) -> f64 {
+pub(super) fn spot(d: f64, r: f64, soft: f64) -> f64 {
     1.0 - smooth(r - soft, r + soft, d)
 }
 
-fn dist(a: P3, b: P3) -> f64 {
+pub(super) fn dist(a: P3, b: P3) -> f64 {
     let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
     (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
 }
 
 /// sqrt(x^2 + y^2) with + * and sqrt only (std's hypot is the platform's libm).
-fn hypot(x: f64, y: f64) -> f64 {
+pub(super) fn hypot(x: f64, y: f64) -> f64 {
     (x * x + y * y).sqrt()
 }
 
-fn mix(a: f64, b: f64, t: f64) -> f64 {
+pub(super) fn mix(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t
 }
 
 /// Longitude of (x, y) in degrees, in (-180, 180].
-fn longitude(x: f64, y: f64) -> f64 {
+pub(super) fn longitude(x: f64, y: f64) -> f64 {
     libm::atan2(y, x) * 180.0 / PI
 }
 
