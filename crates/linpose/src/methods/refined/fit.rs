@@ -43,9 +43,13 @@ impl Estimator for RefinedParams {
                     bin_selection.push((b, choice.least));
                     scored.push((binning, train, grid, choice));
                 }
-                // The coarsest factor within one standard error of the least held-out error.
+                // Among the factors with the fewest gross held-out errors, the coarsest within one
+                // standard error of the least held-out error.
+                let fewest = scored.iter().map(|s| s.3.gross).min().unwrap_or(0);
                 let k;
-                (k, bin_tolerance) = select::coarsest_within(&scored.iter().map(|s| (s.3.least, s.3.standard_error)).collect::<Vec<_>>());
+                (k, bin_tolerance) = select::coarsest_within(
+                    &scored.iter().map(|s| if s.3.gross == fewest { (s.3.least, s.3.standard_error) } else { (f64::INFINITY, 0.0) }).collect::<Vec<_>>(),
+                );
                 let (binning, train, grid, choice) = scored.swap_remove(k);
                 (binning, train, grid, Some(choice))
             }
@@ -63,15 +67,12 @@ impl Estimator for RefinedParams {
             (None, Some(c)) => c.by_interpolant.clone(),
             _ => Vec::new(),
         };
-        let (l_max, selection, plain_error) = match (self.components, chosen) {
-            (None, Some(c)) => (c.components, c.scored, c.plain),
-            (l, _) => (l.unwrap_or(FALLBACK_COMPONENTS), Vec::new(), None),
+        let (l_max, selection, plain_error, plain) = match (self.components, chosen) {
+            (None, Some(c)) => (c.components, c.scored, c.plain, c.plain_wins),
+            (l, _) => (l.unwrap_or(FALLBACK_COMPONENTS), Vec::new(), None, false),
         };
         // Everything fitted from here on interpolates as the model will.
         let inner = RefinedParams { interpolant: Some(interpolant), ..inner };
-        // The plain metric wins when it scored better on the held-out views than every weighted L.
-        let best_weighted = selection.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
-        let plain = plain_error.is_some_and(|e| e < best_weighted);
         // Chosen automatically, no query's product costs as much as the eigenspace's.
         let below = if self.components.is_some() { NOISE_COMPONENTS } else { select::below_eigenspace(binning.factor()) };
         let (l_max, weighted) = if plain { (NOISE_COMPONENTS.min(below), false) } else { (l_max, self.weighted) };

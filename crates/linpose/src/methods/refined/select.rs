@@ -7,8 +7,12 @@
 //! held out, the odd ones and then the even ones ([`both_folds`]: every knot once; a linear axis
 //! keeps both its end knots, so nothing is extrapolated); the eigenspace and the surface are
 //! fitted on the rest, and the held-out views are estimated with every candidate L (the leading L
-//! components of that one fit). The candidate with the least mean pose error over all held-out
-//! views wins; a tie goes to the smaller L (cheaper queries). The manifold fitted without the
+//! components of that one fit). The candidate with the fewest gross errors (over
+//! [`GROSS_DEG`]: a flip, a view taken for its back) among the held-out views wins, then the one
+//! with the least mean pose error; a tie goes to the smaller L (cheaper queries). A mean error
+//! is not bought with a flip: a candidate that halves the small errors of every view but turns
+//! one view around would otherwise win on the mean, and on a nearly symmetric object that is the
+//! failure users cannot see ([`better`]). The manifold fitted without the
 //! held-out views has twice the knot spacing of the final one, so this scores each L where
 //! interpolation matters most, on views no fit has seen; holding out the even knots too doubles
 //! the views behind each score at the same spacing. The same views score the plain metric (the
@@ -16,8 +20,9 @@
 //!
 //! No candidate's query costs as much as the eigenspace's ([`below_eigenspace`]: its product on
 //! the binned image plus the query's other work, against the eigenspace's product). The binning
-//! factor is chosen by the one-standard-error rule ([`coarsest_within`]): the coarsest whose least
-//! error is within one standard error of the least of all. The factors' held-out errors often
+//! factor is chosen among the factors with the fewest gross held-out errors by the
+//! one-standard-error rule ([`coarsest_within`]): the coarsest whose least error is within one
+//! standard error of the least of all. The factors' held-out errors often
 //! differ by a view or two, within chance, while each halving of the resolution makes a query's
 //! product 4 times cheaper; the rule takes the cheaper model unless the held-out views can tell
 //! them apart.
@@ -32,6 +37,7 @@
 
 use super::tuning::{CANDIDATES, FALLBACK_COMPONENTS, MAX_AUTO_COMPONENTS, MIN_FOLD_KNOTS, NOISE_BLOCK, NOISE_COMPONENTS, NOISE_LEVELS, NOISE_SEED, QUERY_OVERHEAD_ROWS};
 use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, METHOD};
+use crate::confidence::GROSS_DEG;
 use crate::dataset::Dataset;
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
@@ -112,6 +118,22 @@ pub struct Choice {
     /// held-out views' errors over the square root of their number (0 when nothing could be
     /// held out).
     pub standard_error: f64,
+    /// The chosen candidate's gross held-out errors (over [`GROSS_DEG`]), the first criterion
+    /// of every choice.
+    pub gross: usize,
+    /// Whether the plain metric was chosen over every weighted L.
+    pub plain_wins: bool,
+}
+
+/// Whether held-out score `a` (gross errors, mean error) beats `b`: fewer gross errors, then a
+/// smaller mean. A candidate never buys a smaller mean error with a flip.
+pub fn better(a: (usize, f64), b: (usize, f64)) -> bool {
+    a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
+}
+
+/// The gross errors (over [`GROSS_DEG`]) among held-out errors `v`.
+fn gross(v: &[f64]) -> usize {
+    v.iter().filter(|&&e| e > GROSS_DEG).count()
 }
 
 /// Chooses L for `params` on `train` (laid out on `grid`) on images binned by `bin` (which bounds L, [`below_eigenspace`]),
@@ -134,6 +156,8 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
             plain: None,
             least: f64::INFINITY,
             standard_error: 0.0,
+            gross: 0,
+            plain_wins: false,
         });
     }
     let mut tallies: Vec<Tally> = interpolants.iter().map(|_| Tally::default()).collect();
@@ -188,10 +212,11 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
             Ok(())
         })?;
     }
-    // The interpolant with the least error (the first, the spline, on a tie).
+    // The interpolant with the fewest gross errors, then the least error (the first, the
+    // spline, on a tie).
     let choices: Vec<Choice> = interpolants.iter().zip(&tallies).map(|(&i, t)| t.choice(i, folds.len(), below)).collect();
     let by_interpolant: Vec<(Interpolant, f64)> = choices.iter().map(|c| (c.interpolant, c.least)).collect();
-    let best = choices.into_iter().reduce(|a, b| if b.least < a.least { b } else { a }).expect("at least one interpolant");
+    let best = choices.into_iter().reduce(|a, b| if better((b.gross, b.least), (a.gross, a.least)) { b } else { a }).expect("at least one interpolant");
     Ok(Choice { by_interpolant, ..best })
 }
 
@@ -211,16 +236,29 @@ impl Tally {
         // Only candidates every fold could score.
         let kept: Vec<(usize, &[f64])> = self.weighted.iter().filter(|w| w.1 == n_folds).map(|w| (w.0, &w.2[..])).collect();
         let scored: Scores = kept.iter().map(|&(l, v)| (l, mean(v))).collect();
-        let best = scored.iter().fold((FALLBACK_COMPONENTS.min(below), f64::INFINITY), |b, &(l, e)| if e < b.1 { (l, e) } else { b });
+        // The fewest gross errors, then the least mean error; a tie goes to the smaller L.
+        let mut best = (FALLBACK_COMPONENTS.min(below), (usize::MAX, f64::INFINITY), &[][..]);
+        for &(l, v) in &kept {
+            if better((gross(v), mean(v)), best.1) {
+                best = (l, (gross(v), mean(v)), v);
+            }
+        }
         let plain = (self.plain_folds == n_folds).then(|| mean(&self.plain_views));
-        // The least error's views: the plain metric's when it scored below every weighted L (as
-        // the model then uses it), else the best weighted L's.
-        let least_views = match plain {
-            Some(p) if p < best.1 => &self.plain_views[..],
-            _ => kept.iter().find(|k| k.0 == best.0).map_or(&[][..], |k| k.1),
-        };
-        let least = best.1.min(plain.unwrap_or(f64::INFINITY));
-        Choice { interpolant, by_interpolant: Vec::new(), components: best.0, scored, plain, least, standard_error: standard_error(least_views) }
+        // The plain metric when it scored better than every weighted L (as the model then uses
+        // it); the least error's views are the chosen candidate's.
+        let plain_wins = plain.is_some_and(|p| better((gross(&self.plain_views), p), best.1));
+        let (least_views, least) = if plain_wins { (&self.plain_views[..], plain.unwrap_or(f64::INFINITY)) } else { (best.2, best.1 .1) };
+        Choice {
+            interpolant,
+            by_interpolant: Vec::new(),
+            components: best.0,
+            scored,
+            plain,
+            least,
+            standard_error: standard_error(least_views),
+            gross: gross(least_views),
+            plain_wins,
+        }
     }
 }
 

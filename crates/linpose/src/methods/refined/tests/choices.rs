@@ -63,6 +63,16 @@ fn every_knot_is_held_out_once() {
 }
 
 #[test]
+fn a_candidate_never_buys_a_smaller_mean_error_with_a_gross_error() {
+    // (gross errors, mean error): fewer gross errors first, then the mean.
+    assert!(select::better((0, 5.0), (1, 1.0)));
+    assert!(!select::better((1, 1.0), (0, 5.0)));
+    assert!(select::better((1, 1.0), (1, 2.0)));
+    // A tie keeps the first (the smaller L, the spline).
+    assert!(!select::better((1, 1.0), (1, 1.0)));
+}
+
+#[test]
 fn the_one_standard_error_rule_takes_the_cheapest_within_it() {
     // (mean error, its standard error), costliest first.
     assert_eq!(select::coarsest_within(&[(1.0, 0.1), (1.05, 0.2), (1.2, 0.1)]), (1, 0.1));
