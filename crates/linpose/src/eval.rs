@@ -120,12 +120,13 @@ pub struct ConfidenceSummary {
     pub flagged_share: f64,
     /// The share whose true pose is within [`GROSS_DEG`] of one of the top hypotheses.
     pub in_top_share: f64,
-    /// Confidence bins [0, 0.5), [0.5, 0.9), [0.9, 0.99), [0.99, 1] against error.
+    /// Confidence bins [0, 0.5), [0.5, 0.6), [0.6, 0.75), [0.75, 0.9), [0.9, 0.99), [0.99, 1]
+    /// against error.
     pub reliability: Vec<ReliabilityBin>,
 }
 
 /// The reliability table's bin edges.
-const BINS: [f64; 5] = [0.0, 0.5, 0.9, 0.99, 1.0];
+const BINS: [f64; 7] = [0.0, 0.5, 0.6, 0.75, 0.9, 0.99, 1.0];
 
 impl ConfidenceSummary {
     /// The summary of `samples` (each with a confidence) over `over`.
