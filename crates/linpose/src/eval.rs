@@ -94,7 +94,7 @@ pub struct ReliabilityBin {
     pub n: usize,
     /// Their mean error (degrees; NaN, written null, for an empty bin).
     pub mean_error_deg: f64,
-    /// The share of them with an error over [`GROSS_DEG`].
+    /// The share of them with an error over [`GROSS_DEG`] (NaN, written null, for an empty bin).
     pub gross_share: f64,
 }
 
@@ -157,7 +157,7 @@ impl ConfidenceSummary {
                     hi: w[1],
                     n: k,
                     mean_error_deg: if k == 0 { f64::NAN } else { inside.iter().map(|s| s.error_deg).sum::<f64>() / k as f64 },
-                    gross_share: share(inside.iter().filter(|s| s.error_deg > GROSS_DEG).count(), k),
+                    gross_share: if k == 0 { f64::NAN } else { share(inside.iter().filter(|s| s.error_deg > GROSS_DEG).count(), k) },
                 }
             })
             .collect();
