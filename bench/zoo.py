@@ -57,8 +57,9 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds_of(a.seeds):
             data = os.path.join(tmp, f"z{seed}")
-            run([a.linpose, "synth", "--random", str(seed), "--out", data, "--azimuth", "0:355:5", "--elevation", a.elevation, "--size", a.size])
-            row = {"seed": seed}
+            out = run([a.linpose, "synth", "--random", str(seed), "--out", data, "--azimuth", "0:355:5", "--elevation", a.elevation, "--size", a.size])
+            # "random-SEED: CLASS: description"
+            row = {"seed": seed, "class": out.split(":")[1].strip()}
             for m in METHODS:
                 model = os.path.join(tmp, f"z{seed}_{m}.safetensors")
                 out = os.path.join(tmp, f"z{seed}_{m}.json")
@@ -99,6 +100,14 @@ def main():
         gfs = f"{100 * gf / g:.1f}%" if g else "none to flag"
         name = f"{m} ({refused} refused)" if refused else m
         print(f"| {name} | {statistics.mean(e):.3f} | {statistics.median(e):.3f} | {max(e):.3f} | {100 * fl / n:.1f}% | {g} of {n} ({100 * g / n:.1f}%) | {gfs} |")
+    print("\nby class: objects, then per method gross errors / views flagged / views (unseen)")
+    for c in sorted({r["class"] for r in rows}):
+        rs = [r for r in rows if r["class"] == c]
+        cells = []
+        for m in METHODS:
+            ok = [r[m] for r in rs if r[m]]
+            cells.append(f"{m} {sum(x['gross'] for x in ok)} / {sum(x['flagged'] for x in ok)} / {sum(x['n'] for x in ok)}")
+        print(f"  {c}: {len(rs)} objects; " + "; ".join(cells))
     both = [r for r in rows if r["refined"] and r["eigenspace"]]
     worse = [r for r in both if r["refined"]["unseen_mean"] > r["eigenspace"]["unseen_mean"]]
     much = [r for r in worse if r["refined"]["unseen_mean"] > r["eigenspace"]["unseen_mean"] + 1.0]
