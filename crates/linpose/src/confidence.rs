@@ -28,6 +28,33 @@
 //!
 //! An estimate whose confidence is under [`FLAG_BELOW`] is *flagged*: not to be trusted without
 //! a look.
+//!
+//! ```
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//! use linpose::{Dataset, EigenspaceParams, Estimator, Param, PoseModel, PoseSpace};
+//!
+//! // A turntable seen every 10 degrees: 64 "pixels" round it, lit by two equal lobes half a
+//! // turn apart (front and back alike), or by one.
+//! let lobe = |a: f64, p: usize| (3.0 * ((p as f64 / 64.0 * std::f64::consts::TAU - a.to_radians()).cos() - 1.0)).exp();
+//! let twin = |a: f64| (0..64).map(move |p| (0.2 + lobe(a, p) + lobe(a + 180.0, p)) as f32);
+//! let single = |a: f64| (0..64).map(move |p| (0.2 + lobe(a, p)) as f32);
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let poses: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
+//! let spec = ImageSpec { width: 64, height: 1, color: ColorMode::Gray };
+//!
+//! let data = Dataset::new(spec, poses.iter().flat_map(|&a| twin(a)).collect(), space.clone(), poses.clone())?;
+//! let model = EigenspaceParams::default().components(8).fit(&data)?;
+//! let est = &model.estimate(&twin(123.0).collect::<Vec<f32>>(), 2)?[0];
+//! // Two hypotheses half a turn apart, and no way to tell them apart.
+//! let gap = (est.hypotheses[0].pose[0] - est.hypotheses[1].pose[0]).abs();
+//! assert!((gap - 180.0).abs() < 2.0 && est.confidence < 0.6, "{est:?}");
+//!
+//! let data = Dataset::new(spec, poses.iter().flat_map(|&a| single(a)).collect(), space, poses)?;
+//! let model = EigenspaceParams::default().components(8).fit(&data)?;
+//! let est = &model.estimate(&single(123.0).collect::<Vec<f32>>(), 2)?[0];
+//! assert!(est.confidence > 0.99 && (est.pose[0] - 123.0).abs() <= 1.0, "{est:?}");
+//! # Ok::<(), linpose::Error>(())
+//! ```
 
 use crate::pose::PoseSpace;
 use serde::{Deserialize, Serialize};

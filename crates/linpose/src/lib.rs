@@ -36,10 +36,15 @@
 //!   them as [`Method`]s; a method with its parameters is a [`MethodSpec`], or comes from
 //!   settings by name ([`Settings`], [`Method::spec`]); a fitted model of any method is an
 //!   [`AnyModel`].
+//! - **Confidence**: [`PoseModel::estimate`] gives each estimate its ranked hypotheses
+//!   ([`Hypothesis`]) and a confidence ([`Estimate`]), so a front taken for a back is flagged
+//!   ([`confidence`]).
 //! - **Model files**: [`model_file`] saves and loads models as safetensors.
 //! - **Evaluation**: [`evaluate`] estimates every view of a data set, optionally under pixel
-//!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views.
-//! - **The renderer**: [`render`] makes turntable data sets of built-in objects or meshes.
+//!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views, and
+//!   how well the confidence flags the gross errors ([`evaluate_with`], [`EvalOptions`]).
+//! - **The renderer**: [`render`] makes turntable data sets of built-in objects, meshes or
+//!   procedural objects (`render::objects::random`, a zoo to measure robustness on).
 //! - **The experiment**: [`experiment`] runs the paper's study on one object.
 //!
 //! Errors are one [`Error`] type that names the file, line or value at fault.
