@@ -334,3 +334,33 @@ fn synth_renders_a_generated_object_reproducibly() {
     assert!(!d.path("c").exists());
     assert!(d.ok(&["synth", "--list"]).contains("--random SEED"));
 }
+
+#[test]
+fn synth_jitters_each_view_and_records_it() {
+    let d = Dir::new();
+    let base = ["synth", "--object", "duck", "--size", "64x48", "--azimuth", "0:90:30", "--elevation", "40"];
+    let with =
+        |out: &'static str, extra: &[&'static str]| -> Vec<&'static str> { base.iter().copied().chain(["--out", out]).chain(extra.iter().copied()).collect() };
+    d.ok(&with("plain", &[]));
+    assert!(d.ok(&with("a", &["--jitter", "4,0.1,0.2", "--jitter-seed", "5"])).contains("jitter.csv"));
+    d.ok(&with("b", &["--jitter", "4,0.1,0.2", "--jitter-seed", "5"]));
+    d.ok(&with("zero", &["--jitter", "0,0,0"]));
+    assert!(!d.path("plain/jitter.csv").exists());
+    let csv = std::fs::read_to_string(d.path("a/jitter.csv")).unwrap();
+    assert_eq!(csv, std::fs::read_to_string(d.path("b/jitter.csv")).unwrap(), "the same seed, the same draws");
+    assert!(csv.starts_with("image,dx,dy,scale,exposure\ne040.0_a000.0.png,"), "{csv}");
+    let mut moved = 0;
+    for line in csv.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let v: Vec<f64> = f[1..].iter().map(|x| x.parse().unwrap()).collect();
+        assert!(v[0].abs() <= 4.0 && v[1].abs() <= 4.0 && (0.9..=1.1).contains(&v[2]) && (0.8..=1.2).contains(&v[3]), "{line}");
+        let read = |dir: &str| std::fs::read(d.path(&format!("{dir}/{}", f[0]))).unwrap();
+        assert_eq!(read("a"), read("b"), "{}", f[0]);
+        assert_eq!(read("zero"), read("plain"), "no jitter, the registered image: {}", f[0]);
+        moved += usize::from(read("a") != read("plain"));
+    }
+    assert_eq!(moved, 4);
+    d.fails(&with("c", &["--jitter", "4,0.1"]), &["jitter", "4,0.1", "SHIFT,SCALE,EXPOSURE"]);
+    d.fails(&with("c", &["--jitter", "4,0.3,0"]), &["jitter scale", "fill"]);
+    assert!(!d.path("c").exists());
+}

@@ -4,7 +4,7 @@
 use anyhow::bail;
 use indicatif::{ProgressBar, ProgressStyle};
 use linpose::render::synth::{write_dataset, PoseGrid};
-use linpose::render::{objects, Camera, Grid, Light, Mesh, RenderParams};
+use linpose::render::{objects, Camera, Grid, Jitter, Light, Mesh, RenderParams};
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 
@@ -38,6 +38,14 @@ pub struct SynthArgs {
     /// Weight of the specular highlight (0 for a matte object).
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     pub specular: f64,
+    /// Jitter every view as a camera in a cell would see it: a shift of up to SHIFT pixels along
+    /// each image axis, a scale within 1 +- SCALE and an exposure within 1 +- EXPOSURE, uniform,
+    /// each view its own draw (written to jitter.csv), e.g. 8,0.1,0.2.
+    #[arg(long, value_name = "SHIFT,SCALE,EXPOSURE")]
+    pub jitter: Option<String>,
+    /// Seed of the jitter's draws.
+    #[arg(long, value_name = "S", default_value_t = 0, requires = "jitter")]
+    pub jitter_seed: u64,
     /// List the built-in objects and exit.
     #[arg(long)]
     pub list: bool,
@@ -69,7 +77,10 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
     if let Some(seed) = args.random {
         writeln!(stdout, "{name}: {}", objects::random_kind(seed).description)?;
     }
-    let grid = PoseGrid::new(Grid::parse("elevation", &args.elevation)?, Grid::parse("azimuth", &args.azimuth)?)?;
+    let mut grid = PoseGrid::new(Grid::parse("elevation", &args.elevation)?, Grid::parse("azimuth", &args.azimuth)?)?;
+    if let Some(spec) = &args.jitter {
+        grid = grid.with_jitter(Jitter::parse(spec, args.jitter_seed)?)?;
+    }
     let (width, height) = parse_size(&args.size)?;
     let camera = if args.perspective { Camera::perspective() } else { Camera::default() };
     let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular));
@@ -85,7 +96,8 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
     // The library's errors name the folder or file at fault.
     let n = write_dataset(&mesh, &grid, &params, out, &|k| bar.inc(k))?;
     bar.finish_and_clear();
-    writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv to {}", out.display())?;
+    let also = if grid.jitter().is_some() { ", jitter.csv" } else { "" };
+    writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv{also} to {}", out.display())?;
     Ok(())
 }
 

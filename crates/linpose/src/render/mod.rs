@@ -6,7 +6,9 @@
 //! frame the camera then lies in the direction u = (cos alpha cos e, cos alpha sin e, sin alpha)
 //! of docs/method.md (the turntable turns clockwise seen from above). The light is fixed in the world:
 //! it does not turn with the object. Shading is Lambertian with an ambient term and an optional
-//! Blinn-Phong highlight; the image is 8-bit gray on a black background.
+//! Blinn-Phong highlight; the image is 8-bit gray on a black background. A camera offset moves
+//! the object in the frame and an exposure scales its brightness; [`jitter`] draws both, with a
+//! scale, per view, as a camera in a cell would see the views a turntable registers.
 //!
 //! ```
 //! use linpose::render::{objects, render, RenderParams};
@@ -24,6 +26,7 @@
 //! work uses only IEEE-exact operations.
 
 pub mod grid;
+pub mod jitter;
 pub mod mesh;
 pub mod objects;
 mod params;
@@ -32,6 +35,7 @@ mod raster;
 pub mod synth;
 
 pub use grid::Grid;
+pub use jitter::{Jitter, ViewJitter};
 pub use mesh::Mesh;
 pub use params::{Camera, Light, Projection, RenderParams};
 
@@ -64,6 +68,13 @@ impl Renderer {
         Ok(Renderer { params: params.clone(), samples: Samples::default(), xyd: Vec::new(), verts: Vec::new() })
     }
 
+    /// Renders with `params` from now on (checked here), keeping the buffers.
+    pub fn set_params(&mut self, params: &RenderParams) -> Result<()> {
+        params.validate()?;
+        self.params = params.clone();
+        Ok(())
+    }
+
     /// The parameters.
     pub fn params(&self) -> &RenderParams {
         &self.params
@@ -94,7 +105,8 @@ impl Renderer {
         let turn = |v: [f64; 3]| [ce * v[0] + se * v[1], ce * v[1] - se * v[0], v[2]];
         // Sample units per unit of the normalised (unit-sphere) object.
         let scale = p.get_camera().get_fill() * (sw.min(sh) as f64) / 2.0;
-        let (cx, cy) = (sw as f64 / 2.0, sh as f64 / 2.0);
+        let [dx, dy] = p.get_camera().get_offset();
+        let (cx, cy) = (sw as f64 / 2.0 + dx * ss as f64, sh as f64 / 2.0 + dy * ss as f64);
         let centre = mesh.centre();
         let radius = mesh.radius();
         let perspective = match p.get_camera().get_projection() {
@@ -138,6 +150,10 @@ impl Renderer {
         self.samples.reset(sw, sh);
         self.samples.draw(&self.xyd, mesh.triangles());
         self.samples.resolve(&self.verts, mesh.triangles(), &shading, ss, out);
+        let exposure = p.get_exposure();
+        if exposure != 1.0 {
+            out.iter_mut().for_each(|v| *v = (*v as f64 * exposure).round().min(255.0) as u8);
+        }
         Ok(())
     }
 }

@@ -23,11 +23,12 @@ pub enum Projection {
 pub struct Camera {
     projection: Projection,
     fill: f64,
+    offset: [f64; 2],
 }
 
 impl Default for Camera {
     fn default() -> Self {
-        Camera { projection: Projection::Orthographic, fill: 0.85 }
+        Camera { projection: Projection::Orthographic, fill: 0.85, offset: [0.0, 0.0] }
     }
 }
 
@@ -52,6 +53,19 @@ impl Camera {
     pub fn fill(mut self, fill: f64) -> Self {
         self.fill = fill;
         self
+    }
+
+    /// Moves the image of the object by `dx` pixels right and `dy` pixels down (default 0, 0):
+    /// the object off the optical axis, as a camera that is not centred on it sees it. Parts
+    /// moved out of the frame are lost.
+    pub fn offset(mut self, dx: f64, dy: f64) -> Self {
+        self.offset = [dx, dy];
+        self
+    }
+
+    /// The image offset in pixels (right, down).
+    pub fn get_offset(&self) -> [f64; 2] {
+        self.offset
     }
 
     /// The projection.
@@ -155,12 +169,13 @@ pub struct RenderParams {
     supersample: u32,
     camera: Camera,
     light: Light,
+    exposure: f64,
 }
 
 impl Default for RenderParams {
     /// The paper's 160 x 120 images, 2 x 2 supersampling, orthographic, default light.
     fn default() -> Self {
-        RenderParams { width: 160, height: 120, supersample: 2, camera: Camera::default(), light: Light::default() }
+        RenderParams { width: 160, height: 120, supersample: 2, camera: Camera::default(), light: Light::default(), exposure: 1.0 }
     }
 }
 
@@ -185,6 +200,16 @@ impl RenderParams {
         /// Sets the light.
         light: Light
     );
+    setter!(
+        /// Sets the exposure: every pixel's brightness times this (default 1; in (0, 16]),
+        /// clipped to white, as a camera's gain or shutter changes it.
+        exposure: f64
+    );
+
+    /// The exposure.
+    pub fn get_exposure(&self) -> f64 {
+        self.exposure
+    }
 
     /// Image width.
     pub fn get_width(&self) -> u32 {
@@ -218,6 +243,12 @@ impl RenderParams {
         let c = &self.camera;
         if !(c.fill > 0.0 && c.fill <= 1.0) {
             return Err(Error::invalid("fill", c.fill, "must be in (0, 1]"));
+        }
+        if c.offset.iter().any(|v| !(v.is_finite() && v.abs() <= (self.width.max(self.height)) as f64)) {
+            return Err(Error::invalid("camera offset", format!("{:?}", c.offset), "must be finite and at most the image's size in pixels"));
+        }
+        if !(self.exposure.is_finite() && self.exposure > 0.0 && self.exposure <= 16.0) {
+            return Err(Error::invalid("exposure", self.exposure, "must be in (0, 16]"));
         }
         if let Projection::Perspective { distance } = c.projection {
             if !(distance.is_finite() && distance >= 1.5) {

@@ -6,7 +6,7 @@
 //! is ever left at OUT: everything is written into a temporary folder beside it, which is renamed
 //! to OUT once complete (and removed on error). OUT must not exist yet or be an empty folder.
 
-use super::{Grid, Mesh, RenderParams, Renderer};
+use super::{Grid, Jitter, Mesh, RenderParams, Renderer};
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::manifest::Manifest;
@@ -29,6 +29,7 @@ const CHUNK: usize = 256;
 pub struct PoseGrid {
     elevation: Grid,
     azimuth: Grid,
+    jitter: Option<Jitter>,
 }
 
 impl PoseGrid {
@@ -42,12 +43,45 @@ impl PoseGrid {
                 format!("{n} images; at most {MAX_IMAGES} are allowed"),
             ));
         }
-        Ok(PoseGrid { elevation, azimuth })
+        Ok(PoseGrid { elevation, azimuth, jitter: None })
     }
 
     /// The paper's 16 x 110 = 1760 poses.
     pub fn paper() -> Self {
-        PoseGrid { elevation: Grid::paper_elevation(), azimuth: Grid::paper_azimuth() }
+        PoseGrid { elevation: Grid::paper_elevation(), azimuth: Grid::paper_azimuth(), jitter: None }
+    }
+
+    /// Every view jittered by `jitter` (its own draw each, [`Jitter::view`]); the data set then
+    /// gets `jitter.csv` beside `poses.csv`.
+    pub fn with_jitter(mut self, jitter: Jitter) -> Result<Self> {
+        jitter.validate()?;
+        self.jitter = Some(jitter);
+        Ok(self)
+    }
+
+    /// The jitter of the views, if any.
+    pub fn jitter(&self) -> Option<&Jitter> {
+        self.jitter.as_ref()
+    }
+
+    /// The render parameters of view `i`: `params`, jittered when the grid is.
+    pub fn params_of(&self, i: usize, params: &RenderParams) -> Result<RenderParams> {
+        match &self.jitter {
+            Some(j) => j.view(i).apply(params),
+            None => Ok(params.clone()),
+        }
+    }
+
+    /// `jitter.csv`: header `image,dx,dy,scale,exposure` (pixels right and down, factors), one row
+    /// per view, values printed so they read back exactly; None when not jittered.
+    pub fn jitter_csv(&self) -> Option<String> {
+        let j = self.jitter.as_ref()?;
+        let mut s = String::from("image,dx,dy,scale,exposure\n");
+        for i in 0..self.len() {
+            let v = j.view(i);
+            s.push_str(&format!("{},{},{},{},{}\n", self.image_name(i), v.dx, v.dy, v.scale, v.exposure));
+        }
+        Some(s)
     }
 
     /// Number of poses.
@@ -101,6 +135,9 @@ pub const DATASET_TOML: &str = "azimuth = { period = 360 }\nelevation = { linear
 /// / 255, exactly as if the images had been written and read back. `root` names the data set;
 /// `progress` is called with the number of images rendered since its last call.
 pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<Dataset> {
+    if let Some(j) = &grid.jitter {
+        j.fits(params)?;
+    }
     let manifest = grid.manifest(root)?;
     let spec = ImageSpec { width: params.get_width(), height: params.get_height(), color: ColorMode::Gray };
     let m = spec.features();
@@ -110,6 +147,9 @@ pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path,
         || (Renderer::new(params).expect("validated"), vec![0u8; m]),
         |(r, pixels), (i, row)| {
             let (e, a) = grid.pose(i);
+            if grid.jitter.is_some() {
+                r.set_params(&grid.params_of(i, params)?)?;
+            }
             r.render_into(mesh, a, e, pixels)?;
             // The same f32 the image reader makes of an 8-bit pixel.
             row.iter_mut().zip(pixels.iter()).for_each(|(f, &p)| *f = p as f32 * crate::kernels::levels::S8);
@@ -133,6 +173,9 @@ pub fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
 /// is called with the number of images written since its last call. Returns the image count.
 pub fn write_dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, out: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<u64> {
     Renderer::new(params)?;
+    if let Some(j) = &grid.jitter {
+        j.fits(params)?;
+    }
     let replace_empty = match fs::metadata(out) {
         Ok(m) if m.is_dir() => {
             let mut entries = fs::read_dir(out).map_err(|e| Error::io(out, e))?;
@@ -184,6 +227,9 @@ fn fill(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, dir: &Path, progres
                 || (Renderer::new(params).expect("validated"), vec![0u8; w as usize * h as usize]),
                 |(r, pixels), i| {
                     let (e, a) = grid.pose(i);
+                    if grid.jitter.is_some() {
+                        r.set_params(&grid.params_of(i, params)?)?;
+                    }
                     r.render_into(mesh, a, e, pixels)?;
                     let png = encode_png(pixels, w, h)?;
                     let path = dir.join(grid.image_name(i));
@@ -195,6 +241,9 @@ fn fill(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, dir: &Path, progres
             .collect();
         // The first failure in pose order, so the error is the same on every run.
         results.into_iter().collect::<Result<Vec<()>>>()?;
+    }
+    if let Some(csv) = grid.jitter_csv() {
+        crate::atomic::write_atomic(&dir.join("jitter.csv"), csv.as_bytes())?;
     }
     crate::atomic::write_atomic(&dir.join("dataset.toml"), DATASET_TOML.as_bytes())?;
     crate::atomic::write_atomic(&dir.join("poses.csv"), grid.poses_csv().as_bytes())

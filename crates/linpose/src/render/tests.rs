@@ -168,3 +168,58 @@ fn sin_cos_deg_is_exact_at_right_angles() {
         assert!((s - d.to_radians().sin()).abs() < 1e-15 && (c - d.to_radians().cos()).abs() < 1e-15, "{d}");
     }
 }
+
+#[test]
+fn a_whole_pixel_offset_moves_the_image_exactly() {
+    let mesh = duck();
+    let base = small();
+    let at = render(&mesh, 40.0, 45.0, &base).unwrap();
+    let (w, h) = (at.width() as i64, at.height() as i64);
+    for (dx, dy) in [(3i64, -2i64), (-5, 4), (0, 1)] {
+        let moved = render(&mesh, 40.0, 45.0, &base.clone().camera(Camera::default().offset(dx as f64, dy as f64))).unwrap();
+        for y in 0..h {
+            for x in 0..w {
+                let (sx, sy) = (x - dx, y - dy);
+                let want = if (0..w).contains(&sx) && (0..h).contains(&sy) { at.get_pixel(sx as u32, sy as u32)[0] } else { 0 };
+                assert_eq!(moved.get_pixel(x as u32, y as u32)[0], want, "offset ({dx}, {dy}) at ({x}, {y})");
+            }
+        }
+    }
+}
+
+#[test]
+fn exposure_scales_every_pixel_and_clips_at_white() {
+    let mesh = duck();
+    let at = render(&mesh, 10.0, 40.0, &small()).unwrap();
+    for e in [0.5, 1.7] {
+        let lit = render(&mesh, 10.0, 40.0, &small().exposure(e)).unwrap();
+        for (a, b) in at.pixels().zip(lit.pixels()) {
+            assert_eq!(b[0], (a[0] as f64 * e).round().min(255.0) as u8);
+        }
+    }
+    assert!(small().exposure(0.0).validate().unwrap_err().to_string().contains("exposure"));
+}
+
+#[test]
+fn jitter_is_drawn_per_view_from_its_seed_within_its_bounds() {
+    let j = Jitter::parse("8, 0.1, 0.2", 7).unwrap();
+    let views: Vec<ViewJitter> = (0..200).map(|i| j.view(i)).collect();
+    assert_eq!(views[17], j.view(17), "a view's draw does not depend on the others");
+    assert_ne!(views[17], Jitter { seed: 8, ..j }.view(17));
+    for v in &views {
+        assert!(v.dx.abs() <= 8.0 && v.dy.abs() <= 8.0 && (0.9..=1.1).contains(&v.scale) && (0.8..=1.2).contains(&v.exposure), "{v:?}");
+    }
+    // The draws spread over their ranges.
+    assert!(views.iter().any(|v| v.dx > 6.0) && views.iter().any(|v| v.dx < -6.0));
+    let none = Jitter { shift: 0.0, scale: 0.0, exposure: 0.0, seed: 1 }.view(3);
+    assert_eq!(none, ViewJitter { dx: 0.0, dy: 0.0, scale: 1.0, exposure: 1.0 });
+    assert_eq!(none.apply(&small()).unwrap(), small());
+    // Bad amounts name themselves; a scale that would push the sphere out of the frame too.
+    for (spec, word) in [("8,0.1", "SHIFT,SCALE,EXPOSURE"), ("-1,0,0", "shift"), ("1,1.5,0", "scale"), ("1,0,x", "three numbers")] {
+        assert!(Jitter::parse(spec, 0).unwrap_err().to_string().contains(word), "{spec}");
+    }
+    let big = ViewJitter { dx: 0.0, dy: 0.0, scale: 1.2, exposure: 1.0 };
+    assert!(big.apply(&small()).unwrap_err().to_string().contains("fill"));
+    assert!(Jitter { scale: 0.2, ..j }.fits(&small()).unwrap_err().to_string().contains("fill"));
+    assert!(j.fits(&small()).is_ok());
+}
