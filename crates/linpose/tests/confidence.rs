@@ -102,3 +102,20 @@ fn a_model_read_back_from_its_file_gives_the_same_hypotheses() {
         }
     }
 }
+
+#[test]
+fn bad_queries_are_clear_errors() {
+    let (train, unseen) = turntable("duck");
+    let m = unseen.n_features();
+    for method in METHODS {
+        let model = method.default_spec().fit(&train).unwrap();
+        let mut batch = unseen.features()[..3 * m].to_vec();
+        batch[m..2 * m].fill(0.0);
+        if method.name != "linear" {
+            let err = model.estimate(&batch, 2).unwrap_err().to_string();
+            assert!(err.contains("#1 of the batch") && err.contains("all black"), "{}: {err}", method.name);
+        }
+        let err = model.estimate(&batch[..m + 1], 2).unwrap_err().to_string();
+        assert!(err.contains(&m.to_string()), "{}: {err}", method.name);
+    }
+}

@@ -110,6 +110,16 @@ impl Storage {
     }
 }
 
+/// The error for query `i` of a batch that cannot be scaled to unit energy (all black, or not
+/// finite), for the methods that scale their queries.
+pub(crate) fn unscalable_query(i: usize) -> Error {
+    Error::invalid(
+        "query",
+        format!("#{i} of the batch"),
+        "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
+    )
+}
+
 /// Checks that `len` values form whole rows of `m` features.
 pub(crate) fn check_queries(m: usize, len: usize, context: &str) -> Result<()> {
     if !len.is_multiple_of(m) || len == 0 {

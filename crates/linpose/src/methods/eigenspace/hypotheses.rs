@@ -9,8 +9,8 @@
 
 use super::EigenspaceModel;
 use crate::confidence::{grid_minima, ranked, Estimate};
-use crate::model::check_queries;
-use crate::{Error, Result};
+use crate::model::{check_queries, unscalable_query};
+use crate::Result;
 use rayon::prelude::*;
 
 /// The spacing (degrees) of the manifold points whose distances start the alternative
@@ -89,11 +89,7 @@ impl EigenspaceModel {
         let mut y = vec![0f32; n * l];
         self.project_into(queries, &mut y)?;
         if let Some(i) = y.chunks_exact(l).position(|c| c[0].is_nan()) {
-            return Err(Error::invalid(
-                "query",
-                format!("#{i} of the batch"),
-                "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
-            ));
+            return Err(unscalable_query(i));
         }
         let shape: Vec<(usize, bool)> = self.axes.iter().zip(self.meta.space.params()).map(|(a, p)| (a.len(), p.period.is_some())).collect();
         let scan = Scan::new(shape, self.settings.params.step());

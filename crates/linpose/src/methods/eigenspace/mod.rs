@@ -474,11 +474,7 @@ impl PoseModel for EigenspaceModel {
             }
         });
         if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
-            return Err(Error::invalid(
-                "query",
-                format!("#{i} of the batch"),
-                "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
-            ));
+            return Err(crate::model::unscalable_query(i));
         }
         Ok(())
     }

@@ -9,12 +9,12 @@
 
 use super::model::RefinedModel;
 use super::noisy::affine_fit;
-use super::query::{no_black_query, Route};
+use super::query::Route;
 use super::scratch::QueryScratch;
 use super::tuning::{HYPOTHESIS_PER_CELL, HYPOTHESIS_STEP};
 use crate::confidence::{grid_minima, ranked, Estimate, GROSS_DEG, MAX_HYPOTHESES};
 use crate::methods::eigenspace::chunk_rows;
-use crate::model::check_queries;
+use crate::model::{check_queries, unscalable_query};
 use crate::Result;
 use rayon::prelude::*;
 
@@ -27,7 +27,7 @@ struct StartGrid {
 impl RefinedModel {
     /// [`crate::PoseModel::estimate`].
     pub(crate) fn estimate_with(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
-        let (l, m, p) = (self.components(), self.meta.spec.features(), self.meta.space.len());
+        let (l, m) = (self.components(), self.meta.spec.features());
         check_queries(m, queries.len(), "query batch")?;
         let n = queries.len() / m;
         let grid = StartGrid { poses: self.surface.grid_poses(HYPOTHESIS_PER_CELL), shape: self.surface.grid_shape(HYPOTHESIS_PER_CELL) };
@@ -49,10 +49,11 @@ impl RefinedModel {
             })
             .collect();
         let all: Vec<Option<Estimate>> = chunks.into_iter().flatten().collect();
-        let flags: Vec<f64> = all.iter().map(|e| if e.is_some() { 0.0 } else { f64::NAN }).collect();
-        no_black_query(&flags, 1)?;
-        debug_assert_eq!(all.len() * p, n * p);
-        Ok(all.into_iter().map(|e| e.expect("checked")).collect())
+        if let Some(i) = all.iter().position(Option::is_none) {
+            return Err(unscalable_query(i));
+        }
+        debug_assert_eq!(all.len(), n);
+        Ok(all.into_iter().flatten().collect())
     }
 
     /// One projected query's estimate by its route, with its hypotheses.

@@ -8,7 +8,7 @@ use crate::kernels::{dot_w, Level};
 use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::projector::BATCH_FROM;
 use crate::model::batch_len;
-use crate::{Error, Result};
+use crate::Result;
 use rayon::prelude::*;
 
 /// Where a query goes, with its noise per coordinate there.
@@ -33,13 +33,9 @@ pub(crate) enum NoiseWant {
 }
 
 /// The error for the first query left NaN (zero or non-finite energy), if any.
-pub(crate) fn no_black_query(out: &[f64], p: usize) -> Result<()> {
+fn no_black_query(out: &[f64], p: usize) -> Result<()> {
     match out.chunks_exact(p).position(|o| o[0].is_nan()) {
-        Some(i) => Err(Error::invalid(
-            "query",
-            format!("#{i} of the batch"),
-            "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
-        )),
+        Some(i) => Err(crate::model::unscalable_query(i)),
         None => Ok(()),
     }
 }
