@@ -116,6 +116,22 @@ impl PoseSpace {
         }
     }
 
+    /// The first encoded column of each circular parameter's (cos, sin) pair, in
+    /// [`encode`](Self::encode)'s layout.
+    pub(crate) fn pair_columns(&self) -> Vec<usize> {
+        let mut k = 0;
+        let mut out = Vec::new();
+        for p in &self.params {
+            if p.period.is_some() {
+                out.push(k);
+                k += 2;
+            } else {
+                k += 1;
+            }
+        }
+        out
+    }
+
     /// Decodes an encoded estimate into a pose (degrees) by atan2; the (cos, sin) pair need not
     /// have unit length. Circular values land in [0, period).
     pub fn decode(&self, enc: &[f64], out: &mut [f64]) {

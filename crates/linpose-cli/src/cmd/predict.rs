@@ -123,11 +123,7 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
         if let Some(top) = a.top {
             // Hypotheses are ranked on features: the 8-bit path's estimates agree but for near
             // ties, and the first hypothesis must be the estimate printed.
-            for (f, p) in feats.chunks_exact_mut(m).zip(pix.chunks_exact(m)) {
-                if f[0].is_nan() {
-                    f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
-                }
-            }
+            eight_bit_as_features(feats, pix, m);
             let r = model.estimate(feats, top as usize)?;
             for (o, e) in est.chunks_exact_mut(space.len()).zip(&r) {
                 o.copy_from_slice(&e.pose);
@@ -136,11 +132,7 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
         } else if all_u8 {
             model.predict_u8_into(pix, est)?;
         } else {
-            for (f, p) in feats.chunks_exact_mut(m).zip(pix.chunks_exact(m)) {
-                if f[0].is_nan() {
-                    f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
-                }
-            }
+            eight_bit_as_features(feats, pix, m);
             model.predict_into(feats, est)?;
         }
         let named = |pose: &[f64]| -> BTreeMap<&str, f64> { space.params().iter().map(|p| p.name.as_str()).zip(pose.iter().copied()).collect() };
@@ -183,6 +175,16 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     out.flush()?;
     Ok(())
+}
+
+/// The rows of `features` that [`read_one`] left 8-bit (NaN first value) made features from
+/// their `pixels` (value / 255), so a batch of mixed images can be estimated on features.
+fn eight_bit_as_features(features: &mut [f32], pixels: &[u8], m: usize) {
+    for (f, p) in features.chunks_exact_mut(m).zip(pixels.chunks_exact(m)) {
+        if f[0].is_nan() {
+            f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
+        }
+    }
 }
 
 /// Decodes one image into `pixels` (8-bit gray, returning true) or else `features` (returning

@@ -8,14 +8,16 @@
 //! its neighbours one point along an axis, while one is closer).
 
 use super::EigenspaceModel;
-use crate::confidence::{grid_minima, ranked, Estimate};
+use crate::confidence::{grid_minima, grid_neighbours, ranked, row_major_strides, Estimate};
 use crate::model::{check_queries, unscalable_query};
 use crate::Result;
 use rayon::prelude::*;
 
 /// The spacing (degrees) of the manifold points whose distances start the alternative
 /// hypotheses: a basin narrower than this can be missed; the scan costs (step / spacing)^D less
-/// than measuring every point. Not tuned.
+/// than measuring every point. Not tuned; against measuring every point, the twin's and the
+/// procedural zoo's development seeds' flags and gross counts were the same, and the duck's
+/// evaluation 2.12 s -> 0.37 s.
 pub(crate) const SCAN_STEP_DEG: f64 = 2.0;
 
 /// The coarse scan over a manifold of `shape` (points per axis, circular): every `stride`-th
@@ -34,10 +36,7 @@ impl Scan {
     fn new(shape: Vec<(usize, bool)>, step: f64) -> Scan {
         let d = shape.len();
         let s = ((SCAN_STEP_DEG / step).floor() as usize).max(1);
-        let mut full_stride = vec![1usize; d];
-        for j in (0..d.saturating_sub(1)).rev() {
-            full_stride[j] = full_stride[j + 1] * shape[j + 1].0;
-        }
+        let full_stride = row_major_strides(&shape);
         let coarse_shape: Vec<(usize, bool)> = shape.iter().map(|&(n, c)| (n.div_ceil(s), c)).collect();
         let total: usize = coarse_shape.iter().map(|c| c.0).product();
         let coarse = (0..total)
@@ -58,17 +57,10 @@ impl Scan {
     fn descend(&self, mut k: usize, mut dk: f64, dist: impl Fn(usize) -> f64) -> (usize, f64) {
         loop {
             let mut best = (k, dk);
-            for (j, &(n, circular)) in self.shape.iter().enumerate() {
-                let i = k / self.full_stride[j] % n;
-                let base = k - i * self.full_stride[j];
-                let lower = if i > 0 { Some(i - 1) } else if circular && n > 1 { Some(n - 1) } else { None };
-                let upper = if i + 1 < n { Some(i + 1) } else if circular && n > 1 { Some(0) } else { None };
-                for i2 in lower.into_iter().chain(upper) {
-                    let k2 = base + i2 * self.full_stride[j];
-                    let d2 = dist(k2);
-                    if d2 < best.1 {
-                        best = (k2, d2);
-                    }
+            for k2 in grid_neighbours(&self.shape, &self.full_stride, k) {
+                let d2 = dist(k2);
+                if d2 < best.1 {
+                    best = (k2, d2);
                 }
             }
             if best.0 == k {

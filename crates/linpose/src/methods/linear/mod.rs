@@ -42,7 +42,7 @@ use crate::pixel_noise::estimate_noise_sigma;
 use crate::pose::PoseSpace;
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::{Error, Result};
-use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::linalg::solvers::{DenseSolveCore, Llt, Solve};
 use faer::{Mat, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -149,21 +149,6 @@ impl LinearParams {
 /// about 5% (one standard error) of that of all. Not tuned.
 pub(crate) const LOO_SAMPLE: usize = 256;
 
-/// The first encoded column of each circular parameter's (cos, sin) pair.
-pub(crate) fn pair_columns(space: &PoseSpace) -> Vec<usize> {
-    let mut k = 0;
-    let mut out = Vec::new();
-    for p in space.params() {
-        if p.period.is_some() {
-            out.push(k);
-            k += 2;
-        } else {
-            k += 1;
-        }
-    }
-    out
-}
-
 /// The training set's encoded poses P (N x K, row-major).
 pub(crate) fn encoded_poses(train: &Dataset) -> Vec<f64> {
     let space = train.space();
@@ -215,8 +200,9 @@ impl<'a> GramSystem<'a> {
         Ok(GramSystem { x: train.features(), m, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
     }
 
-    /// Solves (G + lambda I) D = P by Cholesky, refusing a numerically singular system.
-    pub fn solve(&self, lambda: f64, train: &Dataset) -> Result<Mat<f64>> {
+    /// The Cholesky factor of [`Self::system`] with `lambda`, refusing a numerically singular
+    /// system: what the fit solves (D = factor.solve(P)) and the leave-one-out spread reuses.
+    pub fn factor(&self, lambda: f64, train: &Dataset) -> Result<Llt<f64>> {
         let n = self.g.nrows();
         let a = self.system(lambda);
         let scale = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max);
@@ -228,10 +214,10 @@ impl<'a> GramSystem<'a> {
         if !(dmin > scale * n as f64 * 1e-13) {
             return Err(singular(train, &format!("pivot {imin} is {dmin:.3e}, against a largest diagonal of {scale:.3e}"), lambda));
         }
-        Ok(llt.solve(self.p.as_ref()))
+        Ok(llt)
     }
 
-    /// The matrix [`Self::solve`] factors: G + lambda I, and for a centred system c 1 1^T added.
+    /// The matrix [`Self::factor`] factors: G + lambda I, and for a centred system c 1 1^T added.
     fn system(&self, lambda: f64) -> Mat<f64> {
         let n = self.g.nrows();
         let mut a = self.g.clone();
@@ -253,24 +239,24 @@ impl<'a> GramSystem<'a> {
     }
 
     /// The spread of each circular parameter's (cos, sin) pair's exact leave-one-out residuals
-    /// (the RMS per component) of the fit `d` (= [`Self::solve`] with `lambda`), over at most
-    /// [`LOO_SAMPLE`] evenly spaced training rows: e_i = D_i / [(G + lambda I)^-1]_ii. What the
-    /// confidence of a query's pair is measured against ([`crate::confidence`]). For a centred
-    /// model this is the residual of the uncentred system, an approximation.
-    pub fn pair_spread(&self, lambda: f64, d: &Mat<f64>, space: &PoseSpace, train: &Dataset) -> Result<Vec<f64>> {
+    /// (the RMS per component) of the fit `d` = `factor.solve(P)` ([`Self::factor`]), over at
+    /// most [`LOO_SAMPLE`] evenly spaced training rows: e_i = D_i / [(G + lambda I)^-1]_ii. What
+    /// the confidence of a query's pair is measured against ([`crate::confidence`]). For a
+    /// centred model the inverse is that of G + c 1 1^T, an approximation.
+    pub fn pair_spread(&self, factor: &Llt<f64>, d: &Mat<f64>, space: &PoseSpace) -> Vec<f64> {
         let n = self.g.nrows();
         let rows: Vec<usize> = (0..n.min(LOO_SAMPLE)).map(|j| j * n / n.min(LOO_SAMPLE)).collect();
-        let llt = self.system(lambda).llt(Side::Lower).map_err(|e| singular(train, &format!("{e:?}"), lambda))?;
         let unit = Mat::from_fn(n, rows.len(), |i, j| if i == rows[j] { 1.0 } else { 0.0 });
-        let inv = llt.solve(unit.as_ref());
+        let inv = factor.solve(unit.as_ref());
         let residual = |i: usize, j: usize, col: usize| d[(i, col)] / inv[(i, j)];
-        Ok(pair_columns(space)
+        space
+            .pair_columns()
             .into_iter()
             .map(|c| {
                 let ss: f64 = rows.iter().enumerate().map(|(j, &i)| residual(i, j, c).powi(2) + residual(i, j, c + 1).powi(2)).sum();
                 (ss / (2 * rows.len()).max(1) as f64).sqrt()
             })
-            .collect())
+            .collect()
     }
 
     /// W^T = D^T X (K x M), row-major: each row is one coefficient image w_j (paper Fig. 2).
@@ -456,9 +442,10 @@ impl Estimator for LinearParams {
                 (n * s2, None)
             }
         };
-        let d = sys.solve(lambda, fit_set)?;
+        let factor = sys.factor(lambda, fit_set)?;
+        let d = factor.solve(sys.p.as_ref());
         let w = sys.weights(&d);
-        let spread = sys.pair_spread(lambda, &d, train.space(), fit_set)?;
+        let spread = sys.pair_spread(&factor, &d, train.space());
         let k = train.space().encoded_len();
         // Centred: p = W^T (x - mu_x) + mu_p, so the bias is mu_p - W^T mu_x.
         let bias = match (&sys.mean_x, &sys.mean_p) {
@@ -552,7 +539,7 @@ impl LinearModel {
             .get("pair_spread")
             .and_then(|v| serde_json::from_value(v.clone()).ok())
             .ok_or_else(|| t.error("damaged linear settings: no pair_spread"))?;
-        if spread.len() != pair_columns(&meta.space).len() || spread.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+        if spread.len() != meta.space.pair_columns().len() || spread.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
             return Err(t.error(format!("damaged linear settings: pair_spread {spread:?}")));
         }
         let w64 = w32.iter().map(|&v| v as f64).collect();
@@ -590,12 +577,11 @@ impl PoseModel for LinearModel {
 
     /// One hypothesis, the estimate; its confidence from the lengths of its (cos, sin) pairs
     /// against their leave-one-out spread ([`crate::confidence`]).
-    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
-        let _ = top;
+    fn estimate(&self, queries: &[f32], _top: usize) -> Result<Vec<Estimate>> {
         let m = self.meta.spec.features();
         let (p, k) = (self.meta.space.len(), self.meta.space.encoded_len());
         crate::model::check_queries(m, queries.len(), "query batch")?;
-        let cols = pair_columns(&self.meta.space);
+        let cols = self.meta.space.pair_columns();
         Ok(queries
             .par_chunks_exact(m)
             .map(|x| {

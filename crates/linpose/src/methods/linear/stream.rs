@@ -359,7 +359,7 @@ pub(crate) fn fit_least_squares(
         ptp[j] - wj.iter().enumerate().map(|(i, &v)| v * (xtp[i * k + j] + lambda * v)).sum::<f64>()
     };
     let dof = n.saturating_sub(m).max(1) as f64;
-    let spread = super::pair_columns(space).into_iter().map(|c| ((rss(c) + rss(c + 1)).max(0.0) / (2.0 * dof)).sqrt()).collect();
+    let spread = space.pair_columns().into_iter().map(|c| ((rss(c) + rss(c + 1)).max(0.0) / (2.0 * dof)).sqrt()).collect();
     let solve_s = t.elapsed().as_secs_f64();
     let meta = ModelMeta {
         method: METHOD.name.into(),
