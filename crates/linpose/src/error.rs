@@ -132,6 +132,14 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// An image the normalisation stage cannot normalise ([`crate::normalize`]).
+    #[error("{image}: cannot normalise: {reason}")]
+    Normalize {
+        /// The image (a file, or a query's place in its batch).
+        image: String,
+        /// Why.
+        reason: crate::normalize::Rejection,
+    },
     /// A numerical routine failed to converge or met a non-finite value.
     #[error("numerical failure: {0}")]
     Numerical(String),

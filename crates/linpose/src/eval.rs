@@ -63,6 +63,15 @@ pub struct SampleResult {
     pub in_top: Option<bool>,
 }
 
+/// A sample the model's normalisation stage refused.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Rejected {
+    /// Image path as in the manifest.
+    pub image: String,
+    /// Why it was refused.
+    pub reason: String,
+}
+
 /// How to evaluate: the query noise and whether (and how) to ask for confidence.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EvalOptions {
@@ -183,8 +192,12 @@ pub struct EvalReport {
     pub method: String,
     /// Parameter names, in the order of each pose.
     pub params: Vec<String>,
-    /// Samples evaluated.
+    /// Samples evaluated (the data set's, less those refused).
     pub n_eval: usize,
+    /// The samples the model's normalisation stage refused ([`crate::normalize`]), with why:
+    /// counted apart, in no error figure.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rejected: Vec<Rejected>,
     /// Training samples of the model.
     pub n_train: usize,
     /// Noise amplitude (fraction of full brightness).
@@ -260,18 +273,41 @@ pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -
         add_uniform_noise(&mut [], m, noise, seed)?;
         data.features()
     };
+    // Images the model's normalisation stage refuses are counted apart, not estimated.
+    let refused: Vec<Option<String>> = match &meta.normalize {
+        Some(stage) => q.par_chunks(m).map(|row| stage.check(row).err().map(|r| r.to_string())).collect(),
+        None => vec![None; data.len()],
+    };
+    let kept: Vec<usize> = (0..data.len()).filter(|&i| refused[i].is_none()).collect();
+    let rejected: Vec<Rejected> =
+        (0..data.len()).filter_map(|i| refused[i].clone().map(|reason| Rejected { image: data.manifest().images()[i].clone(), reason })).collect();
+    if kept.is_empty() {
+        return Err(Error::Dataset {
+            path: data.manifest().image_path(0),
+            message: format!("the model's normalisation refuses every image of the data set, the first: {}", rejected[0].reason),
+        });
+    }
+    let kept_rows;
+    let q: &[f32] = if rejected.is_empty() {
+        q
+    } else {
+        kept_rows = kept.iter().flat_map(|&i| q[i * m..(i + 1) * m].iter().copied()).collect::<Vec<f32>>();
+        &kept_rows
+    };
     let t0 = Instant::now();
     let est = model.predict(q)?;
     let predict_s = t0.elapsed().as_secs_f64();
     let estimates: Option<Vec<Estimate>> = if opt.top > 0 { Some(model.estimate(q, opt.top)?) } else { None };
     let p = meta.space.len();
-    let samples: Vec<SampleResult> = (0..data.len())
-        .map(|i| {
-            let truth = data.pose(i);
+    let samples: Vec<SampleResult> = kept
+        .iter()
+        .enumerate()
+        .map(|(i, &k)| {
+            let truth = data.pose(k);
             let e = &est[i * p..(i + 1) * p];
             let h = estimates.as_ref().map(|v| &v[i]);
             SampleResult {
-                image: data.manifest().images()[i].clone(),
+                image: data.manifest().images()[k].clone(),
                 r#true: truth.to_vec(),
                 estimated: e.to_vec(),
                 error_deg: meta.space.error_deg(truth, e),
@@ -293,7 +329,8 @@ pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -
     Ok(EvalReport {
         method: meta.method.clone(),
         params: names(&meta.space),
-        n_eval: data.len(),
+        n_eval: samples.len(),
+        rejected,
         n_train: meta.n_train(),
         noise,
         seed,

@@ -39,6 +39,10 @@
 //! - **Confidence**: [`PoseModel::estimate`] gives each estimate its ranked hypotheses
 //!   ([`Hypothesis`]) and a confidence ([`Estimate`]), so a front taken for a back is flagged
 //!   ([`confidence`]).
+//! - **Normalisation**: [`normalize`] finds the object in each image and centres and scales it
+//!   (optionally its brightness too) before a method sees it, so a camera's images need not be
+//!   registered like the training views ([`normalize::Normalized`] puts any method's model
+//!   behind the stage; the model file keeps it).
 //! - **Model files**: [`model_file`] saves and loads models as safetensors.
 //! - **Evaluation**: [`evaluate`] estimates every view of a data set, optionally under pixel
 //!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views, and
@@ -67,6 +71,7 @@ pub mod manifest;
 pub mod methods;
 pub mod model;
 pub mod model_file;
+pub mod normalize;
 pub(crate) mod pixel_noise;
 pub mod pose;
 pub mod render;

@@ -36,7 +36,7 @@ use std::path::Path;
 
 /// The model file format version this linpose writes and reads. Files of another version are
 /// refused with a message that says to retrain: the format has no compatibility layer.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Serialises a model to safetensors bytes.
 ///
@@ -127,8 +127,10 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
         )));
     }
     let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
-    let meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
+    let mut meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
     validate_meta(&meta).map_err(err)?;
+    // The method's own model is read without the stage, then put behind it.
+    let stage = meta.normalize.take();
     let mut tensors = Vec::new();
     for (name, view) in st.tensors() {
         let data = match view.dtype() {
@@ -141,7 +143,11 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     let tensors = TensorSet { path: path.to_path_buf(), tensors };
     let method = crate::methods::find(&meta.method)
         .ok_or_else(|| tensors.error(format!("unknown method '{}' (this linpose knows: {})", meta.method, crate::methods::names())))?;
-    method.load(meta, &tensors)
+    let model = method.load(meta, &tensors)?;
+    Ok(match stage {
+        Some(stage) => AnyModel::new(crate::normalize::Normalized::new(stage, model)),
+        None => model,
+    })
 }
 
 fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {
@@ -149,6 +155,9 @@ fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {
     let s = meta.spec;
     if s.width == 0 || s.height == 0 || s.width as u64 * s.height as u64 > crate::image_io::MAX_PIXELS {
         return Err(format!("damaged metadata: image size {}x{}", s.width, s.height));
+    }
+    if let Some(n) = &meta.normalize {
+        n.check_spec(&s).map_err(|e| format!("damaged metadata: {e}"))?;
     }
     if meta.train_poses.is_empty() || !meta.train_poses.len().is_multiple_of(meta.space.len()) {
         return Err(format!("damaged metadata: {} training pose values for {} parameters", meta.train_poses.len(), meta.space.len()));

@@ -29,6 +29,9 @@ pub struct EvalArgs {
     pub flag_below: f64,
 }
 
+/// Refused images listed by name on the terminal; the JSON has them all.
+const REFUSED_SHOWN: usize = 5;
+
 /// Runs `linpose eval`.
 pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
     if let Some(j) = &a.json {
@@ -46,6 +49,15 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
     let opt = linpose::EvalOptions { top: a.top as usize, flag_below: a.flag_below, ..linpose::EvalOptions::new(a.noise, a.seed) };
     let r = linpose::evaluate_with(&model, &data, &opt)?;
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
+    if !r.rejected.is_empty() {
+        println!("{} images refused by the model's normalisation (not in the figures below):", r.rejected.len());
+        for x in r.rejected.iter().take(REFUSED_SHOWN) {
+            println!("  {}: {}", x.image, x.reason);
+        }
+        if r.rejected.len() > REFUSED_SHOWN {
+            println!("  ... and {} more (all in the JSON's \"rejected\")", r.rejected.len() - REFUSED_SHOWN);
+        }
+    }
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
     let line =
         |name: &str, s: &ErrorSummary| println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg);

@@ -3,6 +3,7 @@
 use crate::cmd::method_args::{self, as_flag, MethodArgs};
 use crate::common::{check_output_file, load_dataset, write_json, ColorArg, DataArgs};
 use anyhow::Context;
+use linpose::normalize::{NormalizeParams, Normalized};
 use linpose::{AnyModel, PoseModel, TrainSelection};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -33,12 +34,37 @@ pub struct TrainArgs {
     /// How colour images become features.
     #[arg(long, value_enum, default_value = "gray")]
     pub color: ColorArg,
+    /// Find the object in every image and centre it, scale it to a fixed size and bring it to a
+    /// fixed brightness before the method sees it (stored in the model, applied to queries too),
+    /// so query images need not be registered like the training views: `all` (the default when
+    /// the flag is given alone), `geometry` (position and scale only) or `brightness` (only).
+    /// An image it cannot normalise is an error naming it.
+    #[arg(long, value_enum, value_name = "WHAT", num_args = 0..=1, default_missing_value = "all")]
+    pub normalize: Option<NormalizeArg>,
     /// The model file to write (safetensors).
     #[arg(long, value_name = "MODEL")]
     pub out: PathBuf,
     /// Also write a JSON summary (fit_s, n_train, model_bytes, ...).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+}
+
+/// What `--normalize` normalises.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NormalizeArg {
+    /// Position, scale and brightness.
+    All,
+    /// Position and scale.
+    Geometry,
+    /// Brightness.
+    Brightness,
+}
+
+impl NormalizeArg {
+    /// The library's parameters.
+    pub fn params(self) -> NormalizeParams {
+        NormalizeParams { geometry: self != NormalizeArg::Brightness, brightness: self != NormalizeArg::Geometry }
+    }
 }
 
 #[derive(Serialize)]
@@ -52,6 +78,8 @@ struct TrainSummary {
     model_bytes: usize,
     file_bytes: u64,
     settings: serde_json::Value,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    normalize: Option<linpose::normalize::Normalizer>,
 }
 
 /// Runs `linpose train`.
@@ -67,6 +95,10 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     if a.stream && !method.streams() {
         let can: Vec<&str> = linpose::METHODS.iter().filter(|m| m.streams()).map(|m| m.name).collect();
         anyhow::bail!("--stream: the {} method fits in memory only (streamed: {})", method.name, can.join(", "));
+    }
+    let normalize = a.normalize.map(NormalizeArg::params);
+    if a.stream && normalize.is_some() {
+        anyhow::bail!("--stream with --normalize: the normalisation is fitted in memory only");
     }
     let t0 = Instant::now();
     let manifest = a.data.manifest()?;
@@ -85,7 +117,10 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         let train = load_dataset(manifest, a.color.into())?;
         let load_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let model = spec.fit(&train)?;
+        let model = match normalize {
+            None => spec.fit(&train)?,
+            Some(n) => Normalized::fit(&spec, &train, n)?,
+        };
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
     let file_bytes = linpose::model_file::save(&model, &a.out).context("writing the model")?;
@@ -105,6 +140,7 @@ fn report(a: &TrainArgs, model: &AnyModel, load_s: f64, fit_s: f64, file_bytes: 
         model_bytes: model.model_bytes(),
         file_bytes,
         settings: meta.settings.clone(),
+        normalize: meta.normalize.clone(),
     };
     let timing = match how {
         Some(_) => format!("in {fit_s:.3} s (streamed, reading included)"),
@@ -121,6 +157,9 @@ fn report(a: &TrainArgs, model: &AnyModel, load_s: f64, fit_s: f64, file_bytes: 
     );
     if let Some(how) = how {
         eprintln!("  {how}");
+    }
+    if let Some(n) = &meta.normalize {
+        eprintln!("  {}", n.describe());
     }
     if let Some(j) = &a.json {
         write_json(j, &summary)?;

@@ -153,6 +153,10 @@ pub struct ModelMeta {
     pub train_poses: Vec<f64>,
     /// The method's settings as given and as chosen (e.g. a selected ridge), for the record.
     pub settings: serde_json::Value,
+    /// The normalisation stage every image goes through before the method sees it
+    /// ([`crate::normalize`]); `None`: images are used as they are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normalize: Option<crate::normalize::Normalizer>,
 }
 
 impl ModelMeta {

@@ -238,6 +238,7 @@ impl Estimator for EigenspaceParams {
             space: space.clone(),
             train_poses: train.poses().to_vec(),
             settings: serde_json::Value::Null,
+            normalize: None,
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), to32(&dense.points), dense.axes)

@@ -461,6 +461,7 @@ impl Estimator for LinearParams {
             space: train.space().clone(),
             train_poses: train.poses().to_vec(),
             settings: serde_json::json!({ "params": self, "lambda": lambda, "loo_mean_deg": loo }),
+            normalize: None,
         };
         Ok(LinearModel::new(meta, w, bias, spread))
     }

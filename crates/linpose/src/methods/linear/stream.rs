@@ -372,6 +372,7 @@ pub(crate) fn fit_least_squares(
             "solver": "least squares (X^T X)",
             "accumulation": if exact { "integer (8-bit pixels)" } else { "f64" },
         }),
+        normalize: None,
     };
     let stats = StreamStats { path: SolverPath::LeastSquares, n, m, read_s, wait_s, accumulate_s, solve_s, integer_8bit: exact };
     Ok((LinearModel::new(meta, w, vec![0.0; k], spread), stats))

@@ -137,6 +137,7 @@ impl Estimator for RefinedParams {
             space: space.clone(),
             train_poses: train.poses().to_vec(),
             settings: serde_json::Value::Null,
+            normalize: None,
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         RefinedModel::new(meta, settings, to32(&basis), to32(&pca.mean), knots, background, grid.axes)

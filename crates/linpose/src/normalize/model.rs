@@ -1,0 +1,105 @@
+//! A model of any method behind the normalisation stage: [`Normalized`] normalises each query
+//! as its training images were, then asks the method's own model. Its metadata carries the stage
+//! (`normalize`), so the model file keeps it and [`crate::model_file::load`] puts it back.
+
+use super::{NormalizeParams, Normalizer};
+use crate::confidence::Estimate;
+use crate::dataset::Dataset;
+use crate::model::{AnyModel, Method, MethodSpec, ModelMeta, PoseModel, Storage, Tensor};
+use crate::{Error, Result};
+use rayon::prelude::*;
+
+/// A fitted model whose queries go through a [`Normalizer`] first.
+///
+/// ```
+/// use linpose::normalize::{Normalized, NormalizeParams};
+/// use linpose::render::synth::{dataset, PoseGrid};
+/// use linpose::render::{objects, Grid, RenderParams};
+/// use linpose::{EigenspaceParams, MethodSpec, PoseModel};
+///
+/// // The duck on a turntable, every 20 degrees, 48 x 36 pixels.
+/// let grid = PoseGrid::new(Grid::parse("elevation", "30")?, Grid::parse("azimuth", "0:340:20")?)?;
+/// let params = RenderParams::default().width(48).height(36);
+/// let data = dataset(&objects::builtin("duck")?, &grid, &params, std::path::Path::new("<render>"), &|_| {})?;
+/// let spec: MethodSpec = EigenspaceParams::default().components(8).into();
+/// let model = Normalized::fit(&spec, &data, NormalizeParams::geometry())?;
+/// assert!(model.meta().normalize.is_some());
+/// let pose = model.predict(data.row(3))?;
+/// assert!(data.space().error_deg(&pose, data.pose(3)) < 1.0);
+/// # Ok::<(), linpose::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct Normalized {
+    stage: Normalizer,
+    inner: AnyModel,
+    meta: ModelMeta,
+}
+
+impl Normalized {
+    /// Fits the stage on `train`, normalises `train` with it and fits `spec` on the result.
+    pub fn fit(spec: &MethodSpec, train: &Dataset, params: NormalizeParams) -> Result<AnyModel> {
+        let stage = Normalizer::fit(train, params)?;
+        let data = stage.apply_dataset(train)?;
+        let inner = spec.fit(&data)?;
+        Ok(AnyModel::new(Normalized::new(stage, inner)))
+    }
+
+    /// `inner` (fitted on images normalised by `stage`) behind `stage`.
+    pub fn new(stage: Normalizer, inner: AnyModel) -> Self {
+        let mut meta = inner.meta().clone();
+        meta.normalize = Some(stage.clone());
+        Normalized { stage, inner, meta }
+    }
+
+    /// The stage.
+    pub fn stage(&self) -> &Normalizer {
+        &self.stage
+    }
+
+    /// The method's own model (which expects normalised images).
+    pub fn inner(&self) -> &AnyModel {
+        &self.inner
+    }
+
+    /// Normalises a batch of queries; a refused one is an error naming its place in the batch.
+    fn normalise(&self, queries: &[f32]) -> Result<Vec<f32>> {
+        let m = self.stage.features();
+        crate::model::check_queries(m, queries.len(), "query batch")?;
+        let mut out = vec![0.0f32; queries.len()];
+        let results: Vec<_> = out.par_chunks_mut(m).zip(queries.par_chunks(m)).map(|(o, q)| self.stage.apply(q, o)).collect();
+        if let Some((i, Err(r))) = results.into_iter().enumerate().find(|(_, r)| r.is_err()) {
+            return Err(Error::Normalize { image: format!("query #{i} of the batch"), reason: r });
+        }
+        Ok(out)
+    }
+}
+
+impl PoseModel for Normalized {
+    fn method(&self) -> &'static Method {
+        self.inner.method()
+    }
+    fn meta(&self) -> &ModelMeta {
+        &self.meta
+    }
+    fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
+        let q = self.normalise(queries)?;
+        self.inner.predict_into(&q, out)
+    }
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
+        let q = self.normalise(queries)?;
+        self.inner.estimate(&q, top)
+    }
+    fn model_bytes(&self) -> usize {
+        // The stage's numbers: threshold, radius, brightness.
+        self.inner.model_bytes() + 3 * std::mem::size_of::<f64>()
+    }
+    fn storage(&self) -> Storage {
+        self.inner.storage()
+    }
+    fn tensors(&self) -> Vec<Tensor> {
+        self.inner.tensors()
+    }
+    fn coefficients(&self) -> Option<&[f64]> {
+        self.inner.coefficients()
+    }
+}

@@ -1,0 +1,125 @@
+use super::*;
+use crate::image_io::ColorMode;
+use crate::pose::{Param, PoseSpace};
+
+const W: usize = 40;
+const H: usize = 30;
+
+/// An elliptic object of semi-axes `a` x `b` with a texture, centred at (`cx`, `cy`), on a
+/// background of `level`.
+fn object(cx: f64, cy: f64, a: f64, b: f64, level: f32) -> Vec<f32> {
+    let mut img = vec![level; W * H];
+    for y in 0..H {
+        for x in 0..W {
+            let (u, v) = ((x as f64 - cx) / a, (y as f64 - cy) / b);
+            let r = 1.0 - u * u - v * v;
+            if r > 0.0 {
+                img[y * W + x] = level + (r.sqrt() * (0.4 + 0.2 * (3.0 * u + v).sin())) as f32;
+            }
+        }
+    }
+    img
+}
+
+fn stage(edges: bool, background: Background, brightness: bool) -> Normalizer {
+    Normalizer {
+        width: W as u32,
+        height: H as u32,
+        channels: 1,
+        background,
+        threshold: tuning::HALF_LEVEL,
+        edges,
+        radius: Some(6.0),
+        brightness: brightness.then_some(2.0),
+    }
+}
+
+fn apply(s: &Normalizer, img: &[f32]) -> Result<Vec<f32>, Rejection> {
+    let mut out = vec![0.0; img.len()];
+    s.apply(img, &mut out).map(|_| out)
+}
+
+#[test]
+fn a_move_by_whole_pixels_gives_the_same_image_bit_for_bit() {
+    for (background, level) in [(Background::Dark, 0.0), (Background::Border, 0.55)] {
+        let s = stage(false, background, true);
+        let base = apply(&s, &object(17.3, 13.6, 8.0, 5.0, level)).unwrap();
+        for (dx, dy) in [(3, -2), (-6, 4), (1, 1)] {
+            let moved = apply(&s, &object(17.3 + dx as f64, 13.6 + dy as f64, 8.0, 5.0, level)).unwrap();
+            assert!(base.iter().zip(&moved).all(|(a, b)| a.to_bits() == b.to_bits()), "{background:?} moved by ({dx}, {dy})");
+        }
+        // The object is centred: its centroid is the frame's centre to a small fraction of a pixel.
+        let p = s.locate(&base.iter().map(|v| v + level).collect::<Vec<_>>()).unwrap();
+        let (cx, cy) = (p.origin.0 as f64 + p.cx, p.origin.1 as f64 + p.cy);
+        assert!((cx - (W as f64 - 1.0) / 2.0).abs() < 0.05 && (cy - (H as f64 - 1.0) / 2.0).abs() < 0.05, "centroid {cx}, {cy}");
+        // The radius to 2%: the cubic's overshoot at the ellipse's steep rim weighs in the moments.
+        assert!((p.radius - 6.0).abs() < 0.12, "radius {}", p.radius);
+    }
+}
+
+#[test]
+fn a_larger_or_brighter_object_comes_out_alike() {
+    let s = stage(false, Background::Dark, true);
+    let base = apply(&s, &object(20.0, 15.0, 8.0, 5.0, 0.0)).unwrap();
+    let larger = apply(&s, &object(19.0, 14.5, 8.8, 5.5, 0.0)).unwrap();
+    let brighter: Vec<f32> = object(20.0, 15.0, 8.0, 5.0, 0.0).iter().map(|v| v * 1.2).collect();
+    let brighter = apply(&s, &brighter).unwrap();
+    let energy: f32 = base.iter().map(|v| v * v).sum();
+    let diff = |o: &[f32]| base.iter().zip(o).map(|(a, b)| (a - b) * (a - b)).sum::<f32>() / energy;
+    // A 10% larger object scaled back differs by the resampling's error only (the ellipse's
+    // texture is not scaled with it, so not exactly).
+    assert!(diff(&larger) < 0.02, "larger: relative squared difference {}", diff(&larger));
+    assert!(diff(&brighter) < 1e-10, "brighter: relative squared difference {}", diff(&brighter));
+}
+
+#[test]
+fn images_it_cannot_normalise_are_refused_with_the_reason() {
+    let s = stage(false, Background::Dark, false);
+    assert!(matches!(apply(&s, &vec![0.0; W * H]), Err(Rejection::Empty { .. })));
+    let cut = apply(&s, &object(3.0, 15.0, 8.0, 5.0, 0.0));
+    assert_eq!(cut, Err(Rejection::TouchesEdge { sides: [true, false, false, false] }));
+    assert!(cut.unwrap_err().to_string().contains("touches the frame edge (left)"));
+    let mut two = object(10.0, 15.0, 6.0, 5.0, 0.0);
+    for (t, o) in two.iter_mut().zip(object(30.0, 15.0, 5.0, 4.0, 0.0)) {
+        *t += o;
+    }
+    assert!(matches!(apply(&s, &two), Err(Rejection::SeveralBlobs { count: 2, .. })));
+    // A speck is not a second object, and it is not part of the object.
+    let mut speck = object(20.0, 15.0, 8.0, 5.0, 0.0);
+    speck[2 * W + 36] = 0.3;
+    assert!(apply(&s, &speck).is_ok());
+    let mut nan = object(20.0, 15.0, 8.0, 5.0, 0.0);
+    nan[5] = f32::NAN;
+    assert_eq!(apply(&s, &nan), Err(Rejection::NotFinite));
+    // Where the training views touch the edge, a query may.
+    assert!(apply(&stage(true, Background::Dark, false), &object(3.0, 15.0, 8.0, 5.0, 0.0)).is_ok());
+}
+
+fn dataset(images: Vec<Vec<f32>>) -> Dataset {
+    let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
+    let spec = ImageSpec { width: W as u32, height: H as u32, color: ColorMode::Gray };
+    let poses = (0..images.len()).map(|i| 10.0 * i as f64).collect();
+    Dataset::new(spec, images.concat(), space, poses).unwrap()
+}
+
+#[test]
+fn fitting_reads_the_background_threshold_and_size_from_the_training_images() {
+    let train = dataset((0..5).map(|i| object(20.0, 15.0, 7.0 + i as f64 * 0.5, 5.0, 0.0)).collect());
+    let s = Normalizer::fit(&train, NormalizeParams { geometry: true, brightness: true }).unwrap();
+    assert_eq!((s.background, s.threshold, s.edges), (Background::Dark, tuning::HALF_LEVEL, false));
+    let radius = s.radius.unwrap();
+    let p = find::locate(train.row(2), W, H, 1, Background::Dark, s.threshold, false).unwrap();
+    assert_eq!(radius, p.radius, "the median view's radius");
+    // A bright background is measured per image.
+    let bright = dataset((0..3).map(|_| object(20.0, 15.0, 8.0, 5.0, 0.5)).collect());
+    assert_eq!(Normalizer::fit(&bright, NormalizeParams::geometry()).unwrap().background, Background::Border);
+    // Views framed to the edge (most of them) make the edge the data's convention...
+    let framed = dataset((0..3).map(|_| object(20.0, 15.0, 20.5, 9.0, 0.0)).collect());
+    assert!(Normalizer::fit(&framed, NormalizeParams::geometry()).unwrap().edges);
+    // ...one view cut by the edge among views inside it is an error naming it.
+    let mut images: Vec<Vec<f32>> = (0..4).map(|_| object(20.0, 15.0, 8.0, 5.0, 0.0)).collect();
+    images[2] = object(2.0, 15.0, 8.0, 5.0, 0.0);
+    let err = Normalizer::fit(&dataset(images), NormalizeParams::geometry()).unwrap_err().to_string();
+    assert!(err.contains("sample 2") && err.contains("touches the frame edge (left)"), "{err}");
+    assert!(Normalizer::fit(&train, NormalizeParams::default()).is_err());
+}
