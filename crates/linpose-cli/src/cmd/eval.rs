@@ -1,7 +1,10 @@
 //! `linpose eval`: estimate every sample of a data set and report the errors.
 
 use crate::common::{check_output_file, load_dataset, write_json, DataArgs};
+use linpose::render::ViewJitter;
 use linpose::{ErrorSummary, PoseModel};
+use serde::Serialize;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 
 /// Arguments of `linpose eval`.
@@ -85,8 +88,84 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
             println!("[{:.2}, {:.2}{close}   {:>6} {:>12.4} {:>7.1}%", b.lo, b.hi, b.n, b.mean_error_deg, 100.0 * b.gross_share);
         }
     }
+    let by_jitter = jitter_table(&a.data.data, &r)?;
     if let Some(j) = &a.json {
-        write_json(j, &r)?;
+        write_json(j, &Report { report: &r, by_jitter })?;
     }
     Ok(())
+}
+
+/// The eval JSON: the library's report, and the error against the jitter when the data set has it.
+#[derive(Serialize)]
+struct Report<'a> {
+    #[serde(flatten)]
+    report: &'a linpose::EvalReport,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    by_jitter: Vec<JitterBin>,
+}
+
+/// The views whose jitter along one axis fell in [lo, hi).
+#[derive(Serialize)]
+struct JitterBin {
+    /// "shift" (pixels from the registered position), "scale" or "exposure" (|factor - 1|).
+    axis: &'static str,
+    lo: f64,
+    hi: f64,
+    /// Unseen views estimated in the bin, and their mean error (degrees; null when none).
+    n: usize,
+    mean_error_deg: Option<f64>,
+    /// Views in the bin the model's normalisation refused.
+    refused: usize,
+}
+
+/// Bins per jitter axis.
+const JITTER_BINS: usize = 4;
+
+/// When the data set has a `jitter.csv` (`synth --jitter`), prints the unseen views' mean error
+/// against the amount of shift, scale and exposure, and returns the table.
+fn jitter_table(dir: &std::path::Path, r: &linpose::EvalReport) -> anyhow::Result<Vec<JitterBin>> {
+    let path = dir.join("jitter.csv");
+    if !path.is_file() {
+        return Ok(Vec::new());
+    }
+    let jitter: HashMap<String, ViewJitter> = linpose::render::jitter::read_csv(&path)?.into_iter().collect();
+    let refused: HashSet<&str> = r.rejected.iter().map(|x| x.image.as_str()).collect();
+    let axes: [(&'static str, fn(&ViewJitter) -> f64); 3] =
+        [("shift", |v| v.dx.hypot(v.dy)), ("scale", |v| (v.scale - 1.0).abs()), ("exposure", |v| (v.exposure - 1.0).abs())];
+    let mut table = Vec::new();
+    for (axis, amount) in axes {
+        let top = jitter.values().map(amount).fold(0.0, f64::max);
+        if top == 0.0 {
+            continue;
+        }
+        let bin = |x: f64| ((x / top * JITTER_BINS as f64) as usize).min(JITTER_BINS - 1);
+        let mut rows: Vec<JitterBin> = (0..JITTER_BINS)
+            .map(|b| JitterBin { axis, lo: top * b as f64 / JITTER_BINS as f64, hi: top * (b + 1) as f64 / JITTER_BINS as f64, n: 0, mean_error_deg: None, refused: 0 })
+            .collect();
+        let mut sums = [0.0; JITTER_BINS];
+        for s in r.samples.iter().filter(|s| !s.seen) {
+            if let Some(v) = jitter.get(&s.image) {
+                let b = bin(amount(v));
+                rows[b].n += 1;
+                sums[b] += s.error_deg;
+            }
+        }
+        for (name, v) in &jitter {
+            if refused.contains(name.as_str()) {
+                rows[bin(amount(v))].refused += 1;
+            }
+        }
+        for (row, sum) in rows.iter_mut().zip(sums) {
+            row.mean_error_deg = (row.n > 0).then(|| sum / row.n as f64);
+        }
+        table.extend(rows);
+    }
+    println!("unseen error against the jitter ({}):", path.display());
+    println!("{:<9} {:>16} {:>6} {:>10} {:>8}", "jitter", "amount", "n", "mean", "refused");
+    for b in &table {
+        let unit = if b.axis == "shift" { " px" } else { "" };
+        let mean = b.mean_error_deg.map_or("-".to_string(), |m| format!("{m:.4}"));
+        println!("{:<9} {:>16} {:>6} {:>10} {:>8}", b.axis, format!("{:.3}-{:.3}{unit}", b.lo, b.hi), b.n, mean, b.refused);
+    }
+    Ok(table)
 }

@@ -91,6 +91,30 @@ impl Jitter {
     }
 }
 
+/// Reads a `jitter.csv` as `synth --jitter` writes it: each image's name with its jitter. Errors
+/// name the file and line.
+pub fn read_csv(path: &std::path::Path) -> Result<Vec<(String, ViewJitter)>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = text.lines().enumerate();
+    match lines.next() {
+        Some((_, h)) if h.trim() == "image,dx,dy,scale,exposure" => {}
+        _ => return Err(Error::parse(path, 1, "expected the header image,dx,dy,scale,exposure")),
+    }
+    let mut out = Vec::new();
+    for (k, line) in lines.filter(|(_, l)| !l.trim().is_empty()) {
+        let fields: Vec<&str> = line.split(',').collect();
+        let bad = || Error::parse(path, k + 1, format!("expected an image and four numbers, got '{line}'"));
+        let [image, rest @ ..] = &fields[..] else { return Err(bad()) };
+        let v: Vec<f64> = rest.iter().map(|f| f.trim().parse::<f64>()).collect::<std::result::Result<_, _>>().map_err(|_| bad())?;
+        let [dx, dy, scale, exposure] = v[..] else { return Err(bad()) };
+        if !v.iter().all(|x| x.is_finite()) {
+            return Err(bad());
+        }
+        out.push((image.trim().to_string(), ViewJitter { dx, dy, scale, exposure }));
+    }
+    Ok(out)
+}
+
 impl ViewJitter {
     /// `params` with this view's jitter: the camera's fill times the scale, its offset the shift,
     /// the exposure times this one's.
