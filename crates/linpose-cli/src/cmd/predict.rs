@@ -105,6 +105,7 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
     let mut pixels = vec![0u8; BATCH.min(files.len()) * m];
     let mut poses = vec![0f64; BATCH * space.len()];
     let context = format!("the size of the model's training images ({})", a.model.display());
+    let mut refused = 0usize;
     for chunk in files.chunks(BATCH) {
         // Decoded in parallel; 8-bit gray (or RGB made gray) images stay 8-bit for the model's
         // 8-bit path, any other image becomes f32 features.
@@ -118,6 +119,37 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
             .collect::<linpose::Result<Vec<bool>>>()?
             .into_iter()
             .all(|b| b);
+        // A model behind a normalisation stage: the images it refuses are reported on stderr
+        // and left out of the batch; the rest are estimated.
+        let n_chunk = chunk.len() as u64;
+        let mut chunk: Vec<&PathBuf> = chunk.iter().collect();
+        let mut feats = feats;
+        let mut all_u8 = all_u8;
+        if let Some(stage) = &meta.normalize {
+            eight_bit_as_features(feats, pix, m);
+            all_u8 = false;
+            let verdicts: Vec<Result<(), linpose::normalize::Rejection>> = feats.par_chunks(m).map(|row| stage.check(row)).collect();
+            let mut kept = 0;
+            for (i, v) in verdicts.iter().enumerate() {
+                match v {
+                    Ok(()) => {
+                        feats.copy_within(i * m..(i + 1) * m, kept * m);
+                        chunk[kept] = chunk[i];
+                        kept += 1;
+                    }
+                    Err(r) => {
+                        bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {r}", chunk[i].display()));
+                        refused += 1;
+                    }
+                }
+            }
+            chunk.truncate(kept);
+            feats = &mut feats[..kept * m];
+            if kept == 0 {
+                bar.inc(n_chunk);
+                continue;
+            }
+        }
         let est = &mut poses[..chunk.len() * space.len()];
         let mut ranked = None;
         if let Some(top) = a.top {
@@ -170,10 +202,13 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
                 writeln!(out)?;
             }
         }
-        bar.inc(chunk.len() as u64);
+        bar.inc(n_chunk);
     }
     bar.finish_and_clear();
     out.flush()?;
+    if refused > 0 {
+        anyhow::bail!("{refused} of {} images could not be normalised (each named above) and have no estimate", files.len());
+    }
     Ok(())
 }
 

@@ -3,9 +3,11 @@
 
 mod confidence;
 pub mod doc;
+mod normalization;
 pub mod plots;
 
 use confidence::{confidence_finding, confidence_section};
+use normalization::{normalization_finding, normalization_section};
 
 use doc::{Block, Doc, FigureData};
 use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
@@ -198,6 +200,7 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
     }
 
     confidence_section(&mut b, objects)?;
+    normalization_section(&mut b, objects);
 
     // Figures.
     b.push(Block::Heading(1, "Figures".into()));
@@ -324,6 +327,10 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
         if let Some(text) = confidence_finding(label, objs) {
             out.push(text);
         }
+    }
+    let everything: Vec<&ObjectResult> = main.iter().chain(open).copied().collect();
+    if let Some(text) = normalization_finding(&everything) {
+        out.push(text);
     }
     for o in open {
         let parts: Vec<String> = info

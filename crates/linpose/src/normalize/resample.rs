@@ -27,6 +27,20 @@ pub(crate) struct Taps {
     weights: Vec<f32>,
 }
 
+impl Taps {
+    /// The taps within a frame of `len` pixels: the first one's index and their weights (the
+    /// others fall on background, which is 0 here).
+    fn inside(&self, len: usize) -> (usize, &[f32]) {
+        let n = self.weights.len() as i64;
+        let lo = (-self.first).clamp(0, n);
+        let hi = (len as i64 - self.first).clamp(lo, n);
+        if lo == hi {
+            return (0, &[]);
+        }
+        ((self.first + lo) as usize, &self.weights[lo as usize..hi as usize])
+    }
+}
+
 /// The taps of `out` output positions along one axis: output position u samples the source at
 /// `origin + rel + (u - (out - 1) / 2) * step` (pixel indices), with a kernel widened to
 /// `max(1, step)` source pixels.
@@ -52,20 +66,23 @@ pub(crate) fn taps(out: usize, origin: i64, rel: f64, step: f64) -> Vec<Taps> {
 pub(crate) fn resample(dev: &[f32], (w, h, c): (usize, usize, usize), tx: &[Taps], ty: &[Taps], gain: f32, out: &mut [f32]) {
     let ow = tx.len();
     debug_assert_eq!(out.len(), ow * ty.len() * c);
-    // Rows first: every source row through the column taps.
+    // Rows first: every source row through the column taps (each tap's span clipped to the
+    // frame once, so the inner loops have no branch).
+    let spans: Vec<(usize, &[f32])> = tx.iter().map(|t| t.inside(w)).collect();
     let mut rows = vec![0.0f32; h * ow * c];
     for y in 0..h {
         let src = &dev[y * w * c..(y + 1) * w * c];
         let dst = &mut rows[y * ow * c..(y + 1) * ow * c];
-        for (u, t) in tx.iter().enumerate() {
-            for (k, &wt) in t.weights.iter().enumerate() {
-                let x = t.first + k as i64;
-                if x < 0 || x >= w as i64 {
-                    continue;
-                }
-                let x = x as usize;
-                for ch in 0..c {
-                    dst[u * c + ch] += wt * src[x * c + ch];
+        if c == 1 {
+            for (d, &(x, wts)) in dst.iter_mut().zip(&spans) {
+                *d = wts.iter().zip(&src[x..x + wts.len()]).map(|(a, b)| a * b).sum();
+            }
+        } else {
+            for (u, &(x, wts)) in spans.iter().enumerate() {
+                for (k, &wt) in wts.iter().enumerate() {
+                    for ch in 0..c {
+                        dst[u * c + ch] += wt * src[(x + k) * c + ch];
+                    }
                 }
             }
         }
@@ -73,12 +90,9 @@ pub(crate) fn resample(dev: &[f32], (w, h, c): (usize, usize, usize), tx: &[Taps
     out.fill(0.0);
     for (v, t) in ty.iter().enumerate() {
         let dst = &mut out[v * ow * c..(v + 1) * ow * c];
-        for (k, &wt) in t.weights.iter().enumerate() {
-            let y = t.first + k as i64;
-            if y < 0 || y >= h as i64 {
-                continue;
-            }
-            let src = &rows[y as usize * ow * c..(y as usize + 1) * ow * c];
+        let (y0, wts) = t.inside(h);
+        for (k, &wt) in wts.iter().enumerate() {
+            let src = &rows[(y0 + k) * ow * c..(y0 + k + 1) * ow * c];
             for (d, s) in dst.iter_mut().zip(src) {
                 *d += wt * s;
             }

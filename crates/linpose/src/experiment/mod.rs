@@ -3,8 +3,11 @@
 //! model's closed-form leave-one-out error beside its true unseen error), and the storage and
 //! cost of Table 1 measured on the fitted models.
 //!
-//! The CLI renders or loads each object, runs [`run_object`] and writes the report; everything a
-//! figure or table shows is in the returned [`ObjectResult`].
+//! The CLI renders or loads each object, runs [`run_object`] (and [`normalization::run`], each
+//! method with and without the normalisation stage) and writes the report; everything a figure or
+//! table shows is in the returned [`ObjectResult`].
+
+pub mod normalization;
 
 use crate::dataset::Dataset;
 use crate::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};
@@ -150,6 +153,10 @@ pub struct ObjectResult {
     pub sweep: Vec<SweepPoint>,
     /// Table 1 rows, one per method.
     pub table1: Vec<Table1Row>,
+    /// Each method with and without the normalisation stage ([`normalization::run`]); empty
+    /// when the study did not ask.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub normalization: Vec<normalization::NormalizationRow>,
     /// The models fitted at the main step (not serialised into JSON; the CLI saves them).
     #[serde(skip)]
     pub models: Vec<AnyModel>,
@@ -308,6 +315,7 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
         runs,
         sweep,
         table1,
+        normalization: Vec::new(),
         models,
     })
 }
