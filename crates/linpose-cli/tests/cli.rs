@@ -364,3 +364,51 @@ fn synth_jitters_each_view_and_records_it() {
     d.fails(&with("c", &["--jitter", "4,0.3,0"]), &["jitter scale", "fill"]);
     assert!(!d.path("c").exists());
 }
+
+#[test]
+fn normalized_models_take_jittered_views_and_name_the_images_they_refuse() {
+    let d = Dir::new();
+    let synth = |out: &'static str, extra: &[&'static str]| {
+        let mut a = vec!["synth", "--object", "duck", "--size", "80x60", "--azimuth", "0:350:10", "--elevation", "40", "--out", out];
+        a.extend_from_slice(extra);
+        d.ok(&a);
+    };
+    synth("reg", &[]);
+    synth("jit", &["--jitter", "4,0.1,0.2", "--jitter-seed", "2"]);
+    let out = d.run(&[
+        "train",
+        "--data",
+        "reg",
+        "--train-step",
+        "20",
+        "--method",
+        "eigenspace",
+        "--components",
+        "8",
+        "--normalize",
+        "--out",
+        "n.st",
+        "--json",
+        "t.json",
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("normalised: object centred and scaled"));
+    assert!(json(&d.path("t.json"))["normalize"]["radius"].is_f64());
+    let text = d.ok(&["eval", "--model", "n.st", "--data", "jit", "--json", "e.json"]);
+    assert!(text.contains("unseen error against the jitter") && text.contains("shift"), "{text}");
+    let e = json(&d.path("e.json"));
+    assert!(e["unseen"]["mean_deg"].as_f64().unwrap() < 3.0, "{}", e["unseen"]);
+    let bins = e["by_jitter"].as_array().unwrap();
+    assert_eq!(bins.iter().filter(|b| b["axis"] == "shift").count(), 4);
+    // A black image and a moved copy of a view: the first refused with the reason, the second
+    // estimated; the exit code says one failed.
+    image::GrayImage::new(80, 60).save(d.path("black.png")).unwrap();
+    std::fs::copy(d.path("jit/e040.0_a000.0.png"), d.path("view.png")).unwrap();
+    let out = d.run(&["predict", "--model", "n.st", "black.png", "view.png"]);
+    assert!(!out.status.success());
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(stderr.contains("black.png: cannot normalise: no object found") && stderr.contains("1 of 2 images"), "{stderr}");
+    assert!(stdout.starts_with("view.png\t") && !stdout.contains("black.png"), "{stdout}");
+    d.fails(&["train", "--data", "reg", "--normalize", "--stream", "--out", "s.st"], &["--stream", "normalisation"]);
+    d.fails(&["train", "--data", "reg", "--normalize", "sideways", "--out", "s.st"], &["sideways"]);
+}

@@ -140,7 +140,14 @@ fn jitter_table(dir: &std::path::Path, r: &linpose::EvalReport) -> anyhow::Resul
         }
         let bin = |x: f64| ((x / top * JITTER_BINS as f64) as usize).min(JITTER_BINS - 1);
         let mut rows: Vec<JitterBin> = (0..JITTER_BINS)
-            .map(|b| JitterBin { axis, lo: top * b as f64 / JITTER_BINS as f64, hi: top * (b + 1) as f64 / JITTER_BINS as f64, n: 0, mean_error_deg: None, refused: 0 })
+            .map(|b| JitterBin {
+                axis,
+                lo: top * b as f64 / JITTER_BINS as f64,
+                hi: top * (b + 1) as f64 / JITTER_BINS as f64,
+                n: 0,
+                mean_error_deg: None,
+                refused: 0,
+            })
             .collect();
         let mut sums = [0.0; JITTER_BINS];
         for s in r.samples.iter().filter(|s| !s.seen) {

@@ -179,7 +179,8 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
                 bar.inc(1);
             };
             let mut r = run_object(name, &data, &params, &tick).with_context(|| format!("the study on {name}"))?;
-            r.normalization = normalization::run(&data, jittered.as_ref(), &r.models, &params, &|s| tick(&format!("{name}: {s}"))).with_context(|| format!("the normalisation study on {name}"))?;
+            r.normalization = normalization::run(&data, jittered.as_ref(), &r.models, &params, &|s| tick(&format!("{name}: {s}")))
+                .with_context(|| format!("the normalisation study on {name}"))?;
             bar.finish_and_clear();
             for m in &r.models {
                 linpose::model_file::save(m, &tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
