@@ -227,13 +227,14 @@ mod bad_input {
         std::fs::write(d.path("tiny.safetensors"), &bytes[..5]).unwrap();
         d.fails(&["predict", "--model", "tiny.safetensors", "data/a000.png"], &["tiny.safetensors"]);
         let text = bytes.clone();
-        let pos = text.windows(19).position(|w| w == b"\"format_version\":\"3").expect("version in header");
+        let current = format!("\"format_version\":\"{}", linpose::model_file::FORMAT_VERSION);
+        let pos = text.windows(current.len()).position(|w| w == current.as_bytes()).expect("version in header");
         for (v, whose) in [(b'7', "newer"), (b'1', "earlier")] {
             let mut other = bytes.clone();
             other[pos + 18] = v;
             std::fs::write(d.path("other.safetensors"), &other).unwrap();
             let version = format!("format version {}", v as char);
-            d.fails(&["eval", "--model", "other.safetensors", "--data", "data"], &[&version, whose, "reads version 3", "retrain"]);
+            d.fails(&["eval", "--model", "other.safetensors", "--data", "data"], &[&version, whose, &format!("reads version {}", linpose::model_file::FORMAT_VERSION), "retrain"]);
         }
         d.fails(&["eval", "--model", "data/a000.png", "--data", "data"], &["a000.png", "not a linpose model file"]);
     }
