@@ -234,7 +234,10 @@ mod bad_input {
             other[pos + 18] = v;
             std::fs::write(d.path("other.safetensors"), &other).unwrap();
             let version = format!("format version {}", v as char);
-            d.fails(&["eval", "--model", "other.safetensors", "--data", "data"], &[&version, whose, &format!("reads version {}", linpose::model_file::FORMAT_VERSION), "retrain"]);
+            d.fails(
+                &["eval", "--model", "other.safetensors", "--data", "data"],
+                &[&version, whose, &format!("reads version {}", linpose::model_file::FORMAT_VERSION), "retrain"],
+            );
         }
         d.fails(&["eval", "--model", "data/a000.png", "--data", "data"], &["a000.png", "not a linpose model file"]);
     }

@@ -16,7 +16,7 @@
 //!    the one chosen from the training images' borders (their noise, at least half a gray
 //!    level), raised to the query's own border noise when the border is background. Its
 //!    8-connected regions are found; the largest (by summed deviation) is the object, regions of
-//!    less than [`tuning::BLOB_SHARE`] of its weight are specks and are left out.
+//!    less than 5% (`BLOB_SHARE`, normalize/tuning.rs) of its weight are specks and are left out.
 //! 3. **Position and size.** The centroid and the radius of gyration (root-mean-square distance
 //!    from the centroid) of the object's deviations.
 //! 4. **Resampling.** The image is resampled (separable cubic, anti-aliased when shrinking) so
@@ -28,7 +28,7 @@
 //!
 //! Where this cannot work the image is refused with a [`Rejection`] that says why: no object
 //! (nothing differs from the background), several blobs (a second region of at least
-//! [`tuning::BLOB_SHARE`] of the object's weight: two objects, or one in pieces), or the object
+//! 5% (`BLOB_SHARE`, normalize/tuning.rs) of the object's weight: two objects, or one in pieces), or the object
 //! touches the frame edge (part of it may be outside, so its position and size are unknown).
 //! Touching the edge is refused only when the training views keep the object inside the frame;
 //! data sets framed to the edge by their makers (COIL's) touch it in most views, and then the
@@ -95,7 +95,7 @@ pub enum Rejection {
     /// A second region as heavy as a share of the object's.
     #[error("several blobs: {count} separate regions, the second with {:.0}% of the largest one's weight (two objects, or one in pieces); crop the image to one object", share * 100.0)]
     SeveralBlobs {
-        /// Regions of at least [`tuning::BLOB_SHARE`] of the largest.
+        /// Regions of at least 5% (`BLOB_SHARE`, normalize/tuning.rs) of the largest.
         count: usize,
         /// The second region's weight over the largest's.
         share: f64,
