@@ -118,6 +118,9 @@ struct JitterBin {
     refused: usize,
 }
 
+/// How much of one kind of jitter a view has.
+type Amount = fn(&ViewJitter) -> f64;
+
 /// Bins per jitter axis.
 const JITTER_BINS: usize = 4;
 
@@ -130,8 +133,7 @@ fn jitter_table(dir: &std::path::Path, r: &linpose::EvalReport) -> anyhow::Resul
     }
     let jitter: HashMap<String, ViewJitter> = linpose::render::jitter::read_csv(&path)?.into_iter().collect();
     let refused: HashSet<&str> = r.rejected.iter().map(|x| x.image.as_str()).collect();
-    let axes: [(&'static str, fn(&ViewJitter) -> f64); 3] =
-        [("shift", |v| v.dx.hypot(v.dy)), ("scale", |v| (v.scale - 1.0).abs()), ("exposure", |v| (v.exposure - 1.0).abs())];
+    let axes: [(&'static str, Amount); 3] = [("shift", |v| v.dx.hypot(v.dy)), ("scale", |v| (v.scale - 1.0).abs()), ("exposure", |v| (v.exposure - 1.0).abs())];
     let mut table = Vec::new();
     for (axis, amount) in axes {
         let top = jitter.values().map(amount).fold(0.0, f64::max);
