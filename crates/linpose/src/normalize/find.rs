@@ -91,7 +91,10 @@ pub(crate) fn locate(img: &[f32], w: usize, h: usize, c: usize, background: Back
         Background::Border => border(img, w, h, c, None).median,
     };
     let t = if edges { threshold } else { threshold.max(NOISE_FACTOR * border(img, w, h, c, Some(level)).q90) };
-    let dev: Vec<f32> = img.chunks_exact(c).map(|px| deviation(px, &level)).collect();
+    let dev: Vec<f32> = match c {
+        1 => img.iter().map(|v| (v - level[0]).abs()).collect(),
+        _ => img.chunks_exact(c).map(|px| deviation(px, &level)).collect(),
+    };
     if dev.iter().any(|d| !d.is_finite()) {
         return Err(Rejection::NotFinite);
     }
