@@ -109,6 +109,14 @@ pub enum Rejection {
     /// The image has a value that is not a finite number.
     #[error("the image has a value that is not a finite number")]
     NotFinite,
+    /// The image (or the output) has another number of values than the stage's images.
+    #[error("{got} values where the stage's images have {expected}")]
+    Size {
+        /// Values per image of the stage.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
 }
 
 fn sides_text(s: &[bool; 4]) -> String {
@@ -245,7 +253,9 @@ impl Normalizer {
     }
 
     fn locate(&self, image: &[f32]) -> std::result::Result<Placement, Rejection> {
-        assert_eq!(image.len(), self.features(), "an image of the stage's size");
+        if image.len() != self.features() {
+            return Err(Rejection::Size { expected: self.features(), got: image.len() });
+        }
         find::locate(image, self.width as usize, self.height as usize, self.channels, self.background, self.threshold, self.edges)
     }
 
@@ -253,6 +263,9 @@ impl Normalizer {
     /// image minus its background level, resampled so that the object is centred at its fixed
     /// size, times the brightness gain.
     pub fn apply(&self, image: &[f32], out: &mut [f32]) -> std::result::Result<(), Rejection> {
+        if out.len() != self.features() {
+            return Err(Rejection::Size { expected: self.features(), got: out.len() });
+        }
         let p = self.locate(image)?;
         let (w, h, c) = (self.width as usize, self.height as usize, self.channels);
         let shifted: Vec<f32> = image.chunks_exact(c).flat_map(|px| px.iter().zip(&p.level).map(|(v, b)| v - b)).collect();

@@ -123,3 +123,16 @@ fn fitting_reads_the_background_threshold_and_size_from_the_training_images() {
     assert!(err.contains("sample 2") && err.contains("touches the frame edge (left)"), "{err}");
     assert!(Normalizer::fit(&train, NormalizeParams::default()).is_err());
 }
+
+#[test]
+fn colour_images_move_exactly_too_and_a_wrong_size_is_refused() {
+    let s = Normalizer { channels: 3, ..stage(false, Background::Border, true) };
+    let rgb = |cx: f64| -> Vec<f32> { object(cx, 13.6, 8.0, 5.0, 0.3).iter().flat_map(|&v| [v, 0.5 * v, 0.9 - 0.5 * v]).collect() };
+    let (a, b) = (rgb(17.3), rgb(20.3));
+    let (mut oa, mut ob) = (vec![0.0; a.len()], vec![0.0; b.len()]);
+    s.apply(&a, &mut oa).unwrap();
+    s.apply(&b, &mut ob).unwrap();
+    assert!(oa.iter().zip(&ob).all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert_eq!(s.check(&a[3..]), Err(Rejection::Size { expected: W * H * 3, got: W * H * 3 - 3 }));
+    assert_eq!(s.apply(&a, &mut oa[3..]), Err(Rejection::Size { expected: W * H * 3, got: W * H * 3 - 3 }));
+}
