@@ -120,35 +120,38 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
             .into_iter()
             .all(|b| b);
         // A model behind a normalisation stage: the images it refuses are reported on stderr
-        // and left out of the batch; the rest are estimated.
+        // and left out; the rest are normalised once and given to the method's own model.
         let n_chunk = chunk.len() as u64;
         let mut chunk: Vec<&PathBuf> = chunk.iter().collect();
         let mut feats = feats;
         let mut all_u8 = all_u8;
-        if let Some(stage) = &meta.normalize {
+        let mut normalised;
+        let mut target: &dyn PoseModel = &model;
+        if let Some((stage, inner)) = model.behind_stage() {
             eight_bit_as_features(feats, pix, m);
             all_u8 = false;
-            let verdicts: Vec<Result<(), linpose::normalize::Rejection>> = feats.par_chunks(m).map(|row| stage.check(row)).collect();
+            let (rows, verdicts) = stage.apply_batch(feats);
             let mut kept = 0;
             for (i, v) in verdicts.iter().enumerate() {
                 match v {
-                    Ok(()) => {
-                        feats.copy_within(i * m..(i + 1) * m, kept * m);
+                    None => {
                         chunk[kept] = chunk[i];
                         kept += 1;
                     }
-                    Err(r) => {
+                    Some(r) => {
                         bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {r}", chunk[i].display()));
                         refused += 1;
                     }
                 }
             }
             chunk.truncate(kept);
-            feats = &mut feats[..kept * m];
             if kept == 0 {
                 bar.inc(n_chunk);
                 continue;
             }
+            normalised = rows;
+            feats = &mut normalised[..];
+            target = inner;
         }
         let est = &mut poses[..chunk.len() * space.len()];
         let mut ranked = None;
@@ -156,16 +159,16 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
             // Hypotheses are ranked on features: the 8-bit path's estimates agree but for near
             // ties, and the first hypothesis must be the estimate printed.
             eight_bit_as_features(feats, pix, m);
-            let r = model.estimate(feats, top as usize)?;
+            let r = target.estimate(feats, top as usize)?;
             for (o, e) in est.chunks_exact_mut(space.len()).zip(&r) {
                 o.copy_from_slice(&e.pose);
             }
             ranked = Some(r);
         } else if all_u8 {
-            model.predict_u8_into(pix, est)?;
+            target.predict_u8_into(pix, est)?;
         } else {
             eight_bit_as_features(feats, pix, m);
-            model.predict_into(feats, est)?;
+            target.predict_into(feats, est)?;
         }
         let named = |pose: &[f64]| -> BTreeMap<&str, f64> { space.params().iter().map(|p| p.name.as_str()).zip(pose.iter().copied()).collect() };
         for (i, (path, pose)) in chunk.iter().zip(est.chunks_exact(space.len())).enumerate() {

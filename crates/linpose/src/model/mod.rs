@@ -92,6 +92,13 @@ pub trait PoseModel: Any + Send + Sync + std::fmt::Debug {
     fn coefficients(&self) -> Option<&[f64]> {
         None
     }
+
+    /// For a model behind a normalisation stage ([`crate::normalize::Normalized`]): the stage and
+    /// the method's own model, which takes normalised images, so a caller that normalises the
+    /// queries itself (to count the refused ones apart) does it once. `None` for other models.
+    fn behind_stage(&self) -> Option<(&crate::normalize::Normalizer, &dyn PoseModel)> {
+        None
+    }
 }
 
 /// A model's storage in the terms of the paper's Table 1.
@@ -222,6 +229,9 @@ impl PoseModel for AnyModel {
     }
     fn coefficients(&self) -> Option<&[f64]> {
         self.0.coefficients()
+    }
+    fn behind_stage(&self) -> Option<(&crate::normalize::Normalizer, &dyn PoseModel)> {
+        self.0.behind_stage()
     }
 }
 

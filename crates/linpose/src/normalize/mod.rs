@@ -282,6 +282,23 @@ impl Normalizer {
         Ok(())
     }
 
+    /// Normalises a batch of images (rows of [`Normalizer::features`] values): the normalised
+    /// rows of the images it accepts, in order, and for every image `None` or why it refused it.
+    pub fn apply_batch(&self, images: &[f32]) -> (Vec<f32>, Vec<Option<Rejection>>) {
+        let m = self.features();
+        let mut out = vec![0.0f32; images.len() / m * m];
+        let verdicts: Vec<Option<Rejection>> = out.par_chunks_mut(m).zip(images.par_chunks_exact(m)).map(|(o, q)| self.apply(q, o).err()).collect();
+        let mut kept = 0;
+        for (i, v) in verdicts.iter().enumerate() {
+            if v.is_none() {
+                out.copy_within(i * m..(i + 1) * m, kept * m);
+                kept += 1;
+            }
+        }
+        out.truncate(kept * m);
+        (out, verdicts)
+    }
+
     /// Normalises every image of `data`; an image the stage refuses is an error naming it.
     pub fn apply_dataset(&self, data: &Dataset) -> Result<Dataset> {
         let m = self.features();

@@ -7,7 +7,6 @@ use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::model::{AnyModel, Method, MethodSpec, ModelMeta, PoseModel, Storage, Tensor};
 use crate::{Error, Result};
-use rayon::prelude::*;
 
 /// A fitted model whose queries go through a [`Normalizer`] first.
 ///
@@ -63,14 +62,12 @@ impl Normalized {
 
     /// Normalises a batch of queries; a refused one is an error naming its place in the batch.
     fn normalise(&self, queries: &[f32]) -> Result<Vec<f32>> {
-        let m = self.stage.features();
-        crate::model::check_queries(m, queries.len(), "query batch")?;
-        let mut out = vec![0.0f32; queries.len()];
-        let results: Vec<_> = out.par_chunks_mut(m).zip(queries.par_chunks(m)).map(|(o, q)| self.stage.apply(q, o)).collect();
-        if let Some((i, Err(r))) = results.into_iter().enumerate().find(|(_, r)| r.is_err()) {
-            return Err(Error::Normalize { image: format!("query #{i} of the batch"), reason: r });
+        crate::model::check_queries(self.stage.features(), queries.len(), "query batch")?;
+        let (rows, verdicts) = self.stage.apply_batch(queries);
+        match verdicts.into_iter().enumerate().find_map(|(i, v)| v.map(|r| (i, r))) {
+            Some((i, r)) => Err(Error::Normalize { image: format!("query #{i} of the batch"), reason: r }),
+            None => Ok(rows),
         }
-        Ok(out)
     }
 }
 
@@ -101,5 +98,8 @@ impl PoseModel for Normalized {
     }
     fn coefficients(&self) -> Option<&[f64]> {
         self.inner.coefficients()
+    }
+    fn behind_stage(&self) -> Option<(&Normalizer, &dyn PoseModel)> {
+        Some((&self.stage, &self.inner))
     }
 }
