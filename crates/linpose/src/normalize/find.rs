@@ -60,7 +60,8 @@ fn border_pixels(w: usize, h: usize) -> impl Iterator<Item = usize> {
     top_bottom.chain(sides).filter(move |&i| h > 1 || i < w)
 }
 
-fn median(v: &mut [f32]) -> f32 {
+/// The median (the upper one of an even count).
+pub(crate) fn median(v: &mut [f32]) -> f32 {
     let k = v.len() / 2;
     *v.select_nth_unstable_by(k, f32::total_cmp).1
 }

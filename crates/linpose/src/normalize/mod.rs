@@ -50,7 +50,7 @@ pub use model::Normalized;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::{Error, Result};
-use find::Placement;
+use find::{median, Placement};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use tuning::{DARK_LEVEL, HALF_LEVEL, NOISE_FACTOR};
@@ -310,11 +310,6 @@ impl Normalizer {
         }
         Dataset::from_features(data.manifest().clone(), data.spec(), out)
     }
-}
-
-fn median(v: &mut [f32]) -> f32 {
-    let k = v.len() / 2;
-    *v.select_nth_unstable_by(k, f32::total_cmp).1
 }
 
 fn median64(v: &mut [f64]) -> f64 {
