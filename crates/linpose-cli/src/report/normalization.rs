@@ -17,11 +17,15 @@ pub(super) fn normalization_section(b: &mut Vec<Block>, objects: &[ObjectResult]
                 o.name.clone(),
                 r.method.clone(),
                 f(r.registered[0], 2),
-                f(r.registered[1], 2),
+                if r.registered[1].is_finite() { f(r.registered[1], 2) } else { "-".into() },
                 jp,
                 jn,
                 if r.jittered.is_some() { format!("{} of {}", r.refused, r.n_jittered) } else { "-".into() },
-                if r.recommended { "yes".into() } else { "for unregistered images only".into() },
+                match (&r.unavailable, r.recommended) {
+                    (Some(why), _) => format!("cannot: {why}"),
+                    (None, true) => "yes".into(),
+                    (None, false) => "for unregistered images only".into(),
+                },
             ]
         })
         .collect();
@@ -57,8 +61,13 @@ pub(super) fn normalization_finding(objects: &[&ObjectResult]) -> Option<String>
     let parts: Vec<String> = methods
         .iter()
         .map(|m| {
-            let rows: Vec<(&str, &linpose::experiment::normalization::NormalizationRow)> =
-                objects.iter().flat_map(|o| o.normalization.iter().filter(|r| r.method == *m).map(move |r| (o.name.as_str(), r))).collect();
+            let rows: Vec<(&str, &linpose::experiment::normalization::NormalizationRow)> = objects
+                .iter()
+                .flat_map(|o| o.normalization.iter().filter(|r| r.method == *m && r.unavailable.is_none()).map(move |r| (o.name.as_str(), r)))
+                .collect();
+            if rows.is_empty() {
+                return format!("{m}: the stage refused a training view of every object");
+            }
             let mean = |g: &dyn Fn(&linpose::experiment::normalization::NormalizationRow) -> Option<f64>| {
                 let v: Vec<f64> = rows.iter().filter_map(|(_, r)| g(r)).collect();
                 (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)

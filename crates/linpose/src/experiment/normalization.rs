@@ -10,7 +10,7 @@ use crate::eval::{evaluate_with, EvalOptions};
 use crate::manifest::TrainSelection;
 use crate::model::{AnyModel, PoseModel};
 use crate::normalize::{NormalizeParams, Normalized};
-use crate::Result;
+use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 use super::StudyParams;
@@ -37,6 +37,9 @@ pub struct NormalizationRow {
     /// Whether the report recommends the stage: it costs at most [`REGISTERED_COST`] on
     /// registered views.
     pub recommended: bool,
+    /// Why the stage could not be fitted (a training view it refuses), when it could not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unavailable: Option<String>,
 }
 
 /// The unseen mean error of `model` on `data` (no confidence asked), and how many views were
@@ -65,7 +68,23 @@ pub fn run(data: &Dataset, jittered: Option<&Dataset>, plain: &[AnyModel], p: &S
     let mut rows = Vec::new();
     for (method, plain) in p.methods.iter().zip(plain) {
         progress(&format!("{} normalised", method.name()));
-        let normalised = Normalized::fit(method, &train, NormalizeParams { geometry: true, brightness: true })?;
+        let normalised = match Normalized::fit(method, &train, NormalizeParams { geometry: true, brightness: true }) {
+            Ok(m) => m,
+            // A training view the stage refuses: the study says so for this data set and goes on.
+            Err(e @ Error::Normalize { .. }) => {
+                rows.push(NormalizationRow {
+                    method: plain.meta().method.clone(),
+                    registered: [unseen_mean(plain, data, p.seed)?.0, f64::NAN],
+                    jittered: None,
+                    refused: 0,
+                    n_jittered: 0,
+                    recommended: false,
+                    unavailable: Some(e.to_string()),
+                });
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
         let registered = [unseen_mean(plain, data, p.seed)?.0, unseen_mean(&normalised, data, p.seed)?.0];
         let (jittered_err, refused) = match jittered {
             Some(j) => {
@@ -82,6 +101,7 @@ pub fn run(data: &Dataset, jittered: Option<&Dataset>, plain: &[AnyModel], p: &S
             refused,
             n_jittered: jittered.map_or(0, Dataset::len),
             recommended: registered[1] <= (1.0 + REGISTERED_COST) * registered[0],
+            unavailable: None,
         });
     }
     Ok(rows)
