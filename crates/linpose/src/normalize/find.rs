@@ -87,11 +87,17 @@ pub(crate) fn border(img: &[f32], w: usize, h: usize, c: usize, level: Option<[f
 /// border's noise when the border is background, `edges` false), the largest 8-connected region.
 pub(crate) fn locate(img: &[f32], w: usize, h: usize, c: usize, background: Background, threshold: f32, edges: bool) -> Result<Placement, Rejection> {
     let n = w * h;
-    let level = match background {
-        Background::Dark => [0.0; 3],
-        Background::Border => border(img, w, h, c, None).median,
+    // A measured background's border statistics serve both its level and its noise.
+    let measured = match background {
+        Background::Dark => None,
+        Background::Border => Some(border(img, w, h, c, None)),
     };
-    let t = if edges { threshold } else { threshold.max(NOISE_FACTOR * border(img, w, h, c, Some(level)).q90) };
+    let level = measured.as_ref().map_or([0.0; 3], |b| b.median);
+    let t = match (edges, &measured) {
+        (true, _) => threshold,
+        (false, Some(b)) => threshold.max(NOISE_FACTOR * b.q90),
+        (false, None) => threshold.max(NOISE_FACTOR * border(img, w, h, c, Some(level)).q90),
+    };
     let dev: Vec<f32> = match c {
         1 => img.iter().map(|v| (v - level[0]).abs()).collect(),
         _ => img.chunks_exact(c).map(|px| deviation(px, &level)).collect(),
