@@ -59,6 +59,7 @@
 
 pub mod atomic;
 pub(crate) mod binning;
+pub mod catalog;
 pub mod confidence;
 pub mod dataset;
 pub mod error;
@@ -74,8 +75,10 @@ pub mod model_file;
 pub mod normalize;
 pub(crate) mod pixel_noise;
 pub mod pose;
+pub mod recognize;
 pub mod render;
 
+pub use catalog::{Catalog, ObjectSet, Source};
 pub use confidence::{Estimate, Hypothesis};
 pub use dataset::Dataset;
 pub use error::{Error, Result};

@@ -4,7 +4,10 @@
 //! - the directory format: `DIR/poses.csv` with header `image,<param>,...` (degrees), the images
 //!   beside it (paths relative to DIR), and an optional `DIR/dataset.toml` giving each parameter's
 //!   period (`azimuth = { period = 360 }`, or `name = { linear = true }`); without it a parameter
-//!   named `azimuth` has period 360 and every other one is linear;
+//!   named `azimuth` has period 360 and every other one is linear. A column named `object` (after
+//!   `image`) says which object each image shows: a manifest holds one object, so such a file is
+//!   read here only when it names a single object; the data set of several objects is a
+//!   [`Catalog`](crate::Catalog);
 //! - the COIL layout: a folder of `objO__K.png` files, read one object at a time. COIL-20 numbers
 //!   its 72 views 0..71 (5 degrees apart); COIL-100 names them by degree (0..355). When any view
 //!   number of the object exceeds 71 the numbers are degrees, otherwise views 5 degrees apart.
@@ -63,35 +66,15 @@ impl Manifest {
         }
     }
 
-    /// Reads `DIR/poses.csv` and the optional `DIR/dataset.toml`.
+    /// Reads `DIR/poses.csv` and the optional `DIR/dataset.toml`. A poses.csv with an `object`
+    /// column is read only when it names one object (the column is then dropped); one naming
+    /// several is refused: it is a [`Catalog`](crate::Catalog) ([`Catalog::open`](crate::Catalog::open),
+    /// [`Source::open`](crate::Source::open)).
     pub fn read_dir_format(dir: &Path) -> Result<Self> {
-        let csv_path = dir.join("poses.csv");
-        let text = std::fs::read(&csv_path).map_err(|e| Error::io(&csv_path, e))?;
-        let text = String::from_utf8(text).map_err(|e| {
-            let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()].iter().filter(|&&b| b == b'\n').count();
-            Error::parse(&csv_path, line, "not valid UTF-8")
-        })?;
-        let (names, images, poses) = parse_poses_csv(&csv_path, &text)?;
-        let toml_path = dir.join("dataset.toml");
-        let periods = if toml_path.exists() {
-            let t = std::fs::read_to_string(&toml_path).map_err(|e| Error::io(&toml_path, e))?;
-            parse_dataset_toml(&toml_path, &t, &names)?
-        } else {
-            HashMap::new()
-        };
-        let params = names
-            .iter()
-            .map(|n| match periods.get(n) {
-                Some(&Some(t)) => Param::circular(n.clone(), t),
-                Some(None) => Param::linear(n.clone()),
-                None => Param::with_default_period(n.clone()),
-            })
-            .collect();
-        let space = PoseSpace::new(params).map_err(|e| Error::parse(&csv_path, 1, e.to_string()))?;
-        for img in &images {
-            check_relative(&csv_path, img)?;
-        }
-        Self::new(dir, space, images, poses)
+        let (csv_path, table) = read_poses_table(dir)?;
+        one_object(&csv_path, &table)?;
+        let space = read_pose_space(dir, &csv_path, &table.names)?;
+        Self::new(dir, space, table.images, table.poses)
     }
 
     /// Reads one object of a COIL folder (`objO__K.png`); other files are ignored.
@@ -173,7 +156,17 @@ impl Manifest {
 
     /// Which samples are in the training set.
     pub fn training_mask(&self, sel: &TrainSelection) -> Result<Vec<bool>> {
-        let mask: Vec<bool> = match sel {
+        let mask = self.selection_mask(sel)?;
+        if !mask.iter().any(|&b| b) {
+            return Err(Error::Dataset { path: self.root.clone(), message: format!("the training selection ({sel}) picks no sample") });
+        }
+        Ok(mask)
+    }
+
+    /// The samples `sel` picks, which may be none; a bad step or a listed image not in the
+    /// manifest is an error.
+    pub(crate) fn selection_mask(&self, sel: &TrainSelection) -> Result<Vec<bool>> {
+        Ok(match sel {
             TrainSelection::All => vec![true; self.len()],
             TrainSelection::Step(s) => {
                 if !(s.is_finite() && *s > 0.0) {
@@ -191,11 +184,7 @@ impl Manifest {
                 let set: HashSet<&str> = names.iter().map(|s| s.as_str()).collect();
                 self.images.iter().map(|n| set.contains(n.as_str())).collect()
             }
-        };
-        if !mask.iter().any(|&b| b) {
-            return Err(Error::Dataset { path: self.root.clone(), message: format!("the training selection ({sel}) picks no sample") });
-        }
-        Ok(mask)
+        })
     }
 
     /// The manifest restricted to the samples where `mask` is true.
@@ -263,10 +252,46 @@ fn check_relative(csv: &Path, img: &str) -> Result<()> {
     Ok(())
 }
 
+/// The header of the column that names each image's object.
+pub const OBJECT_COLUMN: &str = "object";
+
+/// A poses.csv as read: its pose parameters, images and poses, and each image's object when it
+/// has an [`OBJECT_COLUMN`]. Public for the fuzz target only.
+#[doc(hidden)]
+#[derive(Debug, Clone, PartialEq)]
+pub struct PosesTable {
+    /// The pose parameters' names, in header order (without the object column).
+    pub names: Vec<String>,
+    /// The image paths, as written.
+    pub images: Vec<String>,
+    /// The poses, one row of `names.len()` values per image.
+    pub poses: Vec<f64>,
+    /// Each image's object (never empty) when the header has an object column.
+    pub objects: Option<Vec<String>>,
+}
+
+impl PosesTable {
+    /// The distinct objects, in order of first appearance (empty without an object column).
+    pub fn object_names(&self) -> Vec<&str> {
+        let mut seen = HashSet::new();
+        self.objects.iter().flatten().map(String::as_str).filter(|o| seen.insert(*o)).collect()
+    }
+}
+
 /// Parses the text of a poses.csv: the parameter names, the image paths, the poses (row-major).
+/// An object column naming a single object is dropped; one naming several is an error.
 /// Public for the fuzz target only.
 #[doc(hidden)]
 pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<String>, Vec<f64>)> {
+    let table = parse_poses_table(path, text)?;
+    one_object(path, &table)?;
+    Ok((table.names, table.images, table.poses))
+}
+
+/// Parses the text of a poses.csv, keeping its object column when it has one.
+/// Public for the fuzz target only.
+#[doc(hidden)]
+pub fn parse_poses_table(path: &Path, text: &str) -> Result<PosesTable> {
     let mut rdr = csv::ReaderBuilder::new().has_headers(false).flexible(true).trim(csv::Trim::All).from_reader(text.as_bytes());
     let mut records = rdr.records();
     let header = match records.next() {
@@ -276,21 +301,31 @@ pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Stri
     if header.get(0) != Some("image") {
         return Err(Error::parse(path, 1, format!("the header must start with 'image', found '{}'", header.get(0).unwrap_or(""))));
     }
-    let names: Vec<String> = header.iter().skip(1).map(String::from).collect();
-    if names.is_empty() {
-        return Err(Error::parse(path, 1, "the header names no pose parameter after 'image'"));
-    }
-    if let Some(n) = names.iter().find(|n| n.is_empty()) {
+    let columns: Vec<String> = header.iter().skip(1).map(String::from).collect();
+    if let Some(n) = columns.iter().find(|n| n.is_empty()) {
         return Err(Error::parse(path, 1, format!("empty parameter name in the header ('{n}')")));
     }
     let mut seen_names = HashSet::new();
-    for n in &names {
+    for n in &columns {
         if !seen_names.insert(n) {
-            return Err(Error::parse(path, 1, format!("parameter '{n}' appears twice in the header")));
+            let what = if n == OBJECT_COLUMN { "column" } else { "parameter" };
+            return Err(Error::parse(path, 1, format!("{what} '{n}' appears twice in the header")));
         }
     }
+    // Position of the object column among the columns after `image`.
+    let object_col = columns.iter().position(|n| n == OBJECT_COLUMN);
+    let names: Vec<String> = columns.iter().filter(|n| *n != OBJECT_COLUMN).cloned().collect();
+    if names.is_empty() {
+        let besides = if object_col.is_some() { format!(" (besides '{OBJECT_COLUMN}')") } else { String::new() };
+        return Err(Error::parse(path, 1, format!("the header names no pose parameter after 'image'{besides}")));
+    }
+    let layout = match object_col {
+        Some(_) => format!("image, {OBJECT_COLUMN} and {} parameters", names.len()),
+        None => format!("image plus {} parameters", names.len()),
+    };
     let mut images = Vec::new();
     let mut poses = Vec::new();
+    let mut objects = Vec::new();
     let mut seen: HashMap<String, usize> = HashMap::new();
     for rec in records {
         let rec = rec.map_err(|e| {
@@ -301,12 +336,8 @@ pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Stri
         if rec.len() == 1 && rec.get(0) == Some("") {
             continue; // blank line
         }
-        if rec.len() != names.len() + 1 {
-            return Err(Error::parse(
-                path,
-                line,
-                format!("{} fields, but the header has {} (image plus {} parameters)", rec.len(), names.len() + 1, names.len()),
-            ));
+        if rec.len() != columns.len() + 1 {
+            return Err(Error::parse(path, line, format!("{} fields, but the header has {} ({layout})", rec.len(), columns.len() + 1)));
         }
         let img = rec.get(0).unwrap_or("");
         if img.is_empty() {
@@ -315,7 +346,14 @@ pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Stri
         if let Some(prev) = seen.insert(img.to_string(), line) {
             return Err(Error::parse(path, line, format!("image '{img}' is listed twice (also on line {prev})")));
         }
-        for (name, v) in names.iter().zip(rec.iter().skip(1)) {
+        for (k, (name, v)) in columns.iter().zip(rec.iter().skip(1)).enumerate() {
+            if Some(k) == object_col {
+                if v.is_empty() {
+                    return Err(Error::parse(path, line, format!("empty {OBJECT_COLUMN} name for '{img}'")));
+                }
+                objects.push(v.to_string());
+                continue;
+            }
             if v.is_empty() {
                 return Err(Error::parse(path, line, format!("missing value for '{name}' of '{img}'")));
             }
@@ -333,7 +371,69 @@ pub fn parse_poses_csv(path: &Path, text: &str) -> Result<(Vec<String>, Vec<Stri
     if images.is_empty() {
         return Err(Error::Dataset { path: path.to_path_buf(), message: "the data set is empty: no rows after the header".into() });
     }
-    Ok((names, images, poses))
+    Ok(PosesTable { names, images, poses, objects: object_col.map(|_| objects) })
+}
+
+/// Refuses a table whose object column names several objects: a manifest is one object.
+fn one_object(csv_path: &Path, table: &PosesTable) -> Result<()> {
+    let objects = table.object_names();
+    if objects.len() > 1 {
+        return Err(Error::Dataset {
+            path: csv_path.to_path_buf(),
+            message: format!(
+                "the '{OBJECT_COLUMN}' column names {} objects ({}): this folder holds several objects; \
+                 read it as a catalog of objects (Catalog::open or Source::open), not as one object's data set",
+                objects.len(),
+                list_names(&objects, 10)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// `names` quoted and comma-separated, at most `max` of them (then how many more).
+pub(crate) fn list_names<S: AsRef<str>>(names: &[S], max: usize) -> String {
+    let mut s = names.iter().take(max).map(|n| format!("'{}'", n.as_ref())).collect::<Vec<_>>().join(", ");
+    if names.len() > max {
+        s.push_str(&format!(" and {} more", names.len() - max));
+    }
+    s
+}
+
+/// Reads `DIR/poses.csv` into a table (any object column kept); returns the file's path too.
+pub(crate) fn read_poses_table(dir: &Path) -> Result<(PathBuf, PosesTable)> {
+    let csv_path = dir.join("poses.csv");
+    let text = std::fs::read(&csv_path).map_err(|e| Error::io(&csv_path, e))?;
+    let text = String::from_utf8(text).map_err(|e| {
+        let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+        Error::parse(&csv_path, line, "not valid UTF-8")
+    })?;
+    let table = parse_poses_table(&csv_path, &text)?;
+    for img in &table.images {
+        check_relative(&csv_path, img)?;
+    }
+    Ok((csv_path, table))
+}
+
+/// The pose space of the parameters `names` of `DIR/poses.csv`, with the periods of the
+/// optional `DIR/dataset.toml`.
+pub(crate) fn read_pose_space(dir: &Path, csv_path: &Path, names: &[String]) -> Result<PoseSpace> {
+    let toml_path = dir.join("dataset.toml");
+    let periods = if toml_path.exists() {
+        let t = std::fs::read_to_string(&toml_path).map_err(|e| Error::io(&toml_path, e))?;
+        parse_dataset_toml(&toml_path, &t, names)?
+    } else {
+        HashMap::new()
+    };
+    let params = names
+        .iter()
+        .map(|n| match periods.get(n) {
+            Some(&Some(t)) => Param::circular(n.clone(), t),
+            Some(None) => Param::linear(n.clone()),
+            None => Param::with_default_period(n.clone()),
+        })
+        .collect();
+    PoseSpace::new(params).map_err(|e| Error::parse(csv_path, 1, e.to_string()))
 }
 
 /// Parses a dataset.toml: for each parameter named there, `Some(period)` or `None` (linear).
@@ -386,6 +486,10 @@ pub fn parse_dataset_toml(path: &Path, text: &str, names: &[String]) -> Result<H
 mod tests {
     use super::*;
 
+    fn err_of<T: std::fmt::Debug>(r: Result<T>) -> String {
+        r.unwrap_err().to_string()
+    }
+
     fn p() -> &'static Path {
         Path::new("poses.csv")
     }
@@ -414,6 +518,28 @@ mod tests {
         assert!(e.contains("not finite"), "{e}");
         let e = parse_poses_csv(p(), "image,azimuth\na.png,1,2\n").unwrap_err().to_string();
         assert!(e.contains("3 fields"), "{e}");
+    }
+
+    #[test]
+    fn object_column() {
+        let t = parse_poses_table(p(), "image,object,azimuth\na.png,cup,10\nb.png,7,20\n").unwrap();
+        assert_eq!((t.names, t.poses, t.objects), (sv(&["azimuth"]), vec![10.0, 20.0], Some(sv(&["cup", "7"]))));
+        assert_eq!(parse_poses_table(p(), "image,azimuth\na.png,1\n").unwrap().objects, None);
+        let e = err_of(parse_poses_table(p(), "image,object\na.png,cup\n"));
+        assert!(e.contains("no pose parameter") && e.contains("besides 'object'"), "{e}");
+        let e = err_of(parse_poses_table(p(), "image,object,azimuth,object\na.png,cup,1,cup\n"));
+        assert!(e.contains("column 'object' appears twice"), "{e}");
+        let e = err_of(parse_poses_table(p(), "image,object,azimuth\na.png,cup\n"));
+        assert!(e.contains(":2:") && e.contains("2 fields, but the header has 3 (image, object and 1 parameters)"), "{e}");
+        // One object: a manifest (the column dropped); several: refused.
+        let (n, i, v) = parse_poses_csv(p(), "image,object,azimuth\na.png,cup,10\nb.png,cup,20\n").unwrap();
+        assert_eq!((n, i, v), (sv(&["azimuth"]), sv(&["a.png", "b.png"]), vec![10.0, 20.0]));
+        let e = err_of(parse_poses_csv(p(), "image,object,azimuth\na.png,cup,10\nb.png,pot,20\n"));
+        assert!(e.contains("names 2 objects ('cup', 'pot')") && e.contains("several objects"), "{e}");
+    }
+
+    fn sv(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
     }
 
     #[test]

@@ -28,6 +28,7 @@
 
 use crate::atomic::write_atomic;
 use crate::model::{AnyModel, ModelMeta, PoseModel, Tensor, TensorData, TensorSet};
+use crate::recognize::{ObjectModel, ObjectSettings};
 use crate::{Error, Result};
 use safetensors::tensor::Dtype;
 use safetensors::SafeTensors;
@@ -45,17 +46,53 @@ pub const FORMAT_VERSION: u32 = 4;
 /// metadata keys are sorted and the tensors laid out as safetensors does (by decreasing
 /// alignment, then name), so the same model always gives the same bytes.
 pub fn to_bytes(model: &dyn PoseModel) -> Result<Vec<u8>> {
-    let mut tensors = model.tensors();
+    let mut meta = BTreeMap::new();
+    meta.insert("method", model.meta().method.clone());
+    meta.insert("linpose.meta", serde_json::to_string(model.meta()).expect("meta serialises"));
+    write_parts(meta, model.tensors())
+}
+
+/// Serialises a many-object model ([`ObjectModel`]) to safetensors bytes: the recogniser's
+/// arrays (`recognizer.*`), each object's pose model's arrays under `object.K.`, and in the
+/// metadata `kind = objects` with `linpose.objects`: the names, the recogniser's settings and
+/// each pose model's metadata.
+pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
+    let header = ObjectsHeader {
+        names: model.names().to_vec(),
+        settings: model.settings().clone(),
+        models: model.pose_models().iter().map(|p| p.meta().clone()).collect(),
+    };
+    let mut tensors = model.recognizer_tensors();
+    for (k, p) in model.pose_models().iter().enumerate() {
+        tensors.extend(p.tensors().into_iter().map(|t| Tensor { name: format!("object.{k}.{}", t.name), ..t }));
+    }
+    let mut meta = BTreeMap::new();
+    meta.insert("kind", OBJECTS_KIND.to_string());
+    meta.insert("method", model.method_name().to_string());
+    meta.insert("linpose.objects", serde_json::to_string(&header).expect("header serialises"));
+    write_parts(meta, tensors)
+}
+
+/// The `kind` metadata of a many-object model file (a file without it holds one pose model).
+const OBJECTS_KIND: &str = "objects";
+
+/// What a many-object model file's `linpose.objects` holds besides its arrays.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ObjectsHeader {
+    names: Vec<String>,
+    settings: ObjectSettings,
+    models: Vec<ModelMeta>,
+}
+
+/// The file's bytes: the `meta` entries with the format and its version, then the tensors.
+fn write_parts(mut meta: BTreeMap<&str, String>, mut tensors: Vec<Tensor>) -> Result<Vec<u8>> {
     let dtype = |t: &Tensor| match t.data {
         TensorData::F32(_) => Dtype::F32,
         TensorData::F64(_) => Dtype::F64,
     };
     tensors.sort_by(|a, b| dtype(b).cmp(&dtype(a)).then_with(|| a.name.cmp(&b.name)));
-    let mut meta = BTreeMap::new();
     meta.insert("format", "linpose".to_string());
     meta.insert("format_version", FORMAT_VERSION.to_string());
-    meta.insert("method", model.meta().method.clone());
-    meta.insert("linpose.meta", serde_json::to_string(model.meta()).expect("meta serialises"));
     let mut header = format!("{{\"__metadata__\":{}", json(&meta));
     let mut data = Vec::new();
     for t in &tensors {
@@ -108,6 +145,92 @@ pub fn load(path: &Path) -> Result<AnyModel> {
 
 /// Parses model file bytes (`path` names them in errors).
 pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
+    let (meta, tensors) = read_parts(path, bytes)?;
+    let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
+    if meta.get("kind").map(String::as_str) == Some(OBJECTS_KIND) {
+        return Err(err(
+            "this model file holds several objects (a recogniser and each object's pose model); read it as a many-object model (model_file::load_objects)"
+                .into(),
+        ));
+    }
+    let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
+    let meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
+    pose_model(meta, &tensors)
+}
+
+/// A pose model from its metadata and arrays: the method's own model, put back behind its
+/// normalisation stage when it has one.
+fn pose_model(mut meta: ModelMeta, tensors: &TensorSet) -> Result<AnyModel> {
+    let err = |m: String| Error::ModelFile { path: tensors.path.clone(), message: m };
+    validate_meta(&meta).map_err(err)?;
+    let stage = meta.normalize.take();
+    let method = crate::methods::find(&meta.method)
+        .ok_or_else(|| tensors.error(format!("unknown method '{}' (this linpose knows: {})", meta.method, crate::methods::names())))?;
+    let model = method.load(meta, tensors)?;
+    Ok(match stage {
+        Some(stage) => AnyModel::new(crate::normalize::Normalized::new(stage, model)),
+        None => model,
+    })
+}
+
+/// Writes a many-object model file atomically ([`objects_to_bytes`]).
+pub fn save_objects(model: &ObjectModel, path: &Path) -> Result<u64> {
+    let bytes = objects_to_bytes(model)?;
+    write_atomic(path, &bytes)?;
+    Ok(bytes.len() as u64)
+}
+
+/// Reads a many-object model file written by [`save_objects`].
+pub fn load_objects(path: &Path) -> Result<ObjectModel> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    objects_from_bytes(path, &bytes)
+}
+
+/// Parses many-object model file bytes (`path` names them in errors).
+pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
+    let (meta, tensors) = read_parts(path, bytes)?;
+    let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
+    if meta.get("kind").map(String::as_str) != Some(OBJECTS_KIND) {
+        return Err(err("this model file holds one object's pose model, not several objects' (read it with model_file::load)".into()));
+    }
+    let json = meta.get("linpose.objects").ok_or_else(|| err("model file has no linpose.objects".into()))?;
+    let header: ObjectsHeader = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
+    if header.models.len() != header.names.len() {
+        return Err(err(format!("damaged metadata: {} names for {} pose models", header.names.len(), header.models.len())));
+    }
+    let (mut own, mut rest): (Vec<Tensor>, Vec<Tensor>) = tensors.tensors.into_iter().partition(|t| t.name.starts_with("recognizer."));
+    let mut poses = Vec::with_capacity(header.models.len());
+    for (k, meta) in header.models.into_iter().enumerate() {
+        let prefix = format!("object.{k}.");
+        let (mine, others): (Vec<Tensor>, Vec<Tensor>) = rest.into_iter().partition(|t| t.name.starts_with(&prefix));
+        rest = others;
+        let set = TensorSet { path: path.to_path_buf(), tensors: mine.into_iter().map(|t| Tensor { name: t.name[prefix.len()..].to_string(), ..t }).collect() };
+        poses.push(pose_model(meta, &set)?);
+    }
+    own.extend(rest);
+    ObjectModel::from_parts(header.names, header.settings, &TensorSet { path: path.to_path_buf(), tensors: own }, poses)
+}
+
+/// Whether the model file at `path` holds several objects ([`load_objects`]) rather than one
+/// pose model ([`load`]); reads only its header.
+pub fn holds_objects(path: &Path) -> Result<bool> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut len = [0u8; 8];
+    let err = |m: &str| Error::ModelFile { path: path.to_path_buf(), message: m.to_string() };
+    f.read_exact(&mut len).map_err(|_| err("not a linpose model file (shorter than a safetensors header)"))?;
+    let n = u64::from_le_bytes(len);
+    if n > 100 << 20 {
+        return Err(err("not a linpose model file (a safetensors header over 100 MB)"));
+    }
+    let mut header = vec![0u8; n as usize];
+    f.read_exact(&mut header).map_err(|_| err("not a linpose model file (its header is cut short)"))?;
+    let v: serde_json::Value = serde_json::from_slice(&header).map_err(|_| err("not a linpose model file (its header is not JSON)"))?;
+    Ok(v.get("__metadata__").and_then(|m| m.get("kind")).and_then(|k| k.as_str()) == Some(OBJECTS_KIND))
+}
+
+/// The metadata and the arrays of a linpose safetensors file, its format version checked.
+fn read_parts(path: &Path, bytes: &[u8]) -> Result<(std::collections::HashMap<String, String>, TensorSet)> {
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
     let st = SafeTensors::deserialize(bytes).map_err(|e| err(format!("not a linpose model file (not a complete safetensors file: {e})")))?;
     let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| err(e.to_string()))?;
@@ -126,11 +249,6 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
             "model file format version {version} (written by {whose}), but this linpose reads version {FORMAT_VERSION}; retrain the model with this linpose"
         )));
     }
-    let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
-    let mut meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
-    validate_meta(&meta).map_err(err)?;
-    // The method's own model is read without the stage, then put behind it.
-    let stage = meta.normalize.take();
     let mut tensors = Vec::new();
     for (name, view) in st.tensors() {
         let data = match view.dtype() {
@@ -140,14 +258,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
         };
         tensors.push(Tensor { name, shape: view.shape().to_vec(), data });
     }
-    let tensors = TensorSet { path: path.to_path_buf(), tensors };
-    let method = crate::methods::find(&meta.method)
-        .ok_or_else(|| tensors.error(format!("unknown method '{}' (this linpose knows: {})", meta.method, crate::methods::names())))?;
-    let model = method.load(meta, &tensors)?;
-    Ok(match stage {
-        Some(stage) => AnyModel::new(crate::normalize::Normalized::new(stage, model)),
-        None => model,
-    })
+    Ok((meta.clone(), TensorSet { path: path.to_path_buf(), tensors }))
 }
 
 fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {

@@ -30,6 +30,11 @@ pub struct EvalArgs {
     /// The confidence under which an estimate is flagged.
     #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW)]
     pub flag_below: f64,
+    /// With a many-object model: when a query is none of its objects, replacing the model's
+    /// rule: `calibrated` (beyond the largest distance of the nearest object's held-out
+    /// training views), `off` (never), or a distance.
+    #[arg(long, value_name = "RULE")]
+    pub unknown: Option<String>,
 }
 
 /// Refused images listed by name on the terminal; the JSON has them all.
@@ -42,6 +47,12 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
     }
     if !(a.noise.is_finite() && (0.0..=1.0).contains(&a.noise)) {
         anyhow::bail!("--noise {} is outside [0, 1]: it is a fraction of full brightness (0.05 = +-5%)", a.noise);
+    }
+    if linpose::model_file::holds_objects(&a.model)? {
+        return crate::cmd::objects::eval(a);
+    }
+    if a.unknown.is_some() {
+        anyhow::bail!("--unknown: {} holds one object's pose model; the option is for a many-object model", a.model.display());
     }
     let model = linpose::model_file::load(&a.model)?;
     let manifest = a.data.manifest()?;

@@ -3,6 +3,7 @@
 pub mod eval;
 pub mod experiment;
 pub mod method_args;
+pub mod objects;
 pub mod predict;
 pub mod synth;
 pub mod train;

@@ -11,7 +11,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Images decoded and estimated per batch: bounds memory whatever the number of images.
-const BATCH: usize = 512;
+pub(crate) const BATCH: usize = 512;
 
 /// Arguments of `linpose predict`.
 #[derive(clap::Args, Debug)]
@@ -83,21 +83,29 @@ fn is_image_name(p: &Path) -> bool {
     matches!(p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("png" | "pgm" | "ppm" | "pnm"))
 }
 
-/// Runs `linpose predict`.
-pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
-    if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {
-        anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
-    }
-    let model = linpose::model_file::load(&a.model)?;
-    let meta = model.meta();
-    let (spec, space) = (meta.spec, &meta.space);
-    let m = spec.features();
+/// The images and folders given, then those of the --list file.
+fn query_paths(a: &PredictArgs) -> anyhow::Result<Vec<PathBuf>> {
     let mut paths = a.images.clone();
     if let Some(list) = &a.list {
         let text = std::fs::read_to_string(list).with_context(|| format!("{}: cannot read the list", list.display()))?;
         paths.extend(text.lines().map(str::trim).filter(|l| !l.is_empty()).map(PathBuf::from));
     }
-    let files = expand(&paths)?;
+    Ok(paths)
+}
+
+/// Runs `linpose predict`.
+pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
+    if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {
+        anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
+    }
+    if linpose::model_file::holds_objects(&a.model)? {
+        return crate::cmd::objects::predict(a, &expand(&query_paths(a)?)?);
+    }
+    let model = linpose::model_file::load(&a.model)?;
+    let meta = model.meta();
+    let (spec, space) = (meta.spec, &meta.space);
+    let m = spec.features();
+    let files = expand(&query_paths(a)?)?;
     let bar = progress(files.len() as u64, "estimating");
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());

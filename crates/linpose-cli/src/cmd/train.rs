@@ -41,6 +41,22 @@ pub struct TrainArgs {
     /// An image it cannot normalise is an error naming it.
     #[arg(long, value_enum, value_name = "WHAT", num_args = 0..=1, default_missing_value = "all")]
     pub normalize: Option<NormalizeArg>,
+    /// With a data set of many objects: how a query's object is told, `universal` (Murase &
+    /// Nayar's universal eigenspace, the nearest object manifold) or `linear` (the paper's
+    /// linear model with one-hot object targets). Default: universal.
+    #[arg(long, value_name = "NAME", value_parser = ["universal", "linear"])]
+    pub recognizer: Option<String>,
+    /// With many objects: dimensions of the universal eigenspace (default 20).
+    #[arg(long, value_name = "L")]
+    pub recognizer_components: Option<usize>,
+    /// With many objects: when a query is none of them: `calibrated` (the default: beyond the
+    /// largest distance of the nearest object's held-out training views), `off`, or a distance.
+    #[arg(long, value_name = "RULE")]
+    pub unknown: Option<String>,
+    /// With many objects: leave these objects (comma-separated names) out of training, e.g. to
+    /// measure how their views are reported unknown.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub leave_out: Vec<String>,
     /// The model file to write (safetensors).
     #[arg(long, value_name = "MODEL")]
     pub out: PathBuf,
@@ -99,6 +115,20 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     let normalize = a.normalize.map(NormalizeArg::params);
     if a.stream && normalize.is_some() {
         anyhow::bail!("--stream with --normalize: the normalisation is fitted in memory only");
+    }
+    let many_only = a.recognizer.is_some() || a.recognizer_components.is_some() || a.unknown.is_some() || !a.leave_out.is_empty();
+    if let linpose::Source::Many(_) = linpose::Source::open(&a.data.data, a.data.object)? {
+        if a.stream || normalize.is_some() {
+            anyhow::bail!("{}: a data set of many objects is fitted in memory and without --normalize (not yet: --stream, --normalize)", a.data.data.display());
+        }
+        let params = crate::cmd::objects::recognizer_params(a)?;
+        return crate::cmd::objects::train(a, &params, &spec);
+    }
+    if many_only {
+        anyhow::bail!(
+            "--recognizer, --recognizer-components, --unknown and --leave-out are for data sets of many objects; {} holds one",
+            a.data.data.display()
+        );
     }
     let t0 = Instant::now();
     let manifest = a.data.manifest()?;

@@ -1,0 +1,412 @@
+//! `train`, `eval` and `predict` on data sets of many objects: which object, then its pose, and
+//! "none of these" ([`linpose::recognize`]).
+
+use crate::cmd::eval::EvalArgs;
+use crate::cmd::method_args::as_flag;
+use crate::cmd::predict::PredictArgs;
+use crate::cmd::train::TrainArgs;
+use crate::common::{progress, write_json};
+use anyhow::Context;
+use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source, TrainSelection};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// The options of `train` that only a many-object data set takes, with the flag that gave each.
+pub fn recognizer_params(a: &TrainArgs) -> anyhow::Result<RecognizerParams> {
+    let kind = RecognizerKind::from_name(a.recognizer.as_deref().unwrap_or("universal")).map_err(|e| anyhow::anyhow!("--recognizer: {e}"))?;
+    let mut p = RecognizerParams::new(kind).unknown(parse_unknown(a.unknown.as_deref().unwrap_or("calibrated"))?);
+    if let Some(l) = a.recognizer_components {
+        p = p.components(l);
+    }
+    Ok(p)
+}
+
+/// `--unknown calibrated|off|D`.
+pub fn parse_unknown(s: &str) -> anyhow::Result<Unknown> {
+    match s {
+        "calibrated" => Ok(Unknown::Calibrated),
+        "off" => Ok(Unknown::Off),
+        t => match t.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(Unknown::Threshold(v)),
+            _ => anyhow::bail!("--unknown {t}: give calibrated, off, or a positive distance"),
+        },
+    }
+}
+
+/// Reads a many-object data set's objects (no pixels yet), dropping those `leave_out` names.
+fn catalog(dir: &Path, leave_out: &[String]) -> anyhow::Result<Catalog> {
+    let c = Catalog::open(dir)?;
+    if leave_out.is_empty() {
+        return Ok(c);
+    }
+    if let Some(n) = leave_out.iter().find(|n| !c.names().contains(n)) {
+        anyhow::bail!("--leave-out {n}: no such object in {} (it has {})", dir.display(), c.names().join(", "));
+    }
+    let keep: Vec<String> = c.names().iter().filter(|n| !leave_out.contains(n)).cloned().collect();
+    if keep.is_empty() {
+        anyhow::bail!("--leave-out leaves no object to train on");
+    }
+    Ok(c.select(&keep)?)
+}
+
+/// Decodes a catalog's images with a progress bar.
+fn load(c: &Catalog, color: linpose::image_io::ColorMode) -> anyhow::Result<ObjectSet> {
+    let bar = progress(c.total_images() as u64, "decoding images");
+    let set = c.load(color, &|n| bar.inc(n))?;
+    bar.finish_and_clear();
+    Ok(set)
+}
+
+#[derive(Serialize)]
+struct TrainSummary<'a> {
+    recognizer: &'static str,
+    method: &'a str,
+    data: String,
+    objects: &'a [String],
+    n_train: usize,
+    n_features: usize,
+    load_s: f64,
+    fit_s: f64,
+    model_bytes: usize,
+    recognizer_bytes: usize,
+    file_bytes: u64,
+    settings: &'a linpose::recognize::ObjectSettings,
+}
+
+/// `train` on a many-object data set.
+pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpec) -> anyhow::Result<()> {
+    let t0 = Instant::now();
+    let c = catalog(&a.data.data, &a.leave_out)?;
+    let selection = match (&a.train_step, &a.train_list) {
+        (Some(s), _) => TrainSelection::Step(*s),
+        (None, Some(list)) => TrainSelection::read_list(list)?,
+        (None, None) => TrainSelection::All,
+    };
+    let c = c.subset(&c.training_masks(&selection)?)?;
+    let train = load(&c, a.color.into())?;
+    let load_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let bar = progress(train.len() as u64 + 1, "fitting");
+    let model = ObjectModel::fit_with(&train, params, spec, &|k| bar.inc(k)).map_err(as_flag)?;
+    bar.finish_and_clear();
+    let fit_s = t1.elapsed().as_secs_f64();
+    let file_bytes = linpose::model_file::save_objects(&model, &a.out).context("writing the model")?;
+    let summary = TrainSummary {
+        recognizer: model.kind().name(),
+        method: model.method_name(),
+        data: a.data.data.display().to_string(),
+        objects: model.names(),
+        n_train: train.total_len(),
+        n_features: model.spec().features(),
+        load_s,
+        fit_s,
+        model_bytes: model.model_bytes(),
+        recognizer_bytes: model.recognizer_bytes(),
+        file_bytes,
+        settings: model.settings(),
+    };
+    eprintln!(
+        "trained the {} recogniser and {} pose models on {} objects ({} images of {}x{}) in {fit_s:.3} s (decoding {load_s:.3} s); model {} bytes ({} the recogniser) -> {}",
+        summary.recognizer,
+        summary.method,
+        model.names().len(),
+        summary.n_train,
+        model.spec().width,
+        model.spec().height,
+        summary.model_bytes,
+        summary.recognizer_bytes,
+        a.out.display()
+    );
+    if let Some(j) = &a.json {
+        write_json(j, &summary)?;
+    }
+    Ok(())
+}
+
+/// One evaluated image.
+#[derive(Serialize)]
+struct Sample {
+    /// Its object (the data set's name for it).
+    object: String,
+    image: String,
+    /// Whether the object is one the model knows.
+    known: bool,
+    /// Whether the view is one of the model's training views.
+    seen: bool,
+    /// The object recognised; null when reported unknown.
+    recognized: Option<String>,
+    /// The nearest object even when reported unknown.
+    nearest: String,
+    distance: f64,
+    confidence: f64,
+    /// The pose estimated by the recognised object's model (degrees); null when unknown.
+    pose: Option<Vec<f64>>,
+    /// Its error against the true pose (degrees); null when unknown.
+    error_deg: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Rates {
+    /// Views of known objects recognised as their object, over all their views.
+    all: f64,
+    /// The same over their unseen views (null when none).
+    unseen: Option<f64>,
+    n_all: usize,
+    n_unseen: usize,
+}
+
+#[derive(Serialize)]
+struct Rejection {
+    /// Views of objects the model does not know, and the share of them reported unknown
+    /// (null when the data set has none).
+    unknown_views: usize,
+    true_rejections: Option<f64>,
+    /// Unseen views of known objects, and the share of them reported unknown.
+    known_unseen_views: usize,
+    false_rejections: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct Report {
+    recognizer: &'static str,
+    method: String,
+    objects: Vec<String>,
+    n_eval: usize,
+    recognition: Rates,
+    unknown: Rejection,
+    /// Rows: the data set's objects; columns: the model's objects then "unknown".
+    confusion: BTreeMap<String, BTreeMap<String, usize>>,
+    /// Pose error of known objects' views recognised as their own object (degrees).
+    pose: PoseErrors,
+    predict_s: f64,
+    model_bytes: usize,
+    recognizer_bytes: usize,
+    samples: Vec<Sample>,
+}
+
+#[derive(Serialize)]
+struct PoseErrors {
+    all: Option<ErrorSummary>,
+    unseen: Option<ErrorSummary>,
+}
+
+/// The column of the confusion table for a query reported unknown.
+const UNKNOWN: &str = "unknown";
+
+/// `eval` with a many-object model.
+pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
+    let model = linpose::model_file::load_objects(&a.model)?;
+    let model = match &a.unknown {
+        Some(u) => model.with_unknown(parse_unknown(u)?)?,
+        None => model,
+    };
+    if a.noise != 0.0 {
+        anyhow::bail!("--noise with a many-object model: not supported yet (evaluate clean images)");
+    }
+    let c = match Source::open(&a.data.data, a.data.object)? {
+        Source::Many(c) => c,
+        Source::One(_) => anyhow::bail!(
+            "{}: the model knows {} objects ({}), but this data set holds one; give a many-object data set (a folder of object folders, a poses.csv with an object column, or a COIL folder without --object)",
+            a.data.data.display(),
+            model.names().len(),
+            model.names().join(", ")
+        ),
+    };
+    let data = load(&c, model.spec().color)?;
+    if data.spec() != model.spec() || data.space() != model.space() {
+        anyhow::bail!(
+            "{}: images of {}x{} with parameters {}, but the model was trained on {}x{} with {}",
+            a.data.data.display(),
+            data.spec().width,
+            data.spec().height,
+            params(data.space()),
+            model.spec().width,
+            model.spec().height,
+            params(model.space())
+        );
+    }
+    let names = model.names();
+    let mut samples = Vec::with_capacity(data.total_len());
+    let mut predict_s = 0.0;
+    let space = model.space();
+    for (name, d) in data.names().iter().zip(data.objects()) {
+        let truth = names.iter().position(|n| n == name);
+        let t = Instant::now();
+        let est = model.estimate(d.features(), 1)?;
+        predict_s += t.elapsed().as_secs_f64();
+        for (i, e) in est.into_iter().enumerate() {
+            let r = &e.recognition;
+            let seen = truth.is_some_and(|k| model.pose_model(k).meta().is_seen(d.pose(i)));
+            let pose = e.pose.map(|p| p.pose);
+            let error_deg = pose.as_ref().map(|p| space.error_deg(d.pose(i), p));
+            samples.push(Sample {
+                object: name.clone(),
+                image: d.manifest().images()[i].clone(),
+                known: truth.is_some(),
+                seen,
+                recognized: r.object.map(|k| names[k].clone()),
+                nearest: names[r.nearest].clone(),
+                distance: r.distance,
+                confidence: r.confidence,
+                pose,
+                error_deg,
+            });
+        }
+    }
+    let right = |s: &Sample| s.recognized.as_deref() == Some(s.object.as_str());
+    let known: Vec<&Sample> = samples.iter().filter(|s| s.known).collect();
+    let known_unseen: Vec<&Sample> = known.iter().copied().filter(|s| !s.seen).collect();
+    let unknown: Vec<&Sample> = samples.iter().filter(|s| !s.known).collect();
+    let share = |num: usize, den: usize| (den > 0).then(|| num as f64 / den as f64);
+    let recognition = Rates {
+        all: share(known.iter().filter(|s| right(s)).count(), known.len()).unwrap_or(0.0),
+        unseen: share(known_unseen.iter().filter(|s| right(s)).count(), known_unseen.len()),
+        n_all: known.len(),
+        n_unseen: known_unseen.len(),
+    };
+    let rejection = Rejection {
+        unknown_views: unknown.len(),
+        true_rejections: share(unknown.iter().filter(|s| s.recognized.is_none()).count(), unknown.len()),
+        known_unseen_views: known_unseen.len(),
+        false_rejections: share(known_unseen.iter().filter(|s| s.recognized.is_none()).count(), known_unseen.len()),
+    };
+    let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
+    for s in &samples {
+        *confusion.entry(s.object.clone()).or_default().entry(s.recognized.clone().unwrap_or_else(|| UNKNOWN.into())).or_default() += 1;
+    }
+    let errors = |v: &[&Sample]| ErrorSummary::of(&v.iter().filter(|s| right(s)).filter_map(|s| s.error_deg).collect::<Vec<f64>>());
+    let pose = PoseErrors { all: errors(&known), unseen: errors(&known_unseen) };
+    let report = Report {
+        recognizer: model.kind().name(),
+        method: model.method_name().to_string(),
+        objects: names.to_vec(),
+        n_eval: samples.len(),
+        recognition,
+        unknown: rejection,
+        confusion,
+        pose,
+        predict_s,
+        model_bytes: model.model_bytes(),
+        recognizer_bytes: model.recognizer_bytes(),
+        samples,
+    };
+    print_report(&report);
+    if let Some(j) = &a.json {
+        write_json(j, &report)?;
+    }
+    Ok(())
+}
+
+fn print_report(r: &Report) {
+    let pct = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{:.2}%", 100.0 * v));
+    println!("{} recogniser, {} pose models of {} objects; {} images evaluated", r.recognizer, r.method, r.objects.len(), r.n_eval);
+    println!(
+        "recognised: {} of the known objects' {} views, {} of their {} unseen views",
+        pct(Some(r.recognition.all)),
+        r.recognition.n_all,
+        pct(r.recognition.unseen),
+        r.recognition.n_unseen
+    );
+    println!(
+        "reported unknown: {} of {} views of objects the model does not know, {} of {} unseen views of known objects",
+        pct(r.unknown.true_rejections),
+        r.unknown.unknown_views,
+        pct(r.unknown.false_rejections),
+        r.unknown.known_unseen_views
+    );
+    let confused: Vec<String> = r
+        .confusion
+        .iter()
+        .flat_map(|(truth, row)| row.iter().filter(move |(got, _)| *got != truth).map(move |(got, n)| format!("{truth} as {got}: {n}")))
+        .collect();
+    if confused.is_empty() {
+        println!("confusions: none");
+    } else {
+        println!("confusions: {}", confused.join(", "));
+    }
+    println!("pose error of views recognised as their object (degrees):");
+    println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
+    for (name, s) in [("all", &r.pose.all), ("unseen", &r.pose.unseen)] {
+        if let Some(s) = s {
+            println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg);
+        }
+    }
+    println!("model {} bytes ({} the recogniser); estimation {:.4} s", r.model_bytes, r.recognizer_bytes, r.predict_s);
+}
+
+#[derive(Serialize)]
+struct Estimate<'a> {
+    image: &'a str,
+    object: Option<&'a str>,
+    nearest: &'a str,
+    distance: f64,
+    confidence: f64,
+    pose: Option<BTreeMap<&'a str, f64>>,
+}
+
+/// `predict` with a many-object model: each image's object, its confidence and its pose, or
+/// "unknown".
+pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<()> {
+    let model = linpose::model_file::load_objects(&a.model)?;
+    let (spec, space) = (model.spec(), model.space());
+    let m = spec.features();
+    let context = format!("the size of the model's training images ({})", a.model.display());
+    let bar = progress(files.len() as u64, "estimating");
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    for chunk in files.chunks(crate::cmd::predict::BATCH) {
+        let feats: Vec<f32> = {
+            use rayon::prelude::*;
+            let rows: Vec<Vec<f32>> =
+                chunk.par_iter().map(|p| linpose::image_io::read_query(p, spec, &context).map(features)).collect::<linpose::Result<_>>()?;
+            rows.concat()
+        };
+        debug_assert_eq!(feats.len(), chunk.len() * m);
+        let est = model.estimate(&feats, 1)?;
+        for (path, e) in chunk.iter().zip(&est) {
+            let name = path.display().to_string();
+            let r = &e.recognition;
+            let object = r.object.map(|k| model.names()[k].as_str());
+            if a.json {
+                let pose = e.pose.as_ref().map(|p| space.params().iter().map(|q| q.name.as_str()).zip(p.pose.iter().copied()).collect());
+                let row = Estimate { image: &name, object, nearest: &model.names()[r.nearest], distance: r.distance, confidence: r.confidence, pose };
+                serde_json::to_writer(&mut out, &row)?;
+                writeln!(out)?;
+            } else {
+                match object {
+                    Some(o) => write!(out, "{name}\tobject={o}\tconfidence={:.3}", r.confidence)?,
+                    None => {
+                        write!(out, "{name}\tobject=unknown\tnearest={}\tdistance={:.4}\tthreshold={:.4}", model.names()[r.nearest], r.distance, r.threshold)?
+                    }
+                }
+                if let Some(p) = &e.pose {
+                    for (q, v) in space.params().iter().zip(&p.pose) {
+                        write!(out, "\t{}={v:.4}", q.name)?;
+                    }
+                }
+                writeln!(out)?;
+            }
+        }
+        bar.inc(chunk.len() as u64);
+    }
+    bar.finish_and_clear();
+    out.flush()?;
+    Ok(())
+}
+
+/// A decoded query as features (an 8-bit image's values / 255, as the data set reader makes them).
+fn features(q: linpose::image_io::QueryImage) -> Vec<f32> {
+    match q {
+        linpose::image_io::QueryImage::Gray8(v) => v.iter().map(|&x| x as f32 * (1.0 / 255.0)).collect(),
+        linpose::image_io::QueryImage::Features(f) => f,
+    }
+}
+
+/// A pose space's parameter names, for a message.
+fn params(space: &linpose::PoseSpace) -> String {
+    space.params().iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", ")
+}

@@ -1,0 +1,130 @@
+//! The paper's linear model as a recogniser: the minimum-norm exact fit of one-hot object targets
+//! Y (N x K) to the training images, W = X^T G^-1 Y through the N x N Gram matrix G = X X^T of
+//! every object's training images (the pose fit's system with K right-hand sides: one more
+//! solve). A query's outputs o = W^T x; its distance to object k is ||o - e_k||, so the nearest
+//! object is the largest output. Images are taken as they are, as the paper's pose model takes
+//! them.
+//!
+//! A training view's outputs are exactly its one-hot target. Its held-out distance, what
+//! calibrates the unknown-object threshold, is that of its outputs from the fit without it and
+//! the other views of its fold (every other knot of its object along each axis held out, then
+//! the others, as the universal eigenspace holds them out): for the held-out block B the exact
+//! residuals E_B = [(G^-1)_BB]^-1 (G^-1 Y)_B, the block form of the leave-one-out identity
+//! e_i = (G^-1 Y)_i / (G^-1)_ii (docs/method.md), so the N x N system is factored once. Holding
+//! out a single view would leave its near twins (the other side of a symmetric object) in the
+//! fit and understate how far a fresh view lands.
+
+use crate::catalog::ObjectSet;
+use crate::dataset::Dataset;
+use crate::linalg::mat_from_rows;
+use crate::methods::eigenspace::chunk_rows;
+use crate::methods::eigenspace::manifold::Grid;
+use crate::methods::eigenspace::projector::Projector;
+use crate::methods::linear::GramSystem;
+use crate::model::{Tensor, TensorSet};
+use crate::Result;
+use faer::linalg::solvers::{DenseSolveCore, Solve};
+use faer::Mat;
+use rayon::prelude::*;
+
+/// The ridge, relative to the largest diagonal entry of G times N, that a singular G (repeated
+/// views) is solved with: ten times the pivot below which the Gram factorisation refuses a
+/// system as singular (`GramSystem::factor`), so the fit is the minimum-norm one to about that
+/// relative precision. Numerical, not tuned.
+const SINGULAR_RIDGE: f64 = 1e-12;
+
+/// A fitted linear recogniser: K coefficient images.
+#[derive(Debug, Clone)]
+pub(crate) struct LinearRecognizer {
+    /// W^T (K x M).
+    proj: Projector,
+    k: usize,
+}
+
+impl LinearRecognizer {
+    /// Fits on `all`, the training views of every object of `objects` row after row (object
+    /// 0's first). Returns the model and, per object, its views' held-out distances.
+    pub fn fit(objects: &ObjectSet, all: &Dataset) -> Result<(Self, Vec<Vec<f64>>)> {
+        let (n, m, k) = (all.len(), all.n_features(), objects.len());
+        let mut y = vec![0.0; n * k];
+        let mut offsets = Vec::with_capacity(k);
+        let mut row = 0;
+        for (c, d) in objects.objects().iter().enumerate() {
+            offsets.push(row);
+            for i in row..row + d.len() {
+                y[i * k + c] = 1.0;
+            }
+            row += d.len();
+        }
+        let g = crate::linalg::gram_f32(all.features(), n, m, None);
+        let sys = GramSystem { x: all.features(), m, g, p: mat_from_rows(&y, n, k), mean_x: None, mean_p: None };
+        // Views that repeat (a symmetric object's, say) make G singular while their targets
+        // agree: the minimum-norm fit is then the limit of the ridge fit as the ridge goes to
+        // zero, which a ridge just above the factorisation's refusal level gives.
+        let factor = match sys.factor(0.0, all) {
+            Ok(f) => f,
+            Err(_) => {
+                let scale = (0..n).map(|i| sys.g[(i, i)]).fold(0.0, f64::max);
+                sys.factor(scale * n as f64 * SINGULAR_RIDGE, all)?
+            }
+        };
+        let d = factor.solve(sys.p.as_ref());
+        let inv = factor.inverse();
+        let mut held_out = Vec::with_capacity(k);
+        for (d_obj, &start) in objects.objects().iter().zip(&offsets) {
+            let grid = Grid::new(all.space(), d_obj.poses(), d_obj.manifest().images(), d_obj.manifest().root())?;
+            let mut folds = crate::methods::refined::select::both_folds(d_obj, &grid);
+            if folds.is_empty() {
+                // Too few knots to hold every other one out: each view alone.
+                folds = (0..d_obj.len()).map(|i| (0..d_obj.len()).map(|j| j != i).collect()).collect();
+            }
+            let mut dist = Vec::new();
+            for keep in folds {
+                let block: Vec<usize> = (0..d_obj.len()).filter(|&i| !keep[i]).map(|i| start + i).collect();
+                let b = block.len();
+                let inv_bb = Mat::from_fn(b, b, |r, c| inv[(block[r], block[c])]);
+                let d_b = Mat::from_fn(b, k, |r, c| d[(block[r], c)]);
+                let e = inv_bb.partial_piv_lu().solve(d_b.as_ref());
+                dist.extend((0..b).map(|r| (0..k).map(|c| e[(r, c)].powi(2)).sum::<f64>().sqrt()));
+            }
+            held_out.push(dist);
+        }
+        let w: Vec<f32> = sys.weights(&d).iter().map(|&v| v as f32).collect();
+        Ok((LinearRecognizer { proj: Projector::new(&w, m), k }, held_out))
+    }
+
+    /// Each query's distance to each object's one-hot outputs into `out` (rows of K).
+    pub fn distances(&self, queries: &[f32], out: &mut [f64]) {
+        let (k, m) = (self.k, self.proj.rows().len() / self.k);
+        let rows = chunk_rows(queries.len() / m);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * k)).for_each(|(q, o)| {
+            let mut y = vec![0f32; q.len() / m * k];
+            self.proj.f32_products(&(0..k), q, &mut y);
+            for (y, o) in y.chunks_exact(k).zip(o.chunks_exact_mut(k)) {
+                let ss: f64 = y.iter().map(|&v| v as f64 * v as f64).sum();
+                for (j, o) in o.iter_mut().enumerate() {
+                    *o = (ss - 2.0 * y[j] as f64 + 1.0).max(0.0).sqrt();
+                }
+            }
+        });
+    }
+
+    /// Numbers stored: M K.
+    pub fn numbers(&self) -> usize {
+        self.proj.rows().len()
+    }
+
+    pub fn tensors(&self) -> Vec<Tensor> {
+        let m = self.proj.rows().len() / self.k;
+        vec![Tensor::f32("recognizer.weights", vec![self.k, m], self.proj.rows().to_vec())]
+    }
+
+    /// Reads back [`LinearRecognizer::tensors`] for `k` objects of `m` features.
+    pub fn from_parts(t: &TensorSet, k: usize, m: usize) -> Result<Self> {
+        let w = t.f32("recognizer.weights", &[k, m])?;
+        if w.iter().any(|v| !v.is_finite()) {
+            return Err(t.error("the linear recogniser holds non-finite weights"));
+        }
+        Ok(LinearRecognizer { proj: Projector::new(&w, m), k })
+    }
+}

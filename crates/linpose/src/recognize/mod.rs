@@ -1,0 +1,214 @@
+//! Many objects: which object an image shows, then its pose, and "none of these".
+//!
+//! Murase & Nayar recognise first and estimate the pose second: every object's training images
+//! share one "universal" eigenspace, each object is an appearance manifold in it, and a query is
+//! the object whose manifold holds the nearest point; the pose then comes from that object's own
+//! model. Okatani & Deguchi's linear model takes over "after object recognition is completed".
+//! linpose does the whole job with any pose method:
+//!
+//! - a **recogniser** ([`RecognizerKind`]) scores a query against every object with a distance
+//!   (smaller: more like that object): [`RecognizerKind::Universal`], the distance to each
+//!   object's manifold in the universal eigenspace (`universal.rs`), or
+//!   [`RecognizerKind::Linear`], the paper's minimum-norm linear model with one-hot object
+//!   targets (through the same Gram matrix as the pose fit, one more solve), the distance of
+//!   its K outputs from each object's one-hot vector (`linear.rs`);
+//! - **"none of these"**: the query is unknown when its distance to the nearest object exceeds
+//!   what that object's own held-out training views show ([`Unknown::Calibrated`]: the largest
+//!   distance of a training view to the object's model fitted without it, so a fresh view of a
+//!   known object, which lies between two training views, is rarely beyond it), or a threshold
+//!   given ([`Unknown::Threshold`]);
+//! - the **pose** of a recognised query comes from its object's own pose model, fitted by any
+//!   method ([`crate::MethodSpec`]).
+//!
+//! [`ObjectModel`] holds the recogniser, the thresholds, the objects' names and their pose
+//! models; [`crate::model_file`] saves it as one file.
+//!
+//! ```
+//! use linpose::image_io::{ColorMode, ImageSpec};
+//! use linpose::recognize::{ObjectModel, RecognizerParams};
+//! use linpose::{Dataset, Method, ObjectSet, Param, PoseSpace};
+//!
+//! // Two "objects" on a turntable, 36 views each of 64 pixels: a bright lobe turning round, and
+//! // two lobes.
+//! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
+//! let spec = ImageSpec { width: 64, height: 1, color: ColorMode::Gray };
+//! let image = |lobes: f64, a: f64| (0..64).map(move |p| {
+//!     let u = p as f64 / 64.0 * std::f64::consts::TAU;
+//!     (0.1 + (3.0 * ((lobes * (u - a.to_radians())).cos() - 1.0)).exp()) as f32
+//! });
+//! let poses: Vec<f64> = (0..36).map(|k| 10.0 * k as f64).collect();
+//! let object = |lobes: f64| Dataset::new(spec, poses.iter().flat_map(|&a| image(lobes, a)).collect(), space.clone(), poses.clone());
+//! let objects = ObjectSet::new(vec!["one".into(), "two".into()], vec![object(1.0)?, object(2.0)?])?;
+//!
+//! let pose = linpose::methods::eigenspace::METHOD.default_spec();
+//! let model = ObjectModel::fit(&objects, &RecognizerParams::default().components(6), &pose)?;
+//! let view: Vec<f32> = image(2.0, 123.0).collect(); // object "two", between training views
+//! let found = &model.estimate(&view, 1)?[0];
+//! assert_eq!(found.recognition.object, Some(1));
+//! assert!((found.pose.as_ref().unwrap().pose[0] - 123.0).abs() < 3.0);
+//! # Ok::<(), linpose::Error>(())
+//! ```
+
+mod linear;
+mod model;
+mod universal;
+
+#[cfg(test)]
+mod tests;
+
+pub use model::{ObjectEstimate, ObjectModel, ObjectSettings};
+
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// How a query's object is told.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RecognizerKind {
+    /// Murase & Nayar: the universal eigenspace of every object's unit-energy training images,
+    /// each object's spline manifold resampled densely in it, the nearest manifold point.
+    Universal,
+    /// The paper's minimum-norm linear model with one-hot object targets: K coefficient images,
+    /// the largest output wins.
+    Linear,
+}
+
+impl RecognizerKind {
+    /// Every recogniser, in the order the command line lists them.
+    pub const ALL: [RecognizerKind; 2] = [RecognizerKind::Universal, RecognizerKind::Linear];
+
+    /// Its name on the command line and in model files.
+    pub fn name(self) -> &'static str {
+        match self {
+            RecognizerKind::Universal => "universal",
+            RecognizerKind::Linear => "linear",
+        }
+    }
+
+    /// The recogniser of that name.
+    pub fn from_name(name: &str) -> Result<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|k| k.name()).collect();
+            Error::invalid("recognizer", name, format!("known recognisers: {}", names.join(", ")))
+        })
+    }
+
+    /// Its storage in the paper's Table 1 terms: the universal eigenspace stores its L
+    /// eigenimages and mean (M L + M) and every object's manifold points (N_dense L); the linear
+    /// recogniser K coefficient images (M K).
+    pub fn storage(self) -> &'static str {
+        match self {
+            RecognizerKind::Universal => "N_dense L + M L + M",
+            RecognizerKind::Linear => "M K",
+        }
+    }
+}
+
+/// When a query is reported as none of the known objects.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Unknown {
+    /// Beyond the largest distance any held-out training view of the nearest object shows (each
+    /// training view against its object's model fitted without it): calibrated per object.
+    Calibrated,
+    /// Beyond this distance, for every object.
+    Threshold(f64),
+    /// Never: every query is one of the known objects.
+    Off,
+}
+
+/// Parameters of a recogniser.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RecognizerParams {
+    /// Which recogniser.
+    pub kind: RecognizerKind,
+    /// Dimensions of the universal eigenspace (default 20, as Murase & Nayar; capped at N - 1).
+    pub components: usize,
+    /// The manifolds' resampling step in the universal eigenspace (degrees, default 0.5).
+    pub manifold_step: f64,
+    /// When a query is none of the objects (default: calibrated).
+    pub unknown: Unknown,
+}
+
+impl Default for RecognizerParams {
+    fn default() -> Self {
+        RecognizerParams { kind: RecognizerKind::Universal, components: 20, manifold_step: 0.5, unknown: Unknown::Calibrated }
+    }
+}
+
+impl RecognizerParams {
+    /// The recogniser `kind` with the other parameters' defaults.
+    pub fn new(kind: RecognizerKind) -> Self {
+        RecognizerParams { kind, ..Self::default() }
+    }
+
+    /// With `l` universal eigenspace dimensions.
+    pub fn components(mut self, l: usize) -> Self {
+        self.components = l;
+        self
+    }
+
+    /// With the manifolds resampled every `degrees`.
+    pub fn manifold_step(mut self, degrees: f64) -> Self {
+        self.manifold_step = degrees;
+        self
+    }
+
+    /// With the unknown-object rule `unknown`.
+    pub fn unknown(mut self, unknown: Unknown) -> Self {
+        self.unknown = unknown;
+        self
+    }
+
+    pub(crate) fn validate(&self) -> Result<()> {
+        if self.components == 0 {
+            return Err(Error::invalid("components", 0, "the universal eigenspace needs at least one dimension"));
+        }
+        if !(self.manifold_step.is_finite() && self.manifold_step > 0.0) {
+            return Err(Error::invalid("manifold step", self.manifold_step, "must be a positive number of degrees"));
+        }
+        if let Unknown::Threshold(t) = self.unknown {
+            if !(t.is_finite() && t > 0.0) {
+                return Err(Error::invalid("unknown threshold", t, "must be a positive distance"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Which object a query shows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Recognition {
+    /// The object's index ([`ObjectModel::names`]), `None` when the query is none of them.
+    pub object: Option<usize>,
+    /// The nearest object, even when the query is reported unknown.
+    pub nearest: usize,
+    /// The query's distance to the nearest object (the recogniser's measure).
+    pub distance: f64,
+    /// Its distance to the second nearest object (infinite with one object).
+    pub second: f64,
+    /// The distance beyond which the query is unknown for the nearest object.
+    pub threshold: f64,
+    /// How far the nearest object stands out from the second: 1 - (distance / second)^2, in
+    /// [0, 1] (0: a tie, 1: the second infinitely farther). A margin, not a probability.
+    pub confidence: f64,
+}
+
+impl Recognition {
+    /// The recognition of a query whose distances to the objects are `d` (finite, at least one)
+    /// with the per-object thresholds `thresholds`.
+    pub(crate) fn from_distances(d: &[f64], thresholds: &[f64]) -> Self {
+        let mut best = 0;
+        for k in 1..d.len() {
+            if d[k] < d[best] {
+                best = k;
+            }
+        }
+        let second = d.iter().enumerate().filter(|&(k, _)| k != best).map(|(_, &v)| v).fold(f64::INFINITY, f64::min);
+        let distance = d[best];
+        let confidence = if second.is_finite() && second > 0.0 { (1.0 - (distance / second).powi(2)).clamp(0.0, 1.0) } else { 1.0 };
+        let threshold = thresholds[best];
+        let object = if distance <= threshold { Some(best) } else { None };
+        Recognition { object, nearest: best, distance, second, threshold, confidence }
+    }
+}

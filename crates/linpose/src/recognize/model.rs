@@ -1,0 +1,307 @@
+//! [`ObjectModel`]: a recogniser, each object's unknown-object threshold, and each object's pose
+//! model, with the objects' names.
+
+use super::linear::LinearRecognizer;
+use super::universal::Universal;
+use super::{Recognition, RecognizerKind, RecognizerParams, Unknown};
+use crate::catalog::ObjectSet;
+use crate::confidence::Estimate;
+use crate::dataset::Dataset;
+use crate::image_io::ImageSpec;
+use crate::model::{check_queries, AnyModel, MethodSpec, PoseModel, Storage, Tensor, TensorSet};
+use crate::pose::PoseSpace;
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// A fitted recogniser.
+#[derive(Debug, Clone)]
+enum Recognizer {
+    Universal(Universal),
+    Linear(LinearRecognizer),
+}
+
+/// What an [`ObjectModel`] records about its recogniser: the parameters as given, what they
+/// resolved to, and what calibrated the thresholds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObjectSettings {
+    /// The parameters as given.
+    pub params: RecognizerParams,
+    /// Universal eigenspace dimensions kept (0 for the linear recogniser).
+    pub components: usize,
+    /// The fraction of the training energy (about the mean) they hold (1 for the linear
+    /// recogniser).
+    pub energy_kept: f64,
+    /// Per object, the largest distance of one of its held-out training views (infinite for an
+    /// object too sparse to hold views out; `null` in JSON).
+    #[serde(with = "infinite_as_null")]
+    pub held_out_max: Vec<f64>,
+    /// Per object, the median of those distances.
+    #[serde(with = "infinite_as_null")]
+    pub held_out_median: Vec<f64>,
+    /// Per object, the distance beyond which a query nearest to it is unknown (infinite: never).
+    #[serde(with = "infinite_as_null")]
+    pub thresholds: Vec<f64>,
+}
+
+/// A query's object and, when it is one of the known objects, its pose.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectEstimate {
+    /// Which object.
+    pub recognition: Recognition,
+    /// Its pose from the object's own model; `None` for an unknown object.
+    pub pose: Option<Estimate>,
+}
+
+/// Recognition then pose over several objects ([`crate::recognize`]).
+#[derive(Debug, Clone)]
+pub struct ObjectModel {
+    names: Vec<String>,
+    spec: ImageSpec,
+    space: PoseSpace,
+    recognizer: Recognizer,
+    settings: ObjectSettings,
+    poses: Vec<AnyModel>,
+}
+
+impl ObjectModel {
+    /// Fits the recogniser on every object's training views and `method` on each object's.
+    pub fn fit(objects: &ObjectSet, params: &RecognizerParams, method: &MethodSpec) -> Result<Self> {
+        Self::fit_with(objects, params, method, &|_| {})
+    }
+
+    /// As [`ObjectModel::fit`], calling `progress` with 1 after the recogniser and after each
+    /// object's pose model.
+    pub fn fit_with(objects: &ObjectSet, params: &RecognizerParams, method: &MethodSpec, progress: &(dyn Fn(u64) + Sync)) -> Result<Self> {
+        params.validate()?;
+        let all = concatenate(objects)?;
+        let (recognizer, components, energy_kept, held_out) = match params.kind {
+            RecognizerKind::Universal => {
+                let fit = Universal::fit(objects, &all, params)?;
+                (Recognizer::Universal(fit.model.clone()), fit.model.components(), fit.energy_kept, fit.held_out)
+            }
+            RecognizerKind::Linear => {
+                let (model, held_out) = LinearRecognizer::fit(objects, &all)?;
+                (Recognizer::Linear(model), 0, 1.0, held_out)
+            }
+        };
+        drop(all);
+        progress(1);
+        let held_out_max: Vec<f64> = held_out.iter().map(|v| if v.is_empty() { f64::INFINITY } else { v.iter().copied().fold(0.0, f64::max) }).collect();
+        let held_out_median: Vec<f64> = held_out.iter().map(|v| median(v)).collect();
+        let mut settings = ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new() };
+        settings.thresholds = thresholds(&settings, params.unknown);
+        let poses = objects
+            .objects()
+            .iter()
+            .zip(objects.names())
+            .map(|(d, name)| {
+                let m = method.fit(d).map_err(|e| Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}': {e}") });
+                progress(1);
+                m
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, settings, poses })
+    }
+
+    /// The objects' names, in the order of their indices.
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// The image size and preprocessing every query must have.
+    pub fn spec(&self) -> ImageSpec {
+        self.spec
+    }
+
+    /// The pose parameters.
+    pub fn space(&self) -> &PoseSpace {
+        &self.space
+    }
+
+    /// The recogniser.
+    pub fn kind(&self) -> RecognizerKind {
+        self.settings.params.kind
+    }
+
+    /// The recogniser's settings and calibration.
+    pub fn settings(&self) -> &ObjectSettings {
+        &self.settings
+    }
+
+    /// Object `k`'s pose model.
+    pub fn pose_model(&self, k: usize) -> &AnyModel {
+        &self.poses[k]
+    }
+
+    /// The pose method's name.
+    pub fn method_name(&self) -> &str {
+        &self.poses[0].meta().method
+    }
+
+    /// The same model with the unknown-object rule `unknown` (thresholds recomputed from the
+    /// stored calibration).
+    pub fn with_unknown(mut self, unknown: Unknown) -> Result<Self> {
+        let mut p = self.settings.params;
+        p.unknown = unknown;
+        p.validate()?;
+        self.settings.params = p;
+        self.settings.thresholds = thresholds(&self.settings, unknown);
+        Ok(self)
+    }
+
+    /// Each query's distance to each object (rows of K values): the recogniser's measure.
+    pub fn distances(&self, queries: &[f32]) -> Result<Vec<f64>> {
+        let m = self.spec.features();
+        check_queries(m, queries.len(), "query batch")?;
+        let n = queries.len() / m;
+        let mut out = vec![0.0; n * self.names.len()];
+        match &self.recognizer {
+            Recognizer::Universal(u) => u.distances(queries, &mut out),
+            Recognizer::Linear(l) => l.distances(queries, &mut out),
+        }
+        if let Some(i) = out.chunks_exact(self.names.len()).position(|d| d.iter().any(|v| !v.is_finite())) {
+            return Err(crate::model::unscalable_query(i));
+        }
+        Ok(out)
+    }
+
+    /// Which object each query shows.
+    pub fn recognize(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
+        let d = self.distances(queries)?;
+        Ok(d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect())
+    }
+
+    /// Each query's object and, for a known one, its pose from that object's model with up to
+    /// `top` hypotheses ([`PoseModel::estimate`]); queries of one object are estimated together.
+    pub fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<ObjectEstimate>> {
+        let rec = self.recognize(queries)?;
+        let m = self.spec.features();
+        let mut poses: Vec<Option<Estimate>> = vec![None; rec.len()];
+        for k in 0..self.names.len() {
+            let idx: Vec<usize> = (0..rec.len()).filter(|&i| rec[i].object == Some(k)).collect();
+            if idx.is_empty() {
+                continue;
+            }
+            let batch: Vec<f32> = idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            for (&i, e) in idx.iter().zip(self.poses[k].estimate(&batch, top)?) {
+                poses[i] = Some(e);
+            }
+        }
+        Ok(rec.into_iter().zip(poses).map(|(recognition, pose)| ObjectEstimate { recognition, pose }).collect())
+    }
+
+    /// Bytes of the numbers stored to serve queries, as [`PoseModel::model_bytes`] counts them:
+    /// the recogniser's (f32) and every pose model's.
+    pub fn model_bytes(&self) -> usize {
+        self.recognizer_bytes() + self.poses.iter().map(|p| p.model_bytes()).sum::<usize>()
+    }
+
+    /// Bytes of the recogniser's numbers (f32).
+    pub fn recognizer_bytes(&self) -> usize {
+        4 * match &self.recognizer {
+            Recognizer::Universal(u) => u.numbers(),
+            Recognizer::Linear(l) => l.numbers(),
+        }
+    }
+
+    /// The recogniser's storage in the paper's Table 1 terms ([`RecognizerKind::storage`]).
+    pub fn recognizer_storage(&self) -> Storage {
+        let m = self.spec.features();
+        match &self.recognizer {
+            Recognizer::Universal(u) => {
+                let (n, l) = (u.manifold_len(), u.components());
+                Storage::new(&[("N_dense", n), ("L", l), ("M", m)], u.numbers())
+            }
+            Recognizer::Linear(l) => Storage::new(&[("M", m), ("K", self.names.len())], l.numbers()),
+        }
+    }
+
+    /// The recogniser's arrays for a model file (names start with `recognizer.`).
+    pub(crate) fn recognizer_tensors(&self) -> Vec<Tensor> {
+        match &self.recognizer {
+            Recognizer::Universal(u) => u.tensors(),
+            Recognizer::Linear(l) => l.tensors(),
+        }
+    }
+
+    /// Every object's pose model.
+    pub(crate) fn pose_models(&self) -> &[AnyModel] {
+        &self.poses
+    }
+
+    /// Rebuilds a model from a model file's parts: the names, the settings, the recogniser's
+    /// arrays and the pose models (already read back).
+    pub(crate) fn from_parts(names: Vec<String>, settings: ObjectSettings, t: &TensorSet, poses: Vec<AnyModel>) -> Result<Self> {
+        let k = names.len();
+        let damaged = |m: String| t.error(format!("damaged object model: {m}"));
+        if k == 0 || poses.len() != k {
+            return Err(damaged(format!("{k} names for {} pose models", poses.len())));
+        }
+        settings.params.validate().map_err(|e| damaged(e.to_string()))?;
+        for v in [&settings.held_out_max, &settings.held_out_median, &settings.thresholds] {
+            if v.len() != k || v.iter().any(|x| x.is_nan() || *x < 0.0) {
+                return Err(damaged(format!("{} per-object values for {k} objects", v.len())));
+            }
+        }
+        let (spec, space) = (poses[0].meta().spec, poses[0].meta().space.clone());
+        if let Some(p) = poses.iter().find(|p| p.meta().spec != spec || p.meta().space != space || p.meta().method != poses[0].meta().method) {
+            return Err(damaged(format!("pose models of different image sizes, parameters or methods ({})", p.meta().method)));
+        }
+        let recognizer = match settings.params.kind {
+            RecognizerKind::Universal => {
+                if settings.components == 0 {
+                    return Err(damaged("a universal eigenspace of 0 dimensions".into()));
+                }
+                Recognizer::Universal(Universal::from_parts(t, k, spec.features(), settings.components)?)
+            }
+            RecognizerKind::Linear => Recognizer::Linear(LinearRecognizer::from_parts(t, k, spec.features())?),
+        };
+        Ok(ObjectModel { names, spec, space, recognizer, settings, poses })
+    }
+}
+
+/// Per object, the threshold `unknown` sets from the calibration in `s`.
+fn thresholds(s: &ObjectSettings, unknown: Unknown) -> Vec<f64> {
+    match unknown {
+        Unknown::Calibrated => s.held_out_max.clone(),
+        Unknown::Threshold(t) => vec![t; s.held_out_max.len()],
+        Unknown::Off => vec![f64::INFINITY; s.held_out_max.len()],
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::INFINITY;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
+
+/// Every object's training views in one data set, object after object.
+fn concatenate(objects: &ObjectSet) -> Result<Dataset> {
+    let total = objects.total_len() * objects.spec().features();
+    let mut features = Vec::new();
+    features
+        .try_reserve_exact(total)
+        .map_err(|_| Error::invalid("training set", objects.total_len(), "cannot hold every object's training images together in memory"))?;
+    let mut poses = Vec::new();
+    for d in objects.objects() {
+        features.extend_from_slice(d.features());
+        poses.extend_from_slice(d.poses());
+    }
+    Dataset::new(objects.spec(), features, objects.space().clone(), poses)
+}
+
+/// Per-object distances in JSON: an infinite one (JSON has no infinity) as `null`.
+mod infinite_as_null {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        v.iter().map(|&x| if x.is_finite() { Some(x) } else { None }).collect::<Vec<_>>().serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        Ok(Vec::<Option<f64>>::deserialize(d)?.into_iter().map(|x| x.unwrap_or(f64::INFINITY)).collect())
+    }
+}
