@@ -61,6 +61,18 @@ fn every_recogniser_tells_the_builtin_objects_apart_and_reproduces_its_training_
                 assert!(r.distance < 2e-3, "{kind:?}: training view at distance {}", r.distance);
             }
         }
+        // The recognition (for the universal eigenspace, a search pruned by bounding spheres) is
+        // that of the distances to every object.
+        for d in all.objects() {
+            let k = all.len();
+            let full = model.distances(d.features()).unwrap();
+            for (r, dist) in model.recognize(d.features()).unwrap().iter().zip(full.chunks_exact(k)) {
+                let mut sorted = dist.to_vec();
+                sorted.sort_by(f64::total_cmp);
+                assert_eq!((r.distance, r.second), (sorted[0], sorted[1]), "{kind:?}");
+                assert_eq!(dist[r.nearest], sorted[0]);
+            }
+        }
         let (seen_ok, seen, unseen_ok, unknown, unseen) = rates(&model, all, all.names());
         assert_eq!((seen_ok, unknown), (seen, 0), "{kind:?}");
         assert!(unseen_ok as f64 >= 0.97 * unseen as f64, "{kind:?}: {unseen_ok} of {unseen} unseen views recognised");

@@ -55,6 +55,15 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!("--unknown: {} holds one object's pose model; the option is for a many-object model", a.model.display());
     }
     let model = linpose::model_file::load(&a.model)?;
+    if let linpose::Source::Many(c) = linpose::Source::open(&a.data.data, a.data.object)? {
+        anyhow::bail!(
+            "{}: the data set holds {} objects ({}), but {} holds one object's pose model; train a many-object model on it, or give one object's data",
+            a.data.data.display(),
+            c.len(),
+            c.names().join(", "),
+            a.model.display()
+        );
+    }
     let manifest = a.data.manifest()?;
     let data = load_dataset(manifest, model.meta().spec.color)?;
     if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {

@@ -351,6 +351,12 @@ struct Estimate<'a> {
 /// `predict` with a many-object model: each image's object, its confidence and its pose, or
 /// "unknown".
 pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<()> {
+    if a.top.is_some() {
+        anyhow::bail!(
+            "--top with a many-object model ({}): not supported yet; each image gets its object, the confidence of that and its pose",
+            a.model.display()
+        );
+    }
     let model = linpose::model_file::load_objects(&a.model)?;
     let (spec, space) = (model.spec(), model.space());
     let m = spec.features();

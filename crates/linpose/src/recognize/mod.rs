@@ -205,7 +205,12 @@ impl Recognition {
             }
         }
         let second = d.iter().enumerate().filter(|&(k, _)| k != best).map(|(_, &v)| v).fold(f64::INFINITY, f64::min);
-        let distance = d[best];
+        Self::from_nearest(best, d[best], second, thresholds)
+    }
+
+    /// The recognition of a query whose nearest object is `best` at `distance`, the second
+    /// nearest at `second`.
+    pub(crate) fn from_nearest(best: usize, distance: f64, second: f64, thresholds: &[f64]) -> Self {
         let confidence = if second.is_finite() && second > 0.0 { (1.0 - (distance / second).powi(2)).clamp(0.0, 1.0) } else { 1.0 };
         let threshold = thresholds[best];
         let object = if distance <= threshold { Some(best) } else { None };

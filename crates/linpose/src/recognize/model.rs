@@ -31,8 +31,9 @@ pub struct ObjectSettings {
     /// The fraction of the training energy (about the mean) they hold (1 for the linear
     /// recogniser).
     pub energy_kept: f64,
-    /// Per object, the largest distance of one of its held-out training views (infinite for an
-    /// object too sparse to hold views out; `null` in JSON).
+    /// Per object, the largest distance of one of its held-out training views; for an object too
+    /// sparse to hold views out, the largest of the other objects' (infinite, `null` in JSON,
+    /// when no object can).
     #[serde(with = "infinite_as_null")]
     pub held_out_max: Vec<f64>,
     /// Per object, the median of those distances.
@@ -86,7 +87,12 @@ impl ObjectModel {
         };
         drop(all);
         progress(1);
-        let held_out_max: Vec<f64> = held_out.iter().map(|v| if v.is_empty() { f64::INFINITY } else { v.iter().copied().fold(0.0, f64::max) }).collect();
+        // An object too sparse to hold views out takes the largest threshold of the others (none
+        // calibrated: infinite, never unknown).
+        let own: Vec<Option<f64>> = held_out.iter().map(|v| (!v.is_empty()).then(|| v.iter().copied().fold(0.0, f64::max))).collect();
+        let widest = own.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
+        let widest = if widest.is_finite() { widest } else { f64::INFINITY };
+        let held_out_max: Vec<f64> = own.iter().map(|v| v.unwrap_or(widest)).collect();
         let held_out_median: Vec<f64> = held_out.iter().map(|v| median(v)).collect();
         let mut settings = ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new() };
         settings.thresholds = thresholds(&settings, params.unknown);
@@ -95,7 +101,10 @@ impl ObjectModel {
             .iter()
             .zip(objects.names())
             .map(|(d, name)| {
-                let m = method.fit(d).map_err(|e| Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}': {e}") });
+                let m = method.fit(d).map_err(|e| match e {
+                    Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
+                    e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}': {e}") },
+                });
                 progress(1);
                 m
             })
@@ -167,8 +176,18 @@ impl ObjectModel {
 
     /// Which object each query shows.
     pub fn recognize(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
-        let d = self.distances(queries)?;
-        Ok(d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect())
+        let Recognizer::Universal(u) = &self.recognizer else {
+            let d = self.distances(queries)?;
+            return Ok(d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect());
+        };
+        let m = self.spec.features();
+        check_queries(m, queries.len(), "query batch")?;
+        let mut near = vec![(0, 0.0, 0.0); queries.len() / m];
+        u.nearest_two(queries, &mut near);
+        if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
+            return Err(crate::model::unscalable_query(i));
+        }
+        Ok(near.into_iter().map(|(k, d1, d2)| Recognition::from_nearest(k, d1, d2, &self.settings.thresholds)).collect())
     }
 
     /// Each query's object and, for a known one, its pose from that object's model with up to

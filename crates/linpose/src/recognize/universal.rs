@@ -5,9 +5,9 @@
 //! that object's manifold, in the eigenspace (its residual off the eigenspace is the same for
 //! every object, so it would not change which object is nearest).
 //!
-//! The held-out distance of a training view is its distance to its object's manifold resampled
-//! from the object's other knots (every other knot held out along each axis, then the others:
-//! `refined::select::both_folds`), what calibrates the unknown-object threshold.
+//! The held-out distance of a training view is its distance to its object's manifold interpolated
+//! from the object's other knots, at its own pose (every other knot held out along each axis,
+//! then the others: `refined::select::both_folds`), what calibrates the unknown-object threshold.
 
 use super::RecognizerParams;
 use crate::catalog::ObjectSet;
@@ -17,6 +17,8 @@ use crate::methods::eigenspace::manifold::{Grid, Manifold};
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::eigenspace::projector::{unit_coords, Projector};
 use crate::methods::eigenspace::search::{NearestIndex, SearchKind};
+use crate::methods::refined::surface::Surface;
+use crate::methods::refined::Interpolant;
 use crate::model::{Tensor, TensorSet};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -33,6 +35,11 @@ pub(crate) struct Universal {
     /// Each object's manifold points (rows of L).
     points: Vec<Vec<f32>>,
     index: Vec<NearestIndex>,
+    /// Each object's bounding sphere: the centre of its points (rows of L) and the largest
+    /// distance of one from it, so a query's distance to the manifold is at least its distance to
+    /// the centre less the radius, and most objects are never searched ([`Universal::nearest_two`]).
+    centres: Vec<f32>,
+    radii: Vec<f64>,
 }
 
 /// What fitting measured: the eigenspace's dimension and energy, and each object's held-out
@@ -69,7 +76,7 @@ impl Universal {
             offset += d.len();
             let dense = Manifold::build(space, grid, coords, l, step)?;
             points.push(dense.points.iter().map(|&v| v as f32).collect::<Vec<f32>>());
-            held_out.push(held_out_distances(d, grid, coords, l, step)?);
+            held_out.push(held_out_distances(d, grid, coords, l)?);
         }
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         let model = Universal::new(to32(&pca.basis), to32(&pca.mean), points)?;
@@ -83,7 +90,21 @@ impl Universal {
         let rows = 0..l;
         let proj = Projector::new(&basis, m);
         let mean_proj = proj.dots_f64(&rows, &mean);
-        Ok(Universal { proj, mean, mean_proj, points, index })
+        let mut centres = vec![0f32; points.len() * l];
+        let mut radii = Vec::with_capacity(points.len());
+        for (p, c) in points.iter().zip(centres.chunks_exact_mut(l)) {
+            let n = (p.len() / l) as f64;
+            let mut c64 = vec![0f64; l];
+            for row in p.chunks_exact(l) {
+                c64.iter_mut().zip(row).for_each(|(a, &b)| *a += b as f64 / n);
+            }
+            c.iter_mut().zip(&c64).for_each(|(a, &b)| *a = b as f32);
+            // The radius from the f32 centre used at query time, widened by a relative 1e-5 for
+            // the f32 rounding of the distances it bounds.
+            let r = p.chunks_exact(l).map(|row| distance(row, c)).fold(0.0, f64::max);
+            radii.push(r * (1.0 + 1e-5) + 1e-6);
+        }
+        Ok(Universal { proj, mean, mean_proj, points, index, centres, radii })
     }
 
     /// Dimensions L.
@@ -105,12 +126,56 @@ impl Universal {
                     o.fill(f64::NAN);
                     continue;
                 }
-                for ((o, idx), pts) in o.iter_mut().zip(&self.index).zip(&self.points) {
-                    let p = &pts[idx.nearest(y) * l..][..l];
-                    *o = y.iter().zip(p).map(|(&a, &b)| (a as f64 - b as f64).powi(2)).sum::<f64>().sqrt();
+                for (k, o) in o.iter_mut().enumerate() {
+                    *o = self.distance_to(k, y);
                 }
             }
         });
+    }
+
+    /// Each query's nearest object, its distance and the second nearest object's distance (infinite
+    /// with one object), into `out`; a query that cannot be scaled to unit energy gets NaN
+    /// distances. Objects are searched in the order of their bounding spheres' lower bounds and
+    /// the search stops at the first bound beyond the second nearest distance found: the same
+    /// answer as searching them all ([`Universal::distances`]).
+    pub fn nearest_two(&self, queries: &[f32], out: &mut [(usize, f64, f64)]) {
+        let (l, m) = (self.components(), self.mean.len());
+        let n = queries.len() / m;
+        let rows = chunk_rows(n);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
+            let mut y = vec![0f32; q.len() / m * l];
+            self.proj.f32_products(&(0..l), q, &mut y);
+            let mut bounds: Vec<(f64, usize)> = Vec::with_capacity(self.radii.len());
+            for ((x, y), o) in q.chunks_exact(m).zip(y.chunks_exact_mut(l)).zip(o.iter_mut()) {
+                if unit_coords(crate::linalg::energy(x), &self.mean_proj, y).is_none() {
+                    *o = (0, f64::NAN, f64::NAN);
+                    continue;
+                }
+                bounds.clear();
+                bounds.extend(self.centres.chunks_exact(l).zip(&self.radii).enumerate().map(|(k, (c, r))| ((distance(y, c) - r).max(0.0), k)));
+                bounds.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let (mut best, mut d1, mut d2) = (0, f64::INFINITY, f64::INFINITY);
+                for &(lb, k) in bounds.iter() {
+                    if lb > d2 {
+                        break;
+                    }
+                    let d = self.distance_to(k, y);
+                    if d < d1 || (d == d1 && k < best) {
+                        (best, d1, d2) = (k, d, d1);
+                    } else if d < d2 {
+                        d2 = d;
+                    }
+                }
+                *o = (best, d1, d2);
+            }
+        });
+    }
+
+    /// The distance from coordinates `y` to object `k`'s nearest manifold point.
+    #[inline]
+    fn distance_to(&self, k: usize, y: &[f32]) -> f64 {
+        let l = self.components();
+        distance(y, &self.points[k][self.index[k].nearest(y) * l..][..l])
     }
 
     /// Numbers stored: the eigenimages, the mean, every manifold point.
@@ -153,23 +218,33 @@ impl Universal {
     }
 }
 
-/// Each training view's distance to the manifold resampled from its object's other knots (over
-/// both folds of every axis with enough knots; empty when none has).
-fn held_out_distances(train: &Dataset, grid: &Grid, coords: &[f64], l: usize, step: f64) -> Result<Vec<f64>> {
+/// The Euclidean distance between two rows of f32 coordinates, summed in f64.
+#[inline]
+fn distance(a: &[f32], b: &[f32]) -> f64 {
+    a.iter().zip(b).map(|(&x, &y)| (x as f64 - y as f64).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Each training view's distance to its object's manifold interpolated from the other knots (the
+/// same splines), at the view's own pose, over both folds of every axis with enough knots; empty
+/// when none has. At its pose, not to the nearest point anywhere: a view whose twin (the other
+/// side of a symmetric object) stays in the fold would otherwise measure nothing.
+fn held_out_distances(train: &Dataset, grid: &Grid, coords: &[f64], l: usize) -> Result<Vec<f64>> {
     let space = train.space();
     let mut out = Vec::new();
+    let mut f = vec![0.0; l];
     for keep in crate::methods::refined::select::both_folds(train, grid) {
         let kept: Vec<usize> = (0..train.len()).filter(|&i| keep[i]).collect();
         let poses: Vec<f64> = kept.iter().flat_map(|&i| train.pose(i).iter().copied()).collect();
         let names: Vec<String> = kept.iter().map(|&i| train.manifest().images()[i].clone()).collect();
         let sub = Grid::new(space, &poses, &names, train.manifest().root())?;
-        let knots: Vec<f64> = kept.iter().flat_map(|&i| coords[i * l..(i + 1) * l].iter().copied()).collect();
-        let dense = Manifold::build(space, &sub, &knots, l, step)?;
-        let held: Vec<usize> = (0..train.len()).filter(|&i| !keep[i]).collect();
-        out.par_extend(held.par_iter().map(|&i| {
-            let c = &coords[i * l..(i + 1) * l];
-            dense.points.chunks_exact(l).map(|p| p.iter().zip(c).map(|(a, b)| (a - b) * (a - b)).sum::<f64>()).fold(f64::INFINITY, f64::min).sqrt()
-        }));
+        let knots: Vec<f64> = sub.sample_at.iter().flat_map(|&k| coords[kept[k] * l..(kept[k] + 1) * l].iter().copied()).collect();
+        let surface = Surface::new(space, &sub.axes, &knots, l, Interpolant::Spline)?;
+        for i in (0..train.len()).filter(|&i| !keep[i]) {
+            let mut t = train.pose(i).to_vec();
+            surface.clamp(&mut t);
+            surface.eval(&t, &mut f, None);
+            out.push(coords[i * l..(i + 1) * l].iter().zip(&f).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt());
+        }
     }
     Ok(out)
 }
