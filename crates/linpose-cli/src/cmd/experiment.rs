@@ -3,11 +3,12 @@
 use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
 use anyhow::Context;
+use linpose::experiment::recognition::{self, RecognitionStudy};
 use linpose::experiment::{normalization, run_object, ObjectResult, StudyParams};
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{self, PoseGrid};
 use linpose::render::{objects, Grid, Jitter, RenderParams};
-use linpose::{Manifest, PoseModel};
+use linpose::{Dataset, Manifest, PoseModel, TrainSelection};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -145,8 +146,9 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(tmp.join("figures"))
         .and_then(|_| std::fs::create_dir_all(tmp.join("models")))
         .with_context(|| format!("{}: cannot create the report folder", tmp.display()))?;
-    let result = (|| -> anyhow::Result<(Vec<ObjectResult>, f64)> {
+    let result = (|| -> anyhow::Result<Studied> {
         let mut results = Vec::new();
+        let mut kept = Vec::new();
         let mut data_s = 0.0;
         for (name, src) in &sources {
             let td = Instant::now();
@@ -185,17 +187,33 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             for m in &r.models {
                 linpose::model_file::save(m, &tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
             }
+            // Every view kept (8-bit where exact) for the recognition study across the objects.
+            let mask = data.manifest().training_mask(&TrainSelection::Step(params.train_step))?;
+            kept.push((data.subset(&mask)?, Views::keep(data)));
             results.push(r);
         }
-        Ok((results, data_s))
+        Ok((results, data_s, kept))
     })();
-    let (mut results, mut data_s) = match result {
+    let (mut results, mut data_s, kept) = match result {
         Ok(r) => r,
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
             return Err(e);
         }
     };
+    let recognition = match recognition_study(&results, kept) {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            return Err(e);
+        }
+    };
+    let recognition = recognition.map(|mut s| {
+        if a.no_timings {
+            s.rows.iter_mut().for_each(|r| (r.fit_s, r.per_query_us) = (0.0, 0.0));
+        }
+        s
+    });
     if a.no_timings {
         data_s = 0.0;
         for r in &mut results {
@@ -222,6 +240,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         open_cases,
         data_s,
         total_s: if a.no_timings { 0.0 } else { t0.elapsed().as_secs_f64() },
+        recognition,
     };
     let written = (|| -> anyhow::Result<()> {
         let doc = report::build(&info, &results).map_err(|e| anyhow::anyhow!("drawing the figures: {e}"))?;
@@ -243,6 +262,61 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The per-object studies, the seconds spent making or reading the data, and each object's
+/// training views and every view (for the recognition study).
+type Studied = (Vec<ObjectResult>, f64, Vec<(Dataset, Views)>);
+
+/// An object's every view, kept for the recognition study: as 8-bit pixels when every feature
+/// is one (a quarter of the memory), else as they are.
+enum Views {
+    U8(Manifest, linpose::image_io::ImageSpec, Vec<u8>),
+    F32(Dataset),
+}
+
+impl Views {
+    fn keep(data: Dataset) -> Views {
+        let exact = data.features().iter().all(|&v| (v * 255.0).round() * (1.0 / 255.0) == v);
+        if exact {
+            let px = data.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+            Views::U8(data.manifest().clone(), data.spec(), px)
+        } else {
+            Views::F32(data)
+        }
+    }
+
+    fn dataset(&self) -> linpose::Result<Dataset> {
+        match self {
+            Views::U8(m, spec, px) => Dataset::from_features(m.clone(), *spec, px.iter().map(|&v| v as f32 * (1.0 / 255.0)).collect()),
+            Views::F32(d) => Ok(d.clone()),
+        }
+    }
+}
+
+/// The recognition study across the study's objects, when there are at least two of one image
+/// size and pose parameters (otherwise none).
+fn recognition_study(results: &[ObjectResult], kept: Vec<(Dataset, Views)>) -> anyhow::Result<Option<RecognitionStudy>> {
+    if kept.len() < 2 {
+        return Ok(None);
+    }
+    let (train, views): (Vec<Dataset>, Vec<Views>) = kept.into_iter().unzip();
+    if train.iter().any(|d| d.spec() != train[0].spec() || d.space() != train[0].space()) {
+        eprintln!("linpose: the objects differ in image size or pose parameters: no recognition study across them");
+        return Ok(None);
+    }
+    let names: Vec<String> = results.iter().map(|r| r.name.clone()).collect();
+    let set = linpose::ObjectSet::new(names, train)?;
+    let methods = results[0].models.len();
+    let poses: Vec<Vec<linpose::AnyModel>> = (0..methods).map(|m| results.iter().map(|r| r.models[m].clone()).collect()).collect();
+    let bar = progress((2 * (1 + set.len())) as u64, "recognition");
+    let study = recognition::run(&set, &|k| views[k].dataset(), &poses, &|s| {
+        bar.set_message(s.to_string());
+        bar.inc(1);
+    })
+    .context("the recognition study")?;
+    bar.finish_and_clear();
+    Ok(Some(study))
+}
+
 fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {
     println!("linpose experiment: {} objects, methods {}, {:.1} s", results.len(), info.methods.join(", "), info.total_s);
     let noisy: Vec<f64> = info.noise.iter().copied().filter(|&n| n > 0.0).collect();
@@ -259,6 +333,20 @@ fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {
                 print!(" {:>12.2}", v);
             }
             println!(" {:>12}", run.model_bytes);
+        }
+    }
+    if let Some(s) = &info.recognition {
+        for r in &s.rows {
+            let left = r.left_out_rejected.map_or(String::new(), |t| {
+                format!(", left out: {:.1}% of its views unknown, others' unseen {:.1}%", 100.0 * t, 100.0 * r.left_out_false.unwrap_or(f64::NAN))
+            });
+            println!(
+                "recognition ({} objects, {}): unseen {:.1}% recognised, {:.1}% reported unknown{left}",
+                s.objects.len(),
+                r.recognizer,
+                100.0 * r.recognized_unseen,
+                100.0 * r.false_rejections
+            );
         }
     }
     println!("errors: unseen-view mean, degrees. Report: {}", out.join("report.html").display());

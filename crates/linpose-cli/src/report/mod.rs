@@ -5,9 +5,11 @@ mod confidence;
 pub mod doc;
 mod normalization;
 pub mod plots;
+mod recognition;
 
 use confidence::{confidence_finding, confidence_section};
 use normalization::{normalization_finding, normalization_section};
+use recognition::{recognition_finding, recognition_section};
 
 use doc::{Block, Doc, FigureData};
 use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
@@ -38,6 +40,9 @@ pub struct StudyInfo {
     pub data_s: f64,
     /// Seconds for the whole study.
     pub total_s: f64,
+    /// Recognition on all the objects at once, when there were several of one image size.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recognition: Option<linpose::experiment::recognition::RecognitionStudy>,
 }
 
 pub(super) fn f(v: f64, d: usize) -> String {
@@ -201,6 +206,7 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
 
     confidence_section(&mut b, objects)?;
     normalization_section(&mut b, objects);
+    recognition_section(&mut b, info.recognition.as_ref());
 
     // Figures.
     b.push(Block::Heading(1, "Figures".into()));
@@ -329,6 +335,9 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
         }
     }
     let everything: Vec<&ObjectResult> = main.iter().chain(open).copied().collect();
+    if let Some(text) = recognition_finding(info.recognition.as_ref()) {
+        out.push(text);
+    }
     if let Some(text) = normalization_finding(&everything) {
         out.push(text);
     }

@@ -8,6 +8,7 @@
 //! table shows is in the returned [`ObjectResult`].
 
 pub mod normalization;
+pub mod recognition;
 
 use crate::dataset::Dataset;
 use crate::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};

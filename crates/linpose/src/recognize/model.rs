@@ -11,12 +11,13 @@ use crate::image_io::ImageSpec;
 use crate::model::{check_queries, AnyModel, MethodSpec, PoseModel, Storage, Tensor, TensorSet};
 use crate::pose::PoseSpace;
 use crate::{Error, Result};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// A fitted recogniser.
 #[derive(Debug, Clone)]
 enum Recognizer {
-    Universal(Universal),
+    Universal(Box<Universal>),
     Linear(LinearRecognizer),
 }
 
@@ -74,19 +75,62 @@ impl ObjectModel {
     /// object's pose model.
     pub fn fit_with(objects: &ObjectSet, params: &RecognizerParams, method: &MethodSpec, progress: &(dyn Fn(u64) + Sync)) -> Result<Self> {
         params.validate()?;
+        // The objects' pose models in parallel (a small fit leaves cores idle); the first failing
+        // object in order is the error, so it is the same on every run.
+        let fit = || -> Result<Vec<AnyModel>> {
+            let poses: Vec<Result<AnyModel>> = objects
+                .objects()
+                .par_iter()
+                .zip(objects.names())
+                .map(|(d, name)| {
+                    let m = method.fit(d).map_err(|e| match e {
+                        Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
+                        e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}': {e}") },
+                    });
+                    progress(1);
+                    m
+                })
+                .collect();
+            poses.into_iter().collect()
+        };
+        let recognise = || {
+            let r = Self::fit_recognizer(objects, params);
+            progress(1);
+            r
+        };
+        let (recognizer, poses) = rayon::join(recognise, fit);
+        let (recognizer, settings) = recognizer?;
+        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, settings, poses: poses? })
+    }
+
+    /// Fits the recogniser on every object's training views and puts the objects' pose models,
+    /// already fitted (one per object, in order, of the objects' image size and parameters),
+    /// behind it.
+    pub fn from_pose_models(objects: &ObjectSet, params: &RecognizerParams, poses: Vec<AnyModel>) -> Result<Self> {
+        params.validate()?;
+        if poses.len() != objects.len() {
+            return Err(Error::invalid("pose models", poses.len(), format!("one per object: {} objects", objects.len())));
+        }
+        if let Some((k, p)) = poses.iter().enumerate().find(|(_, p)| p.meta().spec != objects.spec() || p.meta().space != *objects.space()) {
+            return Err(Error::invalid("pose model", &objects.names()[k], format!("fitted on other images or parameters ({})", p.meta().method)));
+        }
+        let (recognizer, settings) = Self::fit_recognizer(objects, params)?;
+        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, settings, poses })
+    }
+
+    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams) -> Result<(Recognizer, ObjectSettings)> {
         let all = concatenate(objects)?;
         let (recognizer, components, energy_kept, held_out) = match params.kind {
             RecognizerKind::Universal => {
                 let fit = Universal::fit(objects, &all, params)?;
-                (Recognizer::Universal(fit.model.clone()), fit.model.components(), fit.energy_kept, fit.held_out)
+                let l = fit.model.components();
+                (Recognizer::Universal(Box::new(fit.model)), l, fit.energy_kept, fit.held_out)
             }
             RecognizerKind::Linear => {
                 let (model, held_out) = LinearRecognizer::fit(objects, &all)?;
                 (Recognizer::Linear(model), 0, 1.0, held_out)
             }
         };
-        drop(all);
-        progress(1);
         // An object too sparse to hold views out takes the largest threshold of the others (none
         // calibrated: infinite, never unknown).
         let own: Vec<Option<f64>> = held_out.iter().map(|v| (!v.is_empty()).then(|| v.iter().copied().fold(0.0, f64::max))).collect();
@@ -96,20 +140,7 @@ impl ObjectModel {
         let held_out_median: Vec<f64> = held_out.iter().map(|v| median(v)).collect();
         let mut settings = ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new() };
         settings.thresholds = thresholds(&settings, params.unknown);
-        let poses = objects
-            .objects()
-            .iter()
-            .zip(objects.names())
-            .map(|(d, name)| {
-                let m = method.fit(d).map_err(|e| match e {
-                    Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
-                    e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}': {e}") },
-                });
-                progress(1);
-                m
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, settings, poses })
+        Ok((recognizer, settings))
     }
 
     /// The objects' names, in the order of their indices.
@@ -271,7 +302,7 @@ impl ObjectModel {
                 if settings.components == 0 {
                     return Err(damaged("a universal eigenspace of 0 dimensions".into()));
                 }
-                Recognizer::Universal(Universal::from_parts(t, k, spec.features(), settings.components)?)
+                Recognizer::Universal(Box::new(Universal::from_parts(t, k, spec.features(), settings.components)?))
             }
             RecognizerKind::Linear => Recognizer::Linear(LinearRecognizer::from_parts(t, k, spec.features())?),
         };

@@ -16,7 +16,6 @@ use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::manifold::{Grid, Manifold};
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::eigenspace::projector::{unit_coords, Projector};
-use crate::methods::eigenspace::search::{NearestIndex, SearchKind};
 use crate::methods::refined::surface::Surface;
 use crate::methods::refined::Interpolant;
 use crate::model::{Tensor, TensorSet};
@@ -34,13 +33,29 @@ pub(crate) struct Universal {
     mean_proj: Vec<f32>,
     /// Each object's manifold points (rows of L).
     points: Vec<Vec<f32>>,
-    index: Vec<NearestIndex>,
-    /// Each object's bounding sphere: the centre of its points (rows of L) and the largest
-    /// distance of one from it, so a query's distance to the manifold is at least its distance to
-    /// the centre less the radius, and most objects are never searched ([`Universal::nearest_two`]).
+    /// The manifolds cut into segments of [`SEGMENT`] consecutive points (neighbours along the
+    /// last pose axis), each with a bounding sphere, and runs of [`GROUP`] segments of one object
+    /// into groups with a sphere of their own: a query's distance to a segment's points is at
+    /// least its distance to the centre less the radius, so most groups and segments are never
+    /// searched ([`Universal::nearest_two`]). Per segment: its object and first point.
+    segments: Vec<(u32, u32)>,
     centres: Vec<f32>,
     radii: Vec<f64>,
+    /// Per group: its object, first segment and number of segments; centres; radii.
+    groups: Vec<(u32, u32, u32)>,
+    group_centres: Vec<f32>,
+    group_radii: Vec<f64>,
 }
+
+/// Manifold points per segment of the pruned search: 16 points 0.5 degrees apart are an
+/// 8-degree arc, short enough for a tight sphere. Not tuned: the answer is exact whatever its
+/// value; only the speed depends on it.
+const SEGMENT: usize = 16;
+
+/// Segments per group of the pruned search's first level (256 points): a query's bounds are
+/// computed for every group, then for the segments of the groups within reach. Not tuned, as
+/// [`SEGMENT`].
+const GROUP: usize = 16;
 
 /// What fitting measured: the eigenspace's dimension and energy, and each object's held-out
 /// distances (empty for an object too sparse to hold knots out).
@@ -86,25 +101,39 @@ impl Universal {
     fn new(basis: Vec<f32>, mean: Vec<f32>, points: Vec<Vec<f32>>) -> Result<Self> {
         let m = mean.len();
         let l = basis.len() / m;
-        let index = points.iter().map(|p| NearestIndex::new(p, l, SearchKind::Auto)).collect::<Result<_>>()?;
+        if let Some(k) = points.iter().position(|p| p.is_empty() || !p.len().is_multiple_of(l)) {
+            return Err(Error::invalid("manifold points", points[k].len(), format!("object {k}: need whole rows of {l} coordinates")));
+        }
         let rows = 0..l;
         let proj = Projector::new(&basis, m);
         let mean_proj = proj.dots_f64(&rows, &mean);
-        let mut centres = vec![0f32; points.len() * l];
-        let mut radii = Vec::with_capacity(points.len());
-        for (p, c) in points.iter().zip(centres.chunks_exact_mut(l)) {
-            let n = (p.len() / l) as f64;
-            let mut c64 = vec![0f64; l];
-            for row in p.chunks_exact(l) {
-                c64.iter_mut().zip(row).for_each(|(a, &b)| *a += b as f64 / n);
+        let (mut segments, mut centres, mut radii) = (Vec::new(), Vec::new(), Vec::new());
+        for (k, p) in points.iter().enumerate() {
+            let n = p.len() / l;
+            for start in (0..n).step_by(SEGMENT) {
+                let (c, r) = sphere(&p[start * l..(start + SEGMENT).min(n) * l], l);
+                segments.push((k as u32, start as u32));
+                centres.extend(c);
+                radii.push(r);
             }
-            c.iter_mut().zip(&c64).for_each(|(a, &b)| *a = b as f32);
-            // The radius from the f32 centre used at query time, widened by a relative 1e-5 for
-            // the f32 rounding of the distances it bounds.
-            let r = p.chunks_exact(l).map(|row| distance(row, c)).fold(0.0, f64::max);
-            radii.push(r * (1.0 + 1e-5) + 1e-6);
         }
-        Ok(Universal { proj, mean, mean_proj, points, index, centres, radii })
+        let (mut groups, mut group_centres, mut group_radii) = (Vec::new(), Vec::new(), Vec::new());
+        let mut s0 = 0;
+        while s0 < segments.len() {
+            let k = segments[s0].0;
+            let mut s1 = s0;
+            while s1 < segments.len() && s1 - s0 < GROUP && segments[s1].0 == k {
+                s1 += 1;
+            }
+            let p = &points[k as usize];
+            let (a, b) = (segments[s0].1 as usize, (segments[s1 - 1].1 as usize + SEGMENT).min(p.len() / l));
+            let (c, r) = sphere(&p[a * l..b * l], l);
+            groups.push((k, s0 as u32, (s1 - s0) as u32));
+            group_centres.extend(c);
+            group_radii.push(r);
+            s0 = s1;
+        }
+        Ok(Universal { proj, mean, mean_proj, points, segments, centres, radii, groups, group_centres, group_radii })
     }
 
     /// Dimensions L.
@@ -135,9 +164,10 @@ impl Universal {
 
     /// Each query's nearest object, its distance and the second nearest object's distance (infinite
     /// with one object), into `out`; a query that cannot be scaled to unit energy gets NaN
-    /// distances. Objects are searched in the order of their bounding spheres' lower bounds and
-    /// the search stops at the first bound beyond the second nearest distance found: the same
-    /// answer as searching them all ([`Universal::distances`]).
+    /// distances. Manifold segments are searched in the order of their bounding spheres' lower
+    /// bounds and the search stops at the first bound beyond the second nearest object's distance
+    /// found: the same answer as searching every point ([`Universal::distances`]; ties to the
+    /// lower object index).
     pub fn nearest_two(&self, queries: &[f32], out: &mut [(usize, f64, f64)]) {
         let (l, m) = (self.components(), self.mean.len());
         let n = queries.len() / m;
@@ -145,37 +175,100 @@ impl Universal {
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
             self.proj.f32_products(&(0..l), q, &mut y);
-            let mut bounds: Vec<(f64, usize)> = Vec::with_capacity(self.radii.len());
+            let k_objects = self.points.len();
+            let (mut bounds, mut group_lb): (Vec<(f64, u32)>, Vec<f64>) = (Vec::new(), Vec::new());
+            let (mut best, mut lowest) = (vec![f64::INFINITY; k_objects], vec![(f64::INFINITY, 0u32); k_objects]);
             for ((x, y), o) in q.chunks_exact(m).zip(y.chunks_exact_mut(l)).zip(o.iter_mut()) {
                 if unit_coords(crate::linalg::energy(x), &self.mean_proj, y).is_none() {
                     *o = (0, f64::NAN, f64::NAN);
                     continue;
                 }
-                bounds.clear();
-                bounds.extend(self.centres.chunks_exact(l).zip(&self.radii).enumerate().map(|(k, (c, r))| ((distance(y, c) - r).max(0.0), k)));
-                bounds.sort_by(|a, b| a.0.total_cmp(&b.0));
-                let (mut best, mut d1, mut d2) = (0, f64::INFINITY, f64::INFINITY);
-                for &(lb, k) in bounds.iter() {
-                    if lb > d2 {
-                        break;
-                    }
-                    let d = self.distance_to(k, y);
-                    if d < d1 || (d == d1 && k < best) {
-                        (best, d1, d2) = (k, d, d1);
-                    } else if d < d2 {
-                        d2 = d;
+                // Every group's bound, and each object's group of least bound.
+                lowest.fill((f64::INFINITY, 0));
+                group_lb.clear();
+                for (g, (c, r)) in self.group_centres.chunks_exact(l).zip(&self.group_radii).enumerate() {
+                    let lb = (distance(y, c) - r).max(0.0);
+                    group_lb.push(lb);
+                    let k = self.groups[g].0 as usize;
+                    if lb < lowest[k].0 {
+                        lowest[k] = (lb, g as u32);
                     }
                 }
-                *o = (best, d1, d2);
+                // An upper bound on the second nearest object's distance: the exact distances to
+                // the groups of least bound of the two objects with the least bounds. Only the
+                // segments of groups within it, and themselves within it, can matter.
+                let reach = if k_objects > 1 {
+                    let mut by_object = lowest.clone();
+                    by_object.select_nth_unstable_by(1, |a, b| a.0.total_cmp(&b.0));
+                    by_object[..2].iter().map(|&(_, g)| self.group_distance(g as usize, y)).fold(0.0, f64::max)
+                } else {
+                    f64::INFINITY
+                };
+                bounds.clear();
+                for (g, &glb) in group_lb.iter().enumerate() {
+                    if glb > reach {
+                        continue;
+                    }
+                    let (_, first, count) = self.groups[g];
+                    for s in first as usize..(first + count) as usize {
+                        let lb = (distance(y, &self.centres[s * l..(s + 1) * l]) - self.radii[s]).max(0.0);
+                        if lb <= reach {
+                            bounds.push((lb, s as u32));
+                        }
+                    }
+                }
+                bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                best.fill(f64::INFINITY);
+                // The two nearest objects so far (distance, object); a segment whose bound exceeds
+                // the second cannot change them, nor one whose bound exceeds its own object's
+                // distance so far.
+                let (mut first, mut second) = ((f64::INFINITY, usize::MAX), (f64::INFINITY, usize::MAX));
+                for &(lb, s) in bounds.iter() {
+                    if lb > second.0 {
+                        break;
+                    }
+                    let k = self.segments[s as usize].0 as usize;
+                    if lb >= best[k] {
+                        continue;
+                    }
+                    let d = self.segment_distance(s as usize, y);
+                    if d < best[k] {
+                        best[k] = d;
+                        // Re-rank the two nearest objects with object k's new distance.
+                        if k == first.1 {
+                            first.0 = d;
+                        } else if (d, k) < first {
+                            second = first;
+                            first = (d, k);
+                        } else if k == second.1 || (d, k) < second {
+                            second = (d, k);
+                        }
+                    }
+                }
+                *o = (first.1, first.0, second.0);
             }
         });
     }
 
-    /// The distance from coordinates `y` to object `k`'s nearest manifold point.
+    /// The distance from coordinates `y` to the nearest point of group `g`.
+    fn group_distance(&self, g: usize, y: &[f32]) -> f64 {
+        let (_, first, count) = self.groups[g];
+        (first as usize..(first + count) as usize).map(|s| self.segment_distance(s, y)).fold(f64::INFINITY, f64::min)
+    }
+
+    /// The distance from coordinates `y` to the nearest point of segment `s`.
     #[inline]
-    fn distance_to(&self, k: usize, y: &[f32]) -> f64 {
+    fn segment_distance(&self, s: usize, y: &[f32]) -> f64 {
         let l = self.components();
-        distance(y, &self.points[k][self.index[k].nearest(y) * l..][..l])
+        let (k, start) = (self.segments[s].0 as usize, self.segments[s].1 as usize);
+        let p = &self.points[k];
+        let end = (start + SEGMENT).min(p.len() / l);
+        p[start * l..end * l].chunks_exact(l).map(|row| distance(y, row)).fold(f64::INFINITY, f64::min)
+    }
+
+    /// The distance from coordinates `y` to object `k`'s nearest manifold point (every point).
+    fn distance_to(&self, k: usize, y: &[f32]) -> f64 {
+        self.points[k].chunks_exact(self.components()).map(|row| distance(y, row)).fold(f64::INFINITY, f64::min)
     }
 
     /// Numbers stored: the eigenimages, the mean, every manifold point.
@@ -218,10 +311,40 @@ impl Universal {
     }
 }
 
-/// The Euclidean distance between two rows of f32 coordinates, summed in f64.
+/// The sphere bounding `rows` (of `l` coordinates): the f32 centre of the rows (as queries use it)
+/// and the largest distance of a row from it, widened by a relative 1e-5 for the rounding of
+/// the distances it bounds.
+fn sphere(rows: &[f32], l: usize) -> (Vec<f32>, f64) {
+    let count = (rows.len() / l) as f64;
+    let mut c64 = vec![0f64; l];
+    for row in rows.chunks_exact(l) {
+        c64.iter_mut().zip(row).for_each(|(a, &b)| *a += b as f64 / count);
+    }
+    let c: Vec<f32> = c64.iter().map(|&v| v as f32).collect();
+    let r = rows.chunks_exact(l).map(|row| distance(row, &c)).fold(0.0, f64::max);
+    (c, r * (1.0 + 1e-5) + 1e-6)
+}
+
+/// The Euclidean distance between two rows of f32 coordinates: the squared differences summed in
+/// eight f32 lanes (which the compiler vectorises), then in f64. Every distance the search
+/// compares is this function's, so its rounding (about 1e-7 relative) never changes which point
+/// is nearest between two ways of searching.
 #[inline]
 fn distance(a: &[f32], b: &[f32]) -> f64 {
-    a.iter().zip(b).map(|(&x, &y)| (x as f64 - y as f64).powi(2)).sum::<f64>().sqrt()
+    let mut acc = [0f32; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for j in 0..8 {
+            let d = x[j] - y[j];
+            acc[j] += d * d;
+        }
+    }
+    for (j, (x, y)) in ra.iter().zip(rb).enumerate() {
+        let d = x - y;
+        acc[j] += d * d;
+    }
+    acc.iter().map(|&v| v as f64).sum::<f64>().sqrt()
 }
 
 /// Each training view's distance to its object's manifold interpolated from the other knots (the

@@ -1,0 +1,165 @@
+//! Recognition, then pose, on all the study's objects at once ([`crate::recognize`]): each
+//! recogniser fitted on every object's training views, then every view of every object
+//! recognised and given its pose by the recognised object's model (each method's); and each
+//! object left out of training in turn, to measure how its views are reported unknown while the
+//! others' unseen views are not.
+
+use crate::catalog::ObjectSet;
+use crate::dataset::Dataset;
+use crate::model::{AnyModel, PoseModel};
+use crate::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// One recogniser over the study's objects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecognitionRow {
+    /// The recogniser's name.
+    pub recognizer: String,
+    /// Views of every object recognised as their object, over all views and over the unseen
+    /// ones (fractions).
+    pub recognized_all: f64,
+    /// See [`RecognitionRow::recognized_all`].
+    pub recognized_unseen: f64,
+    /// Unseen views reported unknown though their object is known (fraction).
+    pub false_rejections: f64,
+    /// With each object left out of training in turn: the share of its views reported unknown,
+    /// pooled over the objects (`None` with fewer than three objects).
+    pub left_out_rejected: Option<f64>,
+    /// With each object left out in turn: the share of the other objects' unseen views reported
+    /// unknown, pooled.
+    pub left_out_false: Option<f64>,
+    /// Per pose method: the unseen mean error (degrees) of the views recognised as their object,
+    /// from the recognised object's model.
+    pub pose_unseen: Vec<(String, f64)>,
+    /// Seconds to fit the recogniser (all objects).
+    pub fit_s: f64,
+    /// Microseconds per query of the recognition alone (all views, batched).
+    pub per_query_us: f64,
+    /// The recogniser's storage formula with its terms' values, and its bytes.
+    pub storage: String,
+    /// See [`RecognitionRow::storage`].
+    pub bytes: usize,
+}
+
+/// What [`run`] measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecognitionStudy {
+    /// The objects, in order.
+    pub objects: Vec<String>,
+    /// One row per recogniser.
+    pub rows: Vec<RecognitionRow>,
+}
+
+/// Runs the study. `train` holds every object's training views; `views(k)` gives every view of
+/// object k (called once per object and model: the views need not all be in memory at once);
+/// `poses[m][k]` is method m's model of object k fitted on those training views (at least one
+/// method).
+pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &[Vec<AnyModel>], progress: &dyn Fn(&str)) -> Result<RecognitionStudy> {
+    let k = train.len();
+    if k < 2 {
+        return Err(Error::invalid("objects", k, "recognition needs at least two objects"));
+    }
+    let mut rows = Vec::new();
+    for kind in RecognizerKind::ALL {
+        let params = RecognizerParams::new(kind);
+        progress(&format!("recognition: {}", kind.name()));
+        let t = Instant::now();
+        let first = poses.first().ok_or_else(|| Error::invalid("methods", 0, "the recognition study needs a pose method"))?;
+        let model = ObjectModel::from_pose_models(train, &params, first.clone())?;
+        let fit_s = t.elapsed().as_secs_f64();
+        let (mut ok_all, mut n_all, mut ok_unseen, mut n_unseen, mut rejected) = (0, 0, 0, 0, 0);
+        let mut errors: Vec<(f64, usize)> = vec![(0.0, 0); poses.len()];
+        let mut rec_s = 0.0;
+        for o in 0..k {
+            let data = views(o)?;
+            let t = Instant::now();
+            let rec = model.recognize(data.features())?;
+            rec_s += t.elapsed().as_secs_f64();
+            let seen: Vec<bool> = (0..data.len())
+                .map(|i| train.object(o).manifest().poses().chunks_exact(data.space().len()).any(|p| data.space().same_pose(p, data.pose(i), 1e-6)))
+                .collect();
+            let right: Vec<usize> = (0..data.len()).filter(|&i| rec[i].object == Some(o)).collect();
+            for (i, r) in rec.iter().enumerate() {
+                n_all += 1;
+                ok_all += (r.object == Some(o)) as usize;
+                if !seen[i] {
+                    n_unseen += 1;
+                    ok_unseen += (r.object == Some(o)) as usize;
+                    rejected += r.object.is_none() as usize;
+                }
+            }
+            // Pose of the unseen views recognised as their object, by each method's model of it.
+            let unseen_right: Vec<usize> = right.into_iter().filter(|&i| !seen[i]).collect();
+            if !unseen_right.is_empty() {
+                let m = data.n_features();
+                let q: Vec<f32> = unseen_right.iter().flat_map(|&i| data.row(i).iter().copied()).collect();
+                for (e, per_object) in errors.iter_mut().zip(poses) {
+                    let est = per_object[o].predict(&q)?;
+                    let d = data.space().len();
+                    for (j, &i) in unseen_right.iter().enumerate() {
+                        e.0 += data.space().error_deg(data.pose(i), &est[j * d..(j + 1) * d]);
+                    }
+                    e.1 += unseen_right.len();
+                }
+                debug_assert_eq!(q.len(), unseen_right.len() * m);
+            }
+        }
+        let (left_out_rejected, left_out_false) = if k >= 3 { left_out(train, views, first, &params, progress)? } else { (None, None) };
+        let s = model.recognizer_storage();
+        let terms: Vec<String> = s.terms.iter().map(|(n, v)| format!("{n} = {v}")).collect();
+        rows.push(RecognitionRow {
+            recognizer: kind.name().into(),
+            recognized_all: ok_all as f64 / n_all.max(1) as f64,
+            recognized_unseen: ok_unseen as f64 / n_unseen.max(1) as f64,
+            false_rejections: rejected as f64 / n_unseen.max(1) as f64,
+            left_out_rejected,
+            left_out_false,
+            pose_unseen: poses.iter().zip(&errors).map(|(p, e)| (p[0].meta().method.clone(), e.0 / e.1.max(1) as f64)).collect(),
+            fit_s,
+            per_query_us: rec_s / n_all.max(1) as f64 * 1e6,
+            storage: format!("{} = {} ({})", kind.storage(), s.numbers, terms.join(", ")),
+            bytes: model.recognizer_bytes(),
+        });
+    }
+    Ok(RecognitionStudy { objects: train.names().to_vec(), rows })
+}
+
+/// Each object left out of the recogniser's training in turn: the shares of its views reported
+/// unknown, and of the other objects' unseen views, pooled over the objects.
+fn left_out(
+    train: &ObjectSet,
+    views: &dyn Fn(usize) -> Result<Dataset>,
+    first: &[AnyModel],
+    params: &RecognizerParams,
+    progress: &dyn Fn(&str),
+) -> Result<(Option<f64>, Option<f64>)> {
+    let (mut rej, mut n, mut false_rej, mut n_known) = (0, 0, 0, 0);
+    for out in 0..train.len() {
+        progress(&format!("recognition: {} without {}", params.kind.name(), train.names()[out]));
+        let keep: Vec<String> = train.names().iter().enumerate().filter(|&(o, _)| o != out).map(|(_, s)| s.clone()).collect();
+        let sub = train.select(&keep)?;
+        // The kept objects' pose models are those already fitted (the recogniser alone decides
+        // what is unknown).
+        let kept: Vec<AnyModel> = first.iter().enumerate().filter(|&(o, _)| o != out).map(|(_, m)| m.clone()).collect();
+        let model = ObjectModel::from_pose_models(&sub, params, kept)?;
+        for o in 0..train.len() {
+            let data = views(o)?;
+            let rec = model.recognize(data.features())?;
+            if o == out {
+                n += rec.len();
+                rej += rec.iter().filter(|r| r.object.is_none()).count();
+            } else {
+                let poses = train.object(o).manifest().poses();
+                for (i, r) in rec.iter().enumerate() {
+                    if !poses.chunks_exact(data.space().len()).any(|p| data.space().same_pose(p, data.pose(i), 1e-6)) {
+                        n_known += 1;
+                        false_rej += r.object.is_none() as usize;
+                    }
+                }
+            }
+        }
+    }
+    Ok((Some(rej as f64 / n.max(1) as f64), Some(false_rej as f64 / n_known.max(1) as f64)))
+}
