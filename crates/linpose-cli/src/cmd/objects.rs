@@ -3,12 +3,12 @@
 
 use crate::cmd::eval::EvalArgs;
 use crate::cmd::method_args::as_flag;
-use crate::cmd::predict::PredictArgs;
+use crate::cmd::predict::{eight_bit_as_features, read_one, PredictArgs};
 use crate::cmd::train::TrainArgs;
 use crate::common::{progress, write_json};
 use anyhow::Context;
 use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
-use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source, TrainSelection};
+use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -81,12 +81,7 @@ struct TrainSummary<'a> {
 pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpec) -> anyhow::Result<()> {
     let t0 = Instant::now();
     let c = catalog(&a.data.data, &a.leave_out)?;
-    let selection = match (&a.train_step, &a.train_list) {
-        (Some(s), _) => TrainSelection::Step(*s),
-        (None, Some(list)) => TrainSelection::read_list(list)?,
-        (None, None) => TrainSelection::All,
-    };
-    let c = c.subset(&c.training_masks(&selection)?)?;
+    let c = c.subset(&c.training_masks(&a.selection()?)?)?;
     let train = load(&c, a.color.into())?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -365,13 +360,18 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for chunk in files.chunks(crate::cmd::predict::BATCH) {
-        let feats: Vec<f32> = {
+        // Decoded in parallel as `predict` decodes one object's queries, then all as features.
+        let (mut feats, mut pix) = (vec![0f32; chunk.len() * m], vec![0u8; chunk.len() * m]);
+        {
             use rayon::prelude::*;
-            let rows: Vec<Vec<f32>> =
-                chunk.par_iter().map(|p| linpose::image_io::read_query(p, spec, &context).map(features)).collect::<linpose::Result<_>>()?;
-            rows.concat()
-        };
-        debug_assert_eq!(feats.len(), chunk.len() * m);
+            feats
+                .par_chunks_mut(m)
+                .zip(pix.par_chunks_mut(m))
+                .zip(chunk.par_iter())
+                .map(|((f, p), path)| read_one(path, spec, &context, f, p))
+                .collect::<linpose::Result<Vec<bool>>>()?;
+        }
+        eight_bit_as_features(&mut feats, &pix, m);
         let est = model.estimate(&feats, 1)?;
         for (path, e) in chunk.iter().zip(&est) {
             let name = path.display().to_string();
@@ -402,14 +402,6 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     bar.finish_and_clear();
     out.flush()?;
     Ok(())
-}
-
-/// A decoded query as features (an 8-bit image's values / 255, as the data set reader makes them).
-fn features(q: linpose::image_io::QueryImage) -> Vec<f32> {
-    match q {
-        linpose::image_io::QueryImage::Gray8(v) => v.iter().map(|&x| x as f32 * (1.0 / 255.0)).collect(),
-        linpose::image_io::QueryImage::Features(f) => f,
-    }
 }
 
 /// A pose space's parameter names, for a message.

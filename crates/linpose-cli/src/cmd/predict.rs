@@ -225,7 +225,7 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
 
 /// The rows of `features` that [`read_one`] left 8-bit (NaN first value) made features from
 /// their `pixels` (value / 255), so a batch of mixed images can be estimated on features.
-fn eight_bit_as_features(features: &mut [f32], pixels: &[u8], m: usize) {
+pub(crate) fn eight_bit_as_features(features: &mut [f32], pixels: &[u8], m: usize) {
     for (f, p) in features.chunks_exact_mut(m).zip(pixels.chunks_exact(m)) {
         if f[0].is_nan() {
             f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
@@ -235,7 +235,7 @@ fn eight_bit_as_features(features: &mut [f32], pixels: &[u8], m: usize) {
 
 /// Decodes one image into `pixels` (8-bit gray, returning true) or else `features` (returning
 /// false; `features[0]` is NaN after an 8-bit image, marking the row to convert if needed).
-fn read_one(path: &Path, spec: linpose::image_io::ImageSpec, context: &str, features: &mut [f32], pixels: &mut [u8]) -> linpose::Result<bool> {
+pub(crate) fn read_one(path: &Path, spec: linpose::image_io::ImageSpec, context: &str, features: &mut [f32], pixels: &mut [u8]) -> linpose::Result<bool> {
     match read_query(path, spec, context)? {
         QueryImage::Gray8(v) => {
             pixels.copy_from_slice(&v);

@@ -65,6 +65,17 @@ pub struct TrainArgs {
     pub json: Option<PathBuf>,
 }
 
+impl TrainArgs {
+    /// The training views `--train-step` or `--train-list` pick (every view when neither).
+    pub fn selection(&self) -> anyhow::Result<TrainSelection> {
+        Ok(match (&self.train_step, &self.train_list) {
+            (Some(s), _) => TrainSelection::Step(*s),
+            (None, Some(list)) => TrainSelection::read_list(list)?,
+            (None, None) => TrainSelection::All,
+        })
+    }
+}
+
 /// What `--normalize` normalises.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NormalizeArg {
@@ -132,12 +143,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     }
     let t0 = Instant::now();
     let manifest = a.data.manifest()?;
-    let selection = match (&a.train_step, &a.train_list) {
-        (Some(s), _) => TrainSelection::Step(*s),
-        (None, Some(list)) => TrainSelection::read_list(list)?,
-        (None, None) => TrainSelection::All,
-    };
-    let manifest = manifest.subset(&manifest.training_mask(&selection)?)?;
+    let manifest = manifest.subset(&manifest.training_mask(&a.selection()?)?)?;
     let (model, load_s, fit_s, how) = if a.stream {
         let bar = crate::common::progress(manifest.len() as u64, "reading");
         let (model, how) = method.fit_streamed(&manifest, a.color.into(), settings, &|k| bar.inc(k)).map_err(as_flag)?;

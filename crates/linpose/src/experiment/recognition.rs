@@ -77,9 +77,7 @@ pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &
             let t = Instant::now();
             let rec = model.recognize(data.features())?;
             rec_s += t.elapsed().as_secs_f64();
-            let seen: Vec<bool> = (0..data.len())
-                .map(|i| train.object(o).manifest().poses().chunks_exact(data.space().len()).any(|p| data.space().same_pose(p, data.pose(i), 1e-6)))
-                .collect();
+            let seen: Vec<bool> = (0..data.len()).map(|i| first[o].meta().is_seen(data.pose(i))).collect();
             let right: Vec<usize> = (0..data.len()).filter(|&i| rec[i].object == Some(o)).collect();
             for (i, r) in rec.iter().enumerate() {
                 n_all += 1;
@@ -93,7 +91,6 @@ pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &
             // Pose of the unseen views recognised as their object, by each method's model of it.
             let unseen_right: Vec<usize> = right.into_iter().filter(|&i| !seen[i]).collect();
             if !unseen_right.is_empty() {
-                let m = data.n_features();
                 let q: Vec<f32> = unseen_right.iter().flat_map(|&i| data.row(i).iter().copied()).collect();
                 for (e, per_object) in errors.iter_mut().zip(poses) {
                     let est = per_object[o].predict(&q)?;
@@ -103,7 +100,6 @@ pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &
                     }
                     e.1 += unseen_right.len();
                 }
-                debug_assert_eq!(q.len(), unseen_right.len() * m);
             }
         }
         let (left_out_rejected, left_out_false) = if k >= 3 { left_out(train, views, first, &params, progress)? } else { (None, None) };
@@ -144,16 +140,15 @@ fn left_out(
         // what is unknown).
         let kept: Vec<AnyModel> = first.iter().enumerate().filter(|&(o, _)| o != out).map(|(_, m)| m.clone()).collect();
         let model = ObjectModel::from_pose_models(&sub, params, kept)?;
-        for o in 0..train.len() {
+        for (o, own) in first.iter().enumerate() {
             let data = views(o)?;
             let rec = model.recognize(data.features())?;
             if o == out {
                 n += rec.len();
                 rej += rec.iter().filter(|r| r.object.is_none()).count();
             } else {
-                let poses = train.object(o).manifest().poses();
                 for (i, r) in rec.iter().enumerate() {
-                    if !poses.chunks_exact(data.space().len()).any(|p| data.space().same_pose(p, data.pose(i), 1e-6)) {
+                    if !own.meta().is_seen(data.pose(i)) {
                         n_known += 1;
                         false_rej += r.object.is_none() as usize;
                     }

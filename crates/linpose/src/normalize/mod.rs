@@ -312,7 +312,8 @@ impl Normalizer {
     }
 }
 
-fn median64(v: &mut [f64]) -> f64 {
+/// The upper median of `v` (reordered; not empty).
+pub(crate) fn median64(v: &mut [f64]) -> f64 {
     let k = v.len() / 2;
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }

@@ -9,6 +9,7 @@ use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::model::{check_queries, AnyModel, MethodSpec, PoseModel, Storage, Tensor, TensorSet};
+use crate::normalize::median64;
 use crate::pose::PoseSpace;
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -120,7 +121,7 @@ impl ObjectModel {
 
     fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams) -> Result<(Recognizer, ObjectSettings)> {
         let all = concatenate(objects)?;
-        let (recognizer, components, energy_kept, held_out) = match params.kind {
+        let (recognizer, components, energy_kept, mut held_out) = match params.kind {
             RecognizerKind::Universal => {
                 let fit = Universal::fit(objects, &all, params)?;
                 let l = fit.model.components();
@@ -137,7 +138,7 @@ impl ObjectModel {
         let widest = own.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
         let widest = if widest.is_finite() { widest } else { f64::INFINITY };
         let held_out_max: Vec<f64> = own.iter().map(|v| v.unwrap_or(widest)).collect();
-        let held_out_median: Vec<f64> = held_out.iter().map(|v| median(v)).collect();
+        let held_out_median: Vec<f64> = held_out.iter_mut().map(|v| if v.is_empty() { f64::INFINITY } else { median64(v) }).collect();
         let mut settings = ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new() };
         settings.thresholds = thresholds(&settings, params.unknown);
         Ok((recognizer, settings))
@@ -317,15 +318,6 @@ fn thresholds(s: &ObjectSettings, unknown: Unknown) -> Vec<f64> {
         Unknown::Threshold(t) => vec![t; s.held_out_max.len()],
         Unknown::Off => vec![f64::INFINITY; s.held_out_max.len()],
     }
-}
-
-fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::INFINITY;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s[s.len() / 2]
 }
 
 /// Every object's training views in one data set, object after object.
