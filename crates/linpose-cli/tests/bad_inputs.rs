@@ -125,8 +125,9 @@ const CASES: &[Case] = &[
     obj!("missing_mtl_is_fine", 0, &[]),
     // Images (`linpose predict` with the 16x12 model).
     image!("truncated.png", 1, &["truncated.png", "cannot decode"]),
-    image!("jpeg_behind_png_name.png", 1, &["jpeg_behind_png_name.png", "JPEG", "PNG"]),
-    image!("text_behind_png_name.png", 1, &["text_behind_png_name.png", "not a PNG or PNM"]),
+    // The bytes, not the name, tell the format: a (cut) JPEG named .png is read as a JPEG.
+    image!("jpeg_behind_png_name.png", 1, &["jpeg_behind_png_name.png", "JPEG data in a .png file"]),
+    image!("text_behind_png_name.png", 1, &["text_behind_png_name.png", "not a PNG, PNM (PGM/PPM), JPEG or TIFF image"]),
     image!("huge_dimensions.png", 1, &["huge_dimensions.png", "100000x100000", "exceeds the limit"]),
     image!("huge_dimensions.pgm", 1, &["huge_dimensions.pgm", "65536x65536", "exceeds the limit"]),
     image!("zero_width.png", 1, &["zero_width.png", "cannot decode"]),
@@ -267,7 +268,7 @@ const CASES: &[Case] = &[
         &[("lists/empty.txt", "empty/readme.txt")],
         &["predict", "--model", "m.safetensors", "empty"],
         1,
-        &["empty", "no PNG, PGM or PPM"],
+        &["empty", "no PNG, PGM, PPM, JPEG or TIFF image"],
     ),
     case("predict_no_images", &[], &["predict", "--model", "m.safetensors"], 2, &["IMAGE"]),
     case("unknown_subcommand", &[], &["frobnicate"], 2, &["frobnicate"]),

@@ -2,7 +2,7 @@
 
 use crate::common::progress;
 use anyhow::Context;
-use linpose::image_io::{read_query, QueryImage};
+use linpose::image_io::{has_image_extension, read_query, QueryImage};
 use linpose::PoseModel;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -19,7 +19,8 @@ pub struct PredictArgs {
     /// The model file.
     #[arg(long, value_name = "MODEL")]
     pub model: PathBuf,
-    /// Images (PNG, PGM, PPM), or folders whose images are all estimated (sorted by name).
+    /// Images (PNG, PGM, PPM, JPEG, TIFF), or folders whose images are all estimated (their
+    /// .png, .pgm, .ppm, .pnm, .jpg, .jpeg, .tif and .tiff files, sorted by name).
     #[arg(value_name = "IMAGE", required_unless_present = "list")]
     pub images: Vec<PathBuf>,
     /// Also estimate the images listed in FILE, one path per line (for more paths than a
@@ -65,11 +66,11 @@ fn expand(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
             let mut files: Vec<PathBuf> = std::fs::read_dir(p)
                 .with_context(|| format!("{}: cannot list folder", p.display()))?
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|f| is_image_name(f))
+                .filter(|f| has_image_extension(f))
                 .collect();
             files.sort();
             if files.is_empty() {
-                anyhow::bail!("{}: the folder holds no PNG, PGM or PPM image", p.display());
+                anyhow::bail!("{}: the folder holds no PNG, PGM, PPM, JPEG or TIFF image (.png, .pgm, .ppm, .pnm, .jpg, .jpeg, .tif, .tiff)", p.display());
             }
             out.extend(files);
         } else {
@@ -77,10 +78,6 @@ fn expand(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
         }
     }
     Ok(out)
-}
-
-fn is_image_name(p: &Path) -> bool {
-    matches!(p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("png" | "pgm" | "ppm" | "pnm"))
 }
 
 /// The images and folders given, then those of the --list file.
