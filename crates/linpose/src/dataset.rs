@@ -36,6 +36,23 @@ impl Dataset {
         Self::from_features(manifest, spec, features)
     }
 
+    /// A data set of 8-bit images in memory: `pixels` holds one row of `spec.features()` values
+    /// per sample (gray levels, or interleaved channels for RGB), which become the features the
+    /// image reader makes of them (v / 255, the same bits), so the model is the one a folder of
+    /// the same images gives. Converted in parallel; 8-bit values need no finiteness check.
+    pub fn from_u8(spec: ImageSpec, pixels: &[u8], space: PoseSpace, poses: Vec<f64>) -> Result<Self> {
+        let n = poses.len() / space.len().max(1);
+        let manifest = Manifest::new("", space, (0..n).map(|i| format!("sample {i}")).collect(), poses)?;
+        if pixels.len() != n * spec.features() {
+            return Err(Error::Dataset {
+                path: manifest.root().to_path_buf(),
+                message: format!("{} pixel values for {n} images of {} features", pixels.len(), spec.features()),
+            });
+        }
+        let features = pixels.par_iter().with_min_len(1 << 16).map(|&v| crate::image_io::feature_of_u8(v)).collect();
+        Ok(Dataset { manifest, spec, features })
+    }
+
     /// Decodes every image of `manifest` (in parallel). All images must have the size of the
     /// first; `progress` is called with the number of images decoded since its last call.
     pub fn load(manifest: Manifest, color: ColorMode, progress: &(dyn Fn(u64) + Sync)) -> Result<Self> {

@@ -135,29 +135,42 @@ pub const DATASET_TOML: &str = "azimuth = { period = 360 }\nelevation = { linear
 /// / 255, exactly as if the images had been written and read back. `root` names the data set;
 /// `progress` is called with the number of images rendered since its last call.
 pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<Dataset> {
+    let manifest = grid.manifest(root)?;
+    let pixels = render_u8(mesh, grid, params, progress)?;
+    let spec = ImageSpec { width: params.get_width(), height: params.get_height(), color: ColorMode::Gray };
+    // The same f32 the image reader makes of an 8-bit pixel.
+    let features = pixels.par_iter().map(|&p| crate::image_io::feature_of_u8(p)).collect();
+    Dataset::from_features(manifest, spec, features)
+}
+
+/// Renders every pose of `grid` into memory as 8-bit gray images, one after another in the
+/// grid's order (row-major, width x height each): the pixels [`write_dataset`] would write.
+/// `progress` is called with the number of images rendered since its last call.
+pub fn render_u8(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, progress: &(dyn Fn(u64) + Sync)) -> Result<Vec<u8>> {
     if let Some(j) = &grid.jitter {
         j.fits(params)?;
     }
-    let manifest = grid.manifest(root)?;
-    let spec = ImageSpec { width: params.get_width(), height: params.get_height(), color: ColorMode::Gray };
-    let m = spec.features();
     Renderer::new(params)?;
-    let mut features = vec![0f32; grid.len() * m];
-    features.par_chunks_mut(m).enumerate().try_for_each_init(
-        || (Renderer::new(params).expect("validated"), vec![0u8; m]),
-        |(r, pixels), (i, row)| {
+    let m = params.get_width() as usize * params.get_height() as usize;
+    let total = grid.len().checked_mul(m).filter(|&t| t <= isize::MAX as usize);
+    let too_big = || Error::invalid("grid", grid.len(), format!("{} images of {m} pixels need more memory than can be allocated", grid.len()));
+    let total = total.ok_or_else(too_big)?;
+    let mut pixels: Vec<u8> = Vec::new();
+    pixels.try_reserve_exact(total).map_err(|_| too_big())?;
+    pixels.resize(total, 0);
+    pixels.par_chunks_mut(m).enumerate().try_for_each_init(
+        || Renderer::new(params).expect("validated"),
+        |r, (i, out)| {
             let (e, a) = grid.pose(i);
             if grid.jitter.is_some() {
                 r.set_params(&grid.params_of(i, params)?)?;
             }
-            r.render_into(mesh, a, e, pixels)?;
-            // The same f32 the image reader makes of an 8-bit pixel.
-            row.iter_mut().zip(pixels.iter()).for_each(|(f, &p)| *f = p as f32 * crate::kernels::levels::S8);
+            r.render_into(mesh, a, e, out)?;
             progress(1);
             Ok::<(), Error>(())
         },
     )?;
-    Dataset::from_features(manifest, spec, features)
+    Ok(pixels)
 }
 
 /// Encodes 8-bit gray pixels as a PNG, with fast compression.

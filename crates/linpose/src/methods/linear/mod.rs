@@ -367,13 +367,32 @@ pub(crate) fn expected_clipped(x: f64, a: f64) -> f64 {
     v.clamp(0.0, 1.0)
 }
 
+/// A hash of a row's bits: FNV-1a over eight interleaved lanes (the lanes' multiplies are
+/// independent, so the row is hashed at memory speed rather than one multiply's latency per
+/// value), then the lanes folded together. Equal rows have equal hashes; rows that share a hash
+/// are compared in full.
+fn row_hash(row: &[f32]) -> u64 {
+    const PRIME: u64 = 0x100000001b3;
+    let mut lanes = [0xcbf29ce484222325u64; 8];
+    let mut chunks = row.chunks_exact(8);
+    for c in &mut chunks {
+        for (h, v) in lanes.iter_mut().zip(c) {
+            *h = (*h ^ v.to_bits() as u64).wrapping_mul(PRIME);
+        }
+    }
+    for (h, v) in lanes.iter_mut().zip(chunks.remainder()) {
+        *h = (*h ^ (v.to_bits() as u64 | 1 << 32)).wrapping_mul(PRIME);
+    }
+    lanes.iter().fold(row.len() as u64, |a, &h| (a ^ h).wrapping_mul(PRIME))
+}
+
 /// Exact duplicate images under different poses make the problem impossible in principle (the
 /// paper, section 2): name the two images.
 fn check_duplicates(train: &Dataset) -> Result<()> {
     let mut seen: HashMap<u64, usize> = HashMap::new();
-    for i in 0..train.len() {
+    let hashes: Vec<u64> = train.features().par_chunks(train.n_features().max(1)).map(row_hash).collect();
+    for (i, &h) in hashes.iter().enumerate() {
         let row = train.row(i);
-        let h = row.iter().fold(0xcbf29ce484222325u64, |h, v| (h ^ v.to_bits() as u64).wrapping_mul(0x100000001b3));
         if let Some(&j) = seen.get(&h) {
             if train.row(j) == row {
                 let names = train.manifest().images();
@@ -491,8 +510,10 @@ impl LinearModel {
         Self::with_u8(meta, w64, w32, bias, spread)
     }
 
+    /// The model with its 8-bit serving weights, made from the f32 weights the model file holds,
+    /// so a fitted model and the same model read back from its file give the same bits.
     fn with_u8(meta: ModelMeta, w64: Vec<f64>, w32: Vec<f32>, bias: Vec<f64>, spread: Vec<f64>) -> Self {
-        let w8 = w64.iter().map(|&v| (v / 255.0) as f32).collect();
+        let w8 = w32.iter().map(|&v| (v as f64 / 255.0) as f32).collect();
         LinearModel { meta, w64, w32, w8, bias, spread }
     }
 

@@ -1,0 +1,487 @@
+"""The estimators: one per method, with scikit-learn's API.
+
+Each wraps a fitted model of the Rust library (``model_``). Images are a numpy array of shape
+``(n, h, w)``, or ``(n, pixels)`` with ``image_shape=(h, w)`` (without it, each row is an image
+of one row). ``uint8`` and ``uint16`` values are image levels (the feature is v / 255 or
+v / 65535, as when linpose reads an image file); floats are features as they are. Poses are
+degrees, ``(n, K)`` or ``(n,)`` for one parameter; ``predict`` returns the shape ``fit`` saw.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Optional, Sequence, Tuple, Union
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.exceptions import NotFittedError
+from sklearn.utils.validation import validate_data
+
+from . import _linpose
+
+ParamSpec = Union[str, Tuple[str, Optional[float]]]
+
+# Dtypes the Rust core reads as they are; others are converted to float64 first.
+_DTYPES = (np.float64, np.float32, np.uint8, np.uint16)
+_FAST = frozenset(np.dtype(t) for t in _DTYPES)
+
+
+def resolve_params(params: Optional[Sequence[ParamSpec]], k: int) -> list:
+    """The pose parameters as ``(name, period)`` pairs for poses of ``k`` values.
+
+    ``params`` lists each parameter as a name (``"azimuth"`` is circular with period 360, every
+    other name linear, as on the command line) or a ``(name, period)`` pair (period ``None``:
+    linear). Without it: ``azimuth`` for one value, ``elevation, azimuth`` for two, ``p0, p1,
+    ...`` (linear) for more.
+    """
+    if params is None:
+        names = {1: ["azimuth"], 2: ["elevation", "azimuth"]}.get(k, [f"p{i}" for i in range(k)])
+        params = names
+    out = []
+    for p in params:
+        if isinstance(p, str):
+            out.append((p, 360.0 if p == "azimuth" else None))
+        else:
+            try:
+                name, period = p
+            except (TypeError, ValueError):
+                raise ValueError(f"params: {p!r} is neither a name nor a (name, period) pair") from None
+            out.append((str(name), None if period is None else float(period)))
+    if len(out) != k:
+        raise ValueError(f"params names {len(out)} pose parameters ({', '.join(n for n, _ in out)}) but y has {k} columns")
+    return out
+
+
+def _flatten(X: Any, image_shape: Optional[Tuple[int, int]]) -> Tuple[Any, Optional[Tuple[int, int]]]:
+    """A 3-D image array as rows (a view when it can be), with its (h, w)."""
+    if isinstance(X, np.ndarray) and X.ndim == 3:
+        shape = (int(X.shape[1]), int(X.shape[2]))
+        if image_shape is not None and tuple(image_shape) != shape:
+            raise ValueError(f"X holds images of {shape[0]}x{shape[1]} (h x w) but image_shape is {tuple(image_shape)}")
+        return X.reshape(X.shape[0], shape[0] * shape[1]), shape
+    return X, None if image_shape is None else (int(image_shape[0]), int(image_shape[1]))
+
+
+class PoseEstimator(RegressorMixin, BaseEstimator):
+    """What the three estimators share: fit, predict, score, model files and pickling."""
+
+    _method = ""
+
+    def _settings(self) -> list:
+        """The method's settings by name, as the command line's flags give them."""
+        raise NotImplementedError
+
+    # -- fitting -------------------------------------------------------------------------------
+
+    def fit(self, X, y):
+        """Fits the model on images ``X`` at poses ``y`` (degrees).
+
+        Parameters
+        ----------
+        X : array of shape (n, h, w) or (n, pixels)
+            Training images. ``uint8``/``uint16`` are image levels, floats are features.
+        y : array of shape (n, K) or (n,)
+            Their poses in degrees, one column per pose parameter (see ``params``).
+
+        Returns
+        -------
+        self
+        """
+        X, shape = _flatten(X, self.image_shape)
+        fast = type(X) is np.ndarray and X.dtype in _FAST and X.ndim == 2 and X.shape[0] > 0 and X.shape[1] > 0
+        if fast and type(y) is np.ndarray and y.dtype.kind in "iuf" and y.ndim in (1, 2) and len(y) == len(X) and y.size > 0:
+            # Arrays the core reads as they are: scikit-learn's validation would cost a good share
+            # of a small fit; the core refuses non-finite values and bad shapes itself.
+            self.__dict__.pop("feature_names_in_", None)
+            self.n_features_in_ = X.shape[1]
+            X = np.ascontiguousarray(X)
+        else:
+            X, y = validate_data(self, X, y, dtype=_DTYPES, multi_output=True, y_numeric=True, order="C")
+        y = np.asarray(y, dtype=np.float64)
+        if not np.isfinite(y).all():
+            raise ValueError("Input y contains NaN or infinity: every pose must be finite.")
+        y_1d = y.ndim == 1
+        y2 = y.reshape(-1, 1) if y_1d else y
+        n, m = X.shape
+        if shape is None:
+            shape = (1, m)
+        if shape[0] * shape[1] != m:
+            raise ValueError(f"image_shape {shape} has {shape[0] * shape[1]} pixels but X has {m} values per image")
+        self._check_size(n, m)
+        params = resolve_params(self.params, y2.shape[1])
+        model = _linpose.fit(self._method, self._settings(), X, shape[0], shape[1], np.ascontiguousarray(y2), params, self.normalize)
+        self._set_fitted(model, y_1d)
+        return self
+
+    def _check_size(self, n: int, m: int) -> None:
+        """Refuses training sets the method cannot fit, in scikit-learn's words."""
+
+    def _set_fitted(self, model: Any, y_1d: bool) -> None:
+        self.model_ = model
+        self.image_shape_ = tuple(model.image_shape)
+        self.params_ = [tuple(p) for p in model.params]
+        self.n_features_in_ = model.n_features
+        self._y_1d = y_1d
+
+    # -- estimating ----------------------------------------------------------------------------
+
+    def _model(self) -> Any:
+        model = self.__dict__.get("model_")
+        if model is None:
+            raise NotFittedError(
+                f"This {type(self).__name__} instance is not fitted yet. Call 'fit' with appropriate arguments before using this estimator."
+            )
+        return model
+
+    def _rows(self, X: Any) -> Any:
+        """``X`` as rows of the model's features; arrays the core reads as they are skip
+        scikit-learn's validation, which would cost more than estimating one image."""
+        if type(X) is np.ndarray and X.dtype in _FAST and "feature_names_in_" not in self.__dict__:
+            if X.ndim == 3:
+                X = X.reshape(X.shape[0], X.shape[1] * X.shape[2])
+            if X.ndim == 2:
+                if X.shape[1] != self.n_features_in_:
+                    raise ValueError(
+                        f"X has {X.shape[1]} features, but {type(self).__name__} is expecting {self.n_features_in_} features as input."
+                    )
+                return X
+        X, _ = _flatten(X, None)
+        return validate_data(self, X, reset=False, dtype=_DTYPES, order="C")
+
+    def predict(self, X):
+        """The pose of each image, degrees: (n, K), or (n,) when fitted on a 1-D ``y``.
+
+        Circular parameters come back within one period from 0 (``[0, period)``).
+        """
+        model = self._model()
+        out = model.predict(self._rows(X))
+        return out[:, 0] if self._y_1d else out
+
+    def predict_hypotheses(self, X, top: int = 3):
+        """The estimate of each image with its ranked hypotheses and a confidence.
+
+        Returns ``(pose, confidence, hypotheses, scores)``: ``pose`` as ``predict`` (but always
+        (n, K)), ``confidence`` (n,) in [0, 1] (how likely the estimate is within 20 degrees
+        of the truth, as judged from the training views), ``hypotheses`` (n, top, K) best first
+        and ``scores`` (n, top), padded with NaN where fewer distinct poses were found.
+        """
+        return self._model().estimate(self._rows(X), int(top))
+
+    def score(self, X, y, sample_weight=None):
+        """Minus the mean pose error in degrees (the angle on the viewing sphere between the
+        true and the estimated pose, as ``linpose eval``): higher is better, 0 is perfect."""
+        model = self._model()
+        pred = model.predict(self._rows(X))
+        y = np.asarray(y, dtype=np.float64).reshape(pred.shape[0], -1)
+        err = _linpose.pose_error(np.ascontiguousarray(y), pred, self.params_)
+        return -float(np.average(err, weights=sample_weight))
+
+    # -- model files and pickling --------------------------------------------------------------
+
+    def save(self, path) -> int:
+        """Writes the model file (the command line's format; written atomically). Returns its
+        size in bytes."""
+        return self._model().save(str(path))
+
+    def to_bytes(self) -> bytes:
+        """The model file's bytes."""
+        return self._model().to_bytes()
+
+    def __getstate__(self):
+        state = super().__getstate__()
+        if "model_" in state:
+            state = dict(state)
+            state["model_"] = state["model_"].to_bytes()
+        return state
+
+    def __setstate__(self, state):
+        if isinstance(state.get("model_"), (bytes, bytearray)):
+            state = dict(state)
+            state["model_"] = _linpose.Model.from_bytes(bytes(state["model_"]))
+        super().__setstate__(state)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        # score is minus an angle in degrees, not an R^2: scikit-learn's "> 0.5" does not apply.
+        tags.regressor_tags.poor_score = True
+        tags.input_tags.allow_nan = False
+        return tags
+
+    # -- what the model learnt -----------------------------------------------------------------
+
+    @property
+    def settings_(self) -> dict:
+        """The method's settings as given and as chosen (e.g. an automatic choice), from the
+        model."""
+        return json.loads(self._model().settings_json)
+
+    @property
+    def model_bytes_(self) -> int:
+        """Bytes of the numbers the model stores to serve queries (the paper's Table 1)."""
+        return self._model().model_bytes
+
+
+class LinearPose(PoseEstimator):
+    """Okatani & Deguchi's linear model: each pose parameter a linear function of the pixels.
+
+    Circular parameters are estimated as (cos, sin) pairs; the fit is the minimum-norm exact
+    solution through the N x N Gram matrix of the training images (MVA 2000), optionally
+    ridge-regularised.
+
+    Parameters
+    ----------
+    ridge : float or "auto", default=0.0
+        Ridge lambda added to the Gram matrix (0: the paper's exact minimum-norm fit), or
+        "auto": the lambda with the smallest exact leave-one-out error.
+    noise_level : float or "auto", default=None
+        Train for query noise of +-A (a fraction of full brightness): lambda = N A^2 / 3; "auto"
+        estimates the noise of the training images. Not with ``ridge``.
+    center : bool, default=False
+        Subtract the mean image and pose first (an intercept; the paper has none).
+    params : list of names or (name, period) pairs, default=None
+        The pose parameters, one per column of ``y``: ``"azimuth"`` is circular (360), other
+        names linear; ``("roll", 360)`` makes any circular. Default: ``azimuth`` for one
+        column, ``elevation, azimuth`` for two.
+    image_shape : (h, w), default=None
+        The image size when ``X`` is given as rows; (n, h, w) arrays carry it.
+    normalize : {None, "all", "geometry", "brightness"}, default=None
+        Find the object in every image and centre it, scale it to a fixed size and/or bring it
+        to a fixed brightness before the model sees it (stored in the model; queries too).
+
+    Attributes
+    ----------
+    model_ : linpose._linpose.Model
+        The fitted model (the Rust library's).
+    coef_ : ndarray of shape (K_enc, h * w)
+        The weights: one row per encoded output ((cos, sin) rows for a circular parameter,
+        one row for a linear one), so ``coef_[j].reshape(image_shape_)`` is the paper's Fig. 2.
+    intercept_ : ndarray of shape (K_enc,)
+        The bias of each encoded output (0 without ``center``).
+    params_ : list of (name, period)
+        The pose parameters.
+    image_shape_ : (h, w)
+        The image size.
+    n_features_in_ : int
+        Features per image (h * w).
+
+    Examples
+    --------
+    >>> import linpose
+    >>> X, y, params = linpose.synth("duck", azimuth="0:357:3", elevation="32:32:1", size=(40, 30))
+    >>> model = linpose.LinearPose(params=params).fit(X[::3], y[::3])
+    >>> round(-model.score(X, y), 1) < 5
+    True
+    """
+
+    _method = "linear"
+
+    def __init__(self, *, ridge=0.0, noise_level=None, center=False, params=None, image_shape=None, normalize=None):
+        self.ridge = ridge
+        self.noise_level = noise_level
+        self.center = center
+        self.params = params
+        self.image_shape = image_shape
+        self.normalize = normalize
+
+    def _settings(self):
+        s = []
+        if self.noise_level is not None:
+            s.append(("noise-level", str(self.noise_level)))
+            if self.ridge not in (0, 0.0):
+                s.append(("ridge", _number(self.ridge)))
+        else:
+            s.append(("ridge", _number(self.ridge)))
+        if self.center:
+            s.append(("center", "true"))
+        return s
+
+    @staticmethod
+    def _given(p: dict) -> dict:
+        rule = p.get("rule", "fixed")
+        out = {"center": bool(p.get("center", False)), "ridge": float(p.get("ridge", 0.0)), "noise_level": None}
+        if rule == "loo":
+            out["ridge"] = "auto"
+        elif rule == "noise_auto":
+            out["noise_level"] = "auto"
+        elif isinstance(rule, dict) and "noise" in rule:
+            out["noise_level"] = float(rule["noise"])
+        return out
+
+    @property
+    def coef_(self):
+        """The weights (K_enc, h * w), read from the fitted model."""
+        model = self.__dict__.get("model_")
+        if model is None:
+            raise AttributeError("coef_: the estimator is not fitted")
+        return model.coefficients
+
+    @property
+    def intercept_(self):
+        """The bias of each encoded output (K_enc,), read from the fitted model."""
+        model = self.__dict__.get("model_")
+        if model is None:
+            raise AttributeError("intercept_: the estimator is not fitted")
+        return next(np.asarray(v) for name, _shape, v in model.tensors() if name == "bias")
+
+
+class EigenspacePose(PoseEstimator):
+    """Murase & Nayar's parametric eigenspace, the method the paper measures itself against.
+
+    Images scaled to unit energy are projected on the first L eigenimages of the training set;
+    the training views' points, interpolated by a cubic spline along each pose axis and
+    resampled every ``manifold_step`` degrees, form the appearance manifold, and a query's pose
+    is that of the nearest manifold point. The training poses must form a full grid.
+
+    Parameters
+    ----------
+    components : int, default=20
+        Number of eigenimages L (capped at N - 1).
+    energy : float, default=None
+        Instead of ``components``: the fewest eigenimages holding this fraction of the energy.
+    manifold_step : float, default=0.5
+        Resample the manifold every this many degrees along each pose axis.
+    params, image_shape, normalize
+        As for :class:`LinearPose`.
+
+    Attributes
+    ----------
+    model_, params_, image_shape_, n_features_in_
+        As for :class:`LinearPose`.
+    """
+
+    _method = "eigenspace"
+
+    def __init__(self, *, components=20, energy=None, manifold_step=0.5, params=None, image_shape=None, normalize=None):
+        self.components = components
+        self.energy = energy
+        self.manifold_step = manifold_step
+        self.params = params
+        self.image_shape = image_shape
+        self.normalize = normalize
+
+    def _settings(self):
+        s = [("manifold-step", _number(self.manifold_step))]
+        if self.energy is not None:
+            s.append(("energy", _number(self.energy)))
+        else:
+            s.append(("components", _integer(self.components, "components")))
+        return s
+
+    @staticmethod
+    def _given(p: dict) -> dict:
+        dim = p.get("dimension", {})
+        out = {"manifold_step": float(p.get("manifold_step", 0.5))}
+        if "energy" in dim:
+            out["energy"] = float(dim["energy"])
+        elif "fixed" in dim:
+            out["components"] = int(dim["fixed"])
+        return out
+
+    def _check_size(self, n, m):
+        _at_least_two(self, n, m)
+
+
+class RefinedPose(PoseEstimator):
+    """linpose's refined eigenspace: the eigenspace's manifold kept as a surface and searched
+    exactly, noisy images detected and matched apart, every setting chosen on held-out
+    training views unless given. The training poses must form a full grid.
+
+    Parameters
+    ----------
+    components : int or "auto", default="auto"
+        Number of eigenimages L, or chosen from held-out training views.
+    resolution : float, default=0.5
+        Report poses on a lattice of this many degrees (0: the continuous estimate).
+    bin : int or "auto", default="auto"
+        Bin the images by B (each pixel the mean of a B x B block) before fitting and before
+        each query, or choose B among 1, 2 and 4 from held-out training views.
+    interpolant : {"auto", "spline", "local"}, default="auto"
+        How the manifold passes between training views.
+    params, image_shape, normalize
+        As for :class:`LinearPose`.
+
+    Attributes
+    ----------
+    model_, params_, image_shape_, n_features_in_
+        As for :class:`LinearPose`.
+    """
+
+    _method = "refined"
+
+    def __init__(self, *, components="auto", resolution=0.5, bin="auto", interpolant="auto", params=None, image_shape=None, normalize=None):
+        self.components = components
+        self.resolution = resolution
+        self.bin = bin
+        self.interpolant = interpolant
+        self.params = params
+        self.image_shape = image_shape
+        self.normalize = normalize
+
+    def _settings(self):
+        s = [("resolution", _number(self.resolution)), ("bin", _integer_or_auto(self.bin, "bin")), ("interpolant", str(self.interpolant))]
+        if self.components != "auto":
+            s.append(("components", _integer(self.components, "components")))
+        return s
+
+    @staticmethod
+    def _given(p: dict) -> dict:
+        auto = lambda v: "auto" if v is None else v  # noqa: E731
+        return {
+            "components": auto(p.get("components")),
+            "resolution": float(p.get("resolution", 0.5)),
+            "bin": auto(p.get("bin")),
+            "interpolant": auto(p.get("interpolant")),
+        }
+
+    def _check_size(self, n, m):
+        _at_least_two(self, n, m)
+
+
+ESTIMATORS = {c._method: c for c in (LinearPose, EigenspacePose, RefinedPose)}
+
+
+def _at_least_two(est, n, m):
+    if n < 2:
+        raise ValueError(f"{type(est).__name__} needs at least 2 training images to span a manifold; got n_samples={n} (1 sample).")
+
+
+def _number(v) -> str:
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise TypeError(f"expected a number, got {v!r}")
+    return repr(float(v))
+
+
+def _integer(v, name) -> str:
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        raise TypeError(f"{name} must be a whole number, got {v!r}")
+    return str(int(v))
+
+
+def _integer_or_auto(v, name) -> str:
+    return "auto" if v == "auto" else _integer(v, name)
+
+
+def from_model(model) -> PoseEstimator:
+    """A fitted estimator around a model of the Rust core (as a model file gives it), its
+    parameters read back from the settings the model records."""
+    cls = ESTIMATORS.get(model.method)
+    if cls is None:
+        raise ValueError(f"a model of method {model.method!r}, which this package has no estimator for")
+    est = cls(params=[tuple(p) for p in model.params], normalize=_stage(model))
+    est.set_params(**cls._given(json.loads(model.settings_json).get("params", {})))
+    est._set_fitted(model, len(model.params) == 1)
+    return est
+
+
+def _stage(model) -> Optional[str]:
+    """The ``normalize`` value of a model's stage: what it normalises (radius: position and
+    scale; brightness)."""
+    if model.normalize_json is None:
+        return None
+    p = json.loads(model.normalize_json)
+    g, b = p.get("radius") is not None, p.get("brightness") is not None
+    return "all" if g and b else "geometry" if g else "brightness"

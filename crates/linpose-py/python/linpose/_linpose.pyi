@@ -1,0 +1,67 @@
+"""Type stubs of linpose's Rust core (the compiled module ``linpose._linpose``)."""
+
+from os import PathLike
+from typing import List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+FORMAT_VERSION: int
+
+Params = List[Tuple[str, Optional[float]]]
+Images = npt.NDArray[Union[np.uint8, np.uint16, np.float32, np.float64]]
+
+class Model:
+    """A fitted pose model of any method (the model file's contents)."""
+
+    method: str
+    image_shape: Tuple[int, int]
+    n_features: int
+    params: Params
+    train_poses: npt.NDArray[np.float64]
+    settings_json: str
+    normalize_json: Optional[str]
+    coefficients: Optional[npt.NDArray[np.float64]]
+    model_bytes: int
+    storage: Tuple[List[Tuple[str, int]], int]
+    def predict(self, x: Images) -> npt.NDArray[np.float64]: ...
+    def estimate(
+        self, x: Images, top: int
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(data: bytes) -> "Model": ...
+    def save(self, path: Union[str, PathLike[str]]) -> int: ...
+    def tensors(self) -> List[Tuple[str, List[int], npt.NDArray[np.float64]]]: ...
+
+def fit(
+    method: str,
+    settings: Sequence[Tuple[str, str]],
+    x: Images,
+    height: int,
+    width: int,
+    y: npt.NDArray[np.float64],
+    params: Params,
+    normalize: Optional[str] = None,
+) -> Model: ...
+def load(path: Union[str, PathLike[str]]) -> Model: ...
+def methods() -> List[Tuple[str, str, List[Tuple[str, str, str]]]]: ...
+def synth(
+    object: Optional[str] = None,
+    *,
+    random: Optional[int] = None,
+    mesh: Optional[Union[str, PathLike[str]]] = None,
+    azimuth: str = "0:327:3",
+    elevation: str = "32:77:3",
+    size: Tuple[int, int] = (160, 120),
+    perspective: bool = False,
+    specular: float = 0.0,
+    jitter: Optional[Tuple[float, float, float]] = None,
+    jitter_seed: int = 0,
+) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.float64], Params]: ...
+def read_dataset(
+    path: Union[str, PathLike[str]], object: Optional[int] = None
+) -> Tuple[npt.NDArray[Union[np.uint8, np.float32]], npt.NDArray[np.float64], Params, List[str]]: ...
+def train_mask(poses: npt.NDArray[np.float64], params: Params, step: float) -> npt.NDArray[np.bool_]: ...
+def pose_error(y_true: npt.NDArray[np.float64], y_pred: npt.NDArray[np.float64], params: Params) -> npt.NDArray[np.float64]: ...

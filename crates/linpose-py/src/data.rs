@@ -1,0 +1,144 @@
+//! Data for the models: the renderer ([`synth`]), the data set reader ([`read_dataset`]), the
+//! paper's training selection ([`train_mask`]) and the error measure ([`pose_error`]), all as
+//! numpy arrays.
+
+use crate::model::{array2, space};
+use crate::py_err;
+use linpose::image_io::{read_image, ColorMode, QueryImage};
+use linpose::render::synth::{render_u8, PoseGrid};
+use linpose::render::{objects, Camera, Grid, Jitter, Light, Mesh, RenderParams};
+use linpose::{Error, Manifest, TrainSelection};
+use numpy::{PyArray1, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// The pose parameters of a rendered data set, as `(name, period)` pairs.
+type Params = Vec<(String, Option<f64>)>;
+
+/// Renders a turntable data set in memory, as `linpose synth` writes it: `(images (n, h, w)
+/// uint8, poses (n, 2) degrees, params)`, poses elevation-major over `elevation` and
+/// `azimuth` (`START:STOP:STEP` degrees).
+#[pyfunction]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[pyo3(signature = (object=None, *, random=None, mesh=None, azimuth="0:327:3", elevation="32:77:3", size=(160, 120), perspective=false, specular=0.0, jitter=None, jitter_seed=0))]
+pub fn synth<'py>(
+    py: Python<'py>,
+    object: Option<&str>,
+    random: Option<u64>,
+    mesh: Option<PathBuf>,
+    azimuth: &str,
+    elevation: &str,
+    size: (u32, u32),
+    perspective: bool,
+    specular: f64,
+    jitter: Option<(f64, f64, f64)>,
+    jitter_seed: u64,
+) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, numpy::PyArray2<f64>>, Params)> {
+    let mesh: Mesh = match (object, random, &mesh) {
+        (Some(name), None, None) => objects::builtin(name).map_err(py_err)?,
+        (None, Some(seed), None) => objects::random(seed).map_err(py_err)?,
+        (None, None, Some(path)) => Mesh::from_obj(path).map_err(py_err)?,
+        _ => return Err(PyValueError::new_err("give one of object (a built-in name), random (a seed) or mesh (an OBJ file)")),
+    };
+    let mut grid = PoseGrid::new(Grid::parse("elevation", elevation).map_err(py_err)?, Grid::parse("azimuth", azimuth).map_err(py_err)?).map_err(py_err)?;
+    if let Some((shift, scale, exposure)) = jitter {
+        let j = Jitter::parse(&format!("{shift},{scale},{exposure}"), jitter_seed).map_err(py_err)?;
+        grid = grid.with_jitter(j).map_err(py_err)?;
+    }
+    let (w, h) = size;
+    if w == 0 || h == 0 {
+        return Err(PyValueError::new_err(format!("size=({w}, {h}): width and height must be positive")));
+    }
+    let camera = if perspective { Camera::perspective() } else { Camera::default() };
+    let params = RenderParams::default().width(w).height(h).camera(camera).light(Light::default().specular(specular));
+    params.validate().map_err(py_err)?;
+    let manifest = grid.manifest(Path::new("")).map_err(py_err)?;
+    let pixels = py.detach(|| render_u8(&mesh, &grid, &params, &|_| {})).map_err(py_err)?;
+    let n = grid.len();
+    let images = PyArray1::from_vec(py, pixels).reshape([n, h as usize, w as usize])?;
+    let poses = array2(py, manifest.poses().to_vec(), n, 2)?;
+    Ok((images, poses, manifest.space().params().iter().map(|p| (p.name.clone(), p.period)).collect()))
+}
+
+/// Reads a data set folder (`poses.csv` beside its images, or a COIL folder with `object`):
+/// `(images (n, h, w), poses (n, K) degrees, params, names)`. The images are `uint8` when every
+/// one is 8-bit gray (or colour turned gray), else `float32` features in [0, 1].
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+#[pyo3(signature = (path, object=None))]
+pub fn read_dataset<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    object: Option<u32>,
+) -> PyResult<(Bound<'py, PyUntypedArray>, Bound<'py, numpy::PyArray2<f64>>, Params, Vec<String>)> {
+    let manifest = Manifest::open(&path, object).map_err(py_err)?;
+    let n = manifest.len();
+    let images = py
+        .detach(|| -> linpose::Result<Vec<(u32, u32, QueryImage)>> {
+            (0..n).into_par_iter().map(|i| read_image(&manifest.image_path(i), ColorMode::Gray)).collect()
+        })
+        .map_err(py_err)?;
+    let (w, h) = (images[0].0, images[0].1);
+    if let Some(i) = images.iter().position(|im| (im.0, im.1) != (w, h)) {
+        return Err(py_err(Error::ImageSizeMismatch {
+            path: manifest.image_path(i),
+            expected_w: w,
+            expected_h: h,
+            got_w: images[i].0,
+            got_h: images[i].1,
+            context: format!("the size of the data set's first image, {}", manifest.images()[0]),
+        }));
+    }
+    let shape = [n, h as usize, w as usize];
+    let array = if images.iter().all(|im| matches!(im.2, QueryImage::Gray8(_))) {
+        let v: Vec<u8> = images.into_iter().flat_map(|im| if let QueryImage::Gray8(v) = im.2 { v } else { Vec::new() }).collect();
+        PyArray1::from_vec(py, v).reshape(shape)?.into_any().cast_into::<PyUntypedArray>()?
+    } else {
+        let v: Vec<f32> = images.into_iter().flat_map(|im| im.2.into_features()).collect();
+        PyArray1::from_vec(py, v).reshape(shape)?.into_any().cast_into::<PyUntypedArray>()?
+    };
+    let k = manifest.space().len();
+    let poses = array2(py, manifest.poses().to_vec(), n, k)?;
+    let params = manifest.space().params().iter().map(|p| (p.name.clone(), p.period)).collect();
+    Ok((array, poses, params, manifest.images().to_vec()))
+}
+
+/// Which rows of `poses` the paper's protocol trains on: every parameter a multiple of `step`
+/// degrees from its smallest value (as `linpose train --train-step`).
+#[pyfunction]
+pub fn train_mask<'py>(py: Python<'py>, poses: PyReadonlyArray2<'py, f64>, params: Params, step: f64) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let space = space(params)?;
+    let (n, k) = (poses.shape()[0], poses.shape()[1]);
+    if k != space.len() {
+        return Err(PyValueError::new_err(format!("poses have {k} columns for {} pose parameters", space.len())));
+    }
+    let names = (0..n).map(|i| format!("sample {i}")).collect();
+    let manifest = Manifest::new("", space, names, poses.as_array().iter().copied().collect()).map_err(py_err)?;
+    let mask = manifest.training_mask(&TrainSelection::Step(step)).map_err(py_err)?;
+    Ok(PyArray1::from_vec(py, mask))
+}
+
+/// The pose error of each row (degrees): the angle on the viewing sphere between the true and
+/// the estimated pose (the measure `linpose eval` reports).
+#[pyfunction]
+pub fn pose_error<'py>(
+    py: Python<'py>,
+    y_true: PyReadonlyArray2<'py, f64>,
+    y_pred: PyReadonlyArray2<'py, f64>,
+    params: Params,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let space = space(params)?;
+    let (a, b) = (y_true.as_array(), y_pred.as_array());
+    if a.shape() != b.shape() || a.shape()[1] != space.len() {
+        return Err(PyValueError::new_err(format!(
+            "y_true has shape {:?} and y_pred {:?}; both need one column per pose parameter ({})",
+            a.shape(),
+            b.shape(),
+            space.len()
+        )));
+    }
+    let errors = a.outer_iter().zip(b.outer_iter()).map(|(t, e)| space.error_deg(&t.to_vec(), &e.to_vec())).collect();
+    Ok(PyArray1::from_vec(py, errors))
+}

@@ -1,0 +1,39 @@
+//! The Rust core of the `linpose` Python package: the library's models, renderer, data set
+//! reader and error measure over numpy arrays. The Python layer (`python/linpose`) wraps it in
+//! scikit-learn estimators; this module keeps to arrays, bytes and plain values.
+//!
+//! Every call that fits, estimates, renders or reads releases the interpreter lock
+//! ([`Python::detach`]), so Python threads run beside it. Inputs that are C-contiguous `uint8` or
+//! `float32` arrays are read where they lie; other dtypes and layouts are converted once. Errors
+//! are Python exceptions carrying the library's message: `ValueError` for bad values,
+//! `OSError` for files, `TypeError` for inputs of the wrong kind.
+
+mod arrays;
+mod data;
+mod model;
+
+use pyo3::prelude::*;
+
+/// The library's error as the Python exception a caller expects.
+pub(crate) fn py_err(e: linpose::Error) -> PyErr {
+    match e {
+        linpose::Error::Io { .. } => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+        e => pyo3::exceptions::PyValueError::new_err(e.to_string()),
+    }
+}
+
+/// linpose's Rust core (see the `linpose` package for the documented interface).
+#[pymodule]
+fn _linpose(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("FORMAT_VERSION", linpose::model_file::FORMAT_VERSION)?;
+    m.add_class::<model::Model>()?;
+    m.add_function(wrap_pyfunction!(model::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(model::load, m)?)?;
+    m.add_function(wrap_pyfunction!(model::methods, m)?)?;
+    m.add_function(wrap_pyfunction!(data::synth, m)?)?;
+    m.add_function(wrap_pyfunction!(data::read_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(data::pose_error, m)?)?;
+    m.add_function(wrap_pyfunction!(data::train_mask, m)?)?;
+    Ok(())
+}

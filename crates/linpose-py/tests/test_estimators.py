@@ -1,0 +1,107 @@
+"""The estimators as a scikit-learn user meets them: fitting, estimating, scoring, cloning,
+pickling, searching, and the library's identities (training views reproduced)."""
+
+import pickle
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.model_selection import GridSearchCV, KFold
+
+import linpose
+
+ESTIMATORS = [linpose.LinearPose, linpose.EigenspacePose, linpose.RefinedPose]
+
+
+@pytest.fixture(scope="module")
+def turntable():
+    """One elevation, 120 azimuths of a rendered duck: trained every 9 degrees."""
+    X, y, params = linpose.synth("duck", azimuth="0:357:3", elevation="32:32:1", size=(64, 48))
+    return X, y[:, 1], params[1:]
+
+
+@pytest.mark.parametrize("cls", ESTIMATORS)
+def test_fit_predict_score(cls, turntable):
+    X, y, params = turntable
+    train = linpose.train_mask(y, params, 9)
+    est = cls(params=params).fit(X[train], y[train])
+    assert est.n_features_in_ == 64 * 48 and est.image_shape_ == (48, 64)
+    pred = est.predict(X)
+    assert pred.shape == y.shape
+    # Training views are reproduced (the linear model exactly fits them; the manifolds pass
+    # through them).
+    err = linpose.pose_error(y[train], pred[train], params)
+    assert err.max() < 0.3, err.max()
+    # score is minus the mean pose error, the measure of linpose eval.
+    unseen = -est.score(X[~train], y[~train])
+    assert 0 < unseen < 3, unseen
+    assert np.isclose(-unseen, -np.mean(linpose.pose_error(y[~train], pred[~train], params)))
+    # Rows or images, uint8 or the reader's float32: one answer.
+    flat = X.reshape(len(X), -1)
+    np.testing.assert_allclose(est.predict(flat[:5]), pred[:5])
+    np.testing.assert_allclose(est.predict(X[:5].astype(np.float32) / np.float32(255)), pred[:5], atol=1e-3)
+
+
+def test_coef_is_the_papers_figure(turntable):
+    X, y, params = turntable
+    est = linpose.LinearPose(params=params).fit(X[::3], y[::3])
+    assert est.coef_.shape == (2, 64 * 48)  # cos and sin of the azimuth
+    assert est.coef_[0].reshape(est.image_shape_).shape == (48, 64)
+    enc = est.coef_ @ (X[::3].reshape(40, -1).astype(np.float64) / 255).T + est.intercept_[:, None]
+    back = np.degrees(np.arctan2(enc[1], enc[0]))
+    assert linpose.pose_error(y[::3], back, params).max() < 1e-3
+
+
+@pytest.mark.parametrize("cls", ESTIMATORS)
+def test_clone_pickle_and_model_bytes(cls, turntable):
+    X, y, params = turntable
+    est = cls(params=params).fit(X[::3], y[::3])
+    c = clone(est)
+    assert c.get_params() == est.get_params() and not hasattr(c, "model_")
+    back = pickle.loads(pickle.dumps(est))
+    np.testing.assert_array_equal(back.predict(X), est.predict(X))
+    again = linpose.from_bytes(est.to_bytes())
+    assert type(again) is cls and again.to_bytes() == est.to_bytes()
+    # The parameters read back from the model refit the same model.
+    assert clone(again).set_params(params=params).fit(X[::3], y[::3]).to_bytes() == est.to_bytes()
+
+
+def test_hypotheses_and_confidence(turntable):
+    X, y, params = turntable
+    est = linpose.RefinedPose(params=params).fit(X[::3], y[::3])
+    pose, conf, hyp, scores = est.predict_hypotheses(X[:4], top=3)
+    assert pose.shape == (4, 1) and conf.shape == (4,) and hyp.shape == (4, 3, 1) and scores.shape == (4, 3)
+    np.testing.assert_array_equal(hyp[:, 0], pose)
+    assert ((conf >= 0) & (conf <= 1)).all()
+
+
+def test_grid_search_over_a_parameter(turntable):
+    X, y, params = turntable
+    search = GridSearchCV(linpose.RefinedPose(params=params), {"bin": [1, 2]}, cv=KFold(3, shuffle=True, random_state=0))
+    search.fit(X, y)
+    assert search.best_params_["bin"] in (1, 2) and search.best_score_ > -5
+
+
+def test_two_parameters_default_names():
+    X, y, params = linpose.synth("pot", azimuth="0:350:10", elevation="32:68:12", size=(40, 30))
+    est = linpose.EigenspacePose().fit(X, y)
+    assert est.params_ == [("elevation", None), ("azimuth", 360.0)]
+    assert est.predict(X[:3]).shape == (3, 2)
+
+
+def test_normalize_stage_is_kept(turntable, tmp_path):
+    X, y, params = turntable
+    est = linpose.LinearPose(params=params, normalize="geometry").fit(X[::3], y[::3])
+    est.save(tmp_path / "n.safetensors")
+    back = linpose.load(tmp_path / "n.safetensors")
+    assert back.normalize == "geometry"
+    np.testing.assert_array_equal(back.predict(X[:7]), est.predict(X[:7]))
+
+
+def test_docstring_examples_run():
+    import doctest
+
+    import linpose._estimators
+
+    result = doctest.testmod(linpose._estimators)
+    assert result.attempted > 0 and result.failed == 0

@@ -1,0 +1,73 @@
+//! Times one method's fit and predict through the library on one data set, in one process, as
+//! `bench/python_vs_rust.py` times the same work from Python: the fit from the training views'
+//! 8-bit pixels in memory (decoded first, not timed; [`Dataset::from_u8`] then the fit), the
+//! predict of every view as 8-bit images in one batch, and the predict of one image. Each
+//! measurement is repeated for at least REPS times and 0.3 s; medians. Prints one JSON object.
+//!
+//!     cargo run --release -p linpose --example fit_predict_timing -- DIR [--object O]
+//!         --train-step S --method NAME [--reps R]
+use linpose::image_io::ColorMode;
+use linpose::{Dataset, Manifest, PoseModel, Settings, TrainSelection};
+use std::path::PathBuf;
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let (mut dir, mut object, mut step, mut method, mut reps) = (None, None, None, String::from("linear"), 5usize);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--object" => object = Some(args.next().ok_or("--object O")?.parse()?),
+            "--train-step" => step = Some(args.next().ok_or("--train-step S")?.parse::<f64>()?),
+            "--method" => method = args.next().ok_or("--method NAME")?,
+            "--reps" => reps = args.next().ok_or("--reps R")?.parse()?,
+            _ => dir = Some(PathBuf::from(a)),
+        }
+    }
+    let usage = "usage: fit_predict_timing DIR [--object O] --train-step S --method NAME [--reps R]";
+    let (dir, step) = (dir.ok_or(usage)?, step.ok_or(usage)?);
+    let manifest = Manifest::open(&dir, object)?;
+    let mask = manifest.training_mask(&TrainSelection::Step(step))?;
+    let data = Dataset::load(manifest, ColorMode::Gray, &|_| {})?;
+    let train = data.subset(&mask)?;
+    let spec = linpose::methods::find(&method).ok_or("unknown method")?.spec(&Settings::new())?;
+    let pixels: Vec<u8> = data.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    let train_pixels: Vec<u8> = train.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
+    let (m, k) = (data.n_features(), data.space().len());
+    let mut out = vec![0.0; data.len() * k];
+    let (mut fit, mut predict, mut one) = (vec![], vec![], vec![]);
+    let fit_once = || Dataset::from_u8(train.spec(), &train_pixels, train.space().clone(), train.poses().to_vec()).and_then(|d| spec.fit(&d));
+    let mut model = fit_once()?;
+    let start = Instant::now();
+    while fit.len() < reps || start.elapsed().as_secs_f64() < 0.3 {
+        let t = Instant::now();
+        model = fit_once()?;
+        fit.push(t.elapsed().as_secs_f64());
+    }
+    let start = Instant::now();
+    while predict.len() < reps || start.elapsed().as_secs_f64() < 0.3 {
+        let t = Instant::now();
+        model.predict_u8_into(&pixels, &mut out)?;
+        predict.push(t.elapsed().as_secs_f64());
+    }
+    let mut o1 = vec![0.0; k];
+    for i in 0..2000 {
+        let q = &pixels[(i % data.len()) * m..(i % data.len() + 1) * m];
+        let t = Instant::now();
+        model.predict_u8_into(q, &mut o1)?;
+        one.push(t.elapsed().as_secs_f64());
+    }
+    println!(
+        "{{\"method\":\"{method}\",\"n_train\":{},\"n_eval\":{},\"fit_s\":{},\"predict_s\":{},\"predict_one_s\":{}}}",
+        train.len(),
+        data.len(),
+        median(fit),
+        median(predict),
+        median(one)
+    );
+    Ok(())
+}
