@@ -30,31 +30,29 @@ SINGULAR = r"Gram matrix is singular"
 TWICE = r"are identical\); the same view is listed twice"
 GRID = r"have the same training pose|needs one image per grid point|grid"
 
-# Checks that fit LinearPose() on more samples than features.
-_N_GT_M = [
-    "check_fit_score_takes_y", "check_estimators_overwrite_params", "check_dont_overwrite_parameters",
-    "check_estimators_fit_returns_self", "check_readonly_memmap_input", "check_n_features_in_after_fitting",
-    "check_positive_only_tag_during_fit", "check_estimators_dtypes", "check_dtype_object", "check_pipeline_consistency",
-    "check_estimators_nan_inf", "check_estimators_pickle", "check_f_contiguous_array_estimator", "check_regressors_train",
-    "check_regressor_data_not_an_array", "check_regressor_multioutput", "check_regressors_no_decision_function",
-    "check_supervised_y_2d", "check_regressors_int", "check_methods_sample_order_invariance",
-    "check_methods_subset_invariance", "check_fit2d_1feature", "check_dict_unchanged", "check_fit_idempotent",
-    "check_fit_check_is_fitted", "check_n_features_in", "check_fit2d_predict1d",
-]
-# Checks whose targets are not a pose grid.
-_NOT_A_GRID = [
+# Checks that fit random tabular data: more samples than features, and targets that are no pose
+# grid (class labels, integers, random columns).
+_FIT_RANDOM = [
     "check_fit_score_takes_y", "check_estimators_overwrite_params", "check_dont_overwrite_parameters",
     "check_estimators_fit_returns_self", "check_readonly_memmap_input", "check_positive_only_tag_during_fit",
     "check_estimators_dtypes", "check_dtype_object", "check_pipeline_consistency", "check_estimators_nan_inf",
-    "check_estimators_pickle", "check_f_contiguous_array_estimator", "check_supervised_y_2d", "check_regressors_int",
-    "check_methods_sample_order_invariance", "check_methods_subset_invariance", "check_fit2d_1feature",
-    "check_dict_unchanged", "check_fit2d_predict1d", "check_regressor_multioutput",
+    "check_estimators_pickle", "check_f_contiguous_array_estimator", "check_regressor_multioutput",
+    "check_supervised_y_2d", "check_regressors_int", "check_methods_sample_order_invariance",
+    "check_methods_subset_invariance", "check_fit2d_1feature", "check_dict_unchanged",
+    "check_fit2d_predict1d",
 ]
+# Checks, besides those, that fit LinearPose() on more samples than features.
+_N_GT_M = [
+    "check_n_features_in_after_fitting", "check_regressors_train", "check_regressor_data_not_an_array",
+    "check_regressors_no_decision_function", "check_fit_idempotent", "check_fit_check_is_fitted",
+    "check_n_features_in",
+]
+_N_GT_M = _FIT_RANDOM + _N_GT_M
 EXPECTED = {
     "LinearPose()": {c: SINGULAR for c in _N_GT_M},
     "LinearPose(ridge=1e-06)": {"check_positive_only_tag_during_fit": TWICE},
-    "EigenspacePose()": {c: GRID for c in _NOT_A_GRID},
-    "RefinedPose()": {c: GRID for c in _NOT_A_GRID},
+    "EigenspacePose()": {c: GRID for c in _FIT_RANDOM},
+    "RefinedPose()": {c: GRID for c in _FIT_RANDOM},
 }
 ESTIMATORS = [linpose.LinearPose(), linpose.LinearPose(ridge=1e-6), linpose.EigenspacePose(), linpose.RefinedPose()]
 
