@@ -4,14 +4,14 @@
 
 use crate::model::{array2, space};
 use crate::py_err;
-use linpose::image_io::{read_image, ColorMode, QueryImage};
+use linpose::dataset::load_gray8;
+use linpose::image_io::ColorMode;
 use linpose::render::synth::{render_u8, PoseGrid};
 use linpose::render::{objects, Camera, Grid, Jitter, Light, Mesh, RenderParams};
-use linpose::{Error, Manifest, TrainSelection};
+use linpose::{Dataset, Manifest, TrainSelection};
 use numpy::{PyArray1, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The pose parameters of a rendered data set, as `(name, period)` pairs.
@@ -75,30 +75,17 @@ pub fn read_dataset<'py>(
 ) -> PyResult<(Bound<'py, PyUntypedArray>, Bound<'py, numpy::PyArray2<f64>>, Params, Vec<String>)> {
     let manifest = Manifest::open(&path, object).map_err(py_err)?;
     let n = manifest.len();
-    let images = py
-        .detach(|| -> linpose::Result<Vec<(u32, u32, QueryImage)>> {
-            (0..n).into_par_iter().map(|i| read_image(&manifest.image_path(i), ColorMode::Gray)).collect()
-        })
-        .map_err(py_err)?;
-    let (w, h) = (images[0].0, images[0].1);
-    if let Some(i) = images.iter().position(|im| (im.0, im.1) != (w, h)) {
-        return Err(py_err(Error::ImageSizeMismatch {
-            path: manifest.image_path(i),
-            expected_w: w,
-            expected_h: h,
-            got_w: images[i].0,
-            got_h: images[i].1,
-            context: format!("the size of the data set's first image, {}", manifest.images()[0]),
-        }));
+    // 8-bit images as they are; otherwise the features the library's loader reads.
+    let gray8 = py.detach(|| load_gray8(&manifest, &|_| {})).map_err(py_err)?;
+    let array = match gray8 {
+        Some((spec, pixels)) => PyArray1::from_vec(py, pixels).reshape([n, spec.height as usize, spec.width as usize])?.into_any(),
+        None => {
+            let data = py.detach(|| Dataset::load(manifest.clone(), ColorMode::Gray, &|_| {})).map_err(py_err)?;
+            let spec = data.spec();
+            PyArray1::from_slice(py, data.features()).reshape([n, spec.height as usize, spec.width as usize])?.into_any()
+        }
     }
-    let shape = [n, h as usize, w as usize];
-    let array = if images.iter().all(|im| matches!(im.2, QueryImage::Gray8(_))) {
-        let v: Vec<u8> = images.into_iter().flat_map(|im| if let QueryImage::Gray8(v) = im.2 { v } else { Vec::new() }).collect();
-        PyArray1::from_vec(py, v).reshape(shape)?.into_any().cast_into::<PyUntypedArray>()?
-    } else {
-        let v: Vec<f32> = images.into_iter().flat_map(|im| im.2.into_features()).collect();
-        PyArray1::from_vec(py, v).reshape(shape)?.into_any().cast_into::<PyUntypedArray>()?
-    };
+    .cast_into::<PyUntypedArray>()?;
     let k = manifest.space().len();
     let poses = array2(py, manifest.poses().to_vec(), n, k)?;
     let params = manifest.space().params().iter().map(|p| (p.name.clone(), p.period)).collect();

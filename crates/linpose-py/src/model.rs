@@ -264,17 +264,15 @@ pub fn fit(
     }
     let poses: Vec<f64> = y.as_array().iter().copied().collect();
     // 8-bit images in place go to the library as they are; others as features.
-    let pixels = x.u8_slice();
-    let features = match pixels {
-        Some(_) => None,
-        None => Some(x.features("X")?.into_owned()),
+    let input = match x.u8_slice() {
+        Some(pixels) => Ok(pixels),
+        None => Err(x.features("X")?.into_owned()),
     };
     let inner = py
         .detach(|| {
-            let data = match (features, pixels) {
-                (Some(f), _) => Dataset::new(image, f, space, poses)?,
-                (None, Some(v)) => Dataset::from_u8(image, v, space, poses)?,
-                (None, None) => unreachable!("features are converted unless the pixels are 8-bit in place"),
+            let data = match input {
+                Ok(pixels) => Dataset::from_u8(image, pixels, space, poses)?,
+                Err(features) => Dataset::new(image, features, space, poses)?,
             };
             match stage {
                 None => spec.fit(&data),

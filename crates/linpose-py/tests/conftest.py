@@ -2,7 +2,6 @@
 data sets, made by the tests themselves."""
 
 import os
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -42,7 +41,3 @@ def duck(tmp_path_factory, cli):
 def duck_arrays():
     """The same views rendered in memory."""
     return linpose.synth("duck", azimuth="0:351:9", elevation="32:59:9", size=(48, 36))
-
-
-def has(program):
-    return shutil.which(program) is not None

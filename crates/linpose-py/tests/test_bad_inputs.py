@@ -83,3 +83,11 @@ def test_bad_synth_arguments():
         linpose.synth("duck", azimuth="0:10:0", elevation="32:32:1", size=(8, 8))
     with pytest.raises(ValueError, match="give one of"):
         linpose.synth()
+
+
+def test_non_finite_poses_are_refused():
+    X, y, params = linpose.synth("cap", azimuth="0:350:10", elevation="32:32:1", size=(32, 24))
+    bad = y[:, 1].copy()
+    bad[4] = np.nan
+    with pytest.raises(ValueError, match="sample 4 is not finite"):
+        linpose.LinearPose().fit(X, bad)

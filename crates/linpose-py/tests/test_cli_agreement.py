@@ -32,9 +32,9 @@ def test_model_files_are_byte_identical(cli, duck, tmp_path, method):
     py_model = tmp_path / "py.safetensors"
     assert est.save(py_model) == py_model.stat().st_size
     assert py_model.read_bytes() == cli_model.read_bytes()
-    # The same holds from float32 features (the reader's values for 8-bit images).
-    est32 = METHODS[method](params=params).fit(X[train].astype(np.float32) / np.float32(255), y[train])
-    assert est32.to_bytes() != b"" and est32.predict(X[:1]).shape == (1, 2)
+    # The same holds from float32 features: the reader's values of 8-bit levels, v * fl(1/255).
+    features = X[train].astype(np.float32) * (np.float32(1) / np.float32(255))
+    assert METHODS[method](params=params).fit(features, y[train]).to_bytes() == cli_model.read_bytes()
 
 
 @pytest.mark.parametrize("method", sorted(METHODS))
@@ -66,3 +66,19 @@ def test_cli_reads_a_python_model(cli, duck_arrays, tmp_path):
     assert "azimuth" in r.stdout
     cli_pose = [float(t.split("=")[1]) for t in r.stdout.split() if t.startswith(("elevation=", "azimuth="))]
     np.testing.assert_allclose(cli_pose, est.predict(X[3:4])[0], atol=1e-9)
+
+
+def test_sixteen_bit_images_are_read_as_features(tmp_path):
+    """A data set that is not 8-bit comes back as the reader's float32 features (v / 65535)."""
+    from PIL import Image
+
+    levels = np.arange(3 * 4 * 5, dtype=np.uint16).reshape(3, 4, 5) * 1000
+    rows = ["image,azimuth"]
+    for k, img in enumerate(levels):
+        Image.fromarray(img.astype(np.uint16)).save(tmp_path / f"v{k}.png")
+        rows.append(f"v{k}.png,{10 * k}")
+    (tmp_path / "poses.csv").write_text("\n".join(rows) + "\n")
+    X, y, params, names = linpose.read_dataset(tmp_path)
+    assert X.dtype == np.float32 and X.shape == (3, 4, 5) and names == ["v0.png", "v1.png", "v2.png"]
+    np.testing.assert_array_equal(X, levels.astype(np.float32) * (np.float32(1) / np.float32(65535)))
+    assert params == [("azimuth", 360.0)] and y[:, 0].tolist() == [0.0, 10.0, 20.0]

@@ -39,14 +39,21 @@ impl Dataset {
     /// A data set of 8-bit images in memory: `pixels` holds one row of `spec.features()` values
     /// per sample (gray levels, or interleaved channels for RGB), which become the features the
     /// image reader makes of them (v / 255, the same bits), so the model is the one a folder of
-    /// the same images gives. Converted in parallel; 8-bit values need no finiteness check.
+    /// the same images gives. Samples are named `sample 0`, `sample 1`, ...
     pub fn from_u8(spec: ImageSpec, pixels: &[u8], space: PoseSpace, poses: Vec<f64>) -> Result<Self> {
         let n = poses.len() / space.len().max(1);
         let manifest = Manifest::new("", space, (0..n).map(|i| format!("sample {i}")).collect(), poses)?;
-        if pixels.len() != n * spec.features() {
+        Self::from_pixels(manifest, spec, pixels)
+    }
+
+    /// A data set of the images of `manifest` whose 8-bit values are in memory
+    /// (`manifest.len()` rows of `spec.features()`), converted to features in parallel; 8-bit
+    /// values need no finiteness check.
+    pub fn from_pixels(manifest: Manifest, spec: ImageSpec, pixels: &[u8]) -> Result<Self> {
+        if pixels.len() != manifest.len() * spec.features() {
             return Err(Error::Dataset {
                 path: manifest.root().to_path_buf(),
-                message: format!("{} pixel values for {n} images of {} features", pixels.len(), spec.features()),
+                message: format!("{} pixel values for {} images of {} features", pixels.len(), manifest.len(), spec.features()),
             });
         }
         let features = pixels.par_iter().with_min_len(1 << 16).map(|&v| crate::image_io::feature_of_u8(v)).collect();
@@ -56,37 +63,16 @@ impl Dataset {
     /// Decodes every image of `manifest` (in parallel). All images must have the size of the
     /// first; `progress` is called with the number of images decoded since its last call.
     pub fn load(manifest: Manifest, color: ColorMode, progress: &(dyn Fn(u64) + Sync)) -> Result<Self> {
-        let first = manifest.image_path(0);
         let mut row0 = Vec::new();
-        let (w, h) = read_features(&first, color, None, "", &mut row0)?;
+        let (w, h) = read_features(&manifest.image_path(0), color, None, "", &mut row0)?;
         let spec = ImageSpec { width: w, height: h, color };
-        let m = spec.features();
-        let n = manifest.len();
-        // Refused, not aborted, when the whole data set cannot be held in memory.
-        let too_big = || Error::Dataset {
-            path: manifest.root().to_path_buf(),
-            message: format!("{n} images of {w}x{h} ({m} features each) need more memory than can be allocated"),
-        };
-        let total = n.checked_mul(m).ok_or_else(too_big)?;
-        let mut features: Vec<f32> = Vec::new();
-        features.try_reserve_exact(total).map_err(|_| too_big())?;
-        features.resize(total, 0.0);
-        features[..m].copy_from_slice(&row0);
-        progress(1);
-        let context = format!("the size of the data set's first image, {}", manifest.images()[0]);
-        let results: Vec<Result<()>> = features[m..]
-            .par_chunks_mut(m)
-            .enumerate()
-            .map(|(k, slot)| {
-                let mut row = Vec::with_capacity(m);
-                read_features(&manifest.image_path(k + 1), color, Some((w, h)), &context, &mut row)?;
-                slot.copy_from_slice(&row);
-                progress(1);
-                Ok(())
-            })
-            .collect();
-        // The first failing image in manifest order, so the error is the same on every run.
-        results.into_iter().collect::<Result<Vec<()>>>()?;
+        let context = first_image_context(&manifest);
+        let features = read_rows(&manifest, spec, &row0, progress, |path, slot| {
+            let mut row = Vec::with_capacity(slot.len());
+            read_features(path, color, Some((w, h)), &context, &mut row)?;
+            slot.copy_from_slice(&row);
+            Ok(())
+        })?;
         Self::from_features(manifest, spec, features)
     }
 
@@ -165,4 +151,67 @@ impl Dataset {
         }
         Ok(Dataset { manifest, spec: self.spec, features })
     }
+}
+
+/// The images of `manifest` as 8-bit gray values, read in parallel, when every one is 8-bit
+/// (colour turned gray as the reader does): the spec and `manifest.len()` rows of pixels, which
+/// [`Dataset::from_pixels`] turns into the data set [`Dataset::load`] reads. `None` when an image
+/// is not 8-bit (16-bit, say): then read the features with [`Dataset::load`]. Sizes are checked
+/// against the first image, and memory is refused before allocation, as `load` does.
+pub fn load_gray8(manifest: &Manifest, progress: &(dyn Fn(u64) + Sync)) -> Result<Option<(ImageSpec, Vec<u8>)>> {
+    use crate::image_io::{read_image, read_query, QueryImage};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let (w, h, first) = read_image(&manifest.image_path(0), ColorMode::Gray)?;
+    let QueryImage::Gray8(row0) = first else { return Ok(None) };
+    let spec = ImageSpec { width: w, height: h, color: ColorMode::Gray };
+    let context = first_image_context(manifest);
+    let wider = AtomicBool::new(false);
+    let pixels = read_rows(manifest, spec, &row0, progress, |path, slot| {
+        match read_query(path, spec, &context)? {
+            QueryImage::Gray8(v) => slot.copy_from_slice(&v),
+            QueryImage::Features(_) => wider.store(true, Ordering::Relaxed),
+        }
+        Ok(())
+    })?;
+    Ok((!wider.into_inner()).then_some((spec, pixels)))
+}
+
+/// What the images of a data set must match: the size of its first image.
+fn first_image_context(manifest: &Manifest) -> String {
+    format!("the size of the data set's first image, {}", manifest.images()[0])
+}
+
+/// One buffer of `manifest.len()` rows of `spec.features()` values: `row0` (the first image,
+/// already read), then every other image read into its row by `read` (in parallel). Refused,
+/// not aborted, when the buffer cannot be held in memory; the error of the first failing image
+/// in manifest order, so it is the same on every run.
+fn read_rows<T: Copy + Default + Send + Sync>(
+    manifest: &Manifest,
+    spec: ImageSpec,
+    row0: &[T],
+    progress: &(dyn Fn(u64) + Sync),
+    read: impl Fn(&std::path::Path, &mut [T]) -> Result<()> + Sync,
+) -> Result<Vec<T>> {
+    let (m, n) = (spec.features(), manifest.len());
+    let too_big = || Error::Dataset {
+        path: manifest.root().to_path_buf(),
+        message: format!("{n} images of {}x{} ({m} features each) need more memory than can be allocated", spec.width, spec.height),
+    };
+    let total = n.checked_mul(m).ok_or_else(too_big)?;
+    let mut rows: Vec<T> = Vec::new();
+    rows.try_reserve_exact(total).map_err(|_| too_big())?;
+    rows.resize(total, T::default());
+    rows[..m].copy_from_slice(row0);
+    progress(1);
+    let results: Vec<Result<()>> = rows[m..]
+        .par_chunks_mut(m)
+        .enumerate()
+        .map(|(k, slot)| {
+            read(&manifest.image_path(k + 1), slot)?;
+            progress(1);
+            Ok(())
+        })
+        .collect();
+    results.into_iter().collect::<Result<Vec<()>>>()?;
+    Ok(rows)
 }

@@ -98,8 +98,6 @@ class PoseEstimator(RegressorMixin, BaseEstimator):
         else:
             X, y = validate_data(self, X, y, dtype=_DTYPES, multi_output=True, y_numeric=True, order="C")
         y = np.asarray(y, dtype=np.float64)
-        if not np.isfinite(y).all():
-            raise ValueError("Input y contains NaN or infinity: every pose must be finite.")
         y_1d = y.ndim == 1
         y2 = y.reshape(-1, 1) if y_1d else y
         n, m = X.shape

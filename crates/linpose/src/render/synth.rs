@@ -138,9 +138,7 @@ pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path,
     let manifest = grid.manifest(root)?;
     let pixels = render_u8(mesh, grid, params, progress)?;
     let spec = ImageSpec { width: params.get_width(), height: params.get_height(), color: ColorMode::Gray };
-    // The same f32 the image reader makes of an 8-bit pixel.
-    let features = pixels.par_iter().map(|&p| crate::image_io::feature_of_u8(p)).collect();
-    Dataset::from_features(manifest, spec, features)
+    Dataset::from_pixels(manifest, spec, &pixels)
 }
 
 /// Renders every pose of `grid` into memory as 8-bit gray images, one after another in the
