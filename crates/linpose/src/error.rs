@@ -114,6 +114,15 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// Partial training statistics that cannot be made, merged or finished: a file or shard
+    /// named, and what is wrong (another image size, other settings, shards missing or twice).
+    #[error("{source_name}: {message}")]
+    Partial {
+        /// The partial statistics' file, or the shard.
+        source_name: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A query does not fit the model (wrong number of features).
     #[error("query has {got} features but the model expects {expected} ({context})")]
     FeatureMismatch {

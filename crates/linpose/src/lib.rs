@@ -73,6 +73,7 @@ pub mod methods;
 pub mod model;
 pub mod model_file;
 pub mod normalize;
+pub mod partial;
 pub(crate) mod pixel_noise;
 pub mod pose;
 pub mod recognize;

@@ -85,44 +85,93 @@ struct ObjectsHeader {
 }
 
 /// The file's bytes: the `meta` entries with the format and its version, then the tensors.
-fn write_parts(mut meta: BTreeMap<&str, String>, mut tensors: Vec<Tensor>) -> Result<Vec<u8>> {
-    let dtype = |t: &Tensor| match t.data {
-        TensorData::F32(_) => Dtype::F32,
-        TensorData::F64(_) => Dtype::F64,
+fn write_parts(meta: BTreeMap<&str, String>, tensors: Vec<Tensor>) -> Result<Vec<u8>> {
+    let refs: Vec<TensorRef<'_>> = tensors
+        .iter()
+        .map(|t| TensorRef {
+            name: t.name.clone(),
+            shape: t.shape.clone(),
+            data: match &t.data {
+                TensorData::F32(v) => DataRef::F32(v),
+                TensorData::F64(v) => DataRef::F64(v),
+            },
+        })
+        .collect();
+    let mut out = Vec::new();
+    write_parts_to(meta, refs, &mut out).map_err(|e| Error::Numerical(format!("serialising: {e}")))?;
+    Ok(out)
+}
+
+/// A named array whose values are borrowed, for [`write_parts_to`].
+pub(crate) struct TensorRef<'a> {
+    pub name: String,
+    pub shape: Vec<usize>,
+    pub data: DataRef<'a>,
+}
+
+/// Borrowed values of a [`TensorRef`].
+pub(crate) enum DataRef<'a> {
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+}
+
+/// Writes [`write_parts`]'s bytes to `w` without a copy of the values: the header, then each
+/// tensor's values in chunks (what a large file, such as partial statistics, needs).
+pub(crate) fn write_parts_to(mut meta: BTreeMap<&str, String>, mut tensors: Vec<TensorRef<'_>>, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    let dtype = |t: &TensorRef<'_>| match t.data {
+        DataRef::F32(_) => Dtype::F32,
+        DataRef::F64(_) => Dtype::F64,
     };
     tensors.sort_by(|a, b| dtype(b).cmp(&dtype(a)).then_with(|| a.name.cmp(&b.name)));
     meta.insert("format", "linpose".to_string());
     meta.insert("format_version", FORMAT_VERSION.to_string());
     let mut header = format!("{{\"__metadata__\":{}", json(&meta));
-    let mut data = Vec::new();
+    let mut offset = 0;
     for t in &tensors {
-        let start = data.len();
-        match &t.data {
-            TensorData::F32(v) => data.extend(v.iter().flat_map(|x| x.to_le_bytes())),
-            TensorData::F64(v) => data.extend(v.iter().flat_map(|x| x.to_le_bytes())),
-        }
+        let bytes = match t.data {
+            DataRef::F32(v) => v.len() * 4,
+            DataRef::F64(v) => v.len() * 8,
+        };
         let n: usize = t.shape.iter().product();
-        if n * dtype(t).bitsize() / 8 != data.len() - start {
-            return Err(Error::Numerical(format!("tensor '{}' has shape {:?} but {} bytes", t.name, t.shape, data.len() - start)));
+        if n * dtype(t).bitsize() / 8 != bytes {
+            return Err(std::io::Error::other(format!("tensor '{}' has shape {:?} but {bytes} bytes", t.name, t.shape)));
         }
         header.push_str(&format!(
-            ",{}:{{\"dtype\":{},\"shape\":{},\"data_offsets\":[{start},{}]}}",
+            ",{}:{{\"dtype\":{},\"shape\":{},\"data_offsets\":[{offset},{}]}}",
             json(&t.name),
             json(&dtype(t)),
             json(&t.shape),
-            data.len()
+            offset + bytes
         ));
+        offset += bytes;
     }
     header.push('}');
     // safetensors pads the header with spaces to a multiple of 8 bytes (alignment of the data).
     while header.len() % 8 != 0 {
         header.push(' ');
     }
-    let mut out = Vec::with_capacity(8 + header.len() + data.len());
-    out.extend((header.len() as u64).to_le_bytes());
-    out.extend(header.into_bytes());
-    out.extend(data);
-    Ok(out)
+    w.write_all(&(header.len() as u64).to_le_bytes())?;
+    w.write_all(header.as_bytes())?;
+    let mut buf = Vec::with_capacity(1 << 16);
+    for t in &tensors {
+        match t.data {
+            DataRef::F32(v) => {
+                for c in v.chunks(1 << 13) {
+                    buf.clear();
+                    buf.extend(c.iter().flat_map(|x| x.to_le_bytes()));
+                    w.write_all(&buf)?;
+                }
+            }
+            DataRef::F64(v) => {
+                for c in v.chunks(1 << 13) {
+                    buf.clear();
+                    buf.extend(c.iter().flat_map(|x| x.to_le_bytes()));
+                    w.write_all(&buf)?;
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A plain value as compact JSON.
@@ -147,6 +196,11 @@ pub fn load(path: &Path) -> Result<AnyModel> {
 pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     let (meta, tensors) = read_parts(path, bytes)?;
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
+    if meta.get("kind").map(String::as_str) == Some(crate::partial::PARTIAL_KIND) {
+        return Err(err(
+            "this is a file of partial training statistics (train --shard), not a model: merge the shards' files into a model with `linpose merge`".into(),
+        ));
+    }
     if meta.get("kind").map(String::as_str) == Some(OBJECTS_KIND) {
         return Err(err(
             "this model file holds several objects (a recogniser and each object's pose model); read it as a many-object model (model_file::load_objects)"
@@ -230,7 +284,7 @@ pub fn holds_objects(path: &Path) -> Result<bool> {
 }
 
 /// The metadata and the arrays of a linpose safetensors file, its format version checked.
-fn read_parts(path: &Path, bytes: &[u8]) -> Result<(std::collections::HashMap<String, String>, TensorSet)> {
+pub(crate) fn read_parts(path: &Path, bytes: &[u8]) -> Result<(std::collections::HashMap<String, String>, TensorSet)> {
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
     let st = SafeTensors::deserialize(bytes).map_err(|e| err(format!("not a linpose model file (not a complete safetensors file: {e})")))?;
     let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| err(e.to_string()))?;

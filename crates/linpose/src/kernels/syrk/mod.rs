@@ -196,6 +196,34 @@ impl SyrkAcc {
         self.bands.par_iter_mut().zip(&other.bands).for_each(|(b, o)| b.buf.iter_mut().zip(&o.buf).for_each(|(v, &w)| *v += w));
     }
 
+    /// The lower triangle of C packed row by row: element (r, c), c <= r < n, at
+    /// r (r + 1) / 2 + c (what a file or another process can hold and add).
+    pub fn to_packed_lower(&self) -> Vec<f64> {
+        let n = self.n;
+        let mut out = vec![0.0; n * (n + 1) / 2];
+        for band in &self.bands {
+            for r in band.r0..(band.r0 + band.rows).min(n) {
+                let row = &mut out[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1];
+                row.iter_mut().enumerate().for_each(|(c, v)| *v = band.buf[c * band.rows + r - band.r0]);
+            }
+        }
+        out
+    }
+
+    /// An accumulator holding the lower triangle `packed` ([`SyrkAcc::to_packed_lower`]'s
+    /// layout) of an n x n C.
+    pub fn from_packed_lower(n: usize, packed: &[f64]) -> Self {
+        assert_eq!(packed.len(), n * (n + 1) / 2, "packed lower triangle size");
+        let mut acc = SyrkAcc::new(n);
+        for band in &mut acc.bands {
+            for r in band.r0..(band.r0 + band.rows).min(n) {
+                let row = &packed[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1];
+                row.iter().enumerate().for_each(|(c, &v)| band.buf[c * band.rows + r - band.r0] = v);
+            }
+        }
+        acc
+    }
+
     /// Multiplies every element of C by `s`.
     pub fn scale(&mut self, s: f64) {
         self.bands.par_iter_mut().for_each(|band| band.buf.iter_mut().for_each(|v| *v *= s));

@@ -213,6 +213,14 @@ impl Estimator for EigenspaceParams {
     }
 
     fn fit(&self, train: &Dataset) -> Result<EigenspaceModel> {
+        self.fit_with_gram(train, None)
+    }
+}
+
+impl EigenspaceParams {
+    /// [`Estimator::fit`] with the training images' Gram matrix X X^T given
+    /// ([`pca::fit_with_gram`]); computed from the images when None.
+    pub(crate) fn fit_with_gram(&self, train: &Dataset, gram: Option<faer::Mat<f64>>) -> Result<EigenspaceModel> {
         self.validate()?;
         let space = train.space();
         let root = train.manifest().root();
@@ -220,7 +228,10 @@ impl Estimator for EigenspaceParams {
         let grid = Grid::new(space, train.poses(), train.manifest().images(), root)?;
         let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| manifold::sample_count(g, p.period, self.manifold_step)).collect();
         manifold::check_size(&counts, 1, self.manifold_step)?;
-        let pca = pca::fit(train, self.dimension)?;
+        let pca = match gram {
+            Some(g) => pca::fit_with_gram(train, self.dimension, g)?,
+            None => pca::fit(train, self.dimension)?,
+        };
         let l = pca.dim();
         let dense = Manifold::build(space, &grid, &pca.coords, l, self.manifold_step)?;
         let settings = EigenspaceSettings {

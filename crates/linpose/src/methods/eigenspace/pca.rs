@@ -76,6 +76,31 @@ impl Pca {
 /// (about 2e-9 lambda_1) would leak more than the f32 rounding it is served in, so it is dropped;
 /// 8-bit images never come near this (their quantisation alone is far above it).
 pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
+    fit_from(train, dim, None)
+}
+
+/// [`fit`] with the training images' Gram matrix X X^T given (summed elsewhere, e.g. over
+/// shards of pixels): each image's energy is its diagonal entry, and the Gram matrix of the
+/// centred unit-energy images follows from it (see [`centred_unit_gram`]), so only the
+/// eigenimages read the pixels again.
+pub fn fit_with_gram(train: &Dataset, dim: Dimension, gram: Mat<f64>) -> Result<Pca> {
+    assert!(gram.nrows() == train.len() && gram.ncols() == train.len(), "a Gram matrix of the training set's size");
+    fit_from(train, dim, Some(gram))
+}
+
+/// The Gram matrix of the centred unit-energy images from the raw one G: with s_i = sqrt(G_ii),
+/// G~_ij = G_ij / (s_i s_j), r_i the mean of row i of G~ and t the mean of r,
+/// (x~_i - mu) . (x~_j - mu) = G~_ij - (r_i + r_j) + t (symmetric in every bit).
+fn centred_unit_gram(g: &Mat<f64>) -> Mat<f64> {
+    let n = g.nrows();
+    let s: Vec<f64> = (0..n).map(|i| g[(i, i)].max(0.0).sqrt()).collect();
+    let unit = Mat::from_fn(n, n, |i, j| g[(i, j)] / (s[i] * s[j]));
+    let r: Vec<f64> = (0..n).map(|i| (0..n).map(|j| unit[(i, j)]).sum::<f64>() / n as f64).collect();
+    let t = r.iter().sum::<f64>() / n as f64;
+    Mat::from_fn(n, n, |i, j| unit[(i, j)] - (r[i] + r[j]) + t)
+}
+
+fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pca> {
     let (n, m) = (train.len(), train.n_features());
     if n < 2 {
         return Err(Error::Dataset {
@@ -87,7 +112,10 @@ pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
     let mut mean = vec![0.0; m];
     for j in 0..n {
         let col = xt.col_mut(j).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
-        let norm = col.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let norm = match &raw {
+            Some(g) => g[(j, j)].max(0.0).sqrt(),
+            None => col.iter().map(|v| v * v).sum::<f64>().sqrt(),
+        };
         // Features are finite (Dataset checks), so the norm is finite and zero only when black.
         if norm <= 0.0 {
             return Err(Error::Dataset {
@@ -104,7 +132,10 @@ pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
         let col = xt.col_mut(j).try_as_col_major_mut().expect("column-major").as_slice_mut();
         col.iter_mut().zip(&mean).for_each(|(v, &u)| *v -= u);
     }
-    let g = gram(xt.as_ref());
+    let g = match raw {
+        Some(g) => centred_unit_gram(&g),
+        None => gram(xt.as_ref()),
+    };
     let evd = g.self_adjoint_eigen(Side::Lower).map_err(|e| Error::Numerical(format!("eigendecomposition of the Gram matrix: {e:?}")))?;
     // faer sorts eigenvalues in nondecreasing order: reverse to largest first.
     let order: Vec<usize> = (0..n).rev().collect();

@@ -30,6 +30,7 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
+pub mod normal;
 pub mod ridge;
 pub mod stream;
 
@@ -179,6 +180,12 @@ pub(crate) struct GramSystem<'a> {
 impl<'a> GramSystem<'a> {
     /// Builds the system after refusing exact duplicate images with different poses.
     pub fn new(train: &'a Dataset, center: bool) -> Result<Self> {
+        Self::with_gram(train, center, None)
+    }
+
+    /// [`Self::new`] with G given (summed elsewhere, e.g. over shards of pixels: centred about
+    /// the mean image when `center`); computed from `train` when None.
+    pub fn with_gram(train: &'a Dataset, center: bool, given: Option<Mat<f64>>) -> Result<Self> {
         check_duplicates(train)?;
         let (n, m) = (train.len(), train.n_features());
         let k = train.space().encoded_len();
@@ -196,7 +203,13 @@ impl<'a> GramSystem<'a> {
         } else {
             (None, None)
         };
-        let g = gram_f32(train.features(), n, m, mean_x.as_deref());
+        let g = match given {
+            Some(g) => {
+                assert!(g.nrows() == n && g.ncols() == n, "a given Gram matrix of the training set's size");
+                g
+            }
+            None => gram_f32(train.features(), n, m, mean_x.as_deref()),
+        };
         Ok(GramSystem { x: train.features(), m, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
     }
 
@@ -429,16 +442,25 @@ impl Estimator for LinearParams {
     }
 
     fn fit(&self, train: &Dataset) -> Result<LinearModel> {
+        self.fit_with_gram(train, None)
+    }
+}
+
+impl LinearParams {
+    /// [`Estimator::fit`] with the training set's Gram matrix given (see
+    /// [`GramSystem::with_gram`]); the noise rule with a level above 0, which fits an augmented
+    /// set, computes its own.
+    pub(crate) fn fit_with_gram(&self, train: &Dataset, gram: Option<Mat<f64>>) -> Result<LinearModel> {
         self.validate()?;
         let augmented;
-        let fit_set = match self.rule {
+        let (fit_set, gram) = match self.rule {
             RidgeRule::Noise(a) if a > 0.0 => {
                 augmented = with_expected_noisy_views(train, a)?;
-                &augmented
+                (&augmented, None)
             }
-            _ => train,
+            _ => (train, gram),
         };
-        let sys = GramSystem::new(fit_set, self.center)?;
+        let sys = GramSystem::with_gram(fit_set, self.center, gram)?;
         let n = train.len() as f64;
         let (lambda, loo) = match self.rule {
             RidgeRule::Fixed => (self.ridge, None),

@@ -12,40 +12,29 @@
 //!   band into the (zeroed, upper half untouched) matrix that is then factored in place, plus two
 //!   blocks of images (1.7 GB in all for 160 x 120 images). With lambda > 0 this
 //!   is the same model as the in-memory ridge fit W = X^T (X X^T + lambda I)^{-1} P (the
-//!   push-through identity). Images whose pixels never vary (a black background) make X^T X
-//!   singular, so this path needs lambda > 0 in practice; it refuses a singular system and says so.
+//!   push-through identity). With lambda = 0 it is the minimum-norm least-squares fit, pixels
+//!   that are zero in every image (a black background) weighted 0 ([`super::normal`]); pixels
+//!   that vary together still make X^T X singular, which is refused with the hint to add a ridge.
 //!   Centring is not offered on this path.
 //!
 //! On the least-squares path a reader thread decodes the next block while the current one is
-//! accumulated. Blocks whose values are all 8-bit levels (what every 8-bit image gives: the
-//! feature of level k is the f32 value k * fl(1/255) = V_k 2^-31 with V_k an integer) are summed
-//! in integers by the crate's AVX-512 VNNI SYRK kernels: with V_k = k m + r_k
-//! (m = fl(1/255) 2^31, |r_k| <= 127), the products of two features are
-//! 2^-62 (m^2 k_p k_q + m (k_p r_q + r_p k_q) + r_p r_q). The first two sums are exact in
-//! integers, in two passes (`vpdpwssd` on pairs of images, `vpdpbusd` on quads) that together
-//! take half the instructions of the f64 kernel's FMAs; the last, under 4e-15 per image, is left
-//! out. X^T X is thus that of the same f32 features as the in-memory path, to about 1e-14
-//! relative, at about twice the f64 kernel's speed. From the first block that is not 8-bit
-//! (16-bit images, say), the rest is summed in f64; so is everything on a CPU without AVX-512
-//! VNNI (the same model to about 1e-14 in X^T X, not the same bits).
+//! added to the normal equations ([`super::normal`], which says how 8-bit images are summed
+//! exactly in integers).
 //!
 //! Blocks are summed in manifest order, each by the same SYRK kernels, so the
 //! result does not depend on the thread count.
 
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
-use crate::kernels::levels::{quantize, residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
-use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
+use crate::kernels::levels::quantize;
+use crate::kernels::syrk::KCP;
 use crate::manifest::Manifest;
+use crate::methods::linear::normal::NormalEquations;
 use crate::methods::linear::ridge::RidgeRule;
 use crate::methods::linear::{LinearModel, LinearParams, METHOD};
 use crate::model::{AnyModel, Estimator, ModelMeta, Settings};
+use crate::pose::PoseSpace;
 use crate::{Error, Result};
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
-use faer::linalg::triangular_solve::{solve_lower_triangular_in_place, solve_upper_triangular_in_place};
-use faer::{Mat, MatMut, MatRef};
-use rayon::prelude::*;
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
@@ -200,6 +189,15 @@ struct Block {
     exact: bool,
 }
 
+/// Seconds a block-by-block accumulation spent: reading (on the reader thread), waiting for the
+/// reader, and adding blocks to the sums.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct Timing {
+    pub read_s: f64,
+    pub wait_s: f64,
+    pub accumulate_s: f64,
+}
+
 /// The least-squares path on images delivered by `read(start, block)`, which fills `block`
 /// (rows of M features) with images `start..`, `block.len() / M` of them. `read` runs on a thread
 /// of its own, one block ahead of the accumulation.
@@ -208,32 +206,47 @@ pub(crate) fn fit_least_squares(
     spec: ImageSpec,
     params: &LinearParams,
     block: usize,
-    mut read: impl FnMut(usize, &mut [f32]) -> Result<()> + Send,
+    read: impl FnMut(usize, &mut [f32]) -> Result<()> + Send,
 ) -> Result<(LinearModel, StreamStats)> {
     if params.is_centered() {
         return Err(Error::invalid("center", true, "centring is not offered on the streaming least-squares path (N > M)"));
     }
+    let (n, m) = (manifest.len(), spec.features());
+    let mut ne = NormalEquations::new(m, manifest.space().encoded_len());
+    let timing = accumulate_rows(manifest, m, 0..n, block, read, &mut ne)?;
+    let t = Instant::now();
+    let exact = ne.integer_8bit();
+    let model = solve_model(ne, manifest.space(), manifest.poses(), spec, params.ridge_lambda())?;
+    let stats = StreamStats {
+        path: SolverPath::LeastSquares,
+        n,
+        m,
+        read_s: timing.read_s,
+        wait_s: timing.wait_s,
+        accumulate_s: timing.accumulate_s,
+        solve_s: t.elapsed().as_secs_f64(),
+        integer_8bit: exact,
+    };
+    Ok((model, stats))
+}
+
+/// Adds images `range` of `manifest` (M features each), delivered block by block by
+/// `read(start, block)` on a reader thread of its own, to `ne`, in order.
+pub(crate) fn accumulate_rows(
+    manifest: &Manifest,
+    m: usize,
+    range: std::ops::Range<usize>,
+    block: usize,
+    mut read: impl FnMut(usize, &mut [f32]) -> Result<()> + Send,
+    ne: &mut NormalEquations,
+) -> Result<Timing> {
     assert!(block > 0, "block size");
-    let lambda = params.ridge_lambda();
     let space = manifest.space();
-    let (n, m, k) = (manifest.len(), spec.features(), space.encoded_len());
-    let np = padded(m);
-    let mut acc = SyrkAcc::new(m);
-    let mut xtp = vec![0f64; m * k]; // X^T P, row-major M x K
-    let mut ptp = vec![0f64; k]; // each encoded column's sum of squares
-                                 // Every block so far 8-bit, on a CPU with AVX-512 VNNI (without it the portable integer
-                                 // kernel gives the same bits but is slower than the f64 kernel, so the f64 path is taken).
-    let mut exact = acc.uses_vnni();
-    let r = level_residuals();
-    // C += s1 sum k_p k_q + s2 sum (k_p r_q + r_p k_q): 2^-62 m^2 and 2^-62 m, exact powers of two
-    // times 24-bit integers.
-    let (s1, s2) = (SCALE_PAIRS, SCALE_CROSS);
+    let k = space.encoded_len();
+    let (first, end) = (range.start, range.end);
     let mut p = vec![0f64; block * k];
-    let (mut pa, mut pb) = (Vec::new(), Vec::new()); // 8-bit panels, step pairs
-    let mut quads: [Vec<i32>; 4] = Default::default(); // 8-bit panels, step quads
-    let mut panel = Vec::new(); // f64 panel
     let (mut wait_s, mut accumulate_s) = (0.0, 0.0);
-    let bsize = block.min(n);
+    let bsize = block.min(end - first);
 
     let read_s = std::thread::scope(|scope| -> Result<f64> {
         let (full_tx, full_rx) = sync_channel::<Result<Block>>(1);
@@ -243,10 +256,10 @@ pub(crate) fn fit_least_squares(
         }
         let reader = scope.spawn(move || {
             let mut read_s = 0.0;
-            let mut start = 0;
-            while start < n {
+            let mut start = first;
+            while start < end {
                 let Ok(mut blk) = free_rx.recv() else { break };
-                let b = block.min(n - start);
+                let b = block.min(end - start);
                 let t = Instant::now();
                 let res = read(start, &mut blk.f[..b * m]).and_then(|()| {
                     let f = &blk.f[..b * m];
@@ -266,8 +279,8 @@ pub(crate) fn fit_least_squares(
             }
             read_s
         });
-        let mut done = 0;
-        while done < n {
+        let mut done = first;
+        while done < end {
             let t = Instant::now();
             let Ok(blk) = full_rx.recv() else { break };
             let blk = blk?;
@@ -275,49 +288,10 @@ pub(crate) fn fit_least_squares(
             let t = Instant::now();
             let (start, b) = (blk.start, blk.len);
             debug_assert_eq!(start, done);
-            exact &= blk.exact; // from the first block that is not 8-bit on, f64
             for i in 0..b {
                 space.encode(manifest.pose(start + i), &mut p[i * k..(i + 1) * k]);
-                ptp.iter_mut().zip(&p[i * k..(i + 1) * k]).for_each(|(s, &v)| *s += v * v);
             }
-            // X^T X over the block, in panels, in order.
-            let mut r0 = 0;
-            while r0 < b {
-                if exact {
-                    let kc = (2 * KCP).min(4 * KCQ).min(b - r0);
-                    let q8 = &blk.q[r0 * m..(r0 + kc) * m];
-                    let kcp = kc.div_ceil(2);
-                    pa.resize(np * KCP, 0);
-                    pb.resize(np * KCP, 0);
-                    let (a, bb) = (&mut pa[..np * kcp], &mut pb[..np * kcp]);
-                    pack_pairs_u8(a, bb, q8, kc, m);
-                    acc.update_u8(a, bb, kcp, s1);
-                    let kcq = kc.div_ceil(4);
-                    quads.iter_mut().for_each(|v| v.resize(np * KCQ, 0));
-                    let [ak, ar, bk, br] = quads.each_mut().map(|v| &mut v[..np * kcq]);
-                    pack_quads_u8(ak, ar, bk, br, q8, kc, m, &r);
-                    acc.update_u8_cross(ak, ar, bk, br, kcq, s2);
-                    r0 += kc;
-                } else {
-                    let kc = KC.min(b - r0);
-                    panel.resize(np * KC, 0.0);
-                    let pn = &mut panel[..np * kc];
-                    pack_columns(pn, &blk.f[r0 * m..(r0 + kc) * m], kc, m, None);
-                    acc.update(pn, kc);
-                    r0 += kc;
-                }
-            }
-            // X^T P: pixel chunks in parallel, images in order.
-            let (f, pr) = (&blk.f, &p);
-            xtp.par_chunks_mut(1024 * k).enumerate().for_each(|(c, out)| {
-                let p0 = c * 1024;
-                for i in 0..b {
-                    let pi = &pr[i * k..(i + 1) * k];
-                    for (o, &v) in out.chunks_exact_mut(k).zip(&f[i * m + p0..]) {
-                        o.iter_mut().zip(pi).for_each(|(o, &q)| *o += v as f64 * q);
-                    }
-                }
-            });
+            ne.add(&blk.f[..b * m], blk.exact.then(|| &blk.q[..b * m]), &p[..b * k]);
             accumulate_s += t.elapsed().as_secs_f64();
             done += b;
             let _ = free_tx.send(blk);
@@ -325,70 +299,37 @@ pub(crate) fn fit_least_squares(
         drop((full_rx, free_tx));
         Ok(reader.join().expect("the reader thread panicked"))
     })?;
-    drop((pa, pb, quads, panel, p));
+    Ok(Timing { read_s, wait_s, accumulate_s })
+}
 
-    let t = Instant::now();
-    let mut a = acc.into_lower(1.0); // column-major M x M, lower triangle
-    for i in 0..m {
-        a[i * m + i] += lambda;
-    }
-    let scale = (0..m).map(|i| a[i * m + i]).fold(0.0, f64::max);
-    let par = crate::linalg::par();
-    let mut mem = MemBuffer::new(cholesky_in_place_scratch::<f64>(m, par, Default::default()));
-    cholesky_in_place(MatMut::from_column_major_slice_mut(&mut a, m, m), Default::default(), par, MemStack::new(&mut mem), Default::default())
-        .map_err(|e| singular(lambda, &format!("{e:?}")))?;
-    let l = MatRef::from_column_major_slice(&a, m, m);
-    let dmin = (0..m).map(|i| l[(i, i)] * l[(i, i)]).fold(f64::INFINITY, f64::min);
-    if !(dmin > scale * m as f64 * 1e-13) {
-        return Err(singular(lambda, &format!("smallest pivot {dmin:.3e} against a largest diagonal of {scale:.3e}")));
-    }
-    let mut wm = Mat::from_fn(m, k, |i, j| xtp[i * k + j]);
-    solve_lower_triangular_in_place(l, wm.as_mut(), par);
-    solve_upper_triangular_in_place(l.transpose(), wm.as_mut(), par);
-    drop(a);
-    let mut w = vec![0.0; k * m];
-    for j in 0..k {
-        for i in 0..m {
-            w[j * m + i] = wm[(i, j)];
-        }
-    }
-    // The pairs' spread from the training residuals: RSS_j = P_j^T P_j - W_j^T X^T P_j - lambda
-    // |W_j|^2 (X^T X W = X^T P - lambda W), over N - M degrees of freedom.
-    let rss = |j: usize| {
-        let wj = &w[j * m..(j + 1) * m];
-        ptp[j] - wj.iter().enumerate().map(|(i, &v)| v * (xtp[i * k + j] + lambda * v)).sum::<f64>()
-    };
-    let dof = n.saturating_sub(m).max(1) as f64;
-    let spread = space.pair_columns().into_iter().map(|c| ((rss(c) + rss(c + 1)).max(0.0) / (2.0 * dof)).sqrt()).collect();
-    let solve_s = t.elapsed().as_secs_f64();
+/// The linear model that solves `ne` (images of `spec`, poses `train_poses` in `space`) with
+/// ridge `lambda`.
+pub(crate) fn solve_model(ne: NormalEquations, space: &PoseSpace, train_poses: &[f64], spec: ImageSpec, lambda: f64) -> Result<LinearModel> {
+    let k = space.encoded_len();
+    let exact = ne.integer_8bit();
+    let solved = ne.solve(lambda, space)?;
     let meta = ModelMeta {
         method: METHOD.name.into(),
         spec,
         space: space.clone(),
-        train_poses: manifest.poses().to_vec(),
+        train_poses: train_poses.to_vec(),
         settings: serde_json::json!({
             "ridge": lambda,
             "center": false,
             "solver": "least squares (X^T X)",
             "accumulation": if exact { "integer (8-bit pixels)" } else { "f64" },
+            "dark_pixels": solved.dark,
         }),
         normalize: None,
     };
-    let stats = StreamStats { path: SolverPath::LeastSquares, n, m, read_s, wait_s, accumulate_s, solve_s, integer_8bit: exact };
-    Ok((LinearModel::new(meta, w, vec![0.0; k], spread), stats))
-}
-
-fn singular(lambda: f64, detail: &str) -> Error {
-    Error::SingularGram {
-        detail: format!("X^T X + {lambda} I is singular ({detail})"),
-        hint: "with more images than pixels the model is least squares, and pixels that never vary (a constant background) leave X^T X singular; use ridge regularisation (--ridge, e.g. 1e-3)".into(),
-    }
+    Ok(LinearModel::new(meta, solved.w, vec![0.0; k], solved.spread))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kernels::levels::S8;
+    use crate::kernels::levels::{residuals as level_residuals, S8, SCALE_CROSS, SCALE_PAIRS};
+    use crate::kernels::syrk::{pack_pairs_u8, pack_quads_u8, padded, SyrkAcc};
     use crate::{Param, PoseSpace};
 
     fn dataset(n: usize, w: usize, h: usize, f: Vec<f32>) -> Dataset {
@@ -528,9 +469,9 @@ mod tests {
     fn singular_least_squares_is_refused_with_a_hint() {
         let mut d = data(60, 4, 4);
         let m = d.n_features();
-        // A pixel that is zero in every image.
+        // Two pixels equal in every image (a pixel zero in every image is solved: weight 0).
         let mut f = d.features().to_vec();
-        f.chunks_exact_mut(m).for_each(|r| r[3] = 0.0);
+        f.chunks_exact_mut(m).for_each(|r| r[3] = r[2]);
         d = Dataset::from_features(d.manifest().clone(), d.spec(), f).unwrap();
         let e = fit_least_squares(d.manifest(), d.spec(), &LinearParams::default(), 16, |s, x| {
             x.copy_from_slice(&d.features()[s * m..s * m + x.len()]);
