@@ -20,6 +20,8 @@ struct Cli {
 enum Command {
     /// Train a model on a data set and write it to a model file.
     Train(cmd::train::TrainArgs),
+    /// Add up partial training statistics (train --shard I/N --partial FILE) into the model.
+    Merge(cmd::shard::MergeArgs),
     /// Estimate the pose of images with a trained model.
     Predict(cmd::predict::PredictArgs),
     /// Estimate every sample of a data set and report the errors.
@@ -33,6 +35,7 @@ enum Command {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Train(a) => cmd::train::run(&a),
+        Command::Merge(a) => cmd::shard::merge(&a),
         Command::Predict(a) => cmd::predict::run(&a),
         Command::Eval(a) => cmd::eval::run(&a),
         Command::Synth(a) => cmd::synth::run(&a),

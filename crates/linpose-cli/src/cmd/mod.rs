@@ -5,5 +5,6 @@ pub mod experiment;
 pub mod method_args;
 pub mod objects;
 pub mod predict;
+pub mod shard;
 pub mod synth;
 pub mod train;

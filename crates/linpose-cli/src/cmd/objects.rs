@@ -79,6 +79,7 @@ struct TrainSummary<'a> {
 
 /// `train` on a many-object data set.
 pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpec) -> anyhow::Result<()> {
+    let out = a.out.as_deref().context("--out MODEL is required")?;
     let t0 = Instant::now();
     let c = catalog(&a.data.data, &a.leave_out)?;
     let c = c.subset(&c.training_masks(&a.selection()?)?)?;
@@ -89,7 +90,7 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpe
     let model = ObjectModel::fit_with(&train, params, spec, &|k| bar.inc(k)).map_err(as_flag)?;
     bar.finish_and_clear();
     let fit_s = t1.elapsed().as_secs_f64();
-    let file_bytes = linpose::model_file::save_objects(&model, &a.out).context("writing the model")?;
+    let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
     let summary = TrainSummary {
         recognizer: model.kind().name(),
         method: model.method_name(),
@@ -114,7 +115,7 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpe
         model.spec().height,
         summary.model_bytes,
         summary.recognizer_bytes,
-        a.out.display()
+        out.display()
     );
     if let Some(j) = &a.json {
         write_json(j, &summary)?;

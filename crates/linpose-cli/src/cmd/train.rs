@@ -58,8 +58,17 @@ pub struct TrainArgs {
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub leave_out: Vec<String>,
     /// The model file to write (safetensors).
-    #[arg(long, value_name = "MODEL")]
-    pub out: PathBuf,
+    #[arg(long, value_name = "MODEL", required_unless_present = "shard", conflicts_with = "shard")]
+    pub out: Option<PathBuf>,
+    /// Sum only shard I of N of the training statistics (a run of images, or with fewer images
+    /// than pixels a run of pixels of every image) into the file --partial names, for
+    /// `linpose merge` to add up with the other shards' into the model: training split across
+    /// processes or machines. The linear model and the eigenspace.
+    #[arg(long, value_name = "I/N", requires = "partial")]
+    pub shard: Option<crate::cmd::shard::ShardArg>,
+    /// The partial statistics file --shard writes (safetensors).
+    #[arg(long, value_name = "FILE", requires = "shard")]
+    pub partial: Option<PathBuf>,
     /// Also write a JSON summary (fit_s, n_train, model_bytes, ...).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -111,7 +120,12 @@ struct TrainSummary {
 
 /// Runs `linpose train`.
 pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
-    check_output_file(&a.out, "model")?;
+    let out = match (&a.out, a.shard, &a.partial) {
+        (_, Some(shard), Some(partial)) => return crate::cmd::shard::train_shard(a, shard, partial),
+        (Some(out), _, _) => out,
+        _ => anyhow::bail!("--out MODEL is required (or --shard I/N with --partial FILE)"),
+    };
+    check_output_file(out, "model")?;
     if let Some(j) = &a.json {
         check_output_file(j, "JSON")?;
     }
@@ -159,12 +173,12 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         };
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
-    let file_bytes = linpose::model_file::save(&model, &a.out).context("writing the model")?;
-    report(a, &model, load_s, fit_s, file_bytes, how)
+    let file_bytes = linpose::model_file::save(&model, out).context("writing the model")?;
+    report(a, out, &model, load_s, fit_s, file_bytes, how)
 }
 
 /// Says what was trained, and writes the JSON summary when asked.
-fn report(a: &TrainArgs, model: &AnyModel, load_s: f64, fit_s: f64, file_bytes: u64, how: Option<String>) -> anyhow::Result<()> {
+fn report(a: &TrainArgs, out: &std::path::Path, model: &AnyModel, load_s: f64, fit_s: f64, file_bytes: u64, how: Option<String>) -> anyhow::Result<()> {
     let meta = model.meta();
     let summary = TrainSummary {
         method: meta.method.clone(),
@@ -189,7 +203,7 @@ fn report(a: &TrainArgs, model: &AnyModel, load_s: f64, fit_s: f64, file_bytes: 
         meta.spec.width,
         meta.spec.height,
         summary.model_bytes,
-        a.out.display()
+        out.display()
     );
     if let Some(how) = how {
         eprintln!("  {how}");

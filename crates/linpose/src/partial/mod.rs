@@ -193,6 +193,15 @@ impl Partial {
         Ok(Partial::empty_of(header, method, params, manifest.poses().to_vec(), "partial statistics".into()))
     }
 
+    /// [`Partial::new`] for the images of `manifest` read with `color`, their size taken from
+    /// the first image (every other must have it; reading a shard checks).
+    pub fn for_images(method: &'static Method, settings: &Settings, manifest: &Manifest, color: ColorMode) -> Result<Self> {
+        let first = manifest.images().first().ok_or_else(|| Error::Dataset { path: manifest.root().to_path_buf(), message: "no training images".into() })?;
+        let mut row = Vec::new();
+        let (width, height) = read_features(&manifest.image_path(0), color, None, first, &mut row)?;
+        Partial::new(method, settings, manifest, ImageSpec { width, height, color })
+    }
+
     fn empty_of(header: Header, method: &'static Method, params: Params, poses: Vec<f64>, source: String) -> Self {
         let (n, m, k) = (header.n, header.spec.features(), header.space.encoded_len());
         let stats = match header.split {
@@ -218,6 +227,11 @@ impl Partial {
             Split::Images => self.header.n,
             Split::Pixels => self.header.spec.features(),
         }
+    }
+
+    /// The training images' width and height.
+    pub fn image_size(&self) -> (u32, u32) {
+        (self.header.spec.width, self.header.spec.height)
     }
 
     /// The images or pixels accumulated, as sorted disjoint ranges.
@@ -400,6 +414,15 @@ impl Partial {
         Ok(())
     }
 
+    /// The Gram matrix X X^T summed so far over the pixels held ([`Split::Pixels`]; centred
+    /// about the mean image for a centred linear model); None for shards of images.
+    pub fn gram(&self) -> Option<Mat<f64>> {
+        match &self.stats {
+            Stats::Pixels { gram, .. } => Some(unpack_lower(gram, self.header.n)),
+            Stats::Images(_) => None,
+        }
+    }
+
     /// Whether every image (or pixel) of the set has been accumulated.
     pub fn is_complete(&self) -> bool {
         self.covered.len() == 1 && self.covered[0] == (0..self.units())
@@ -427,10 +450,7 @@ impl Partial {
                 drop(blocks);
                 let manifest = Manifest::new(&h.root, h.space.clone(), h.names.clone(), self.poses)?;
                 let train = Dataset::from_features(manifest, h.spec, x)?;
-                let g = Mat::from_fn(n, n, |i, j| {
-                    let (r, c) = if i >= j { (i, j) } else { (j, i) };
-                    gram[r * (r + 1) / 2 + c]
-                });
+                let g = unpack_lower(&gram, n);
                 drop(gram);
                 match params {
                     Params::Linear(p) => Ok(AnyModel::new(p.fit_with_gram(&train, Some(g))?)),
@@ -546,6 +566,14 @@ fn add_lower(packed: &mut [f64], g: &Mat<f64>) {
         let row = &mut packed[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1];
         row.iter_mut().enumerate().for_each(|(c, v)| *v += g[(r, c)]);
     }
+}
+
+/// The symmetric n x n matrix of a lower triangle packed row by row.
+fn unpack_lower(packed: &[f64], n: usize) -> Mat<f64> {
+    Mat::from_fn(n, n, |i, j| {
+        let (r, c) = if i >= j { (i, j) } else { (j, i) };
+        packed[r * (r + 1) / 2 + c]
+    })
 }
 
 /// FNV-1a (64-bit) of the image names and the poses' bits, as 16 hex digits.

@@ -44,7 +44,7 @@
 mod hypotheses;
 pub(crate) mod kdtree;
 pub(crate) mod manifold;
-pub(crate) mod pca;
+pub mod pca;
 pub(crate) mod projector;
 pub(crate) mod search;
 pub(crate) mod spline;

@@ -81,7 +81,8 @@ pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
 
 /// [`fit`] with the training images' Gram matrix X X^T given (summed elsewhere, e.g. over
 /// shards of pixels): each image's energy is its diagonal entry, and the Gram matrix of the
-/// centred unit-energy images follows from it (see [`centred_unit_gram`]), so only the
+/// centred unit-energy images follows from it (G~_ij = G_ij / (s_i s_j) with s_i = sqrt(G_ii),
+/// then centred: G~_ij - (r_i + r_j) + t, r the row means of G~, t their mean), so only the
 /// eigenimages read the pixels again.
 pub fn fit_with_gram(train: &Dataset, dim: Dimension, gram: Mat<f64>) -> Result<Pca> {
     assert!(gram.nrows() == train.len() && gram.ncols() == train.len(), "a Gram matrix of the training set's size");
