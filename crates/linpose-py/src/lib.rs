@@ -1,5 +1,6 @@
 //! The Rust core of the `linpose` Python package: the library's models, renderer, data set
-//! reader and error measure over numpy arrays. The Python layer (`python/linpose`) wraps it in
+//! reader and error measure over numpy arrays, and the tasks of a distributed fit (partial
+//! training statistics as bytes: `linpose.dask`). The Python layer (`python/linpose`) wraps it in
 //! scikit-learn estimators; this module keeps to arrays, bytes and plain values.
 //!
 //! Every call that fits, estimates, renders or reads releases the interpreter lock
@@ -11,6 +12,7 @@
 mod arrays;
 mod data;
 mod model;
+mod partial;
 
 use pyo3::prelude::*;
 
@@ -35,5 +37,10 @@ fn _linpose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(data::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(data::pose_error, m)?)?;
     m.add_function(wrap_pyfunction!(data::train_mask, m)?)?;
+    m.add_function(wrap_pyfunction!(partial::partial_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(partial::partial_read_shard, m)?)?;
+    m.add_function(wrap_pyfunction!(partial::partial_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(partial::partial_finish, m)?)?;
+    m.add_function(wrap_pyfunction!(partial::partial_describe, m)?)?;
     Ok(())
 }

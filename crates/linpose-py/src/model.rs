@@ -31,6 +31,11 @@ pub(crate) fn array2<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>, rows: u
 }
 
 impl Model {
+    /// Wraps a model of the library.
+    pub(crate) fn new(inner: AnyModel) -> Model {
+        Model { inner }
+    }
+
     fn meta(&self) -> &linpose::ModelMeta {
         self.inner.meta()
     }

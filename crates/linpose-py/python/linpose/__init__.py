@@ -12,6 +12,9 @@ The models are the Rust library's, and their files are the command line's: :func
 one ``linpose train`` wrote, and ``save`` writes one ``linpose predict`` reads. :func:`synth`
 renders turntable data sets, :func:`read_dataset` reads a data set folder, :func:`train_mask`
 picks the paper's training views and :func:`pose_error` is the error measure of ``linpose eval``.
+
+:mod:`linpose.dask` fits the linear model and the eigenspace on a Dask cluster (``import
+linpose.dask``; it needs ``dask[distributed]``, which ``import linpose`` does not).
 """
 
 from __future__ import annotations

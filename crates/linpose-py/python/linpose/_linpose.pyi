@@ -65,3 +65,29 @@ def read_dataset(
 ) -> Tuple[npt.NDArray[Union[np.uint8, np.float32]], npt.NDArray[np.float64], Params, List[str]]: ...
 def train_mask(poses: npt.NDArray[np.float64], params: Params, step: float) -> npt.NDArray[np.bool_]: ...
 def pose_error(y_true: npt.NDArray[np.float64], y_pred: npt.NDArray[np.float64], params: Params) -> npt.NDArray[np.float64]: ...
+
+# The tasks of a distributed fit (linpose.dask): partial training statistics as the bytes of a
+# partial statistics file (what `linpose train --shard I/N --partial FILE` writes).
+def partial_plan(
+    method: str,
+    settings: Sequence[Tuple[str, str]],
+    paths: Sequence[str],
+    poses: npt.NDArray[np.float64],
+    params: Params,
+) -> Tuple[str, int, int, int, int]:
+    """(split "images" or "pixels", units to share, width, height, bytes of a partial's sums)."""
+    ...
+def partial_read_shard(
+    method: str,
+    settings: Sequence[Tuple[str, str]],
+    paths: Sequence[str],
+    poses: npt.NDArray[np.float64],
+    params: Params,
+    width: int,
+    height: int,
+    index: int,
+    count: int,
+) -> bytes: ...
+def partial_merge(a: bytes, b: bytes, a_name: str = ..., b_name: str = ...) -> bytes: ...
+def partial_finish(data: bytes, name: str = ...) -> Model: ...
+def partial_describe(data: bytes) -> str: ...
