@@ -96,20 +96,26 @@ pub fn partial_read_shard<'py>(
 ) -> PyResult<Bound<'py, PyBytes>> {
     let (method, settings, manifest) = fit_of(method, settings, paths, poses, params)?;
     let spec = ImageSpec { width, height, color: ColorMode::Gray };
-    let bytes = py
+    let partial = py
         .detach(|| {
             let source = format!("shard {}/{count}", index + 1);
             let mut partial = Partial::new(method, &settings, &manifest, spec)?.with_source(source);
             partial.read_shard(&manifest, ColorMode::Gray, index, count, &|_| {})?;
-            partial.to_bytes()
+            Ok(partial)
         })
         .map_err(py_err)?;
-    Ok(PyBytes::new(py, &bytes))
+    to_py_bytes(py, &partial)
+}
+
+/// The statistics' file bytes written straight into a Python `bytes` (no copy beside them).
+fn to_py_bytes<'py>(py: Python<'py>, partial: &Partial) -> PyResult<Bound<'py, PyBytes>> {
+    let len = py.detach(|| partial.file_len());
+    PyBytes::new_with(py, len, |buf| partial.write_into(buf).map_err(py_err))
 }
 
 /// Partial statistics from a file's bytes; `name` names them in errors.
 fn parse(data: &[u8], name: &str) -> linpose::Result<Partial> {
-    Partial::from_bytes(Path::new(name), data.to_vec())
+    Partial::from_bytes(Path::new(name), data)
 }
 
 /// The sum of two partial statistics (of other images or pixels of one fit), as a file's bytes;
@@ -117,14 +123,16 @@ fn parse(data: &[u8], name: &str) -> linpose::Result<Partial> {
 #[pyfunction]
 #[pyo3(signature = (a, b, a_name="partial statistics a", b_name="partial statistics b"))]
 pub fn partial_merge<'py>(py: Python<'py>, a: &[u8], b: &[u8], a_name: &str, b_name: &str) -> PyResult<Bound<'py, PyBytes>> {
-    let bytes = py
+    // b's statistics are added and dropped before the sum is written: two sets of statistics
+    // in memory at most, beside the inputs.
+    let sum = py
         .detach(|| {
             let mut sum = parse(a, a_name)?;
             sum.merge(parse(b, b_name)?)?;
-            sum.to_bytes()
+            Ok(sum)
         })
         .map_err(py_err)?;
-    Ok(PyBytes::new(py, &bytes))
+    to_py_bytes(py, &sum)
 }
 
 /// The model fitted from partial statistics that cover the whole training set.

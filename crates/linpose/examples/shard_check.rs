@@ -26,7 +26,7 @@ fn merged(method: &str, settings: &Settings, manifest: &Manifest, shards: usize)
     for i in 0..shards {
         let mut p = proto.empty();
         p.read_shard(manifest, ColorMode::Gray, i, shards, &|_| {})?;
-        let p = Partial::from_bytes(Path::new("shard"), p.to_bytes()?)?;
+        let p = Partial::from_bytes(Path::new("shard"), &p.to_bytes()?)?;
         match &mut total {
             None => total = Some(p),
             Some(t) => t.merge(p)?,

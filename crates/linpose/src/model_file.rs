@@ -113,6 +113,8 @@ pub(crate) struct TensorRef<'a> {
 pub(crate) enum DataRef<'a> {
     F32(&'a [f32]),
     F64(&'a [f64]),
+    /// This many f64 values, which the function writes (little-endian) when the file is written.
+    F64With(usize, &'a dyn Fn(&mut dyn std::io::Write) -> std::io::Result<()>),
 }
 
 /// Writes [`write_parts`]'s bytes to `w` without a copy of the values: the header, then each
@@ -120,7 +122,7 @@ pub(crate) enum DataRef<'a> {
 pub(crate) fn write_parts_to(mut meta: BTreeMap<&str, String>, mut tensors: Vec<TensorRef<'_>>, w: &mut dyn std::io::Write) -> std::io::Result<()> {
     let dtype = |t: &TensorRef<'_>| match t.data {
         DataRef::F32(_) => Dtype::F32,
-        DataRef::F64(_) => Dtype::F64,
+        DataRef::F64(_) | DataRef::F64With(..) => Dtype::F64,
     };
     tensors.sort_by(|a, b| dtype(b).cmp(&dtype(a)).then_with(|| a.name.cmp(&b.name)));
     meta.insert("format", "linpose".to_string());
@@ -131,6 +133,7 @@ pub(crate) fn write_parts_to(mut meta: BTreeMap<&str, String>, mut tensors: Vec<
         let bytes = match t.data {
             DataRef::F32(v) => v.len() * 4,
             DataRef::F64(v) => v.len() * 8,
+            DataRef::F64With(n, _) => n * 8,
         };
         let n: usize = t.shape.iter().product();
         if n * dtype(t).bitsize() / 8 != bytes {
@@ -169,6 +172,7 @@ pub(crate) fn write_parts_to(mut meta: BTreeMap<&str, String>, mut tensors: Vec<
                     w.write_all(&buf)?;
                 }
             }
+            DataRef::F64With(_, write) => write(w)?,
         }
     }
     Ok(())
@@ -283,8 +287,20 @@ pub fn holds_objects(path: &Path) -> Result<bool> {
     Ok(v.get("__metadata__").and_then(|m| m.get("kind")).and_then(|k| k.as_str()) == Some(OBJECTS_KIND))
 }
 
+/// A safetensors file's metadata.
+pub(crate) type Metadata = std::collections::HashMap<String, String>;
+
+/// Tensors left in a file's bytes, by name ([`read_parts_except`]).
+pub(crate) type Borrowed<'b> = Vec<(String, safetensors::tensor::TensorView<'b>)>;
+
 /// The metadata and the arrays of a linpose safetensors file, its format version checked.
-pub(crate) fn read_parts(path: &Path, bytes: &[u8]) -> Result<(std::collections::HashMap<String, String>, TensorSet)> {
+pub(crate) fn read_parts(path: &Path, bytes: &[u8]) -> Result<(Metadata, TensorSet)> {
+    read_parts_except(path, bytes, &[]).map(|(meta, set, _)| (meta, set))
+}
+
+/// [`read_parts`] with the tensors named in `borrow` left in the file's bytes: returned as their
+/// safetensors views (shape and dtype checked by the caller), not copied into the set.
+pub(crate) fn read_parts_except<'b>(path: &Path, bytes: &'b [u8], borrow: &[&str]) -> Result<(Metadata, TensorSet, Borrowed<'b>)> {
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
     let st = SafeTensors::deserialize(bytes).map_err(|e| err(format!("not a linpose model file (not a complete safetensors file: {e})")))?;
     let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| err(e.to_string()))?;
@@ -304,7 +320,12 @@ pub(crate) fn read_parts(path: &Path, bytes: &[u8]) -> Result<(std::collections:
         )));
     }
     let mut tensors = Vec::new();
+    let mut borrowed = Vec::new();
     for (name, view) in st.tensors() {
+        if borrow.contains(&name.as_str()) {
+            borrowed.push((name, view));
+            continue;
+        }
         let data = match view.dtype() {
             Dtype::F32 => TensorData::F32(view.data().chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect()),
             Dtype::F64 => TensorData::F64(view.data().chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes"))).collect()),
@@ -312,7 +333,7 @@ pub(crate) fn read_parts(path: &Path, bytes: &[u8]) -> Result<(std::collections:
         };
         tensors.push(Tensor { name, shape: view.shape().to_vec(), data });
     }
-    Ok((meta.clone(), TensorSet { path: path.to_path_buf(), tensors }))
+    Ok((meta.clone(), TensorSet { path: path.to_path_buf(), tensors }, borrowed))
 }
 
 fn validate_meta(meta: &ModelMeta) -> std::result::Result<(), String> {

@@ -16,7 +16,7 @@ use crate::methods::eigenspace::{EigenspaceParams, METHOD as EIGENSPACE};
 use crate::methods::linear::normal::NormalEquations;
 use crate::methods::linear::{LinearParams, METHOD as LINEAR};
 use crate::model::{Settings, TensorData};
-use crate::model_file::{read_parts, write_parts_to, DataRef, TensorRef};
+use crate::model_file::{read_parts_except, write_parts_to, DataRef, TensorRef};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -57,6 +57,25 @@ impl Partial {
         Ok(out)
     }
 
+    /// The length of [`Partial::to_bytes`]'s bytes (for a caller that allocates them itself).
+    pub fn file_len(&self) -> usize {
+        let mut sink = std::io::sink();
+        let mut counting = Counting { inner: &mut sink, bytes: 0 };
+        self.write_to(&mut counting).expect("writing to a sink cannot fail");
+        counting.bytes as usize
+    }
+
+    /// Writes [`Partial::to_bytes`]'s bytes into `buf`, which must be [`Partial::file_len`] long.
+    pub fn write_into(&self, buf: &mut [u8]) -> Result<()> {
+        let len = buf.len();
+        let mut rest = &mut buf[..];
+        self.write_to(&mut rest).map_err(|e| Error::Numerical(format!("serialising partial statistics into {len} bytes: {e}")))?;
+        if !rest.is_empty() {
+            return Err(Error::Numerical(format!("partial statistics of {} bytes written into {len}", len - rest.len())));
+        }
+        Ok(())
+    }
+
     fn write_to(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         fn t<'a>(name: &str, shape: Vec<usize>, data: DataRef<'a>) -> TensorRef<'a> {
             TensorRef { name: name.to_string(), shape, data }
@@ -76,14 +95,15 @@ impl Partial {
         meta.insert("kind", PARTIAL_KIND.to_string());
         meta.insert("method", h.method.clone());
         meta.insert("linpose.partial", serde_json::to_string(&file).expect("the header serialises"));
-        let xtx;
+        let write_xtx;
         let mut tensors = vec![t("poses", vec![n, np], DataRef::F64(&self.poses))];
         match &self.stats {
             Stats::Images(ne) => {
                 let m = ne.m();
-                let (packed, xtp, ptp) = ne.to_parts();
-                xtx = packed;
-                tensors.push(t("xtx_lower", vec![xtx.len()], DataRef::F64(&xtx)));
+                let (xtp, ptp) = ne.xtp_ptp();
+                write_xtx = |w: &mut dyn std::io::Write| ne.write_xtx(w);
+                let len = m * (m + 1) / 2;
+                tensors.push(t("xtx_lower", vec![len], DataRef::F64With(len, &write_xtx)));
                 tensors.push(t("xtp", vec![m, k], DataRef::F64(xtp)));
                 tensors.push(t("ptp", vec![k], DataRef::F64(ptp)));
             }
@@ -100,14 +120,14 @@ impl Partial {
     /// Reads partial statistics written by [`Partial::save`].
     pub fn load(path: &Path) -> Result<Partial> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        Partial::from_bytes(path, bytes)
+        Partial::from_bytes(path, &bytes)
     }
 
-    /// Partial statistics from a file's bytes (`path` names them in errors).
-    pub fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<Partial> {
+    /// Partial statistics from a file's bytes (`path` names them in errors). X^T X is read from
+    /// the bytes where it lies (no copy beside the statistics).
+    pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Partial> {
         let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
-        let (meta, set) = read_parts(path, &bytes)?;
-        drop(bytes);
+        let (meta, set, borrowed) = read_parts_except(path, bytes, &["xtx_lower"])?;
         if meta.get("kind").map(String::as_str) != Some(PARTIAL_KIND) {
             return Err(err("not a file of partial training statistics (train --shard I/N --partial writes them); a model file?".into()));
         }
@@ -151,10 +171,16 @@ impl Partial {
         }
         let stats = match h.split {
             Split::Images => {
-                let xtx = f64s(take("xtx_lower", &[m * (m + 1) / 2])?, "xtx_lower")?;
                 let xtp = f64s(take("xtp", &[m, k])?, "xtp")?;
                 let ptp = f64s(take("ptp", &[k])?, "ptp")?;
-                Stats::Images(Box::new(NormalEquations::from_parts(m, k, file.n_summed, &xtx, xtp, ptp, file.integer_8bit)))
+                let xtx = match borrowed.first() {
+                    Some((_, v)) if v.dtype() == safetensors::Dtype::F64 && v.shape() == [m * (m + 1) / 2] => v.data(),
+                    Some((_, v)) => {
+                        return Err(err(format!("tensor 'xtx_lower' must be F64 of shape [{}], not {:?} {:?}", m * (m + 1) / 2, v.dtype(), v.shape())))
+                    }
+                    None => return Err(err("no tensor 'xtx_lower'".into())),
+                };
+                Stats::Images(Box::new(NormalEquations::from_parts(m, k, file.n_summed, xtx, xtp, ptp, file.integer_8bit)))
             }
             Split::Pixels => {
                 if h.names.len() != n {

@@ -45,7 +45,7 @@ fn shards(method: &'static Method, settings: &Settings, d: &Dataset, count: usiz
 
 /// Merges pair-wise as a reduction tree would, each partial through a file's bytes.
 fn merge_tree(mut parts: Vec<Partial>) -> Partial {
-    parts = parts.into_iter().map(|p| Partial::from_bytes(Path::new("shard.safetensors"), p.to_bytes().unwrap()).unwrap()).collect();
+    parts = parts.into_iter().map(|p| Partial::from_bytes(Path::new("shard.safetensors"), &p.to_bytes().unwrap()).unwrap()).collect();
     while parts.len() > 1 {
         let mut next = Vec::new();
         let mut it = parts.into_iter();
@@ -252,6 +252,6 @@ fn files_are_told_apart_from_models() {
     let e = crate::model_file::from_bytes(Path::new("p.safetensors"), &bytes).unwrap_err().to_string();
     assert!(e.contains("linpose merge"), "{e}");
     let model = crate::model_file::to_bytes(&p.finish().unwrap()).unwrap();
-    let e = Partial::from_bytes(Path::new("m.safetensors"), model).unwrap_err().to_string();
+    let e = Partial::from_bytes(Path::new("m.safetensors"), &model).unwrap_err().to_string();
     assert!(e.contains("not a file of partial training statistics"), "{e}");
 }

@@ -199,15 +199,48 @@ impl SyrkAcc {
     /// The lower triangle of C packed row by row: element (r, c), c <= r < n, at
     /// r (r + 1) / 2 + c (what a file or another process can hold and add).
     pub fn to_packed_lower(&self) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.n * (self.n + 1) / 2);
+        self.packed_rows(|row| out.extend_from_slice(row));
+        out
+    }
+
+    /// Writes [`SyrkAcc::to_packed_lower`]'s values to `w` as little-endian f64, without a copy of
+    /// the triangle.
+    pub fn write_packed_lower(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let mut bytes = Vec::new();
+        let mut result = Ok(());
+        self.packed_rows(|row| {
+            if result.is_ok() {
+                bytes.clear();
+                bytes.extend(row.iter().flat_map(|v| v.to_le_bytes()));
+                result = w.write_all(&bytes);
+            }
+        });
+        result
+    }
+
+    /// Hands the packed lower triangle's rows to `emit` in order. The bands hold C column by
+    /// column, so rows are gathered CHUNK at a time: one cache line of each column serves them
+    /// all.
+    fn packed_rows(&self, mut emit: impl FnMut(&[f64])) {
+        const CHUNK: usize = 8;
         let n = self.n;
-        let mut out = vec![0.0; n * (n + 1) / 2];
+        let mut rows = vec![0f64; CHUNK * n];
         for band in &self.bands {
-            for r in band.r0..(band.r0 + band.rows).min(n) {
-                let row = &mut out[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1];
-                row.iter_mut().enumerate().for_each(|(c, v)| *v = band.buf[c * band.rows + r - band.r0]);
+            let end = (band.r0 + band.rows).min(n);
+            for ra in (band.r0..end).step_by(CHUNK) {
+                let rb = (ra + CHUNK).min(end);
+                for c in 0..rb {
+                    let col = &band.buf[c * band.rows + ra - band.r0..c * band.rows + rb - band.r0];
+                    for (i, &v) in col.iter().enumerate() {
+                        rows[i * n + c] = v;
+                    }
+                }
+                for r in ra..rb {
+                    emit(&rows[(r - ra) * n..(r - ra) * n + r + 1]);
+                }
             }
         }
-        out
     }
 
     /// An accumulator holding the lower triangle `packed` ([`SyrkAcc::to_packed_lower`]'s
@@ -215,13 +248,44 @@ impl SyrkAcc {
     pub fn from_packed_lower(n: usize, packed: &[f64]) -> Self {
         assert_eq!(packed.len(), n * (n + 1) / 2, "packed lower triangle size");
         let mut acc = SyrkAcc::new(n);
-        for band in &mut acc.bands {
-            for r in band.r0..(band.r0 + band.rows).min(n) {
-                let row = &packed[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1];
-                row.iter().enumerate().for_each(|(c, &v)| band.buf[c * band.rows + r - band.r0] = v);
+        acc.add_packed_rows(|r, row| row.copy_from_slice(&packed[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1]));
+        acc
+    }
+
+    /// C += the lower triangle in `bytes`: [`SyrkAcc::write_packed_lower`]'s little-endian f64
+    /// values, read where they lie.
+    pub fn add_packed_lower_bytes(&mut self, bytes: &[u8]) {
+        let n = self.n;
+        assert_eq!(bytes.len(), n * (n + 1) / 2 * 8, "packed lower triangle size");
+        self.add_packed_rows(|r, row| {
+            let src = &bytes[r * (r + 1) / 2 * 8..(r * (r + 1) / 2 + r + 1) * 8];
+            row.iter_mut().zip(src.chunks_exact(8)).for_each(|(v, b)| *v = f64::from_le_bytes(b.try_into().expect("8 bytes")));
+        });
+    }
+
+    /// C += the lower triangle whose row r `fill(r, row)` writes (r + 1 values), rows gathered
+    /// as in [`SyrkAcc::packed_rows`].
+    fn add_packed_rows(&mut self, mut fill: impl FnMut(usize, &mut [f64])) {
+        const CHUNK: usize = 8;
+        let n = self.n;
+        let mut rows = vec![0f64; CHUNK * n];
+        for band in &mut self.bands {
+            let end = (band.r0 + band.rows).min(n);
+            for ra in (band.r0..end).step_by(CHUNK) {
+                let rb = (ra + CHUNK).min(end);
+                for r in ra..rb {
+                    fill(r, &mut rows[(r - ra) * n..(r - ra) * n + r + 1]);
+                }
+                for c in 0..rb {
+                    let col = &mut band.buf[c * band.rows + ra - band.r0..c * band.rows + rb - band.r0];
+                    for (i, v) in col.iter_mut().enumerate() {
+                        if c <= ra + i {
+                            *v += rows[i * n + c];
+                        }
+                    }
+                }
             }
         }
-        acc
     }
 
     /// Multiplies every element of C by `s`.

@@ -160,16 +160,23 @@ impl NormalEquations {
         self.n += other.n;
     }
 
-    /// The sums as plain arrays: X^T X's lower triangle packed row by row (M (M + 1) / 2
-    /// values), X^T P (M x K, row-major) and P^T P (K).
-    pub fn to_parts(&self) -> (Vec<f64>, &[f64], &[f64]) {
-        (self.acc.to_packed_lower(), &self.xtp, &self.ptp)
+    /// Writes X^T X's lower triangle packed row by row (M (M + 1) / 2 little-endian f64) to `w`,
+    /// without a copy of it.
+    pub fn write_xtx(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        self.acc.write_packed_lower(w)
     }
 
-    /// The sums back from [`Self::to_parts`]'s arrays, for `n` images.
-    pub fn from_parts(m: usize, k: usize, n: usize, xtx: &[f64], xtp: Vec<f64>, ptp: Vec<f64>, integer_8bit: bool) -> Self {
+    /// X^T P (M x K, row-major) and P^T P (K).
+    pub fn xtp_ptp(&self) -> (&[f64], &[f64]) {
+        (&self.xtp, &self.ptp)
+    }
+
+    /// The sums of `n` images back from [`Self::write_xtx`]'s bytes and [`Self::xtp_ptp`]'s
+    /// arrays.
+    pub fn from_parts(m: usize, k: usize, n: usize, xtx_bytes: &[u8], xtp: Vec<f64>, ptp: Vec<f64>, integer_8bit: bool) -> Self {
         assert!(xtp.len() == m * k && ptp.len() == k, "normal equation sizes");
-        let acc = SyrkAcc::from_packed_lower(m, xtx);
+        let mut acc = SyrkAcc::new(m);
+        acc.add_packed_lower_bytes(xtx_bytes);
         NormalEquations { m, k, n, exact: integer_8bit && acc.uses_vnni(), acc, xtp, ptp, scratch: Scratch::default() }
     }
 
