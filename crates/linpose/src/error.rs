@@ -152,6 +152,15 @@ pub enum Error {
     /// A numerical routine failed to converge or met a non-finite value.
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// No way of training fits the memory there is ([`crate::memory`]): said before any large
+    /// allocation, with what each way needs and what would help.
+    #[error("not enough memory to train: {needs}; what would help: {}", crate::memory::remedies_text(remedies))]
+    NotEnoughMemory {
+        /// What each way of training needs against the memory there is, in words.
+        needs: String,
+        /// What would make it fit, with the numbers.
+        remedies: Vec<crate::memory::Remedy>,
+    },
 }
 
 impl Error {

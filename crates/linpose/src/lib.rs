@@ -44,6 +44,8 @@
 //!   registered like the training views ([`normalize::Normalized`] puts any method's model
 //!   behind the stage; the model file keeps it).
 //! - **Model files**: [`model_file`] saves and loads models as safetensors.
+//! - **Memory**: [`memory`] plans a training run before it allocates: what fitting in memory and
+//!   streaming need, against the memory there is, and which to take.
 //! - **Evaluation**: [`evaluate`] estimates every view of a data set, optionally under pixel
 //!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views, and
 //!   how well the confidence flags the gross errors ([`evaluate_with`], [`EvalOptions`]).
@@ -69,6 +71,7 @@ pub mod image_io;
 pub(crate) mod kernels;
 pub(crate) mod linalg;
 pub mod manifest;
+pub mod memory;
 pub mod methods;
 pub mod model;
 pub mod model_file;

@@ -75,14 +75,17 @@ struct TrainSummary<'a> {
     recognizer_bytes: usize,
     file_bytes: u64,
     settings: &'a linpose::recognize::ObjectSettings,
+    memory: crate::cmd::memory_plan::MemorySummary,
 }
 
 /// `train` on a many-object data set.
-pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpec) -> anyhow::Result<()> {
+pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose::Method, spec: &linpose::MethodSpec) -> anyhow::Result<()> {
     let out = a.out.as_deref().context("--out MODEL is required")?;
     let t0 = Instant::now();
     let c = catalog(&a.data.data, &a.leave_out)?;
     let c = c.subset(&c.training_masks(&a.selection()?)?)?;
+    // In memory only: checked before any image is decoded.
+    let plan = crate::cmd::memory_plan::plan_objects(a, &c, method, params)?;
     let train = load(&c, a.color.into())?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -104,6 +107,7 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, spec: &linpose::MethodSpe
         recognizer_bytes: model.recognizer_bytes(),
         file_bytes,
         settings: model.settings(),
+        memory: crate::cmd::memory_plan::MemorySummary::of(&plan),
     };
     eprintln!(
         "trained the {} recogniser and {} pose models on {} objects ({} images of {}x{}) in {fit_s:.3} s (decoding {load_s:.3} s); model {} bytes ({} the recogniser) -> {}",

@@ -1,8 +1,10 @@
 //! `linpose train`: fit a model on a data set and write the model file.
 
+use crate::cmd::memory_plan::{self, MemorySummary};
 use crate::cmd::method_args::{self, as_flag, MethodArgs};
 use crate::common::{check_output_file, load_dataset, write_json, ColorArg, DataArgs};
 use anyhow::Context;
+use linpose::memory::{Path, Plan};
 use linpose::normalize::{NormalizeParams, Normalized};
 use linpose::{AnyModel, PoseModel, TrainSelection};
 use serde::Serialize;
@@ -26,11 +28,23 @@ pub struct TrainArgs {
     pub method: String,
     #[command(flatten)]
     pub settings: MethodArgs,
-    /// Read the images from disk in blocks instead of all at once, for training sets larger than
-    /// memory, with a method that can (an error names them; docs/cli.md says how each does it).
-    /// Says how it fitted.
+    /// Read the images from disk in blocks instead of all at once, with a method that can (an
+    /// error names them; docs/cli.md says how each does it). Without it, train streams by itself
+    /// when the set does not fit in memory but streamed does (see --memory-budget). Says how it
+    /// fitted.
     #[arg(long)]
     pub stream: bool,
+    /// Decode every image into memory and fit there, even with more images than features, where
+    /// train would take the streamed least-squares path by itself (the same model with a
+    /// ridge); checked against the memory all the same.
+    #[arg(long, conflicts_with = "stream")]
+    pub in_memory: bool,
+    /// The memory training may use, e.g. 512M, 8G, 1.5GiB (K, M, G, T: powers of 1024), instead
+    /// of 90% of what the machine has available. Before reading the images, train estimates
+    /// what fitting in memory and streaming need, takes the path that fits (saying which and
+    /// why), and refuses, naming the numbers and what would help, when none does.
+    #[arg(long, value_name = "SIZE", value_parser = memory_plan::parse_budget)]
+    pub memory_budget: Option<u64>,
     /// How colour images become features.
     #[arg(long, value_enum, default_value = "gray")]
     pub color: ColorArg,
@@ -116,6 +130,8 @@ struct TrainSummary {
     settings: serde_json::Value,
     #[serde(skip_serializing_if = "Option::is_none")]
     normalize: Option<linpose::normalize::Normalizer>,
+    /// The memory plan: the path taken and what it needed.
+    memory: MemorySummary,
 }
 
 /// Runs `linpose train`.
@@ -147,7 +163,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
             anyhow::bail!("{}: a data set of many objects is fitted in memory and without --normalize (not yet: --stream, --normalize)", a.data.data.display());
         }
         let params = crate::cmd::objects::recognizer_params(a)?;
-        return crate::cmd::objects::train(a, &params, &spec);
+        return crate::cmd::objects::train(a, &params, method, &spec);
     }
     if many_only {
         anyhow::bail!(
@@ -158,7 +174,9 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     let t0 = Instant::now();
     let manifest = a.data.manifest()?;
     let manifest = manifest.subset(&manifest.training_mask(&a.selection()?)?)?;
-    let (model, load_s, fit_s, how) = if a.stream {
+    // The path, from the sizes alone, before any image is decoded.
+    let plan = memory_plan::plan_one(a, &manifest, method, normalize.is_some())?;
+    let (model, load_s, fit_s, how) = if plan.path == Path::Streamed {
         let bar = crate::common::progress(manifest.len() as u64, "reading");
         let (model, how) = method.fit_streamed(&manifest, a.color.into(), settings, &|k| bar.inc(k)).map_err(as_flag)?;
         bar.finish_and_clear();
@@ -174,11 +192,21 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
     let file_bytes = linpose::model_file::save(&model, out).context("writing the model")?;
-    report(a, out, &model, load_s, fit_s, file_bytes, how)
+    report(a, out, &model, load_s, fit_s, file_bytes, how, &plan)
 }
 
 /// Says what was trained, and writes the JSON summary when asked.
-fn report(a: &TrainArgs, out: &std::path::Path, model: &AnyModel, load_s: f64, fit_s: f64, file_bytes: u64, how: Option<String>) -> anyhow::Result<()> {
+#[allow(clippy::too_many_arguments)]
+fn report(
+    a: &TrainArgs,
+    out: &std::path::Path,
+    model: &AnyModel,
+    load_s: f64,
+    fit_s: f64,
+    file_bytes: u64,
+    how: Option<String>,
+    plan: &Plan,
+) -> anyhow::Result<()> {
     let meta = model.meta();
     let summary = TrainSummary {
         method: meta.method.clone(),
@@ -191,6 +219,7 @@ fn report(a: &TrainArgs, out: &std::path::Path, model: &AnyModel, load_s: f64, f
         file_bytes,
         settings: meta.settings.clone(),
         normalize: meta.normalize.clone(),
+        memory: MemorySummary::of(plan),
     };
     let timing = match how {
         Some(_) => format!("in {fit_s:.3} s (streamed, reading included)"),
