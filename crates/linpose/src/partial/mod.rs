@@ -35,7 +35,7 @@ use crate::manifest::Manifest;
 use crate::methods::eigenspace::{EigenspaceParams, METHOD as EIGENSPACE};
 use crate::methods::linear::normal::NormalEquations;
 use crate::methods::linear::ridge::RidgeRule;
-use crate::methods::linear::stream::{accumulate_rows, solve_model, BLOCK};
+use crate::methods::linear::stream::{accumulate_rows, disk_reader, solve_model, BLOCK};
 use crate::methods::linear::{LinearParams, METHOD as LINEAR};
 use crate::model::{AnyModel, Method, Settings};
 use crate::pose::PoseSpace;
@@ -333,16 +333,7 @@ impl Partial {
                 }
                 self.cover(range.clone())?;
                 let Stats::Images(ne) = &mut self.stats else { unreachable!("split and stats agree") };
-                let read = |start: usize, block: &mut [f32]| -> Result<()> {
-                    for (k, slot) in block.chunks_exact_mut(m).enumerate() {
-                        row.clear();
-                        read_features(&manifest.image_path(start + k), color, Some((w, h)), &context, &mut row)?;
-                        slot.copy_from_slice(&row);
-                        progress(1);
-                    }
-                    Ok(())
-                };
-                if let Err(e) = accumulate_rows(manifest, m, range, BLOCK, read, ne) {
+                if let Err(e) = accumulate_rows(manifest, m, range, BLOCK, disk_reader(manifest, spec, context, progress), ne) {
                     // A shard that failed half-way leaves nothing half-added behind.
                     self.covered.clear();
                     self.stats = Stats::Images(Box::new(NormalEquations::new(m, self.header.space.encoded_len())));

@@ -138,20 +138,10 @@ pub fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, 
             Ok((model, stats))
         }
         SolverPath::LeastSquares => {
-            let context = format!("the size of the data set's first image, {}", manifest.images()[0]);
-            let mut row = Vec::with_capacity(m);
             // One reader thread decodes the images of a block in order while the rayon pool
             // accumulates the previous block: decoding is a few per cent of the work.
-            let read = |start: usize, block: &mut [f32]| -> Result<()> {
-                for (k, slot) in block.chunks_exact_mut(m).enumerate() {
-                    row.clear();
-                    read_features(&manifest.image_path(start + k), color, Some((w, h)), &context, &mut row)?;
-                    slot.copy_from_slice(&row);
-                    progress(1);
-                }
-                Ok(())
-            };
-            fit_least_squares(manifest, spec, params, BLOCK, read)
+            let context = format!("the size of the data set's first image, {}", manifest.images()[0]);
+            fit_least_squares(manifest, spec, params, BLOCK, disk_reader(manifest, spec, context, progress))
         }
     }
 }
@@ -175,6 +165,27 @@ pub(crate) fn fit_streamed(manifest: &Manifest, color: ColorMode, settings: &Set
     }
     let (model, stats) = fit_linear(manifest, color, &params, progress)?;
     Ok((AnyModel::new(model), stats.describe()))
+}
+
+/// What [`accumulate_rows`] reads with: images `start..` of `manifest` (each of `spec`, else an
+/// error naming `context`) decoded from disk into the rows of a block, `progress` told of each.
+pub(crate) fn disk_reader<'a>(
+    manifest: &'a Manifest,
+    spec: ImageSpec,
+    context: String,
+    progress: &'a (dyn Fn(u64) + Sync),
+) -> impl FnMut(usize, &mut [f32]) -> Result<()> + Send + 'a {
+    let m = spec.features();
+    let mut row = Vec::with_capacity(m);
+    move |start, block| {
+        for (k, slot) in block.chunks_exact_mut(m).enumerate() {
+            row.clear();
+            read_features(&manifest.image_path(start + k), spec.color, Some((spec.width, spec.height)), &context, &mut row)?;
+            slot.copy_from_slice(&row);
+            progress(1);
+        }
+        Ok(())
+    }
 }
 
 /// A block of images on its way from the reader to the accumulation.
