@@ -389,10 +389,18 @@ impl Partial {
         differ("training images", a.n.to_string(), b.n.to_string())?;
         differ("shards of", a.split.unit().into(), b.split.unit().into())?;
         differ("training set (fingerprint of image names and poses)", a.fingerprint.clone(), b.fingerprint.clone())?;
+        // Every overlap is refused before anything is marked, so a refused merge changes nothing.
+        if let Some(r) = other.covered.iter().find(|r| self.covered.iter().any(|c| c.start < r.end && r.start < c.end)) {
+            return Err(self.error(format!(
+                "cannot merge with {}: both hold {} {}..{} (the same shard twice?)",
+                other.source,
+                self.header.split.unit(),
+                r.start,
+                r.end
+            )));
+        }
         for r in &other.covered {
-            self.cover(r.clone()).map_err(|_| {
-                self.error(format!("cannot merge with {}: both hold {} {}..{} (the same shard twice?)", other.source, self.header.split.unit(), r.start, r.end))
-            })?;
+            self.cover(r.clone())?;
         }
         match (&mut self.stats, other.stats) {
             (Stats::Images(x), Stats::Images(y)) => x.merge(&y),

@@ -215,6 +215,11 @@ fn mismatched_partials_are_refused_by_name() {
     // The same shard twice.
     let e = merge_err(a());
     assert!(e.contains("both hold pixels 0..96"), "{e}");
+    // A refused merge changes nothing: the right shard still completes the set.
+    let mut x = a();
+    assert!(x.merge(a()).is_err());
+    x.merge(second()).unwrap();
+    assert!(x.is_complete() && x.finish().is_ok());
     // A shard missing.
     let e = a().finish().unwrap_err().to_string();
     assert!(e.contains("missing pixels 96..192 of 192"), "{e}");
