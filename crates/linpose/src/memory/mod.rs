@@ -5,7 +5,9 @@
 //! it (100,800 images of 160 x 120 with the linear model: the N x N Gram matrix alone is 76 GiB),
 //! with no message and no model, although the streamed path would have fitted it in under
 //! 2 GiB. [`plan`] decides before any pixel is read (the first image's header gives its size):
-//! the in-memory path when it fits, else the streamed one when the method and its settings
+//! the in-memory path when it fits (but with more images than features the streamed
+//! least-squares path whenever it can take the job: less memory and time, the same model with a
+//! ridge, the only fit with ridge 0), else the streamed one when the method and its settings
 //! stream and it fits, else an [`Error::NotEnoughMemory`] naming the numbers and what would help
 //! ([`Remedy`]). [`Plan::describe`] says which and why in one line.
 //!
@@ -14,9 +16,10 @@
 //! - [`Path::InMemory`]: every image decoded into one f32 array (N x M), then the method's fit.
 //! - [`Path::Streamed`]: the linear model's [`crate::methods::linear::stream`]: for N <= M it
 //!   loads the set and fits through the N x N Gram matrix (what the in-memory path needs); for
-//!   N > M it accumulates X^T X (M x M) block by block, whatever N. It takes a fixed ridge or a
-//!   fixed noise level (a fixed ridge N A^2 / 3), uncentred, one object, no normalisation: the
-//!   leave-one-out and estimated-noise rules and the rest need the set in memory.
+//!   N > M it accumulates X^T X (M x M) block by block, whatever N. It takes a fixed ridge,
+//!   uncentred, one object, no normalisation: the leave-one-out and noise-level rules (the
+//!   latter fits expected noisy views beside the clean ones) and the rest need the set in
+//!   memory.
 //!
 //! # The estimates (bytes; N images, M features, K encoded pose values, L eigenimages)
 //!
