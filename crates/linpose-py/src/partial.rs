@@ -10,7 +10,7 @@
 
 use crate::model::{space, Model};
 use crate::py_err;
-use linpose::image_io::{read_image, ColorMode, ImageSpec};
+use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::partial::Partial;
 use linpose::{Manifest, Method, Settings};
 use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
@@ -70,8 +70,8 @@ pub fn partial_plan(
 ) -> PyResult<(&'static str, usize, u32, u32, usize)> {
     let (method, settings, manifest) = fit_of(method, settings, paths, poses, params)?;
     py.detach(|| {
-        let (w, h, _) = read_image(&manifest.image_path(0), ColorMode::Gray)?;
-        let partial = Partial::new(method, &settings, &manifest, ImageSpec { width: w, height: h, color: ColorMode::Gray })?;
+        let partial = Partial::for_images(method, &settings, &manifest, ColorMode::Gray)?;
+        let (w, h) = partial.image_size();
         Ok((partial.split().unit(), partial.units(), w, h, partial.bytes()))
     })
     .map_err(py_err)

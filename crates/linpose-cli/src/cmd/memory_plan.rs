@@ -113,7 +113,7 @@ fn explain(e: linpose::Error, spec: ImageSpec, a: &TrainArgs) -> anyhow::Error {
             Remedy::Stream { change, bytes } => {
                 let what = match change {
                     StreamChange::FixedRidge => "a fixed --ridge (e.g. 1e-3) instead of --ridge auto",
-                    StreamChange::FixedNoiseLevel => "a fixed --noise-level (e.g. 0.05) instead of --noise-level auto",
+                    StreamChange::FixedNoiseLevel => "a fixed --ridge (e.g. 1e-3) instead of --noise-level",
                     StreamChange::NoCentring => "no --center",
                     StreamChange::NoNormalization => "no --normalize",
                     _ => "other settings",

@@ -194,12 +194,12 @@ impl Partial {
     }
 
     /// [`Partial::new`] for the images of `manifest` read with `color`, their size taken from
-    /// the first image (every other must have it; reading a shard checks).
+    /// the first image's header (every other must have it; reading a shard checks).
     pub fn for_images(method: &'static Method, settings: &Settings, manifest: &Manifest, color: ColorMode) -> Result<Self> {
-        let first = manifest.images().first().ok_or_else(|| Error::Dataset { path: manifest.root().to_path_buf(), message: "no training images".into() })?;
-        let mut row = Vec::new();
-        let (width, height) = read_features(&manifest.image_path(0), color, None, first, &mut row)?;
-        Partial::new(method, settings, manifest, ImageSpec { width, height, color })
+        if manifest.is_empty() {
+            return Err(Error::Dataset { path: manifest.root().to_path_buf(), message: "no training images".into() });
+        }
+        Partial::new(method, settings, manifest, crate::memory::first_image_spec(manifest, color)?)
     }
 
     fn empty_of(header: Header, method: &'static Method, params: Params, poses: Vec<f64>, source: String) -> Self {

@@ -196,16 +196,8 @@ impl SyrkAcc {
         self.bands.par_iter_mut().zip(&other.bands).for_each(|(b, o)| b.buf.iter_mut().zip(&o.buf).for_each(|(v, &w)| *v += w));
     }
 
-    /// The lower triangle of C packed row by row: element (r, c), c <= r < n, at
-    /// r (r + 1) / 2 + c (what a file or another process can hold and add).
-    pub fn to_packed_lower(&self) -> Vec<f64> {
-        let mut out = Vec::with_capacity(self.n * (self.n + 1) / 2);
-        self.packed_rows(|row| out.extend_from_slice(row));
-        out
-    }
-
-    /// Writes [`SyrkAcc::to_packed_lower`]'s values to `w` as little-endian f64, without a copy of
-    /// the triangle.
+    /// Writes the lower triangle of C packed row by row (element (r, c), c <= r < n, at
+    /// r (r + 1) / 2 + c) to `w` as little-endian f64, without a copy of the triangle.
     pub fn write_packed_lower(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         let mut bytes = Vec::new();
         let mut result = Ok(());
@@ -241,15 +233,6 @@ impl SyrkAcc {
                 }
             }
         }
-    }
-
-    /// An accumulator holding the lower triangle `packed` ([`SyrkAcc::to_packed_lower`]'s
-    /// layout) of an n x n C.
-    pub fn from_packed_lower(n: usize, packed: &[f64]) -> Self {
-        assert_eq!(packed.len(), n * (n + 1) / 2, "packed lower triangle size");
-        let mut acc = SyrkAcc::new(n);
-        acc.add_packed_rows(|r, row| row.copy_from_slice(&packed[r * (r + 1) / 2..r * (r + 1) / 2 + r + 1]));
-        acc
     }
 
     /// C += the lower triangle in `bytes`: [`SyrkAcc::write_packed_lower`]'s little-endian f64
