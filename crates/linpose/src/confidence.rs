@@ -56,7 +56,6 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-use crate::pose::PoseSpace;
 use serde::{Deserialize, Serialize};
 
 /// An error of more than this many degrees is gross (a flip, a wrong side): hypotheses are at
@@ -117,31 +116,18 @@ impl Estimate {
     }
 }
 
-/// The estimate of a manifold search: `best` (its pose and squared distance d_1) and the
-/// local minima `others` (any order, any separation), ranked. The others are taken by increasing
-/// distance while at least [`GROSS_DEG`] from the estimate and from every one taken, at most
-/// [`MAX_HYPOTHESES`] in all; each is scored exp(-d_k / 2 s^2) normalised over them with
-/// s^2 = max(`held_out`, d_1) / `dims` (see the module doc). `top` hypotheses are kept (at least 1).
-pub(crate) fn ranked(space: &PoseSpace, best: (Vec<f64>, f64), mut others: Vec<(Vec<f64>, f64)>, held_out: f64, dims: usize, top: usize) -> Estimate {
-    others.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut kept: Vec<(Vec<f64>, f64)> = vec![best];
-    for (pose, d) in others {
-        if kept.len() == MAX_HYPOTHESES {
-            break;
-        }
-        if d.is_finite() && kept.iter().all(|(p, _)| space.error_deg(p, &pose) >= GROSS_DEG) {
-            kept.push((pose, d));
-        }
-    }
-    let d1 = kept[0].1;
-    let s2 = held_out.max(d1).max(f64::MIN_POSITIVE) / dims.max(1) as f64;
-    let lo = kept.iter().map(|k| k.1).fold(f64::INFINITY, f64::min);
-    let w: Vec<f64> = kept.iter().map(|k| (-(k.1 - lo) / (2.0 * s2)).exp()).collect();
+/// The probability of each of several distinct candidate poses of a query (at least
+/// [`GROSS_DEG`] apart), at squared distances `d` from it, where a fresh view of the object lies
+/// at squared distance `level` from the manifold on average: the posterior of an isotropic
+/// Gaussian error of variance s^2 per coordinate over `dims` coordinates, exp(-d_k / 2 s^2)
+/// normalised, with s^2 = max(level, d_1) / dims (d_1 the least distance: a query farther from
+/// the manifold than fresh views are is not trusted to tell near candidates apart).
+pub(crate) fn posterior(d: &[f64], level: f64, dims: f64) -> Vec<f64> {
+    let d1 = d.iter().copied().fold(f64::INFINITY, f64::min);
+    let s2 = level.max(d1).max(f64::MIN_POSITIVE) / dims.max(1.0);
+    let w: Vec<f64> = d.iter().map(|&dk| if dk.is_finite() { (-(dk - d1) / (2.0 * s2)).exp() } else { 0.0 }).collect();
     let total: f64 = w.iter().sum();
-    let mut hyps: Vec<Hypothesis> = kept.into_iter().zip(&w).map(|((pose, distance), &wk)| Hypothesis { pose, score: wk / total, distance }).collect();
-    hyps[1..].sort_by(|a, b| b.score.total_cmp(&a.score));
-    hyps.truncate(top.max(1));
-    Estimate { pose: hyps[0].pose.clone(), confidence: hyps[0].score, hypotheses: hyps }
+    w.iter().map(|&x| x / total).collect()
 }
 
 /// The local minima of `cost` over a grid of `shape` (points per axis and whether the axis is
@@ -200,32 +186,23 @@ pub(crate) fn pair_confidence(lengths: &[f64], spread: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Param;
-
-    fn turntable() -> PoseSpace {
-        PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap()
-    }
 
     #[test]
-    fn two_equal_minima_half_a_turn_apart_split_the_confidence() {
-        let est = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 1.0), (vec![15.0], 0.5)], 1.0, 4, 3);
-        // 15 is within GROSS_DEG of the estimate: not a distinct hypothesis.
-        assert_eq!(est.hypotheses.len(), 2);
-        assert!((est.confidence - 0.5).abs() < 1e-12);
-        assert_eq!(est.hypotheses[1].pose, vec![190.0]);
+    fn two_equal_minima_split_the_confidence() {
+        let p = posterior(&[1.0, 1.0], 1.0, 4.0);
+        assert!((p[0] - 0.5).abs() < 1e-12 && (p[1] - 0.5).abs() < 1e-12);
     }
 
     #[test]
     fn a_far_alternative_leaves_the_estimate_confident() {
-        let est = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 40.0)], 1.0, 4, 2);
-        assert!(est.confidence > 0.999, "{est:?}");
-        let near = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 1.2)], 1.0, 4, 2);
-        assert!(near.confidence < 0.6 && near.confidence > 0.5, "{near:?}");
-        // A query far from the manifold (d_1 beyond the held-out level) trusts the gap less.
-        let far = ranked(&turntable(), (vec![10.0], 8.0), vec![(vec![190.0], 16.0)], 1.0, 4, 2);
-        let close = ranked(&turntable(), (vec![10.0], 1.0), vec![(vec![190.0], 9.0)], 1.0, 4, 2);
-        assert!(far.confidence < close.confidence);
-        assert!((far.hypotheses.iter().map(|h| h.score).sum::<f64>() - 1.0).abs() < 1e-12);
+        assert!(posterior(&[1.0, 40.0], 1.0, 4.0)[0] > 0.999);
+        let near = posterior(&[1.0, 1.2], 1.0, 4.0);
+        assert!(near[0] < 0.6 && near[0] > 0.5, "{near:?}");
+        // A query far from the manifold (d_1 beyond the level) trusts the gap less.
+        let far = posterior(&[8.0, 16.0], 1.0, 4.0);
+        let close = posterior(&[1.0, 9.0], 1.0, 4.0);
+        assert!(far[0] < close[0]);
+        assert!((far.iter().sum::<f64>() - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -81,6 +81,7 @@ pub(crate) mod pixel_noise;
 pub mod pose;
 pub mod recognize;
 pub mod render;
+pub mod second_look;
 
 pub use catalog::{Catalog, ObjectSet, Source};
 pub use confidence::{Estimate, Hypothesis};

@@ -41,7 +41,6 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-mod hypotheses;
 pub(crate) mod kdtree;
 pub(crate) mod manifold;
 pub mod pca;
@@ -51,7 +50,9 @@ pub(crate) mod spline;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};
+use crate::methods::refined::Interpolant;
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
+use crate::second_look::{Queries, SecondLook, SecondLookSettings};
 use crate::{Error, Result};
 use manifold::{pose_of, Grid, Manifold};
 use projector::{unit_coords, Projector, BATCH_FROM};
@@ -66,7 +67,7 @@ pub static METHOD: Method = Method {
     name: "eigenspace",
     summary: "Murase & Nayar's parametric eigenspace: PCA, the spline appearance manifold resampled densely, the nearest manifold point",
     origin: Origin::Baseline,
-    storage: "NL + ML",
+    storage: "NL + ML + (K + 1) M / b^2 + N_t K",
     options: &[
         MethodOption { name: "components", value: "L", help: "number of eigenimages L (default 20, capped at N - 1)" },
         MethodOption { name: "energy", value: "T", help: "instead of components, keep the fewest eigenimages holding this fraction of the energy (e.g. 0.95)" },
@@ -198,11 +199,9 @@ pub struct EigenspaceSettings {
     pub manifold_shape: Vec<usize>,
     /// The search in use.
     pub search: SearchKind,
-    /// Each coordinate's mean squared error on held-out training views (each knot against the
-    /// manifold through the others, every other knot held out along each axis; empty when no
-    /// axis has enough knots): the level of a query's distance that calibrates its confidence
-    /// ([`crate::confidence`]).
-    pub held_out_variance: Vec<f64>,
+    /// The second look that decides between the estimate and its rivals and scores them
+    /// ([`crate::second_look`]); absent only in models fitted inside another method's choices.
+    pub second_look: Option<SecondLookSettings>,
 }
 
 impl Estimator for EigenspaceParams {
@@ -234,14 +233,14 @@ impl EigenspaceParams {
         };
         let l = pca.dim();
         let dense = Manifold::build(space, &grid, &pca.coords, l, self.manifold_step)?;
+        let look = SecondLook::fit(train, &grid, Interpolant::Spline)?;
         let settings = EigenspaceSettings {
             params: *self,
             components: l,
             energy_kept: pca.energy_kept(),
             manifold_shape: dense.axes.iter().map(Vec::len).collect(),
             search: self.search,
-            held_out_variance: crate::methods::refined::select::interpolation_variance(train, &grid, &pca.coords, l, crate::methods::refined::Interpolant::Spline)?
-                .unwrap_or_default(),
+            second_look: Some(look.settings().clone()),
         };
         let meta = ModelMeta {
             method: METHOD.name.into(),
@@ -252,7 +251,7 @@ impl EigenspaceParams {
             normalize: None,
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), to32(&dense.points), dense.axes)
+        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), to32(&dense.points), dense.axes, Some(look))
     }
 }
 
@@ -275,10 +274,12 @@ pub struct EigenspaceModel {
     /// Sample positions per pose parameter.
     axes: Vec<Vec<f64>>,
     index: NearestIndex,
+    /// The second look ([`crate::second_look`]).
+    look: Option<SecondLook>,
 }
 
 impl EigenspaceModel {
-    fn new(mut meta: ModelMeta, mut settings: EigenspaceSettings, basis: Vec<f32>, mean: Vec<f32>, points: Vec<f32>, axes: Vec<Vec<f64>>) -> Result<Self> {
+    fn new(mut meta: ModelMeta, mut settings: EigenspaceSettings, basis: Vec<f32>, mean: Vec<f32>, points: Vec<f32>, axes: Vec<Vec<f64>>, look: Option<SecondLook>) -> Result<Self> {
         let (l, m) = (settings.components, mean.len());
         let index = NearestIndex::new(&points, l, settings.params.search)?;
         settings.search = index.kind();
@@ -286,7 +287,7 @@ impl EigenspaceModel {
         let rows = 0..basis.len() / m;
         let proj = Projector::new(&basis, m).with_u8(rows.clone());
         let mean_proj = proj.dots_f64(&rows, &mean);
-        Ok(EigenspaceModel { meta, settings, proj, mean, mean_proj, points, axes, index })
+        Ok(EigenspaceModel { meta, settings, proj, mean, mean_proj, points, axes, index, look })
     }
 
     /// The settings as given and as resolved.
@@ -428,9 +429,10 @@ impl EigenspaceModel {
         let settings: EigenspaceSettings = serde_json::from_value(meta.settings.clone()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         settings.params.validate().map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let (l, m, d) = (settings.components, meta.spec.features(), meta.space.len());
-        if !settings.held_out_variance.is_empty() && settings.held_out_variance.len() != l || settings.held_out_variance.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err(t.error(format!("damaged eigenspace settings: {} held-out variances for {l} components", settings.held_out_variance.len())));
-        }
+        let Some(look) = settings.second_look.clone() else {
+            return Err(t.error("damaged eigenspace settings: no second look"));
+        };
+        let look = SecondLook::from_parts(look, meta.spec, &meta.space, t)?;
         if l == 0 || settings.manifold_shape.len() != d || settings.manifold_shape.contains(&0) {
             return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
         }
@@ -454,7 +456,7 @@ impl EigenspaceModel {
             return Err(t.error("the eigenspace holds non-finite values"));
         }
         debug_assert_eq!(points.len(), n_dense * l);
-        EigenspaceModel::new(meta, settings, basis, mean, points, axes).map_err(|e| t.error(e.to_string()))
+        EigenspaceModel::new(meta, settings, basis, mean, points, axes, Some(look)).map_err(|e| t.error(e.to_string()))
     }
 }
 
@@ -468,6 +470,104 @@ impl PoseModel for EigenspaceModel {
     }
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
+        self.predict_own(queries, out)?;
+        self.look_again(Queries::F32(queries), out, None);
+        Ok(())
+    }
+
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<crate::Estimate>> {
+        crate::model::check_queries(self.mean.len(), queries.len(), "query batch")?;
+        let mut out = vec![0.0; queries.len() / self.mean.len() * self.meta.space.len()];
+        self.predict_own(queries, &mut out)?;
+        let est = self.look_again(Queries::F32(queries), &mut out, Some(top));
+        crate::second_look::complete(est, out.len() / self.meta.space.len().max(1))
+    }
+
+    /// 8-bit queries: [`EigenspaceModel::project_u8_into`]'s projection, then the search.
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        self.predict_own_u8(queries, out)?;
+        self.look_again(Queries::U8(queries), out, None);
+        Ok(())
+    }
+
+    /// Every stored number: (manifold points + basis + mean) x 4 bytes, the second look's
+    /// numbers x 4 bytes, plus the manifold's sample positions (8 bytes each), which turn a
+    /// point's index into its pose.
+    fn model_bytes(&self) -> usize {
+        (self.points.len() + self.basis().len() + self.mean.len() + self.look.as_ref().map_or(0, SecondLook::len)) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
+    }
+
+    fn storage(&self) -> Storage {
+        let (n, l, m) = (self.manifold_len(), self.components(), self.meta.spec.features());
+        let (k, b) = self.look.as_ref().map_or((0, 1), |s| (s.settings().components, s.settings().bin));
+        let n_train = self.meta.train_poses.len() / self.meta.space.len().max(1);
+        Storage::new(&[("N", n), ("L", l), ("M", m), ("K", k), ("b", b), ("N_t", n_train)], n * l + m * l + crate::second_look::numbers(n_train, k, m, b))
+    }
+
+    fn tensors(&self) -> Vec<Tensor> {
+        let (l, m) = (self.components(), self.mean.len());
+        let mut shape = self.settings.manifold_shape.clone();
+        shape.push(l);
+        let mut v = vec![
+            Tensor::f32("basis", vec![l, m], self.basis().to_vec()),
+            Tensor::f32("mean", vec![m], self.mean.clone()),
+            Tensor::f32("manifold", shape, self.points.clone()),
+        ];
+        for (j, a) in self.axes.iter().enumerate() {
+            v.push(Tensor::f64(&format!("manifold_axis_{j}"), vec![a.len()], a.clone()));
+        }
+        v.extend(self.look.iter().flat_map(SecondLook::tensors));
+        v
+    }
+}
+
+impl EigenspaceModel {
+    /// The second look over a batch whose own estimates are `out` (see [`crate::second_look`]).
+    fn look_again(&self, queries: Queries<'_>, out: &mut [f64], top: Option<usize>) -> Vec<crate::Estimate> {
+        match &self.look {
+            Some(look) => look.apply(queries, self.mean.len(), out, top, |q, start, o| self.refine_in_basin(q, start, o)),
+            None => Vec::new(),
+        }
+    }
+
+    /// The nearest manifold point to query `x` within the basin of `start`: from the manifold
+    /// point nearest `start` in pose, to the closest of its neighbours one point along an axis
+    /// while one is closer; its pose into `out`.
+    fn refine_in_basin(&self, x: &[f32], start: &[f64], out: &mut [f64]) {
+        let l = self.components();
+        let mut y = vec![0f32; l];
+        self.project_chunk(x, &mut y);
+        if y[0].is_nan() {
+            return;
+        }
+        let shape: Vec<(usize, bool)> = self.axes.iter().zip(self.meta.space.params()).map(|(a, p)| (a.len(), p.period.is_some())).collect();
+        let stride = crate::confidence::row_major_strides(&shape);
+        let mut k = 0;
+        for (((a, p), &st), &v) in self.axes.iter().zip(self.meta.space.params()).zip(&stride).zip(start) {
+            let gap = |x: f64| p.period.map_or((x - v).abs(), |per| { let e = crate::pose::wrap_positive(x - v, per); e.min(per - e) });
+            let i = (0..a.len()).min_by(|&i, &j| gap(a[i]).total_cmp(&gap(a[j]))).unwrap_or(0);
+            k += i * st;
+        }
+        let point = |k: usize| self.points[k * l..(k + 1) * l].iter().zip(&y).map(|(&a, &b)| (a - b) as f64 * (a - b) as f64).sum::<f64>();
+        let mut dk = point(k);
+        loop {
+            let mut best = (k, dk);
+            for k2 in crate::confidence::grid_neighbours(&shape, &stride, k) {
+                let d2 = point(k2);
+                if d2 < best.1 {
+                    best = (k2, d2);
+                }
+            }
+            if best.0 == k {
+                break;
+            }
+            (k, dk) = best;
+        }
+        pose_of(&self.axes, &self.meta.space, k, out);
+    }
+
+    /// The method's own estimates (the nearest manifold point), before the second look.
+    fn predict_own(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         // Project and search chunk by chunk, in parallel; a query that cannot be normalised
@@ -491,12 +591,8 @@ impl PoseModel for EigenspaceModel {
         Ok(())
     }
 
-    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<crate::Estimate>> {
-        self.estimate_with(queries, top)
-    }
-
-    /// 8-bit queries: [`EigenspaceModel::project_u8_into`]'s projection, then the search.
-    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+    /// 8-bit queries: the method's own estimates, before the second look.
+    fn predict_own_u8(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let (space, level) = (&self.meta.space, Level::detect());
@@ -531,31 +627,6 @@ impl PoseModel for EigenspaceModel {
         Ok(())
     }
 
-    /// Every stored number: (manifold points + basis + mean) x 4 bytes, plus the manifold's sample
-    /// positions (8 bytes each), which turn a point's index into its pose.
-    fn model_bytes(&self) -> usize {
-        (self.points.len() + self.basis().len() + self.mean.len()) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
-    }
-
-    fn storage(&self) -> Storage {
-        let (n, l, m) = (self.manifold_len(), self.components(), self.meta.spec.features());
-        Storage::new(&[("N", n), ("L", l), ("M", m)], n * l + m * l)
-    }
-
-    fn tensors(&self) -> Vec<Tensor> {
-        let (l, m) = (self.components(), self.mean.len());
-        let mut shape = self.settings.manifold_shape.clone();
-        shape.push(l);
-        let mut v = vec![
-            Tensor::f32("basis", vec![l, m], self.basis().to_vec()),
-            Tensor::f32("mean", vec![m], self.mean.clone()),
-            Tensor::f32("manifold", shape, self.points.clone()),
-        ];
-        for (j, a) in self.axes.iter().enumerate() {
-            v.push(Tensor::f64(&format!("manifold_axis_{j}"), vec![a.len()], a.clone()));
-        }
-        v
-    }
 }
 
 #[cfg(test)]

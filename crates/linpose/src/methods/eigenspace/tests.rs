@@ -174,7 +174,11 @@ fn model_bytes_count_every_stored_number() {
     // 20 asked; the synthetic images' spectrum falls below the usable rank a little before.
     let l = model.components();
     assert!((15..=20).contains(&l), "{l}");
-    assert_eq!(model.model_bytes(), (720 * l + l * W * H + W * H) * 4 + 720 * 8);
+    // The second look: K components of images binned by b, and the training views' coordinates.
+    let look = model.settings().second_look.clone().unwrap();
+    let (k, mb) = (look.components, (W / look.bin) * (H / look.bin));
+    assert!(k < train.len() && (W / look.bin) * (H / look.bin) >= train.len(), "{look:?}");
+    assert_eq!(model.model_bytes(), (720 * l + l * W * H + W * H + k * mb + mb + train.len() * k) * 4 + 720 * 8);
 }
 
 #[test]

@@ -12,6 +12,7 @@ use crate::dataset::Dataset;
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::model::{Estimator, Method, ModelMeta};
+use crate::second_look::SecondLook;
 use crate::Result;
 
 impl Estimator for RefinedParams {
@@ -130,6 +131,7 @@ impl Estimator for RefinedParams {
             noise_weighted: noise_weighted && coord_variance.is_some(),
             coord_variance: coord_variance.unwrap_or_default(),
             noise_selection,
+            second_look: None,
         };
         let meta = ModelMeta {
             method: METHOD.name.into(),
@@ -140,7 +142,8 @@ impl Estimator for RefinedParams {
             normalize: None,
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-        RefinedModel::new(meta, settings, to32(&basis), to32(&pca.mean), knots, background, grid.axes)
+        let look = SecondLook::fit(full, &grid, interpolant)?;
+        RefinedModel::new(meta, settings, to32(&basis), to32(&pca.mean), knots, background, grid.axes)?.with_look(look)
     }
 }
 

@@ -12,7 +12,7 @@ pub static METHOD: Method = Method {
     origin: Origin::Beyond,
     // The view surface and the noisy match's offset surface (2^D slopes per knot each), both at
     // the S coarse points, the noisy scan's three numbers per point, the basis.
-    storage: "2 (2^D NL + SL) + 3S + ML",
+    storage: "2 (2^D NL + SL) + 3S + ML + (K + 1) M / b^2 + NK",
     options: &[
         MethodOption { name: "components", value: "L", help: "number of eigenimages L (default: chosen from held-out training views)" },
         MethodOption {
@@ -60,9 +60,12 @@ impl RefinedParams {
 }
 
 impl RefinedModel {
-    /// Table 1's terms: D pose parameters, N knots, S coarse points, L eigenimages, M pixels.
+    /// Table 1's terms: D pose parameters, N knots, S coarse points, L eigenimages, M pixels, and
+    /// the second look's K components of images binned by b ([`crate::second_look`]).
     pub(crate) fn table1_storage(&self) -> Storage {
         let (n, l, s, d, m) = (self.knots_len(), self.components(), self.start_len(), self.meta().space.len(), self.meta().spec.features());
-        Storage::new(&[("D", d), ("N", n), ("S", s), ("L", l), ("M", m)], 2 * ((1 << d) * n * l + s * l) + 3 * s + m * l)
+        let (k, b) = self.look.as_ref().map_or((0, 1), |s| (s.settings().components, s.settings().bin));
+        let look = crate::second_look::numbers(n, k, m, b);
+        Storage::new(&[("D", d), ("N", n), ("S", s), ("L", l), ("M", m), ("K", k), ("b", b)], 2 * ((1 << d) * n * l + s * l) + 3 * s + m * l + look)
     }
 }

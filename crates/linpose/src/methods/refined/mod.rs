@@ -84,7 +84,7 @@
 //! `scratch.rs` (per-thread buffers), `tuning.rs`, `method.rs` (the registry entry), `tests/`.
 
 mod fit;
-mod hypotheses;
+mod basin;
 mod method;
 mod model;
 mod noisy;

@@ -13,6 +13,7 @@ use crate::kernels::{dot_q, Level};
 use crate::methods::eigenspace::projector::Projector;
 use crate::model::{Method, ModelMeta, PoseModel, Storage, Tensor, TensorSet};
 use crate::pose::wrap_positive;
+use crate::second_look::{Queries, SecondLook};
 use crate::Result;
 
 /// A fitted refined eigenspace: L eigenimages, the mean image, the spline surface through the
@@ -70,6 +71,8 @@ pub struct RefinedModel {
     /// The noisy query's search beside `tree` (on its poses): it replaces the noisy match's
     /// coarse scan and local search there.
     pub(crate) noisy_tree: Option<NoisyTree>,
+    /// The second look ([`crate::second_look`]).
+    pub(crate) look: Option<SecondLook>,
 }
 
 impl RefinedModel {
@@ -161,6 +164,7 @@ impl RefinedModel {
             lattice,
             tree,
             noisy_tree: None,
+            look: None,
         })
         .map(|mut m: RefinedModel| {
             // Only a model that detects noisy queries routes any to the noisy match (the
@@ -171,6 +175,14 @@ impl RefinedModel {
             }
             m
         })
+    }
+
+    /// The model with its second look, recorded in its settings.
+    pub(crate) fn with_look(mut self, look: SecondLook) -> Result<Self> {
+        self.settings.second_look = Some(look.settings().clone());
+        self.meta.settings = serde_json::to_value(&self.settings).expect("plain struct serialises");
+        self.look = Some(look);
+        Ok(self)
     }
 
     /// The settings as given and as chosen.
@@ -268,7 +280,11 @@ impl RefinedModel {
         if !l_ok || settings.coord_variance.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
             return Err(bad(format!("noise match of {} components over {} variances", settings.noise_components, settings.coord_variance.len())));
         }
-        RefinedModel::new(meta, settings, basis, mean, knots, background, axes).map_err(|e| t.error(e.to_string()))
+        let Some(look) = settings.second_look.clone() else {
+            return Err(bad("no second look".into()));
+        };
+        let look = SecondLook::from_parts(look, meta.spec, &meta.space, t)?;
+        RefinedModel::new(meta, settings, basis, mean, knots, background, axes).map_err(|e| t.error(e.to_string()))?.with_look(look)
     }
 }
 
@@ -292,18 +308,27 @@ impl PoseModel for RefinedModel {
     }
 
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
-        self.predict_with(queries, self.noise_want(), out)
+        self.predict_with(queries, self.noise_want(), out)?;
+        self.look_again(Queries::F32(queries), out, None);
+        Ok(())
     }
 
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<crate::Estimate>> {
-        self.estimate_with(queries, top)
+        let m = self.meta.spec.features();
+        crate::model::check_queries(m, queries.len(), "query batch")?;
+        let mut out = vec![0.0; queries.len() / m * self.meta.space.len()];
+        self.predict_with(queries, self.noise_want(), &mut out)?;
+        let est = self.look_again(Queries::F32(queries), &mut out, Some(top));
+        crate::second_look::complete(est, out.len() / self.meta.space.len().max(1))
     }
 
     /// 8-bit queries: the projection in 16-bit fixed point where AVX-512 VNNI runs it, else in
     /// f32 lanes, then the search; the estimates of
     /// [`PoseModel::predict_into`] on the same images as features but for near ties.
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
-        self.predict_u8_with(queries, self.noise_want(), out)
+        self.predict_u8_with(queries, self.noise_want(), out)?;
+        self.look_again(Queries::U8(queries), out, None);
+        Ok(())
     }
 
     /// Everything held to serve queries: basis, mean and their projections, the surface's knot
@@ -323,6 +348,7 @@ impl PoseModel for RefinedModel {
             + self.tree.as_ref().map_or(0, |c| c.tree.bytes() + c.poses.len() * 8)
             + self.noisy_tree.as_ref().map_or(0, NoisyTree::bytes)
             + (self.start_poses.len() + self.axes.iter().map(Vec::len).sum::<usize>()) * 8
+            + self.look.as_ref().map_or(0, SecondLook::len) * 4
     }
 
     fn tensors(&self) -> Vec<Tensor> {
@@ -338,6 +364,17 @@ impl PoseModel for RefinedModel {
         for (j, a) in self.axes.iter().enumerate() {
             v.push(Tensor::f64(&format!("knot_axis_{j}"), vec![a.len()], a.clone()));
         }
+        v.extend(self.look.iter().flat_map(SecondLook::tensors));
         v
+    }
+}
+
+impl RefinedModel {
+    /// The second look over a batch whose own estimates are `out` (see [`crate::second_look`]).
+    fn look_again(&self, queries: Queries<'_>, out: &mut [f64], top: Option<usize>) -> Vec<crate::Estimate> {
+        match &self.look {
+            Some(look) => look.apply(queries, self.meta.spec.features(), out, top, |q, start, o| self.refine_in_basin(q, start, o)),
+            None => Vec::new(),
+        }
     }
 }

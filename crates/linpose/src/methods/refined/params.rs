@@ -193,6 +193,9 @@ pub struct RefinedSettings {
     /// The automatic choice of the noisy match: each candidate (L, weighted) with the mean pose
     /// error (degrees) of the held-out training views under simulated +-5% and +-10% noise.
     pub noise_selection: Vec<(usize, bool, f64)>,
+    /// The second look that decides between the estimate and its rivals and scores them
+    /// ([`crate::second_look`]); absent only in the models fitted for the choices themselves.
+    pub second_look: Option<crate::second_look::SecondLookSettings>,
 }
 
 impl RefinedSettings {

@@ -325,6 +325,7 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
         noise_weighted: false,
         coord_variance: vec![],
         noise_selection: vec![],
+        second_look: None,
     }
 }
 

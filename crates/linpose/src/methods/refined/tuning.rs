@@ -258,15 +258,9 @@ pub(crate) const BIN_SUB_U8: usize = 4 * crate::kernels::dot_w::BLOCK;
 const _: () = assert!(NOISE_SUB_U8.is_multiple_of(crate::kernels::dot_q::GROUP * crate::kernels::dot_q::BLOCK));
 
 // ---------------------------------------------------------------------------------------------
-// Ranked hypotheses
+// The second look's search in another basin
 // ---------------------------------------------------------------------------------------------
 
-/// Points per knot interval along each axis of the grid whose local minima of a query's
-/// distance start the alternative hypotheses (each then climbed on the reporting lattice). A
-/// basin narrower than half a knot interval can hide between two points; denser grids cost a
-/// longer scan per query that asks for hypotheses. Not tuned.
-pub(crate) const HYPOTHESIS_PER_CELL: usize = 2;
-
-/// The lattice (degrees) the alternatives climb on when the model reports continuous poses
-/// (`resolution` 0): the default reporting lattice. Not tuned.
+/// The lattice (degrees) a query's pose climbs on in another basin ([`crate::second_look`]) when
+/// the model reports continuous poses (`resolution` 0): the default reporting lattice. Not tuned.
 pub(crate) const HYPOTHESIS_STEP: f64 = DEFAULT_RESOLUTION;

@@ -1,0 +1,52 @@
+//! A query's pose searched again in another basin: the refined model's part of the second look
+//! ([`crate::second_look`]), which says which basin of the pose space a query belongs to when it is
+//! not the one the model's own search ended in. The search is the query's own route's (the clean
+//! search's weighted distance, or the noisy match's affine residual), climbed on the reporting
+//! lattice from the basin's pose.
+
+use super::model::RefinedModel;
+use super::noisy::affine_fit;
+use super::query::Route;
+use super::scratch::QueryScratch;
+use super::tuning::HYPOTHESIS_STEP;
+
+impl RefinedModel {
+    /// The pose of query `x` (features of the images the model takes) in the basin of `start`,
+    /// into `out` (left as it is for a query that cannot be projected).
+    pub(crate) fn refine_in_basin(&self, x: &[f32], start: &[f64], out: &mut [f64]) {
+        let mut s = QueryScratch::default();
+        self.project_binned(x, self.noise_want(), &mut s);
+        let l = self.components();
+        let y = &s.y[..l];
+        if y[0].is_nan() {
+            return;
+        }
+        let (r, route, nu) = self.route_values(&s, 0);
+        let step = if self.settings.params.resolution > 0.0 { self.settings.params.resolution } else { HYPOTHESIS_STEP };
+        let mut t = start.to_vec();
+        self.surface.clamp(&mut t);
+        let mut f = vec![0.0; l];
+        match self.route_of(r, route, nu) {
+            Route::Clean(nu) => {
+                let ls = self.settings.search();
+                let wt: Vec<f64> = self.inv_weight[..ls].iter().map(|&w| w / (w + nu)).collect();
+                self.surface.climb_by(&mut t, step, |p| {
+                    self.surface.eval(p, &mut f, None);
+                    wt.iter().zip(y).zip(&f).map(|((&w, &v), &fv)| w * (v as f64 - fv) * (v as f64 - fv)).sum::<f64>()
+                });
+            }
+            Route::Noisy(nu) => {
+                let wt = self.noise_weights(nu);
+                let ln = wt.len();
+                let c: Vec<f64> = self.mean_proj[..ln].iter().map(|&v| v as f64).collect();
+                let z: Vec<f64> = y[..ln].iter().zip(&c).map(|(&v, &cv)| v as f64 + cv).collect();
+                let mut g = vec![0.0; l];
+                self.surface.climb_by(&mut t, step, |p| {
+                    self.surface.eval_pair(&self.bg_surface, p, &mut f, None, &mut g, None);
+                    affine_fit(&z, &c, &wt, &f[..ln], &g[..ln]).0
+                });
+            }
+        }
+        self.write_pose(&t, out);
+    }
+}
