@@ -7,17 +7,16 @@
 //! would be a gross error. A nearly symmetric object (front resembling back) has two such minima
 //! at almost the same distance; an asymmetric one has one far below the rest.
 //!
-//! **The eigenspace and the refined method** score a hypothesis by its squared distance d_k from
-//! the query to the manifold at its pose, in the metric of the method's search. If a query lay at
-//! its true pose's manifold point plus independent Gaussian errors of variance s^2 per coordinate,
-//! hypothesis k would be the true one with posterior probability proportional to
-//! exp(-d_k / 2 s^2): each hypothesis's [`Hypothesis::score`] is that probability among the
-//! hypotheses found, and the estimate's is the [`Estimate::confidence`]. The variance comes from
-//! the training views alone: D_0, the mean squared distance of a held-out training view to the
-//! manifold fitted without it (every other knot held out along each axis), spread over the L
-//! coordinates; a query farther from the manifold than that (noise, an unseen appearance) uses
-//! its own distance instead, s^2 = max(D_0, d_1) / L, so a query the model explains badly is
-//! not trusted to tell two near hypotheses apart.
+//! **The eigenspace and the refined method** take a second look ([`crate::second_look`]): the
+//! basins of the query's distance to the manifold in every principal component of the training
+//! views decide which is the estimate, and each is scored by its squared distance d_k as the
+//! posterior of a Gaussian error ([`posterior`]): proportional to exp(-d_k / 2 s^2), with s^2
+//! from the training views alone (their held-out distance, the share of it a fresh view is
+//! expected at, and how many coordinates it spreads over), or from the query's own distance d_1
+//! when it is farther from the manifold than that (noise, an unseen appearance), so a query the
+//! model explains badly is not trusted to tell two near hypotheses apart. Each hypothesis's
+//! [`Hypothesis::score`] is that probability among the hypotheses found, and the estimate's is
+//! the [`Estimate::confidence`].
 //!
 //! **The linear model** considers one pose only; its confidence is the probability that its
 //! estimate is within [`GROSS_DEG`] of the truth if each (cos, sin) pair's error were isotropic

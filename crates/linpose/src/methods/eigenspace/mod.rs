@@ -11,6 +11,11 @@
 //! 4. a query is scaled to unit energy, projected (L dot products of length M) and given the pose
 //!    of the nearest manifold point (`search.rs`, a k-d tree or brute force).
 //!
+//! Beyond Murase & Nayar, linpose then takes the second look ([`crate::second_look`]): where every
+//! principal component of the training views (binned) puts the query nearer another basin of the
+//! pose space (a nearly symmetric object's other side), the estimate is the nearest manifold point
+//! in that basin; the same look gives the ranked hypotheses and the confidence.
+//!
 //! Trained in f64, served in f32: the basis (L x M), the mean image (M) and the manifold points
 //! (N_dense x L) are stored as f32, and a query's projection is an f32 product. The f32 rounding
 //! of a projection, about sqrt(M) * eps_f32 relative (1e-5 for M = 19,200), is far below the

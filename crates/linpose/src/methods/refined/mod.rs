@@ -58,6 +58,10 @@
 //!    per pose in closed form.
 //! 5. **Report.** The pose on the lattice of `resolution` degrees (by default the eigenspace's
 //!    0.5, anchored at each parameter's first training value), or the continuous estimate.
+//! 6. **Second look** ([`crate::second_look`], the query's pose in another basin in `basin.rs`).
+//!    Where every principal component of the training views puts the query nearer another basin
+//!    of the pose space (a nearly symmetric object's other side), the route's search runs again
+//!    there; the same look gives the ranked hypotheses and the confidence.
 //!
 //! # A fit
 //!
@@ -81,7 +85,7 @@
 //! (the model, its file parts and [`crate::PoseModel`]), `query.rs` (batches and routes),
 //! `projection/`, `search/` (the clean searches, the lattice search among them), `noisy/` (the
 //! affine match, its tree and its scan), `surface/` (evaluation, Levenberg-Marquardt, the climb),
-//! `scratch.rs` (per-thread buffers), `tuning.rs`, `method.rs` (the registry entry), `tests/`.
+//! `scratch.rs` (per-thread buffers), `basin.rs` (the search in another basin), `tuning.rs`, `method.rs` (the registry entry), `tests/`.
 
 mod fit;
 mod basin;
