@@ -98,11 +98,12 @@ impl RecognizerKind {
 
     /// Its storage in the paper's Table 1 terms: the universal eigenspace stores its L
     /// eigenimages and mean (M L + M) and every object's manifold points (N_dense L); the linear
-    /// recogniser K coefficient images (M K).
+    /// recogniser K coefficient images (M K); either, for the second stage, each object's own
+    /// eigenimages and mean (K (M L_k + M), every L_k equal) and manifold points (N_own L_k).
     pub fn storage(self) -> &'static str {
         match self {
-            RecognizerKind::Universal => "N_dense L + M L + M",
-            RecognizerKind::Linear => "M K",
+            RecognizerKind::Universal => "N_dense L + M L + M + K (M L_k + M) + N_own L_k",
+            RecognizerKind::Linear => "M K + K (M L_k + M) + N_own L_k",
         }
     }
 }
