@@ -7,7 +7,7 @@ use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
-use linpose::{model_file, Dataset, EigenspaceParams, MethodSpec, ObjectSet, Param, PoseModel, PoseSpace, TrainSelection};
+use linpose::{model_file, Dataset, EigenspaceParams, LinearParams, MethodSpec, ObjectSet, Param, PoseModel, PoseSpace, TrainSelection};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -203,4 +203,28 @@ fn sets_of_objects_that_cannot_share_a_model_are_refused_by_name() {
     assert!(e.contains("'b'"), "{e}");
     let e = ObjectSet::new(vec!["a".into(), "a".into()], vec![data(4, &space), data(4, &space)]).unwrap_err().to_string();
     assert!(e.contains("'a'"), "{e}");
+}
+
+#[test]
+fn an_object_of_a_single_training_view_is_recognised_without_a_second_stage() {
+    // The duck trained on one view, the pot and the cap every 10 degrees (a linear pose model:
+    // the twin's identical front and back would make its system singular).
+    let all = builtins().0.select(&["duck", "pot", "cap"].map(String::from)).unwrap();
+    let masks: Vec<Vec<bool>> =
+        all.objects().iter().enumerate().map(|(k, d)| (0..d.len()).map(|i| if k == 0 { i == 0 } else { d.pose(i)[1] % 10.0 == 0.0 }).collect()).collect();
+    let train = all.subset(&masks).unwrap();
+    let linear: MethodSpec = LinearParams::default().into();
+    for kind in RecognizerKind::ALL {
+        let model = ObjectModel::fit(&train, &RecognizerParams::new(kind), &linear).unwrap();
+        let own = model.settings().own.as_ref().unwrap();
+        assert_eq!(own.components[0], 0, "{kind:?}");
+        assert_eq!(own.thresholds[0], f64::INFINITY, "{kind:?}");
+        assert!(own.thresholds[1..].iter().all(|t| t.is_finite()), "{kind:?}: {own:?}");
+        // Its training view is recognised, unmeasured by a second stage; the file keeps that.
+        let r = &model.recognize(all.object(0).row(0)).unwrap()[0];
+        assert_eq!((r.object, r.own_distance), (Some(0), None), "{kind:?}");
+        let back = model_file::objects_from_bytes(Path::new("m"), &model_file::objects_to_bytes(&model).unwrap()).unwrap();
+        assert_eq!(back.settings(), model.settings());
+        assert_eq!(back.recognize(all.object(0).features()).unwrap(), model.recognize(all.object(0).features()).unwrap());
+    }
 }

@@ -56,11 +56,12 @@ pub struct ObjectSettings {
 /// ([`super::Unknown::Calibrated`]): per object, as [`ObjectSettings`] records the first stage's.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OwnSettings {
-    /// Per object, the dimensions of its own eigenspace, L_k = min(L, N_k - 1).
+    /// Per object, the dimensions of its own eigenspace, L_k = min(L, N_k - 1) (0: none, for an
+    /// object of a single training view).
     pub components: Vec<usize>,
     /// Per object, the largest distance of one of its held-out training views to its manifold
     /// in its own eigenspace fitted without them (the largest of the other objects' for an object
-    /// too sparse to hold views out).
+    /// too sparse to hold views out; infinite for one without an eigenspace of its own).
     #[serde(with = "infinite_as_null")]
     pub held_out_max: Vec<f64>,
     /// Per object, the median of those distances.
@@ -172,7 +173,13 @@ impl ObjectModel {
         drop(all);
         let own = OwnSpaces::fit(objects, params)?;
         let (held_out_max, held_out_median) = calibration(held_out);
-        let (own_max, own_median) = calibration(own.held_out);
+        let (mut own_max, own_median) = calibration(own.held_out);
+        // An object without an eigenspace of its own (a single training view): no second stage.
+        for (k, v) in own_max.iter_mut().enumerate() {
+            if !own.model.has(k) {
+                *v = f64::INFINITY;
+            }
+        }
         let own_settings = OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new() };
         let mut settings =
             ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new(), own: Some(own_settings) };
@@ -271,7 +278,7 @@ impl ObjectModel {
         let (Some(own), Some(s)) = (&self.own, &self.settings.own) else { return };
         let m = self.spec.features();
         for (k, &threshold) in s.thresholds.iter().enumerate() {
-            if threshold == f64::INFINITY {
+            if threshold == f64::INFINITY || !own.has(k) {
                 continue;
             }
             let idx: Vec<usize> = (0..rec.len()).filter(|&i| rec[i].object == Some(k)).collect();
@@ -392,7 +399,7 @@ impl ObjectModel {
                         return Err(damaged(format!("{} per-object values of the own eigenspaces for {k} objects", v.len())));
                     }
                 }
-                if o.components.len() != k || o.components.contains(&0) {
+                if o.components.len() != k {
                     return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
                 }
                 Some(OwnSpaces::from_parts(t, spec.features(), &o.components)?)

@@ -18,7 +18,8 @@
 //! the others), the object's eigenspace and manifold refitted on the views kept (the same
 //! L_k rule on the fewer views), and the held-out view's distance measured at its own pose; the
 //! threshold is the largest, with no margin. An object too sparse to hold views out takes the
-//! largest threshold of the others.
+//! largest threshold of the others; one with a single training view has no eigenspace of its own
+//! and no second stage (its threshold is infinite).
 //!
 //! Cost: per object M L_k + M numbers (eigenimages, mean) and N_k,dense L_k (its manifold); per
 //! query, only for the one object recognised, L_k M multiply-adds and a pruned search of that
@@ -36,14 +37,15 @@ use crate::methods::refined::Interpolant;
 use crate::model::{Tensor, TensorSet};
 use crate::{Error, Result};
 
-/// Every object's own eigenspace with its manifold (a [`Universal`] of one object each).
+/// Every object's own eigenspace with its manifold (a [`Universal`] of one object each; `None`
+/// for an object of a single training view).
 #[derive(Debug, Clone)]
 pub(crate) struct OwnSpaces {
-    spaces: Vec<Universal>,
+    spaces: Vec<Option<Universal>>,
 }
 
-/// What fitting measured: each object's own dimensions and held-out distances (empty for an
-/// object too sparse to hold knots out).
+/// What fitting measured: each object's own dimensions (0 without an eigenspace) and held-out
+/// distances (empty for an object too sparse to hold knots out).
 pub(crate) struct OwnFit {
     pub model: OwnSpaces,
     pub components: Vec<usize>,
@@ -62,47 +64,62 @@ impl OwnSpaces {
                 Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
                 e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}', its own eigenspace: {e}") },
             };
+            if d.len() < 2 {
+                spaces.push(None);
+                components.push(0);
+                held_out.push(Vec::new());
+                continue;
+            }
             let grid = Grid::new(space, d.poses(), d.manifest().images(), d.manifest().root()).map_err(named)?;
             let pca = pca::fit(d, Dimension::Fixed(params.components)).map_err(named)?;
             let l = pca.dim();
             let dense = Manifold::build(space, &grid, &pca.coords, l, params.manifold_step).map_err(named)?;
-            spaces.push(Universal::new(to32(&pca.basis), to32(&pca.mean), vec![to32(&dense.points)]).map_err(named)?);
+            spaces.push(Some(Universal::new(to32(&pca.basis), to32(&pca.mean), vec![to32(&dense.points)]).map_err(named)?));
             components.push(l);
             held_out.push(held_out_distances(d, &grid, params.components).map_err(named)?);
         }
         Ok(OwnFit { model: OwnSpaces { spaces }, components, held_out })
     }
 
+    /// Whether object `k` has an eigenspace of its own.
+    pub fn has(&self, k: usize) -> bool {
+        self.spaces.get(k).is_some_and(Option::is_some)
+    }
+
     /// Each query's distance to object `k`'s manifold in its own eigenspace into `out` (one per
-    /// query); NaN for a query that cannot be scaled to unit energy.
+    /// query); NaN for a query that cannot be scaled to unit energy. Object `k` has one
+    /// ([`OwnSpaces::has`]).
     pub fn distances(&self, k: usize, queries: &[f32], out: &mut [f64]) {
-        self.spaces[k].own_distances(queries, out);
+        if let Some(s) = &self.spaces[k] {
+            s.own_distances(queries, out);
+        }
     }
 
     /// Numbers stored: every object's eigenimages, mean and manifold points.
     pub fn numbers(&self) -> usize {
-        self.spaces.iter().map(Universal::numbers).sum()
+        self.spaces.iter().flatten().map(Universal::numbers).sum()
     }
 
     /// Manifold points over all objects, N_own.
     pub fn manifold_len(&self) -> usize {
-        self.spaces.iter().map(Universal::manifold_len).sum()
+        self.spaces.iter().flatten().map(Universal::manifold_len).sum()
     }
 
     /// The largest own dimension L_k.
     pub fn max_components(&self) -> usize {
-        self.spaces.iter().map(Universal::components).max().unwrap_or(0)
+        self.spaces.iter().flatten().map(Universal::components).max().unwrap_or(0)
     }
 
     /// The arrays, object k's under `recognizer.own.K.` (`basis`, `mean`, `manifold.0`).
     pub fn tensors(&self) -> Vec<Tensor> {
-        self.spaces.iter().enumerate().flat_map(|(k, s)| s.tensors(&prefix(k))).collect()
+        self.spaces.iter().enumerate().filter_map(|(k, s)| s.as_ref().map(|s| s.tensors(&prefix(k)))).flatten().collect()
     }
 
     /// Reads back [`OwnSpaces::tensors`] for objects of `m` features and own dimensions
-    /// `components`.
+    /// `components` (0: none).
     pub fn from_parts(t: &TensorSet, m: usize, components: &[usize]) -> Result<Self> {
-        let spaces = components.iter().enumerate().map(|(k, &l)| Universal::from_parts(t, &prefix(k), 1, m, l)).collect::<Result<_>>()?;
+        let spaces =
+            components.iter().enumerate().map(|(k, &l)| (l > 0).then(|| Universal::from_parts(t, &prefix(k), 1, m, l)).transpose()).collect::<Result<_>>()?;
         Ok(OwnSpaces { spaces })
     }
 }
