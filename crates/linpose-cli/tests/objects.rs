@@ -171,8 +171,10 @@ fn linear_recogniser_tells_four_objects() {
     render(&d, FOUR);
     let t = train(&d, "set/objects", "l.safetensors", &["--recognizer", "linear"]);
     assert_eq!(t["recognizer"], "linear");
-    // The recogniser is K weight rows of M features (f32).
-    assert_eq!(t["recognizer_bytes"], 4 * FEATURES * 4);
+    // The recogniser is K weight rows of M features (f32), then the second stage: each object's
+    // own eigenspace of L_k = 17 dimensions (18 training views less one) with its mean, and its
+    // manifold every 0.5 degrees (720 points of 17 coordinates).
+    assert_eq!(t["recognizer_bytes"], 4 * (4 * FEATURES + 4 * (17 * FEATURES + FEATURES + 720 * 17)));
     let (text, e) = eval(&d, "l.safetensors", "set/objects", &[]);
     assert_eq!(e["recognizer"], "linear");
     assert_eq!(e["n_eval"], 4 * VIEWS);

@@ -3,11 +3,12 @@
 //! fit time (whole `ObjectModel::fit` with eigenspace pose models, and the recogniser alone, once
 //! each: a fit takes seconds) and its storage in Table 1's terms; criterion measures one query
 //! (f32): its distances to every object, its recognition (the universal eigenspace's search
-//! pruned by bounding spheres), and recognition then pose.
+//! pruned by bounding spheres, then the second stage in the object's own eigenspace), the same
+//! with the second stage off, and recognition then pose.
 //!
 //! cargo bench -p linpose --bench recognize
 use criterion::{criterion_group, criterion_main, Criterion};
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
+use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
 use linpose::{Dataset, EigenspaceParams, MethodSpec, ObjectSet};
@@ -51,6 +52,10 @@ fn bench(c: &mut Criterion) {
         g.sample_size(50);
         g.bench_function("one query: distances to every object", |b| b.iter(|| model.distances(black_box(&query)).unwrap()));
         g.bench_function("one query: recognition", |b| b.iter(|| model.recognize(black_box(&query)).unwrap()));
+        // A fixed distance turns the second stage (the object's own eigenspace) off: the first
+        // stage's cost alone, for comparison.
+        let first = model.clone().with_unknown(Unknown::Threshold(f64::MAX)).unwrap();
+        g.bench_function("one query: recognition, first stage alone", |b| b.iter(|| first.recognize(black_box(&query)).unwrap()));
         g.bench_function("one query: recognition then pose", |b| b.iter(|| model.estimate(black_box(&query), 1).unwrap()));
         g.finish();
     }

@@ -32,7 +32,8 @@ pub struct EvalArgs {
     pub flag_below: f64,
     /// With a many-object model: when a query is none of its objects, replacing the model's
     /// rule: `calibrated` (beyond the largest distance of the nearest object's held-out
-    /// training views), `off` (never), or a distance.
+    /// training views, in the recogniser's space and then in the object's own eigenspace), `off`
+    /// (never), or a distance (the recogniser's, without the second stage).
     #[arg(long, value_name = "RULE")]
     pub unknown: Option<String>,
 }

@@ -142,6 +142,9 @@ struct Sample {
     /// The nearest object even when reported unknown.
     nearest: String,
     distance: f64,
+    /// The distance to the nearest object in its own eigenspace (the second stage); null when
+    /// not measured.
+    own_distance: Option<f64>,
     confidence: f64,
     /// The pose estimated by the recognised object's model (degrees); null when unknown.
     pose: Option<Vec<f64>>,
@@ -251,6 +254,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
                 recognized: r.object.map(|k| names[k].clone()),
                 nearest: names[r.nearest].clone(),
                 distance: r.distance,
+                own_distance: r.own_distance,
                 confidence: r.confidence,
                 pose,
                 error_deg,
@@ -344,6 +348,7 @@ struct Estimate<'a> {
     object: Option<&'a str>,
     nearest: &'a str,
     distance: f64,
+    own_distance: Option<f64>,
     confidence: f64,
     pose: Option<BTreeMap<&'a str, f64>>,
 }
@@ -384,14 +389,26 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
             let object = r.object.map(|k| model.names()[k].as_str());
             if a.json {
                 let pose = e.pose.as_ref().map(|p| space.params().iter().map(|q| q.name.as_str()).zip(p.pose.iter().copied()).collect());
-                let row = Estimate { image: &name, object, nearest: &model.names()[r.nearest], distance: r.distance, confidence: r.confidence, pose };
+                let row = Estimate {
+                    image: &name,
+                    object,
+                    nearest: &model.names()[r.nearest],
+                    distance: r.distance,
+                    own_distance: r.own_distance,
+                    confidence: r.confidence,
+                    pose,
+                };
                 serde_json::to_writer(&mut out, &row)?;
                 writeln!(out)?;
             } else {
                 match object {
                     Some(o) => write!(out, "{name}\tobject={o}\tconfidence={:.3}", r.confidence)?,
                     None => {
-                        write!(out, "{name}\tobject=unknown\tnearest={}\tdistance={:.4}\tthreshold={:.4}", model.names()[r.nearest], r.distance, r.threshold)?
+                        write!(out, "{name}\tobject=unknown\tnearest={}\tdistance={:.4}\tthreshold={:.4}", model.names()[r.nearest], r.distance, r.threshold)?;
+                        // Within the recogniser's threshold: the object's own eigenspace rejected it.
+                        if let Some(d) = r.own_distance {
+                            write!(out, "\town_distance={d:.4}\town_threshold={:.4}", r.own_threshold)?
+                        }
                     }
                 }
                 if let Some(p) = &e.pose {

@@ -60,11 +60,14 @@ pub struct TrainArgs {
     /// linear model with one-hot object targets). Default: universal.
     #[arg(long, value_name = "NAME", value_parser = ["universal", "linear"])]
     pub recognizer: Option<String>,
-    /// With many objects: dimensions of the universal eigenspace (default 20).
+    /// With many objects: dimensions of the universal eigenspace (default 20), and at most those
+    /// of each object's own eigenspace (the second stage of `--unknown calibrated`).
     #[arg(long, value_name = "L")]
     pub recognizer_components: Option<usize>,
     /// With many objects: when a query is none of them: `calibrated` (the default: beyond the
-    /// largest distance of the nearest object's held-out training views), `off`, or a distance.
+    /// largest distance of the nearest object's held-out training views, in the recogniser's
+    /// space and then in the object's own eigenspace), `off`, or a distance (the recogniser's,
+    /// without the second stage).
     #[arg(long, value_name = "RULE")]
     pub unknown: Option<String>,
     /// With many objects: leave these objects (comma-separated names) out of training, e.g. to

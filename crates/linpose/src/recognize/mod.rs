@@ -16,7 +16,9 @@
 //!   what that object's own held-out training views show ([`Unknown::Calibrated`]: the largest
 //!   distance of a training view to the object's model fitted without it, so a fresh view of a
 //!   known object, which lies between two training views, is rarely beyond it), or a threshold
-//!   given ([`Unknown::Threshold`]);
+//!   given ([`Unknown::Threshold`]); then, calibrated the same way, when its distance to that
+//!   object's manifold in the object's own eigenspace is beyond what its held-out views show
+//!   (`own.rs`: the shared space cannot see the details that tell, say, two toy cars apart);
 //! - the **pose** of a recognised query comes from its object's own pose model, fitted by any
 //!   method ([`crate::MethodSpec`]).
 //!
@@ -51,12 +53,13 @@
 
 mod linear;
 mod model;
+mod own;
 mod universal;
 
 #[cfg(test)]
 mod tests;
 
-pub use model::{ObjectEstimate, ObjectModel, ObjectSettings};
+pub use model::{ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
 
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -95,11 +98,12 @@ impl RecognizerKind {
 
     /// Its storage in the paper's Table 1 terms: the universal eigenspace stores its L
     /// eigenimages and mean (M L + M) and every object's manifold points (N_dense L); the linear
-    /// recogniser K coefficient images (M K).
+    /// recogniser K coefficient images (M K); either, for the second stage, each object's own
+    /// eigenimages and mean (K (M L_k + M), every L_k equal) and manifold points (N_own L_k).
     pub fn storage(self) -> &'static str {
         match self {
-            RecognizerKind::Universal => "N_dense L + M L + M",
-            RecognizerKind::Linear => "M K",
+            RecognizerKind::Universal => "N_dense L + M L + M + K (M L_k + M) + N_own L_k",
+            RecognizerKind::Linear => "M K + K (M L_k + M) + N_own L_k",
         }
     }
 }
@@ -109,9 +113,12 @@ impl RecognizerKind {
 #[serde(rename_all = "lowercase")]
 pub enum Unknown {
     /// Beyond the largest distance any held-out training view of the nearest object shows (each
-    /// training view against its object's model fitted without it): calibrated per object.
+    /// training view against its object's model fitted without it), calibrated per object, in
+    /// the recogniser's space and then in the object's own eigenspace (`own.rs`): unknown when
+    /// either is exceeded.
     Calibrated,
-    /// Beyond this distance, for every object.
+    /// Beyond this distance in the recogniser's measure, for every object; the second stage is
+    /// off (its distances are each object's own, on another scale).
     Threshold(f64),
     /// Never: every query is one of the known objects.
     Off,
@@ -189,6 +196,14 @@ pub struct Recognition {
     pub second: f64,
     /// The distance beyond which the query is unknown for the nearest object.
     pub threshold: f64,
+    /// Its distance to the nearest object's manifold in that object's own eigenspace, the
+    /// second stage ([`Unknown::Calibrated`]); `None` when not measured (the first stage already
+    /// rejected the query, or the second stage is off), NaN for a query that cannot be scaled to
+    /// unit energy (then unknown).
+    pub own_distance: Option<f64>,
+    /// The distance in the object's own eigenspace beyond which the query is unknown (infinite
+    /// when the second stage is off).
+    pub own_threshold: f64,
     /// How far the nearest object stands out from the second: 1 - (distance / second)^2, in
     /// [0, 1] (0: a tie, 1: the second infinitely farther). A margin, not a probability.
     pub confidence: f64,
@@ -214,6 +229,6 @@ impl Recognition {
         let confidence = if second.is_finite() && second > 0.0 { (1.0 - (distance / second).powi(2)).clamp(0.0, 1.0) } else { 1.0 };
         let threshold = thresholds[best];
         let object = if distance <= threshold { Some(best) } else { None };
-        Recognition { object, nearest: best, distance, second, threshold, confidence }
+        Recognition { object, nearest: best, distance, second, threshold, own_distance: None, own_threshold: f64::INFINITY, confidence }
     }
 }

@@ -1,7 +1,9 @@
-//! [`ObjectModel`]: a recogniser, each object's unknown-object threshold, and each object's pose
-//! model, with the objects' names.
+//! [`ObjectModel`]: a recogniser, each object's unknown-object thresholds (in the recogniser's
+//! space, then in the object's own eigenspace: `own.rs`), and each object's pose model, with the
+//! objects' names.
 
 use super::linear::LinearRecognizer;
+use super::own::OwnSpaces;
 use super::universal::Universal;
 use super::{Recognition, RecognizerKind, RecognizerParams, Unknown};
 use crate::catalog::ObjectSet;
@@ -44,6 +46,31 @@ pub struct ObjectSettings {
     /// Per object, the distance beyond which a query nearest to it is unknown (infinite: never).
     #[serde(with = "infinite_as_null")]
     pub thresholds: Vec<f64>,
+    /// The second stage, each object's own eigenspace: its calibration and thresholds. `None` in
+    /// model files written before it (they recognise as they did, with the first stage alone).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub own: Option<OwnSettings>,
+}
+
+/// What an [`ObjectModel`] records about its second stage, each object's own eigenspace
+/// ([`super::Unknown::Calibrated`]): per object, as [`ObjectSettings`] records the first stage's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OwnSettings {
+    /// Per object, the dimensions of its own eigenspace, L_k = min(L, N_k - 1) (0: none, for an
+    /// object of a single training view).
+    pub components: Vec<usize>,
+    /// Per object, the largest distance of one of its held-out training views to its manifold
+    /// in its own eigenspace fitted without them (the largest of the other objects' for an object
+    /// too sparse to hold views out; infinite for one without an eigenspace of its own).
+    #[serde(with = "infinite_as_null")]
+    pub held_out_max: Vec<f64>,
+    /// Per object, the median of those distances.
+    #[serde(with = "infinite_as_null")]
+    pub held_out_median: Vec<f64>,
+    /// Per object, the distance in its own eigenspace beyond which a query recognised as it is
+    /// unknown (infinite: the second stage is off).
+    #[serde(with = "infinite_as_null")]
+    pub thresholds: Vec<f64>,
 }
 
 /// A query's object and, when it is one of the known objects, its pose.
@@ -62,6 +89,8 @@ pub struct ObjectModel {
     spec: ImageSpec,
     space: PoseSpace,
     recognizer: Recognizer,
+    /// The second stage (`None` for a model file written before it).
+    own: Option<OwnSpaces>,
     settings: ObjectSettings,
     poses: Vec<AnyModel>,
 }
@@ -100,8 +129,16 @@ impl ObjectModel {
             r
         };
         let (recognizer, poses) = rayon::join(recognise, fit);
-        let (recognizer, settings) = recognizer?;
-        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, settings, poses: poses? })
+        let (recognizer, own, settings) = recognizer?;
+        Ok(ObjectModel {
+            names: objects.names().to_vec(),
+            spec: objects.spec(),
+            space: objects.space().clone(),
+            recognizer,
+            own: Some(own),
+            settings,
+            poses: poses?,
+        })
     }
 
     /// Fits the recogniser on every object's training views and puts the objects' pose models,
@@ -115,13 +152,14 @@ impl ObjectModel {
         if let Some((k, p)) = poses.iter().enumerate().find(|(_, p)| p.meta().spec != objects.spec() || p.meta().space != *objects.space()) {
             return Err(Error::invalid("pose model", &objects.names()[k], format!("fitted on other images or parameters ({})", p.meta().method)));
         }
-        let (recognizer, settings) = Self::fit_recognizer(objects, params)?;
-        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, settings, poses })
+        let (recognizer, own, settings) = Self::fit_recognizer(objects, params)?;
+        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, own: Some(own), settings, poses })
     }
 
-    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams) -> Result<(Recognizer, ObjectSettings)> {
+    /// The recogniser, the objects' own eigenspaces (the second stage) and their calibration.
+    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams) -> Result<(Recognizer, OwnSpaces, ObjectSettings)> {
         let all = concatenate(objects)?;
-        let (recognizer, components, energy_kept, mut held_out) = match params.kind {
+        let (recognizer, components, energy_kept, held_out) = match params.kind {
             RecognizerKind::Universal => {
                 let fit = Universal::fit(objects, &all, params)?;
                 let l = fit.model.components();
@@ -132,16 +170,21 @@ impl ObjectModel {
                 (Recognizer::Linear(model), 0, 1.0, held_out)
             }
         };
-        // An object too sparse to hold views out takes the largest threshold of the others (none
-        // calibrated: infinite, never unknown).
-        let own: Vec<Option<f64>> = held_out.iter().map(|v| (!v.is_empty()).then(|| v.iter().copied().fold(0.0, f64::max))).collect();
-        let widest = own.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
-        let widest = if widest.is_finite() { widest } else { f64::INFINITY };
-        let held_out_max: Vec<f64> = own.iter().map(|v| v.unwrap_or(widest)).collect();
-        let held_out_median: Vec<f64> = held_out.iter_mut().map(|v| if v.is_empty() { f64::INFINITY } else { median64(v) }).collect();
-        let mut settings = ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new() };
-        settings.thresholds = thresholds(&settings, params.unknown);
-        Ok((recognizer, settings))
+        drop(all);
+        let own = OwnSpaces::fit(objects, params)?;
+        let (held_out_max, held_out_median) = calibration(held_out);
+        let (mut own_max, own_median) = calibration(own.held_out);
+        // An object without an eigenspace of its own (a single training view): no second stage.
+        for (k, v) in own_max.iter_mut().enumerate() {
+            if !own.model.has(k) {
+                *v = f64::INFINITY;
+            }
+        }
+        let own_settings = OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new() };
+        let mut settings =
+            ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new(), own: Some(own_settings) };
+        set_thresholds(&mut settings, params.unknown);
+        Ok((recognizer, own.model, settings))
     }
 
     /// The objects' names, in the order of their indices.
@@ -186,7 +229,7 @@ impl ObjectModel {
         p.unknown = unknown;
         p.validate()?;
         self.settings.params = p;
-        self.settings.thresholds = thresholds(&self.settings, unknown);
+        set_thresholds(&mut self.settings, unknown);
         Ok(self)
     }
 
@@ -208,18 +251,51 @@ impl ObjectModel {
 
     /// Which object each query shows.
     pub fn recognize(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
-        let Recognizer::Universal(u) = &self.recognizer else {
-            let d = self.distances(queries)?;
-            return Ok(d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect());
+        let mut rec: Vec<Recognition> = match &self.recognizer {
+            Recognizer::Linear(_) => {
+                let d = self.distances(queries)?;
+                d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect()
+            }
+            Recognizer::Universal(u) => {
+                let m = self.spec.features();
+                check_queries(m, queries.len(), "query batch")?;
+                let mut near = vec![(0, 0.0, 0.0); queries.len() / m];
+                u.nearest_two(queries, &mut near);
+                if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
+                    return Err(crate::model::unscalable_query(i));
+                }
+                near.into_iter().map(|(k, d1, d2)| Recognition::from_nearest(k, d1, d2, &self.settings.thresholds)).collect()
+            }
         };
+        self.check_own(queries, &mut rec);
+        Ok(rec)
+    }
+
+    /// The second stage: each query the recogniser accepted as object k is measured in k's own
+    /// eigenspace (queries of one object together) and reported unknown beyond k's own
+    /// threshold; a query that cannot be scaled to unit energy there is unknown.
+    fn check_own(&self, queries: &[f32], rec: &mut [Recognition]) {
+        let (Some(own), Some(s)) = (&self.own, &self.settings.own) else { return };
         let m = self.spec.features();
-        check_queries(m, queries.len(), "query batch")?;
-        let mut near = vec![(0, 0.0, 0.0); queries.len() / m];
-        u.nearest_two(queries, &mut near);
-        if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
-            return Err(crate::model::unscalable_query(i));
+        for (k, &threshold) in s.thresholds.iter().enumerate() {
+            if threshold == f64::INFINITY || !own.has(k) {
+                continue;
+            }
+            let idx: Vec<usize> = (0..rec.len()).filter(|&i| rec[i].object == Some(k)).collect();
+            if idx.is_empty() {
+                continue;
+            }
+            let batch: Vec<f32> = idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            let mut d = vec![0.0; idx.len()];
+            own.distances(k, &batch, &mut d);
+            for (&i, &d) in idx.iter().zip(&d) {
+                let r = &mut rec[i];
+                (r.own_distance, r.own_threshold) = (Some(d), threshold);
+                if !(d <= threshold) {
+                    r.object = None;
+                }
+            }
         }
-        Ok(near.into_iter().map(|(k, d1, d2)| Recognition::from_nearest(k, d1, d2, &self.settings.thresholds)).collect())
     }
 
     /// Each query's object and, for a known one, its pose from that object's model with up to
@@ -249,30 +325,38 @@ impl ObjectModel {
 
     /// Bytes of the recogniser's numbers (f32).
     pub fn recognizer_bytes(&self) -> usize {
-        4 * match &self.recognizer {
+        4 * (match &self.recognizer {
             Recognizer::Universal(u) => u.numbers(),
             Recognizer::Linear(l) => l.numbers(),
-        }
+        } + self.own_numbers())
+    }
+
+    /// Numbers the second stage stores (0 for a model file written before it).
+    fn own_numbers(&self) -> usize {
+        self.own.as_ref().map_or(0, OwnSpaces::numbers)
     }
 
     /// The recogniser's storage in the paper's Table 1 terms ([`RecognizerKind::storage`]).
     pub fn recognizer_storage(&self) -> Storage {
-        let m = self.spec.features();
+        let (m, k) = (self.spec.features(), self.names.len());
+        let (n_own, l_own) = self.own.as_ref().map_or((0, 0), |o| (o.manifold_len(), o.max_components()));
         match &self.recognizer {
             Recognizer::Universal(u) => {
                 let (n, l) = (u.manifold_len(), u.components());
-                Storage::new(&[("N_dense", n), ("L", l), ("M", m)], u.numbers())
+                Storage::new(&[("N_dense", n), ("L", l), ("M", m), ("K", k), ("N_own", n_own), ("L_k", l_own)], u.numbers() + self.own_numbers())
             }
-            Recognizer::Linear(l) => Storage::new(&[("M", m), ("K", self.names.len())], l.numbers()),
+            Recognizer::Linear(l) => Storage::new(&[("M", m), ("K", k), ("N_own", n_own), ("L_k", l_own)], l.numbers() + self.own_numbers()),
         }
     }
 
     /// The recogniser's arrays for a model file (names start with `recognizer.`).
     pub(crate) fn recognizer_tensors(&self) -> Vec<Tensor> {
-        match &self.recognizer {
-            Recognizer::Universal(u) => u.tensors(),
+        let mut t = match &self.recognizer {
+            Recognizer::Universal(u) => u.tensors("recognizer."),
             Recognizer::Linear(l) => l.tensors(),
-        }
+        };
+        t.extend(self.own.iter().flat_map(OwnSpaces::tensors));
+        t
     }
 
     /// Every object's pose model.
@@ -303,20 +387,54 @@ impl ObjectModel {
                 if settings.components == 0 {
                     return Err(damaged("a universal eigenspace of 0 dimensions".into()));
                 }
-                Recognizer::Universal(Box::new(Universal::from_parts(t, k, spec.features(), settings.components)?))
+                Recognizer::Universal(Box::new(Universal::from_parts(t, "recognizer.", k, spec.features(), settings.components)?))
             }
             RecognizerKind::Linear => Recognizer::Linear(LinearRecognizer::from_parts(t, k, spec.features())?),
         };
-        Ok(ObjectModel { names, spec, space, recognizer, settings, poses })
+        let own = match &settings.own {
+            None => None,
+            Some(o) => {
+                for v in [&o.held_out_max, &o.held_out_median, &o.thresholds] {
+                    if v.len() != k || v.iter().any(|x| x.is_nan() || *x < 0.0) {
+                        return Err(damaged(format!("{} per-object values of the own eigenspaces for {k} objects", v.len())));
+                    }
+                }
+                if o.components.len() != k {
+                    return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
+                }
+                Some(OwnSpaces::from_parts(t, spec.features(), &o.components)?)
+            }
+        };
+        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses })
     }
 }
 
-/// Per object, the threshold `unknown` sets from the calibration in `s`.
-fn thresholds(s: &ObjectSettings, unknown: Unknown) -> Vec<f64> {
-    match unknown {
+/// Per object, the largest and the median held-out distance; an object too sparse to hold views
+/// out takes the largest of the others' (none calibrated: infinite, never unknown) and an
+/// infinite median.
+fn calibration(mut held_out: Vec<Vec<f64>>) -> (Vec<f64>, Vec<f64>) {
+    let own: Vec<Option<f64>> = held_out.iter().map(|v| (!v.is_empty()).then(|| v.iter().copied().fold(0.0, f64::max))).collect();
+    let widest = own.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
+    let widest = if widest.is_finite() { widest } else { f64::INFINITY };
+    let max = own.iter().map(|v| v.unwrap_or(widest)).collect();
+    let median = held_out.iter_mut().map(|v| if v.is_empty() { f64::INFINITY } else { median64(v) }).collect();
+    (max, median)
+}
+
+/// Sets every threshold, both stages', that `unknown` gives from the calibration in `s`: a fixed
+/// distance is the recogniser's and turns the second stage off, as `off` turns both off.
+fn set_thresholds(s: &mut ObjectSettings, unknown: Unknown) {
+    let k = s.held_out_max.len();
+    s.thresholds = match unknown {
         Unknown::Calibrated => s.held_out_max.clone(),
-        Unknown::Threshold(t) => vec![t; s.held_out_max.len()],
-        Unknown::Off => vec![f64::INFINITY; s.held_out_max.len()],
+        Unknown::Threshold(t) => vec![t; k],
+        Unknown::Off => vec![f64::INFINITY; k],
+    };
+    if let Some(o) = &mut s.own {
+        o.thresholds = match unknown {
+            Unknown::Calibrated => o.held_out_max.clone(),
+            Unknown::Threshold(_) | Unknown::Off => vec![f64::INFINITY; k],
+        };
     }
 }
 

@@ -31,3 +31,49 @@ fn parameters_are_checked_and_named() {
     let e = RecognizerKind::from_name("svm").unwrap_err().to_string();
     assert!(e.contains("universal, linear"), "{e}");
 }
+
+#[test]
+fn the_own_distance_is_the_image_space_distance_to_the_nearest_manifold_point() {
+    use crate::image_io::{ColorMode, ImageSpec};
+    use crate::model::TensorData;
+    use crate::{Dataset, ObjectSet, Param, PoseSpace};
+    // One object on a turntable seen from three elevations (a manifold of two parameters), 48
+    // pixels: a lobe turning round whose width follows the elevation.
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)]).unwrap();
+    let image = |e: f64, a: f64| -> Vec<f32> {
+        (0..48)
+            .map(|p| {
+                let u = p as f64 / 48.0 * std::f64::consts::TAU;
+                (0.1 + ((2.0 + e / 20.0) * ((u - a.to_radians()).cos() - 1.0)).exp()) as f32
+            })
+            .collect()
+    };
+    let poses: Vec<f64> = [20.0, 40.0, 60.0].iter().flat_map(|&e| (0..24).flat_map(move |k| [e, 15.0 * k as f64])).collect();
+    let spec = ImageSpec { width: 48, height: 1, color: ColorMode::Gray };
+    let d = Dataset::new(spec, poses.chunks(2).flat_map(|p| image(p[0], p[1])).collect(), space, poses.clone()).unwrap();
+    let objects = ObjectSet::new(vec!["lobe".into()], vec![d]).unwrap();
+    let fit = own::OwnSpaces::fit(&objects, &RecognizerParams::default().components(6).manifold_step(2.0)).unwrap();
+    assert_eq!(fit.components, vec![6]);
+    // Every fold held a knot out: along each axis with enough knots, both parities.
+    assert!(!fit.held_out[0].is_empty() && fit.held_out[0].iter().all(|&v| v.is_finite() && v > 0.0));
+    let t = fit.model.tensors();
+    let f32s = |name: &str| match &t.iter().find(|x| x.name == name).unwrap().data {
+        TensorData::F32(v) => v.clone(),
+        TensorData::F64(_) => unreachable!(),
+    };
+    let (basis, mean, points) = (f32s("recognizer.own.0.basis"), f32s("recognizer.own.0.mean"), f32s("recognizer.own.0.manifold.0"));
+    let queries: Vec<f32> = [(30.0, 7.0), (55.0, 200.0), (20.0, 45.0)].iter().flat_map(|&(e, a)| image(e, a)).chain((0..48).map(|p| (p % 5) as f32)).collect();
+    let mut got = vec![0.0; 4];
+    fit.model.distances(0, &queries, &mut got);
+    for (x, got) in queries.chunks_exact(48).zip(got) {
+        // Plainly in f64: the unit-energy image's residual off the eigenspace, and its coordinates'
+        // distance to every manifold point.
+        let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
+        let c: Vec<f64> = x.iter().zip(&mean).map(|(&v, &mu)| v as f64 / norm - mu as f64).collect();
+        let y: Vec<f64> = basis.chunks_exact(48).map(|u| u.iter().zip(&c).map(|(&a, b)| a as f64 * b).sum()).collect();
+        let residual = c.iter().map(|v| v * v).sum::<f64>() - y.iter().map(|v| v * v).sum::<f64>();
+        let nearest = points.chunks_exact(6).map(|p| p.iter().zip(&y).map(|(&a, b)| (a as f64 - b).powi(2)).sum::<f64>()).fold(f64::INFINITY, f64::min);
+        let want = (residual.max(0.0) + nearest).sqrt();
+        assert!((got - want).abs() < 1e-4 * (1.0 + want), "{got} against {want}");
+    }
+}

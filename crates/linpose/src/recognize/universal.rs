@@ -57,6 +57,15 @@ const SEGMENT: usize = 16;
 /// [`SEGMENT`].
 const GROUP: usize = 16;
 
+/// A search's working space, reused from query to query.
+#[derive(Default)]
+struct Scratch {
+    bounds: Vec<(f64, u32)>,
+    group_lb: Vec<f64>,
+    best: Vec<f64>,
+    lowest: Vec<(f64, u32)>,
+}
+
 /// What fitting measured: the eigenspace's dimension and energy, and each object's held-out
 /// distances (empty for an object too sparse to hold knots out).
 pub(crate) struct UniversalFit {
@@ -93,12 +102,13 @@ impl Universal {
             points.push(dense.points.iter().map(|&v| v as f32).collect::<Vec<f32>>());
             held_out.push(held_out_distances(d, grid, coords, l)?);
         }
-        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         let model = Universal::new(to32(&pca.basis), to32(&pca.mean), points)?;
         Ok(UniversalFit { model, energy_kept: pca.energy_kept(), held_out })
     }
 
-    fn new(basis: Vec<f32>, mean: Vec<f32>, points: Vec<Vec<f32>>) -> Result<Self> {
+    /// The model of eigenimages `basis` (L x M), mean image `mean` and each object's manifold
+    /// points `points` (rows of L).
+    pub fn new(basis: Vec<f32>, mean: Vec<f32>, points: Vec<Vec<f32>>) -> Result<Self> {
         let m = mean.len();
         let l = basis.len() / m;
         if let Some(k) = points.iter().position(|p| p.is_empty() || !p.len().is_multiple_of(l)) {
@@ -175,79 +185,116 @@ impl Universal {
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
             self.proj.f32_products(&(0..l), q, &mut y);
-            let k_objects = self.points.len();
-            let (mut bounds, mut group_lb): (Vec<(f64, u32)>, Vec<f64>) = (Vec::new(), Vec::new());
-            let (mut best, mut lowest) = (vec![f64::INFINITY; k_objects], vec![(f64::INFINITY, 0u32); k_objects]);
+            let mut scratch = Scratch::default();
             for ((x, y), o) in q.chunks_exact(m).zip(y.chunks_exact_mut(l)).zip(o.iter_mut()) {
-                if unit_coords(crate::linalg::energy(x), &self.mean_proj, y).is_none() {
-                    *o = (0, f64::NAN, f64::NAN);
-                    continue;
-                }
-                // Every group's bound, and each object's group of least bound.
-                lowest.fill((f64::INFINITY, 0));
-                group_lb.clear();
-                for (g, (c, r)) in self.group_centres.chunks_exact(l).zip(&self.group_radii).enumerate() {
-                    let lb = (distance(y, c) - r).max(0.0);
-                    group_lb.push(lb);
-                    let k = self.groups[g].0 as usize;
-                    if lb < lowest[k].0 {
-                        lowest[k] = (lb, g as u32);
-                    }
-                }
-                // An upper bound on the second nearest object's distance: the exact distances to
-                // the groups of least bound of the two objects with the least bounds. Only the
-                // segments of groups within it, and themselves within it, can matter.
-                let reach = if k_objects > 1 {
-                    let mut by_object = lowest.clone();
-                    by_object.select_nth_unstable_by(1, |a, b| a.0.total_cmp(&b.0));
-                    by_object[..2].iter().map(|&(_, g)| self.group_distance(g as usize, y)).fold(0.0, f64::max)
-                } else {
-                    f64::INFINITY
+                *o = match unit_coords(crate::linalg::energy(x), &self.mean_proj, y) {
+                    Some(_) => self.search(y, &mut scratch),
+                    None => (0, f64::NAN, f64::NAN),
                 };
-                bounds.clear();
-                for (g, &glb) in group_lb.iter().enumerate() {
-                    if glb > reach {
-                        continue;
-                    }
-                    let (_, first, count) = self.groups[g];
-                    for s in first as usize..(first + count) as usize {
-                        let lb = (distance(y, &self.centres[s * l..(s + 1) * l]) - self.radii[s]).max(0.0);
-                        if lb <= reach {
-                            bounds.push((lb, s as u32));
-                        }
-                    }
-                }
-                bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-                best.fill(f64::INFINITY);
-                // The two nearest objects so far (distance, object); a segment whose bound exceeds
-                // the second cannot change them, nor one whose bound exceeds its own object's
-                // distance so far.
-                let (mut first, mut second) = ((f64::INFINITY, usize::MAX), (f64::INFINITY, usize::MAX));
-                for &(lb, s) in bounds.iter() {
-                    if lb > second.0 {
-                        break;
-                    }
-                    let k = self.segments[s as usize].0 as usize;
-                    if lb >= best[k] {
-                        continue;
-                    }
-                    let d = self.segment_distance(s as usize, y);
-                    if d < best[k] {
-                        best[k] = d;
-                        // Re-rank the two nearest objects with object k's new distance.
-                        if k == first.1 {
-                            first.0 = d;
-                        } else if (d, k) < first {
-                            second = first;
-                            first = (d, k);
-                        } else if k == second.1 || (d, k) < second {
-                            second = (d, k);
-                        }
-                    }
-                }
-                *o = (first.1, first.0, second.0);
             }
         });
+    }
+
+    /// For a model of one object (its own eigenspace, [`super::own`]): each query's distance, in
+    /// image space, from its unit-energy image to the object's manifold, sqrt(r^2 + d^2) with r
+    /// the residual off the eigenspace (||x - mu||^2 less the squared coordinates, x the
+    /// unit-energy query, the eigenimages orthonormal) and d the distance within it to the
+    /// nearest manifold point ([`Universal::nearest_two`]'s search); NaN for a query that cannot
+    /// be scaled to unit energy.
+    pub fn own_distances(&self, queries: &[f32], out: &mut [f64]) {
+        let (l, m) = (self.components(), self.mean.len());
+        let mean_sq: f64 = self.mean.iter().map(|&v| v as f64 * v as f64).sum();
+        let rows = chunk_rows(queries.len() / m);
+        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
+            let mut y = vec![0f32; q.len() / m * l];
+            self.proj.f32_products(&(0..l), q, &mut y);
+            let mut scratch = Scratch::default();
+            for ((x, y), o) in q.chunks_exact(m).zip(y.chunks_exact_mut(l)).zip(o.iter_mut()) {
+                let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
+                let Some(norm) = unit_coords(energy, &self.mean_proj, y) else {
+                    *o = f64::NAN;
+                    continue;
+                };
+                let centred = 1.0 - 2.0 * dot / norm + mean_sq;
+                let inside: f64 = y.iter().map(|&v| v as f64 * v as f64).sum();
+                let d = self.search(y, &mut scratch).1;
+                *o = ((centred - inside).max(0.0) + d * d).sqrt();
+            }
+        });
+    }
+
+    /// The nearest object to unit-energy coordinates `y`, its distance and the second nearest
+    /// object's distance: the pruned search of [`Universal::nearest_two`].
+    fn search(&self, y: &[f32], scratch: &mut Scratch) -> (usize, f64, f64) {
+        let l = self.components();
+        let k_objects = self.points.len();
+        let Scratch { bounds, group_lb, best, lowest } = scratch;
+        best.resize(k_objects, f64::INFINITY);
+        lowest.resize(k_objects, (f64::INFINITY, 0));
+        // Every group's bound, and each object's group of least bound.
+        lowest.fill((f64::INFINITY, 0));
+        group_lb.clear();
+        for (g, (c, r)) in self.group_centres.chunks_exact(l).zip(&self.group_radii).enumerate() {
+            let lb = (distance(y, c) - r).max(0.0);
+            group_lb.push(lb);
+            let k = self.groups[g].0 as usize;
+            if lb < lowest[k].0 {
+                lowest[k] = (lb, g as u32);
+            }
+        }
+        // An upper bound on the second nearest object's distance: the exact distances to the
+        // groups of least bound of the two objects with the least bounds. Only the segments of
+        // groups within it, and themselves within it, can matter.
+        let reach = if k_objects > 1 {
+            let mut by_object = lowest.clone();
+            by_object.select_nth_unstable_by(1, |a, b| a.0.total_cmp(&b.0));
+            by_object[..2].iter().map(|&(_, g)| self.group_distance(g as usize, y)).fold(0.0, f64::max)
+        } else {
+            // One object: its group of least bound holds a point within this distance.
+            self.group_distance(lowest[0].1 as usize, y)
+        };
+        bounds.clear();
+        for (g, &glb) in group_lb.iter().enumerate() {
+            if glb > reach {
+                continue;
+            }
+            let (_, first, count) = self.groups[g];
+            for s in first as usize..(first + count) as usize {
+                let lb = (distance(y, &self.centres[s * l..(s + 1) * l]) - self.radii[s]).max(0.0);
+                if lb <= reach {
+                    bounds.push((lb, s as u32));
+                }
+            }
+        }
+        bounds.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        best.fill(f64::INFINITY);
+        // The two nearest objects so far (distance, object); a segment whose bound exceeds the
+        // second cannot change them, nor one whose bound exceeds its own object's distance so
+        // far (with one object, the second stays infinite: its own distance prunes).
+        let (mut first, mut second) = ((f64::INFINITY, usize::MAX), (f64::INFINITY, usize::MAX));
+        for &(lb, s) in bounds.iter() {
+            if lb > second.0 {
+                break;
+            }
+            let k = self.segments[s as usize].0 as usize;
+            if lb >= best[k] {
+                continue;
+            }
+            let d = self.segment_distance(s as usize, y);
+            if d < best[k] {
+                best[k] = d;
+                // Re-rank the two nearest objects with object k's new distance.
+                if k == first.1 {
+                    first.0 = d;
+                } else if (d, k) < first {
+                    second = first;
+                    first = (d, k);
+                } else if k == second.1 || (d, k) < second {
+                    second = (d, k);
+                }
+            }
+        }
+        (first.1, first.0, second.0)
     }
 
     /// The distance from coordinates `y` to the nearest point of group `g`.
@@ -281,23 +328,27 @@ impl Universal {
         self.points.iter().map(Vec::len).sum::<usize>() / self.components()
     }
 
-    pub fn tensors(&self) -> Vec<Tensor> {
+    /// The arrays, named `{prefix}basis`, `{prefix}mean` and `{prefix}manifold.K`.
+    pub fn tensors(&self, prefix: &str) -> Vec<Tensor> {
         let (l, m) = (self.components(), self.mean.len());
-        let mut v = vec![Tensor::f32("recognizer.basis", vec![l, m], self.proj.rows().to_vec()), Tensor::f32("recognizer.mean", vec![m], self.mean.clone())];
+        let mut v = vec![
+            Tensor::f32(&format!("{prefix}basis"), vec![l, m], self.proj.rows().to_vec()),
+            Tensor::f32(&format!("{prefix}mean"), vec![m], self.mean.clone()),
+        ];
         for (k, p) in self.points.iter().enumerate() {
-            v.push(Tensor::f32(&format!("recognizer.manifold.{k}"), vec![p.len() / l, l], p.clone()));
+            v.push(Tensor::f32(&format!("{prefix}manifold.{k}"), vec![p.len() / l, l], p.clone()));
         }
         v
     }
 
-    /// Reads back [`Universal::tensors`] for `objects` objects of `m` features and `l`
-    /// dimensions.
-    pub fn from_parts(t: &TensorSet, objects: usize, m: usize, l: usize) -> Result<Self> {
-        let basis = t.f32("recognizer.basis", &[l, m])?;
-        let mean = t.f32("recognizer.mean", &[m])?;
+    /// Reads back [`Universal::tensors`] under `prefix` for `objects` objects of `m` features and
+    /// `l` dimensions.
+    pub fn from_parts(t: &TensorSet, prefix: &str, objects: usize, m: usize, l: usize) -> Result<Self> {
+        let basis = t.f32(&format!("{prefix}basis"), &[l, m])?;
+        let mean = t.f32(&format!("{prefix}mean"), &[m])?;
         let mut points = Vec::with_capacity(objects);
         for k in 0..objects {
-            let name = format!("recognizer.manifold.{k}");
+            let name = format!("{prefix}manifold.{k}");
             let rows = t.tensors.iter().find(|x| x.name == name).map(|x| x.shape.first().copied().unwrap_or(0)).unwrap_or(0);
             if rows == 0 {
                 return Err(t.error(format!("no points in tensor '{name}'")));
@@ -309,6 +360,11 @@ impl Universal {
         }
         Universal::new(basis, mean, points).map_err(|e| t.error(e.to_string()))
     }
+}
+
+/// `v` rounded to f32.
+pub(crate) fn to32(v: &[f64]) -> Vec<f32> {
+    v.iter().map(|&x| x as f32).collect()
 }
 
 /// The sphere bounding `rows` (of `l` coordinates): the f32 centre of the rows (as queries use it)

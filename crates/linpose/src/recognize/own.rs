@@ -1,0 +1,162 @@
+//! The second stage of "none of these": the recognised object's own eigenspace.
+//!
+//! The recogniser tells the objects apart in a space shared by all of them (the universal
+//! eigenspace's L dimensions, or the linear recogniser's K outputs), which keeps what separates
+//! the objects from each other and drops the rest. A view of an object the model never saw can
+//! land near one object there while differing from it in details that space does not hold: a toy
+//! car left out is taken for another car. So, as Murase & Nayar estimate the pose in the
+//! recognised object's own eigenspace, the object named is checked in its own: each object k has
+//! the eigenspace of its own unit-energy training views (L_k = min(L, N_k - 1) dimensions, L the
+//! universal eigenspace's, `--recognizer-components`) and its spline manifold in it, resampled at
+//! the recogniser's step; a query's distance to object k is the distance in image space from its
+//! unit-energy image to that manifold, sqrt(r^2 + d^2), r its residual off k's eigenspace and d
+//! the distance within it to the nearest manifold point (the universal eigenspace's exact pruned
+//! search, with one object: [`Universal::own_distances`]).
+//!
+//! The query is unknown when that distance exceeds the object's second threshold, calibrated as
+//! the recogniser's is: each training view held out (every other knot along each pose axis, then
+//! the others), the object's eigenspace and manifold refitted on the views kept (the same
+//! L_k rule on the fewer views), and the held-out view's distance measured at its own pose; the
+//! threshold is the largest, with no margin. An object too sparse to hold views out takes the
+//! largest threshold of the others; one with a single training view has no eigenspace of its own
+//! and no second stage (its threshold is infinite).
+//!
+//! Cost: per object M L_k + M numbers (eigenimages, mean) and N_k,dense L_k (its manifold); per
+//! query, only for the one object recognised, L_k M multiply-adds and a pruned search of that
+//! object's manifold.
+
+use super::universal::{to32, Universal};
+use super::RecognizerParams;
+use crate::catalog::ObjectSet;
+use crate::dataset::Dataset;
+use crate::methods::eigenspace::manifold::{Grid, Manifold};
+use crate::methods::eigenspace::pca::{self, Dimension};
+use crate::methods::refined::select::both_folds;
+use crate::methods::refined::surface::Surface;
+use crate::methods::refined::Interpolant;
+use crate::model::{Tensor, TensorSet};
+use crate::{Error, Result};
+
+/// Every object's own eigenspace with its manifold (a [`Universal`] of one object each; `None`
+/// for an object of a single training view).
+#[derive(Debug, Clone)]
+pub(crate) struct OwnSpaces {
+    spaces: Vec<Option<Universal>>,
+}
+
+/// What fitting measured: each object's own dimensions (0 without an eigenspace) and held-out
+/// distances (empty for an object too sparse to hold knots out).
+pub(crate) struct OwnFit {
+    pub model: OwnSpaces,
+    pub components: Vec<usize>,
+    pub held_out: Vec<Vec<f64>>,
+}
+
+impl OwnSpaces {
+    /// Fits every object's own eigenspace on its training views, one object after the other (the
+    /// largest object's fit is far smaller than the recogniser's, so the training's peak memory
+    /// is unchanged).
+    pub fn fit(objects: &ObjectSet, params: &RecognizerParams) -> Result<OwnFit> {
+        let space = objects.space();
+        let (mut spaces, mut components, mut held_out) = (Vec::new(), Vec::new(), Vec::new());
+        for (d, name) in objects.objects().iter().zip(objects.names()) {
+            let named = |e: Error| match e {
+                Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
+                e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}', its own eigenspace: {e}") },
+            };
+            if d.len() < 2 {
+                spaces.push(None);
+                components.push(0);
+                held_out.push(Vec::new());
+                continue;
+            }
+            let grid = Grid::new(space, d.poses(), d.manifest().images(), d.manifest().root()).map_err(named)?;
+            let pca = pca::fit(d, Dimension::Fixed(params.components)).map_err(named)?;
+            let l = pca.dim();
+            let dense = Manifold::build(space, &grid, &pca.coords, l, params.manifold_step).map_err(named)?;
+            spaces.push(Some(Universal::new(to32(&pca.basis), to32(&pca.mean), vec![to32(&dense.points)]).map_err(named)?));
+            components.push(l);
+            held_out.push(held_out_distances(d, &grid, params.components).map_err(named)?);
+        }
+        Ok(OwnFit { model: OwnSpaces { spaces }, components, held_out })
+    }
+
+    /// Whether object `k` has an eigenspace of its own.
+    pub fn has(&self, k: usize) -> bool {
+        self.spaces.get(k).is_some_and(Option::is_some)
+    }
+
+    /// Each query's distance to object `k`'s manifold in its own eigenspace into `out` (one per
+    /// query); NaN for a query that cannot be scaled to unit energy. Object `k` has one
+    /// ([`OwnSpaces::has`]).
+    pub fn distances(&self, k: usize, queries: &[f32], out: &mut [f64]) {
+        if let Some(s) = &self.spaces[k] {
+            s.own_distances(queries, out);
+        }
+    }
+
+    /// Numbers stored: every object's eigenimages, mean and manifold points.
+    pub fn numbers(&self) -> usize {
+        self.spaces.iter().flatten().map(Universal::numbers).sum()
+    }
+
+    /// Manifold points over all objects, N_own.
+    pub fn manifold_len(&self) -> usize {
+        self.spaces.iter().flatten().map(Universal::manifold_len).sum()
+    }
+
+    /// The largest own dimension L_k.
+    pub fn max_components(&self) -> usize {
+        self.spaces.iter().flatten().map(Universal::components).max().unwrap_or(0)
+    }
+
+    /// The arrays, object k's under `recognizer.own.K.` (`basis`, `mean`, `manifold.0`).
+    pub fn tensors(&self) -> Vec<Tensor> {
+        self.spaces.iter().enumerate().filter_map(|(k, s)| s.as_ref().map(|s| s.tensors(&prefix(k)))).flatten().collect()
+    }
+
+    /// Reads back [`OwnSpaces::tensors`] for objects of `m` features and own dimensions
+    /// `components` (0: none).
+    pub fn from_parts(t: &TensorSet, m: usize, components: &[usize]) -> Result<Self> {
+        let spaces =
+            components.iter().enumerate().map(|(k, &l)| (l > 0).then(|| Universal::from_parts(t, &prefix(k), 1, m, l)).transpose()).collect::<Result<_>>()?;
+        Ok(OwnSpaces { spaces })
+    }
+}
+
+/// Object `k`'s arrays' prefix in a model file.
+fn prefix(k: usize) -> String {
+    format!("recognizer.own.{k}.")
+}
+
+/// Each training view's distance to its object's manifold in the eigenspace fitted without it
+/// (the views kept by each fold of `both_folds`, `components` dimensions at most), at the view's
+/// own pose: the residual off that eigenspace and the distance within it to the manifold
+/// interpolated from the kept knots (the same splines). Empty when no axis has knots enough.
+fn held_out_distances(train: &Dataset, grid: &Grid, components: usize) -> Result<Vec<f64>> {
+    let (space, m) = (train.space(), train.n_features());
+    let mut out = Vec::new();
+    for keep in both_folds(train, grid) {
+        let kept = train.subset(&keep)?;
+        let pca = pca::fit(&kept, Dimension::Fixed(components))?;
+        let l = pca.dim();
+        let sub = Grid::new(space, kept.poses(), kept.manifest().images(), kept.manifest().root())?;
+        let knots: Vec<f64> = sub.sample_at.iter().flat_map(|&k| pca.coords[k * l..(k + 1) * l].iter().copied()).collect();
+        let surface = Surface::new(space, &sub.axes, &knots, l, Interpolant::Spline)?;
+        let mut f = vec![0.0; l];
+        for i in (0..train.len()).filter(|&i| !keep[i]) {
+            let x = train.row(i);
+            // A training view has energy: the eigenspace's fit refuses one that has none.
+            let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
+            let c: Vec<f64> = x.iter().zip(&pca.mean).map(|(&v, &mu)| v as f64 / norm - mu).collect();
+            let y: Vec<f64> = pca.basis.chunks_exact(m).map(|u| u.iter().zip(&c).map(|(a, b)| a * b).sum()).collect();
+            let residual = c.iter().map(|v| v * v).sum::<f64>() - y.iter().map(|v| v * v).sum::<f64>();
+            let mut t = train.pose(i).to_vec();
+            surface.clamp(&mut t);
+            surface.eval(&t, &mut f, None);
+            let within: f64 = y.iter().zip(&f).map(|(a, b)| (a - b) * (a - b)).sum();
+            out.push((residual.max(0.0) + within).sqrt());
+        }
+    }
+    Ok(out)
+}
