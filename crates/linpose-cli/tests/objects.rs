@@ -172,9 +172,11 @@ fn linear_recogniser_tells_four_objects() {
     let t = train(&d, "set/objects", "l.safetensors", &["--recognizer", "linear"]);
     assert_eq!(t["recognizer"], "linear");
     // The recogniser is K weight rows of M features (f32), then the second stage: each object's
-    // own eigenspace of L_k = 17 dimensions (18 training views less one) with its mean, and its
-    // manifold every 0.5 degrees (720 points of 17 coordinates).
-    assert_eq!(t["recognizer_bytes"], 4 * (4 * FEATURES + 4 * (17 * FEATURES + FEATURES + 720 * 17)));
+    // own eigenspace of L_k = 17 dimensions (18 training views less one) of the images binned by
+    // 4 (12 x 9 values) with its mean, and its manifold every 0.5 degrees (720 points of 17
+    // coordinates).
+    let binned = FEATURES / 16;
+    assert_eq!(t["recognizer_bytes"], 4 * (4 * FEATURES + 4 * (17 * binned + binned + 720 * 17)));
     let (text, e) = eval(&d, "l.safetensors", "set/objects", &[]);
     assert_eq!(e["recognizer"], "linear");
     assert_eq!(e["n_eval"], 4 * VIEWS);

@@ -46,6 +46,20 @@ impl Binning {
         Ok(b)
     }
 
+    /// The coarsest binning of `full` images by at most `factor` (halved while too coarse) whose
+    /// binned images keep at least `views` pixels (so that the pixels do not cap the span of
+    /// that many views) and 3 x 3; by 1 when none does.
+    pub(crate) fn coarsest(full: ImageSpec, factor: usize, views: usize) -> Binning {
+        let mut f = factor.clamp(1, MAX_FACTOR);
+        while f > 1 {
+            match Binning::new(full, f) {
+                Ok(b) if b.spec().features() >= views => return b,
+                _ => f /= 2,
+            }
+        }
+        Binning { factor: 1, full }
+    }
+
     /// The factor b.
     pub fn factor(&self) -> usize {
         self.factor

@@ -132,17 +132,7 @@ impl SecondLook {
     /// The second look at the training views `train` (features as the method was given them),
     /// on their pose grid `grid`, with `interpolant` between the knots.
     pub(crate) fn fit(train: &Dataset, grid: &Grid, interpolant: Interpolant) -> Result<SecondLook> {
-        // Binned as far as SECOND_LOOK_BIN while the binned images keep at least as many pixels as
-        // there are training views (so the pixels do not cap the span).
-        let mut factor = SECOND_LOOK_BIN;
-        let binning = loop {
-            match Binning::new(train.spec(), factor) {
-                Ok(b) if factor == 1 || b.spec().features() >= train.len() => break b,
-                Ok(_) | Err(_) if factor > 1 => factor /= 2,
-                Ok(b) => break b,
-                Err(e) => return Err(e),
-            }
-        };
+        let binning = Binning::coarsest(train.spec(), SECOND_LOOK_BIN, train.len());
         let binned =
             if binning.bins() { Some(Dataset::from_features(train.manifest().clone(), binning.spec(), binning.apply_all(train.features()))?) } else { None };
         let views = binned.as_ref().unwrap_or(train);

@@ -71,6 +71,8 @@ pub struct OwnSettings {
     /// unknown (infinite: the second stage is off).
     #[serde(with = "infinite_as_null")]
     pub thresholds: Vec<f64>,
+    /// The binning factor of the images the own eigenspaces are of.
+    pub bin: usize,
 }
 
 /// A query's object and, when it is one of the known objects, its pose.
@@ -180,7 +182,7 @@ impl ObjectModel {
                 *v = f64::INFINITY;
             }
         }
-        let own_settings = OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new() };
+        let own_settings = OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new(), bin: own.model.bin() };
         let mut settings =
             ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new(), own: Some(own_settings) };
         set_thresholds(&mut settings, params.unknown);
@@ -402,7 +404,7 @@ impl ObjectModel {
                 if o.components.len() != k {
                     return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
                 }
-                Some(OwnSpaces::from_parts(t, spec.features(), &o.components)?)
+                Some(OwnSpaces::from_parts(t, spec, o.bin, &o.components)?)
             }
         };
         Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses })

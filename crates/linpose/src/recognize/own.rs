@@ -21,13 +21,21 @@
 //! largest threshold of the others; one with a single training view has no eigenspace of its own
 //! and no second stage (its threshold is infinite).
 //!
-//! Cost: per object M L_k + M numbers (eigenimages, mean) and N_k,dense L_k (its manifold); per
-//! query, only for the one object recognised, L_k M multiply-adds and a pruned search of that
-//! object's manifold.
+//! The eigenspaces are of the images binned as the pose models' second look bins them
+//! ([`crate::second_look::SECOND_LOOK_BIN`], coarser only while the binned images keep as many
+//! pixels as an object has training views): what tells a car from a car survives 4 x 4 blocks,
+//! and the stage stores and multiplies b^2 times fewer numbers.
+//!
+//! Cost: per object M_b L_k + M_b numbers (eigenimages, mean; M_b = M / b^2) and N_k,dense L_k
+//! (its manifold); per query, only for the one object recognised, L_k M_b multiply-adds and a
+//! pruned search of that object's manifold.
 
 use super::universal::{to32, Universal};
 use super::RecognizerParams;
+use crate::binning::Binning;
 use crate::catalog::ObjectSet;
+use crate::image_io::ImageSpec;
+use crate::second_look::SECOND_LOOK_BIN;
 use crate::dataset::Dataset;
 use crate::methods::eigenspace::manifold::{Grid, Manifold};
 use crate::methods::eigenspace::pca::{self, Dimension};
@@ -38,10 +46,11 @@ use crate::model::{Tensor, TensorSet};
 use crate::{Error, Result};
 
 /// Every object's own eigenspace with its manifold (a [`Universal`] of one object each; `None`
-/// for an object of a single training view).
+/// for an object of a single training view), of the images binned by `binning`.
 #[derive(Debug, Clone)]
 pub(crate) struct OwnSpaces {
     spaces: Vec<Option<Universal>>,
+    binning: Binning,
 }
 
 /// What fitting measured: each object's own dimensions (0 without an eigenspace) and held-out
@@ -58,12 +67,16 @@ impl OwnSpaces {
     /// is unchanged).
     pub fn fit(objects: &ObjectSet, params: &RecognizerParams) -> Result<OwnFit> {
         let space = objects.space();
+        let most = objects.objects().iter().map(Dataset::len).max().unwrap_or(0);
+        let binning = Binning::coarsest(objects.spec(), SECOND_LOOK_BIN, most);
         let (mut spaces, mut components, mut held_out) = (Vec::new(), Vec::new(), Vec::new());
         for (d, name) in objects.objects().iter().zip(objects.names()) {
             let named = |e: Error| match e {
                 Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
                 e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}', its own eigenspace: {e}") },
             };
+            let binned = if binning.bins() { Some(Dataset::from_features(d.manifest().clone(), binning.spec(), binning.apply_all(d.features())).map_err(named)?) } else { None };
+            let d = binned.as_ref().unwrap_or(d);
             if d.len() < 2 {
                 spaces.push(None);
                 components.push(0);
@@ -78,7 +91,7 @@ impl OwnSpaces {
             components.push(l);
             held_out.push(held_out_distances(d, &grid, params.components).map_err(named)?);
         }
-        Ok(OwnFit { model: OwnSpaces { spaces }, components, held_out })
+        Ok(OwnFit { model: OwnSpaces { spaces, binning }, components, held_out })
     }
 
     /// Whether object `k` has an eigenspace of its own.
@@ -91,8 +104,17 @@ impl OwnSpaces {
     /// ([`OwnSpaces::has`]).
     pub fn distances(&self, k: usize, queries: &[f32], out: &mut [f64]) {
         if let Some(s) = &self.spaces[k] {
-            s.own_distances(queries, out);
+            if self.binning.bins() {
+                s.own_distances(&self.binning.apply_all(queries), out);
+            } else {
+                s.own_distances(queries, out);
+            }
         }
+    }
+
+    /// The binning factor of the images the own eigenspaces are of.
+    pub fn bin(&self) -> usize {
+        self.binning.factor()
     }
 
     /// Numbers stored: every object's eigenimages, mean and manifold points.
@@ -115,12 +137,14 @@ impl OwnSpaces {
         self.spaces.iter().enumerate().filter_map(|(k, s)| s.as_ref().map(|s| s.tensors(&prefix(k)))).flatten().collect()
     }
 
-    /// Reads back [`OwnSpaces::tensors`] for objects of `m` features and own dimensions
-    /// `components` (0: none).
-    pub fn from_parts(t: &TensorSet, m: usize, components: &[usize]) -> Result<Self> {
+    /// Reads back [`OwnSpaces::tensors`] for objects of images `spec` binned by `bin`, and own
+    /// dimensions `components` (0: none).
+    pub fn from_parts(t: &TensorSet, spec: ImageSpec, bin: usize, components: &[usize]) -> Result<Self> {
+        let binning = Binning::new(spec, bin).map_err(|e| t.error(format!("damaged second-stage settings: {e}")))?;
+        let m = binning.spec().features();
         let spaces =
             components.iter().enumerate().map(|(k, &l)| (l > 0).then(|| Universal::from_parts(t, &prefix(k), 1, m, l)).transpose()).collect::<Result<_>>()?;
-        Ok(OwnSpaces { spaces })
+        Ok(OwnSpaces { spaces, binning })
     }
 }
 
