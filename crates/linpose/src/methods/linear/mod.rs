@@ -36,6 +36,7 @@ pub mod stream;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_u8::dots, Level};
+use crate::model::split;
 use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
 use crate::confidence::{pair_confidence, Estimate};
 use crate::methods::linear::ridge::{loo_curve, RidgeRule};
@@ -654,8 +655,9 @@ impl PoseModel for LinearModel {
             }
             space.decode(&enc[..k], o);
         };
-        if n >= 16 {
-            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).with_min_len(8).for_each(one);
+        // A batch too small to be worth the thread pool's round trip runs on the calling thread.
+        if n >= 16 && split::splits(n, m) {
+            queries.par_chunks_exact(m).zip(out.par_chunks_exact_mut(p)).with_min_len(split::min_task_queries(m).max(8)).for_each(one);
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(one);
         }
@@ -706,7 +708,8 @@ mod u8_tests {
     use crate::image_io::{ColorMode, ImageSpec};
     use crate::{Manifest, Param, PoseSpace};
 
-    /// The 8-bit path (weights / 255, SIMD kernel) agrees with the f32 path on 8-bit images.
+    /// The 8-bit path (weights / 255, SIMD kernel) agrees with the f32 path on 8-bit images, and
+    /// a batch split across threads gives the bits of one run on the calling thread.
     #[test]
     fn u8_queries_match_f32_queries() {
         let (w, h) = (20usize, 9usize);
@@ -732,6 +735,13 @@ mod u8_tests {
                 let d = (a - b).abs();
                 assert!(d.min(360.0 - d) < 1e-3, "{a} vs {b} (center {center})");
             }
+            // A batch large enough to be split across threads gives the same bits.
+            let copies = split::SPLIT_FROM_PIXELS.div_ceil(q8.len()) + 1;
+            let qs: Vec<u8> = q8.iter().copied().cycle().take(copies * q8.len()).collect();
+            assert!(split::splits(copies * 30, w * h));
+            let mut ps = vec![0.0; copies * p8.len()];
+            model.predict_u8_into(&qs, &mut ps).unwrap();
+            assert!(ps.chunks_exact(p8.len()).all(|c| c == &p8[..]));
         }
     }
 }
