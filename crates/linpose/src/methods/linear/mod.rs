@@ -35,7 +35,7 @@ pub mod ridge;
 pub mod stream;
 
 use crate::dataset::Dataset;
-use crate::kernels::{dot_u8::dots, Level};
+use crate::kernels::{dot_u8::dots, AlignedF32, Level};
 use crate::model::split;
 use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
 use crate::confidence::{pair_confidence, Estimate};
@@ -515,8 +515,9 @@ pub struct LinearModel {
     meta: ModelMeta,
     w64: Vec<f64>,
     w32: Vec<f32>,
-    /// The f32 weights / 255, for 8-bit queries.
-    w8: Vec<f32>,
+    /// The f32 weights / 255, for 8-bit queries, 64-byte aligned (the kernel's AVX-512 loads of
+    /// misaligned rows straddle cache lines: about 1.5x slower on COIL-20's 72-image batches).
+    w8: AlignedF32,
     bias: Vec<f64>,
     /// Each circular parameter's pair's leave-one-out spread ([`GramSystem::pair_spread`]).
     spread: Vec<f64>,
@@ -536,8 +537,8 @@ impl LinearModel {
     /// The model with its 8-bit serving weights, made from the f32 weights the model file holds,
     /// so a fitted model and the same model read back from its file give the same bits.
     fn with_u8(meta: ModelMeta, w64: Vec<f64>, w32: Vec<f32>, bias: Vec<f64>, spread: Vec<f64>) -> Self {
-        let w8 = w32.iter().map(|&v| (v as f64 / 255.0) as f32).collect();
-        LinearModel { meta, w64, w32, w8, bias, spread }
+        let w8: Vec<f32> = w32.iter().map(|&v| (v as f64 / 255.0) as f32).collect();
+        LinearModel { meta, w64, w32, w8: AlignedF32::new(&w8), bias, spread }
     }
 
     /// Each circular parameter's (cos, sin) pair's leave-one-out spread (RMS per component),
