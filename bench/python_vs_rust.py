@@ -12,7 +12,8 @@ minus Rust's is the Python overhead per call. Decoding is not timed anywhere.
 Besides the separate Rust process, the estimator is timed against the bare core call it wraps
 (`linpose._linpose.fit` / `Model.predict`, the library behind PyO3's argument conversion),
 alternated in one process: the difference is what the Python layer costs. Each figure is a
-median over ROUNDS rounds that alternate the Rust process and the Python measurements.
+median over ROUNDS rounds that alternate the Rust process and the Python measurements; the
+predicts' lowest and highest round follow the table (the spread of a shared machine).
 
   python_vs_rust.py [--coil DIR] [--reps 5] [--rounds 5] [--peer-python PY]
 """
@@ -101,16 +102,22 @@ for label, data, obj, step, peer_dir in sets:
             r = json.loads(subprocess.run(rust_args, check=True, capture_output=True, text=True).stdout)
             rust.append((r["fit_s"], r["predict_s"], r["predict_one_s"]))
             py.append(py_times(X, y, params, train, method))
+        spread = (min(p[1] for p in py), max(p[1] for p in py), min(p[4] for p in py), max(p[4] for p in py), min(r[1] for r in rust), max(r[1] for r in rust))
         rust = tuple(med(r[j] for r in rust) for j in range(3))
         py = tuple(med(p[j] for p in py) for j in range(5))
         pm = peer.get(method) or peer.get("eigenspace")
-        rows.append((label, method, py, rust, pm))
+        rows.append((label, method, py, rust, pm, spread))
 
 print("| data | method | fit: Python / core call / Rust process | predict: Python / core call / Rust process | Python vs peer (fit, predict) | one image: Python - Rust |")
 print("|---|---|---|---|---|---|")
-for label, method, py, rust, pm in rows:
+for label, method, py, rust, pm, _ in rows:
     vs = f"{py[0] / pm[0]:.3f}x, {py[1] / pm[1]:.3f}x" + ("" if method != "refined" else " (peer eigenspace)") if pm else "no peer"
     print(
         f"| {label} | {method} | {py[0] * 1e3:.2f} / {py[3] * 1e3:.2f} / {rust[0] * 1e3:.2f} ms ({py[0] / py[3] - 1:+.1%}, {py[0] / rust[0] - 1:+.1%}) "
         f"| {py[1] * 1e3:.3f} / {py[4] * 1e3:.3f} / {rust[1] * 1e3:.3f} ms ({py[1] / py[4] - 1:+.1%}, {py[1] / rust[1] - 1:+.1%}) | {vs} | {(py[2] - rust[2]) * 1e6:.1f} us |"
     )
+
+load = open("/proc/loadavg").read().split()[:3]
+print(f"\nload average at the end: {' '.join(load)}; predict, the rounds' lowest - highest (ms): Python / core call / Rust process")
+for label, method, _, _, _, sp in rows:
+    print(f"  {label}, {method}: {sp[0] * 1e3:.3f}-{sp[1] * 1e3:.3f} / {sp[2] * 1e3:.3f}-{sp[3] * 1e3:.3f} / {sp[4] * 1e3:.3f}-{sp[5] * 1e3:.3f}")

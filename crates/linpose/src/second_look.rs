@@ -39,7 +39,7 @@ use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::refined::select::both_folds;
 use crate::methods::refined::surface::{Interpolant, Surface};
-use crate::model::{Tensor, TensorSet};
+use crate::model::{split, Tensor, TensorSet};
 use crate::pose::{wrap_positive, PoseSpace};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -118,6 +118,10 @@ pub(crate) struct SecondLook {
     scan_poses: Vec<f64>,
     scan_points: Vec<f32>,
 }
+
+/// Per-thread buffers of [`SecondLook::apply`]: a query as features, binned, the binning's
+/// scratch and its coordinates.
+type Scratch = (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f64>);
 
 /// A batch of queries as the method was given them.
 #[derive(Debug, Clone, Copy)]
@@ -304,50 +308,49 @@ impl SecondLook {
         refine: impl Fn(&[f32], &[f64], &mut [f64]) + Sync,
     ) -> Vec<Estimate> {
         let (k, d) = (self.settings.components, self.space.len());
-        poses
-            .par_chunks_mut(d)
-            .enumerate()
-            .map_init(
-                || (Vec::new(), Vec::new(), Vec::new(), vec![0.0; k]),
-                |(x, binned, acc, z), (i, pose)| {
-                    let q: &[f32] = match queries {
-                        Queries::F32(all) => &all[i * m..(i + 1) * m],
-                        Queries::U8(all) => {
-                            x.clear();
-                            x.extend(all[i * m..(i + 1) * m].iter().map(|&v| v as f32 / 255.0));
-                            x
-                        }
-                    };
-                    if pose[0].is_nan() || !self.coords(q, binned, acc, z) {
-                        return None;
-                    }
-                    let mut basins = self.basins(z, pose);
-                    let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
-                    let score = posterior(&dist, self.settings.floor, self.settings.effective_dims);
-                    let w = (0..basins.len()).max_by(|&a, &b| score[a].total_cmp(&score[b])).unwrap_or(0);
-                    if w != 0 {
-                        // The method searches again in the nearer basin; where its own metric has
-                        // no least there (it slides back towards the first estimate), the basin's
-                        // pose stands.
-                        let mut p = basins[w].0.clone();
-                        refine(q, &basins[w].0, &mut p);
-                        if self.space.error_deg(&p, &basins[w].0) < GROSS_DEG {
-                            basins[w].0 = p;
-                        }
-                        pose.copy_from_slice(&basins[w].0);
-                    }
-                    let top = top?;
-                    let mut hyps: Vec<Hypothesis> =
-                        basins.into_iter().zip(score).map(|((pose, distance), score)| Hypothesis { pose, score, distance }).collect();
-                    let best = hyps.swap_remove(w);
-                    hyps.sort_by(|a, b| b.score.total_cmp(&a.score));
-                    hyps.insert(0, best);
-                    hyps.truncate(top.max(1));
-                    Some(Estimate { pose: hyps[0].pose.clone(), confidence: hyps[0].score, hypotheses: hyps })
-                },
-            )
-            .flatten()
-            .collect()
+        let one = |(x, binned, acc, z): &mut Scratch, (i, pose): (usize, &mut [f64])| -> Option<Estimate> {
+            let q: &[f32] = match queries {
+                Queries::F32(all) => &all[i * m..(i + 1) * m],
+                Queries::U8(all) => {
+                    x.clear();
+                    x.extend(all[i * m..(i + 1) * m].iter().map(|&v| v as f32 / 255.0));
+                    x
+                }
+            };
+            if pose[0].is_nan() || !self.coords(q, binned, acc, z) {
+                return None;
+            }
+            let mut basins = self.basins(z, pose);
+            let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
+            let score = posterior(&dist, self.settings.floor, self.settings.effective_dims);
+            let w = (0..basins.len()).max_by(|&a, &b| score[a].total_cmp(&score[b])).unwrap_or(0);
+            if w != 0 {
+                // The method searches again in the nearer basin; where its own metric has
+                // no least there (it slides back towards the first estimate), the basin's
+                // pose stands.
+                let mut p = basins[w].0.clone();
+                refine(q, &basins[w].0, &mut p);
+                if self.space.error_deg(&p, &basins[w].0) < GROSS_DEG {
+                    basins[w].0 = p;
+                }
+                pose.copy_from_slice(&basins[w].0);
+            }
+            let top = top?;
+            let mut hyps: Vec<Hypothesis> = basins.into_iter().zip(score).map(|((pose, distance), score)| Hypothesis { pose, score, distance }).collect();
+            let best = hyps.swap_remove(w);
+            hyps.sort_by(|a, b| b.score.total_cmp(&a.score));
+            hyps.insert(0, best);
+            hyps.truncate(top.max(1));
+            Some(Estimate { pose: hyps[0].pose.clone(), confidence: hyps[0].score, hypotheses: hyps })
+        };
+        let scratch = || (Vec::new(), Vec::new(), Vec::new(), vec![0.0; k]);
+        // A small batch runs on the calling thread, as the methods' own searches do.
+        if split::splits(poses.len() / d.max(1), m) {
+            poses.par_chunks_mut(d).enumerate().map_init(scratch, one).flatten().collect()
+        } else {
+            let mut s = scratch();
+            poses.chunks_mut(d).enumerate().filter_map(|q| one(&mut s, q)).collect()
+        }
     }
 }
 

@@ -8,6 +8,7 @@
 //! itself: see [`Method`] and the registry [`crate::methods::METHODS`].
 
 mod method;
+pub(crate) mod split;
 mod tensor;
 
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};

@@ -182,7 +182,8 @@ impl ObjectModel {
                 *v = f64::INFINITY;
             }
         }
-        let own_settings = OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new(), bin: own.model.bin() };
+        let own_settings =
+            OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new(), bin: own.model.bin() };
         let mut settings =
             ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new(), own: Some(own_settings) };
         set_thresholds(&mut settings, params.unknown);

@@ -34,15 +34,15 @@ use super::universal::{to32, Universal};
 use super::RecognizerParams;
 use crate::binning::Binning;
 use crate::catalog::ObjectSet;
-use crate::image_io::ImageSpec;
-use crate::second_look::SECOND_LOOK_BIN;
 use crate::dataset::Dataset;
+use crate::image_io::ImageSpec;
 use crate::methods::eigenspace::manifold::{Grid, Manifold};
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::refined::select::both_folds;
 use crate::methods::refined::surface::Surface;
 use crate::methods::refined::Interpolant;
 use crate::model::{Tensor, TensorSet};
+use crate::second_look::SECOND_LOOK_BIN;
 use crate::{Error, Result};
 
 /// Every object's own eigenspace with its manifold (a [`Universal`] of one object each; `None`
@@ -75,7 +75,11 @@ impl OwnSpaces {
                 Error::Dataset { path, message } => Error::Dataset { path, message: format!("object '{name}': {message}") },
                 e => Error::Dataset { path: d.manifest().root().to_path_buf(), message: format!("object '{name}', its own eigenspace: {e}") },
             };
-            let binned = if binning.bins() { Some(Dataset::from_features(d.manifest().clone(), binning.spec(), binning.apply_all(d.features())).map_err(named)?) } else { None };
+            let binned = if binning.bins() {
+                Some(Dataset::from_features(d.manifest().clone(), binning.spec(), binning.apply_all(d.features())).map_err(named)?)
+            } else {
+                None
+            };
             let d = binned.as_ref().unwrap_or(d);
             if d.len() < 2 {
                 spaces.push(None);

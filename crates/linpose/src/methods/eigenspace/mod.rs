@@ -57,6 +57,7 @@ use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};
 use crate::methods::refined::Interpolant;
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
+use crate::model::split;
 use crate::second_look::{Queries, SecondLook, SecondLookSettings};
 use crate::{Error, Result};
 use manifold::{pose_of, Grid, Manifold};
@@ -91,6 +92,18 @@ const U8_BATCH: usize = 192;
 /// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
 pub(crate) fn u8_task_rows(n: usize, block: usize) -> usize {
     n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
+}
+
+/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
+/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
+/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
+/// of at least [`split::min_task_queries`] (in whole blocks).
+pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
+    let most = U8_BATCH / block * block;
+    if !split::splits(n, m) {
+        return ((n.div_ceil(block) * block).min(most), false);
+    }
+    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
 }
 
 const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
@@ -361,11 +374,14 @@ impl EigenspaceModel {
         let n = batch_len(m, queries.len(), out.len(), l)?;
         let level = Level::detect();
         if n >= BATCH_FROM {
-            let rows = u8_task_rows(n, self.proj.u8_block(level, &self.eigen()));
-            queries
-                .par_chunks(rows * m)
-                .zip(out.par_chunks_mut(rows * l))
-                .for_each_init(dot_q::Scratch::default, |scratch, (q, y)| self.project_u8_batch(level, q, y, scratch));
+            let (rows, parallel) = u8_tasks(n, m, self.proj.u8_block(level, &self.eigen()));
+            let task = |scratch: &mut dot_q::Scratch, (q, y): (&[u8], &mut [f32])| self.project_u8_batch(level, q, y, scratch);
+            if parallel {
+                queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(dot_q::Scratch::default, task);
+            } else {
+                let mut scratch = dot_q::Scratch::default();
+                queries.chunks(rows * m).zip(out.chunks_mut(rows * l)).for_each(|c| task(&mut scratch, c));
+            }
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(|(x, y)| self.project_one_u8(level, x, y));
         }
@@ -609,15 +625,19 @@ impl EigenspaceModel {
             }
         };
         if n >= BATCH_FROM {
-            let rows = u8_task_rows(n, self.proj.u8_block(level, &self.eigen()));
-            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(
-                || (dot_q::Scratch::default(), vec![0f32; rows * l]),
-                |(scratch, y), (q, o)| {
-                    let y = &mut y[..q.len() / m * l];
-                    self.project_u8_batch(level, q, y, scratch);
-                    y.chunks_exact(l).zip(o.chunks_exact_mut(p)).for_each(|(y, o)| search(y, o));
-                },
-            );
+            let (rows, parallel) = u8_tasks(n, m, self.proj.u8_block(level, &self.eigen()));
+            let init = || (dot_q::Scratch::default(), vec![0f32; rows * l]);
+            let task = |(scratch, y): &mut (dot_q::Scratch, Vec<f32>), (q, o): (&[u8], &mut [f64])| {
+                let y = &mut y[..q.len() / m * l];
+                self.project_u8_batch(level, q, y, scratch);
+                y.chunks_exact(l).zip(o.chunks_exact_mut(p)).for_each(|(y, o)| search(y, o));
+            };
+            if parallel {
+                queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(init, task);
+            } else {
+                let mut s = init();
+                queries.chunks(rows * m).zip(out.chunks_mut(rows * p)).for_each(|c| task(&mut s, c));
+            }
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(|(x, o)| {
                 let mut y = [0f32; 64];

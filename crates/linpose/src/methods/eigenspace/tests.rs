@@ -247,10 +247,44 @@ fn u8_queries_match_f32_queries() {
         model.project_u8_into(q, &mut one).unwrap();
         assert_eq!(one.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), y.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
     }
+    // A batch large enough to be split across threads (crate::model::split) gives the bits of
+    // the same images in batches run whole on the calling thread.
+    let copies = split::SPLIT_FROM_PIXELS.div_ceil(q8.len()) + 1;
+    let qs: Vec<u8> = q8.iter().copied().cycle().take(copies * q8.len()).collect();
+    assert!(split::splits(copies * n, W * H));
+    let (mut ys, mut ps, mut p1) = (vec![0f32; copies * n * l], vec![0.0; copies * n], vec![0.0; n]);
+    model.project_u8_into(&qs, &mut ys).unwrap();
+    model.predict_u8_into(&qs, &mut ps).unwrap();
+    model.predict_u8_into(&q8, &mut p1).unwrap();
+    for (ys, ps) in ys.chunks_exact(n * l).zip(ps.chunks_exact(n)) {
+        assert_eq!(ys.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), y8.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+        assert_eq!(ps, &p1[..]);
+    }
     let mut p8 = vec![0.0; n];
     model.predict_u8_into(&q8, &mut p8).unwrap();
     let pf = model.predict(&qf).unwrap();
     let same = pf.iter().zip(&p8).filter(|(a, b)| a == b).count();
     assert!(same >= n - 1, "{same} of {n} estimates identical");
     assert!(model.predict_u8_into(&vec![0u8; W * H], &mut [0.0]).is_err(), "a black image is refused");
+}
+
+/// A batch too small to split runs whole (in tasks of at most U8_BATCH); a larger one splits in
+/// whole blocks of at least half the threshold's pixels, at most U8_BATCH.
+#[test]
+fn u8_tasks_follow_the_split_threshold() {
+    for m in [64, 128 * 128, 640 * 480] {
+        for block in [4, 6, 16] {
+            for n in [8, 72, 100, 1000, 10_000] {
+                let (rows, parallel) = u8_tasks(n, m, block);
+                assert_eq!(parallel, split::splits(n, m), "{n} x {m}");
+                assert!(rows.is_multiple_of(block) && rows <= U8_BATCH, "{n} x {m}: {rows}");
+                if parallel {
+                    assert!(rows >= split::min_task_queries(m).min(U8_BATCH / block * block), "{n} x {m}: {rows}");
+                } else {
+                    assert_eq!(rows, (n.div_ceil(block) * block).min(U8_BATCH / block * block), "{n} x {m}");
+                }
+            }
+        }
+    }
+    assert!(split::splits(10_000, 640 * 480));
 }

@@ -1,0 +1,41 @@
+//! When a batch of 8-bit queries is worth splitting across rayon's threads.
+//!
+//! A parallel iterator called from outside rayon's pool (the command line's main thread, a
+//! Python thread, any caller's own thread) hands the batch to a worker, wakes it (and the second
+//! worker when the batch splits) and sleeps until the last task is done, which wakes the caller
+//! again: four context switches a call, whatever the batch. On the 2-core machine of
+//! BENCHMARKS.md (a virtual machine, where waking a thread whose core sits idle is slow) that
+//! round trip costs about 10 us, and on a 72-image COIL-20 batch (0.09-0.25 ms on one thread)
+//! the second worker often wakes too late to take a share. A batch smaller than
+//! [`SPLIT_FROM_PIXELS`] therefore runs whole on the calling thread (no pool, no switches); a
+//! larger one is split as before, each task at least half that size.
+//!
+//! What it trades: below the threshold a batch never uses the second core, which costs up to
+//! half its time when both cores are idle and the workers awake; above it, the round trip is
+//! small beside the work. The value is measured, not derived: BENCHMARKS.md ("Small batches")
+//! has the batch sizes, times and the command (`examples/split_timing.rs`, which compares both
+//! sides at every size with the environment variable `LINPOSE_SPLIT_FROM_PIXELS=0`: every
+//! batch split, as before this threshold).
+
+use std::sync::OnceLock;
+
+/// Query pixels (images x pixels per image) from which an 8-bit batch is split across threads.
+/// 1.2 million: 72 COIL-20 images of 128 x 128 (1.18 million) run on the calling thread.
+pub(crate) const SPLIT_FROM_PIXELS: usize = 1_200_000;
+
+/// [`SPLIT_FROM_PIXELS`], or the value of `LINPOSE_SPLIT_FROM_PIXELS` where it is set (for
+/// measuring; read once).
+fn split_from() -> usize {
+    static FROM: OnceLock<usize> = OnceLock::new();
+    *FROM.get_or_init(|| std::env::var("LINPOSE_SPLIT_FROM_PIXELS").ok().and_then(|v| v.parse().ok()).unwrap_or(SPLIT_FROM_PIXELS))
+}
+
+/// Whether a batch of `n` queries of `m` pixels is split across threads.
+pub(crate) fn splits(n: usize, m: usize) -> bool {
+    n.saturating_mul(m) >= split_from()
+}
+
+/// The fewest queries of `m` pixels a parallel task takes: half the threshold's pixels.
+pub(crate) fn min_task_queries(m: usize) -> usize {
+    (split_from() / 2).div_ceil(m.max(1)).max(1)
+}
