@@ -121,9 +121,27 @@ pub(crate) struct SecondLook {
     scan_points: Vec<f32>,
 }
 
-/// Per-thread buffers of [`SecondLook::apply`]: a query as features, binned, the binning's
-/// scratch, its coordinates and their products.
-type Scratch = (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f64>, Vec<f32>);
+/// Per-thread buffers of [`SecondLook::apply`].
+#[derive(Default)]
+struct Scratch {
+    /// An 8-bit query as features (for the method's search in another basin).
+    features: Vec<f32>,
+    /// The query binned, and the binning's scratch (f32, or 8-bit block sums).
+    binned: Vec<f32>,
+    acc: Vec<f32>,
+    sums: Vec<u16>,
+    acc16: Vec<u16>,
+    /// Its coordinates, and their raw products.
+    z: Vec<f64>,
+    y: Vec<f32>,
+}
+
+/// One query as the method was given it.
+#[derive(Clone, Copy)]
+enum Query<'a> {
+    F32(&'a [f32]),
+    U8(&'a [u8]),
+}
 
 /// A batch of queries as the method was given them.
 #[derive(Debug, Clone, Copy)]
@@ -233,13 +251,28 @@ impl SecondLook {
 
     /// A query's coordinates (features of the method's images, binned here), into `z` (K); false
     /// for a query of zero or non-finite energy.
-    fn coords(&self, x: &[f32], binned: &mut Vec<f32>, acc: &mut Vec<f32>, z: &mut [f64], y: &mut [f32]) -> bool {
-        let b: &[f32] = if self.binning.bins() {
-            binned.resize(self.mean.len(), 0.0);
-            self.binning.apply(x, binned, acc);
-            binned
-        } else {
-            x
+    fn coords(&self, x: Query<'_>, s: &mut Scratch) -> bool {
+        let Scratch { binned, acc, sums, acc16, z, y, .. } = s;
+        let b: &[f32] = match x {
+            Query::F32(x) if self.binning.bins() => {
+                binned.resize(self.mean.len(), 0.0);
+                self.binning.apply(x, binned, acc);
+                binned
+            }
+            Query::F32(x) => x,
+            // The block sums, exact in integers: a constant factor cancels in the unit energy.
+            Query::U8(x) if self.binning.bins() => {
+                sums.resize(self.mean.len(), 0);
+                self.binning.sums_u8(x, sums, acc16);
+                binned.clear();
+                binned.extend(sums.iter().map(|&v| v as f32));
+                binned
+            }
+            Query::U8(x) => {
+                binned.clear();
+                binned.extend(x.iter().map(|&v| v as f32));
+                binned
+            }
         };
         let energy: f64 = b.iter().map(|&v| v as f64 * v as f64).sum();
         if !(energy.is_finite() && energy > 0.0) {
@@ -320,28 +353,33 @@ impl SecondLook {
         refine: impl Fn(&[f32], &[f64], &mut [f64]) + Sync,
     ) -> Vec<Estimate> {
         let (k, d) = (self.settings.components, self.space.len());
-        let one = |(x, binned, acc, z, y): &mut Scratch, (i, pose): (usize, &mut [f64])| -> Option<Estimate> {
-            let q: &[f32] = match queries {
-                Queries::F32(all) => &all[i * m..(i + 1) * m],
-                Queries::U8(all) => {
-                    x.clear();
-                    x.extend(all[i * m..(i + 1) * m].iter().map(|&v| v as f32 / 255.0));
-                    x
-                }
+        let one = |s: &mut Scratch, (i, pose): (usize, &mut [f64])| -> Option<Estimate> {
+            let q = match queries {
+                Queries::F32(all) => Query::F32(&all[i * m..(i + 1) * m]),
+                Queries::U8(all) => Query::U8(&all[i * m..(i + 1) * m]),
             };
-            if pose[0].is_nan() || !self.coords(q, binned, acc, z, y) {
+            if pose[0].is_nan() || !self.coords(q, s) {
                 return None;
             }
-            let mut basins = self.basins(z, pose);
+            let mut basins = self.basins(&s.z, pose);
             let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
             let score = posterior(&dist, self.settings.floor, self.settings.effective_dims);
-            let w = (0..basins.len()).max_by(|&a, &b| score[a].total_cmp(&score[b])).unwrap_or(0);
+            // The most probable basin; the method's own on a tie.
+            let w = (1..basins.len()).fold(0, |w, j| if score[j] > score[w] { j } else { w });
             if w != 0 {
                 // The method searches again in the nearer basin; where its own metric has
                 // no least there (it slides back towards the first estimate), the basin's
                 // pose stands.
                 let mut p = basins[w].0.clone();
-                refine(q, &basins[w].0, &mut p);
+                let features: &[f32] = match q {
+                    Query::F32(x) => x,
+                    Query::U8(x) => {
+                        s.features.clear();
+                        s.features.extend(x.iter().map(|&v| v as f32 / 255.0));
+                        &s.features
+                    }
+                };
+                refine(features, &basins[w].0, &mut p);
                 if self.space.error_deg(&p, &basins[w].0) < GROSS_DEG {
                     basins[w].0 = p;
                 }
@@ -355,7 +393,7 @@ impl SecondLook {
             hyps.truncate(top.max(1));
             Some(Estimate { pose: hyps[0].pose.clone(), confidence: hyps[0].score, hypotheses: hyps })
         };
-        let scratch = || (Vec::new(), Vec::new(), Vec::new(), vec![0.0; k], vec![0f32; k]);
+        let scratch = || Scratch { z: vec![0.0; k], y: vec![0.0; k], ..Scratch::default() };
         // A small batch runs on the calling thread, as the methods' own searches do.
         if split::splits(poses.len() / d.max(1), m) {
             poses.par_chunks_mut(d).enumerate().map_init(scratch, one).flatten().collect()
