@@ -167,6 +167,26 @@ pub fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
     ((s[0] + s[1]) + (s[2] + s[3])) + tail
 }
 
+/// The squared Euclidean distance between two rows of f32 values: the squared differences summed
+/// in eight f32 lanes (which the compiler vectorises), then the lanes in f64.
+#[inline]
+pub(crate) fn squared_distance(a: &[f32], b: &[f32]) -> f64 {
+    let mut acc = [0f32; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for j in 0..8 {
+            let d = x[j] - y[j];
+            acc[j] += d * d;
+        }
+    }
+    for (j, (x, y)) in ra.iter().zip(rb).enumerate() {
+        let d = x - y;
+        acc[j] += d * d;
+    }
+    acc.iter().map(|&v| v as f64).sum::<f64>()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -35,6 +35,7 @@ use crate::binning::Binning;
 use crate::confidence::{grid_minima, posterior, Estimate, Hypothesis, GROSS_DEG, MAX_HYPOTHESES};
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
+use crate::linalg::squared_distance;
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::eigenspace::projector::Projector;
@@ -448,20 +449,4 @@ fn held_out_errors(views: &Dataset, grid: &Grid, coords: &[f64], dim: usize, int
         }
     }
     Ok(sum.iter().map(|s| s / count.max(1) as f64).collect())
-}
-
-/// The squared distance between two f32 vectors, summed in eight f32 lanes (which the compiler
-/// vectorises), then in f64.
-fn squared_distance(a: &[f32], b: &[f32]) -> f64 {
-    let mut lanes = [0f32; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for l in 0..8 {
-            let e = x[l] - y[l];
-            lanes[l] += e * e;
-        }
-    }
-    let tail: f64 = ra.iter().zip(rb).map(|(&x, &y)| ((x - y) as f64).powi(2)).sum();
-    lanes.iter().map(|&v| v as f64).sum::<f64>() + tail
 }

@@ -12,6 +12,7 @@
 use super::RecognizerParams;
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
+use crate::linalg::squared_distance;
 use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::manifold::{Grid, Manifold};
 use crate::methods::eigenspace::pca::{self, Dimension};
@@ -381,26 +382,12 @@ fn sphere(rows: &[f32], l: usize) -> (Vec<f32>, f64) {
     (c, r * (1.0 + 1e-5) + 1e-6)
 }
 
-/// The Euclidean distance between two rows of f32 coordinates: the squared differences summed in
-/// eight f32 lanes (which the compiler vectorises), then in f64. Every distance the search
-/// compares is this function's, so its rounding (about 1e-7 relative) never changes which point
-/// is nearest between two ways of searching.
+/// The Euclidean distance between two rows of f32 coordinates ([`squared_distance`]'s root).
+/// Every distance the search compares is this function's, so its rounding (about 1e-7
+/// relative) never changes which point is nearest between two ways of searching.
 #[inline]
 fn distance(a: &[f32], b: &[f32]) -> f64 {
-    let mut acc = [0f32; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for j in 0..8 {
-            let d = x[j] - y[j];
-            acc[j] += d * d;
-        }
-    }
-    for (j, (x, y)) in ra.iter().zip(rb).enumerate() {
-        let d = x - y;
-        acc[j] += d * d;
-    }
-    acc.iter().map(|&v| v as f64).sum::<f64>().sqrt()
+    squared_distance(a, b).sqrt()
 }
 
 /// Each training view's distance to its object's manifold interpolated from the other knots (the
