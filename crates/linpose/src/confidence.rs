@@ -10,7 +10,7 @@
 //! **The eigenspace and the refined method** take a second look ([`crate::second_look`]): the
 //! basins of the query's distance to the manifold in every principal component of the training
 //! views decide which is the estimate, and each is scored by its squared distance d_k as the
-//! posterior of a Gaussian error ([`posterior`]): proportional to exp(-d_k / 2 s^2), with s^2
+//! posterior of a Gaussian error: proportional to exp(-d_k / 2 s^2), with s^2
 //! from the training views alone (their held-out distance, the share of it a fresh view is
 //! expected at, and how many coordinates it spreads over), or from the query's own distance d_1
 //! when it is farther from the manifold than that (noise, an unseen appearance), so a query the
