@@ -13,15 +13,19 @@
 //! 1. projects the binned, unit-energy query on all N - 1 components;
 //! 2. finds the *basins* of its distance to that surface: the method's estimate, climbed to the
 //!    nearest local least of the distance on a lattice of [`STEP_DEG`], and the local minima of
-//!    the distance over a grid of [`PER_CELL`] points per knot interval, each climbed likewise,
-//!    kept while at least [`GROSS_DEG`] from the estimate and from each other;
-//! 3. takes the nearest basin: when it is not the estimate's, the method searches again in that
-//!    basin (its own metric, started at the basin's pose) and that is the estimate;
+//!    the distance over a grid of [`PER_CELL`] points per knot interval, kept while at least
+//!    [`GROSS_DEG`] from the estimate and from each other; the nearest of them is climbed likewise
+//!    (it and the estimate's decide the estimate and its confidence), the others keep their grid
+//!    point's distance;
+//! 3. takes the nearest basin (the method's own on a tie): when it is not the estimate's, the
+//!    method searches again in that basin (its own metric, started at the basin's pose) and that
+//!    is the estimate;
 //! 4. scores the basins as [`crate::confidence`] says: exp(-d_k / 2 s^2), normalised, with
-//!    s^2 = max(D_h, d_1) / (N - 1). D_h is the distance a fresh view between training views is
+//!    s^2 = max(D_h, d_1) / K_eff. D_h is the distance a fresh view between training views is
 //!    expected at: the held-out training views' mean squared distance (every other knot held out
-//!    along each axis, the surface through the rest) times [`UNSEEN_SHARE`], since a held-out
-//!    view lies twice as far from its neighbours as a fresh one does.
+//!    along each axis, then the others, the surface through the rest) times [`UNSEEN_SHARE`],
+//!    since a held-out view lies twice as far from its neighbours as a fresh one does; K_eff is
+//!    how many coordinates that distance spreads over ([`SecondLookSettings::effective_dims`]).
 //!
 //! `predict` and `estimate` take the same steps, so the estimate `predict` gives is the first
 //! hypothesis `estimate` gives. The method's own search still places the pose within its
