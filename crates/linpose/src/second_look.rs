@@ -43,7 +43,7 @@ use crate::linalg::squared_distance;
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::eigenspace::projector::Projector;
-use crate::methods::refined::select::both_folds;
+use crate::methods::refined::select::{both_folds, held_out_errors};
 use crate::methods::refined::surface::{Interpolant, Surface};
 use crate::model::{split, Tensor, TensorSet};
 use crate::pose::{wrap_positive, PoseSpace};
@@ -168,7 +168,8 @@ impl SecondLook {
         let pca = pca::fit(views, Dimension::Fixed(views.len().saturating_sub(1).max(1)))?;
         let k = pca.dim();
         let knots: Vec<f32> = grid.sample_at.iter().flat_map(|&i| pca.coords[i * k..(i + 1) * k].iter().map(|&v| v as f32)).collect();
-        let per_coord = held_out_errors(views, grid, &pca.coords, k, interpolant)?;
+        // Every other knot along each axis held out, then the others.
+        let per_coord = held_out_errors(views, &both_folds(views, grid), &pca.coords, k, interpolant)?;
         let held_out: f64 = per_coord.iter().sum();
         let squares: f64 = per_coord.iter().map(|v| v * v).sum();
         let effective_dims = if squares > 0.0 { held_out * held_out / squares } else { k as f64 };
@@ -424,33 +425,4 @@ pub(crate) fn complete(est: Vec<Estimate>, n: usize) -> Result<Vec<Estimate>> {
     } else {
         Err(Error::invalid("query batch", n, "a query could not be scaled to unit energy for the second look"))
     }
-}
-
-/// The held-out training views' mean squared error in each of the `dim` coordinates against the
-/// surface through the others (the folds of [`both_folds`]: every other knot along each axis held
-/// out, then the others); all 0 when no axis has enough knots to hold any out.
-fn held_out_errors(views: &Dataset, grid: &Grid, coords: &[f64], dim: usize, interpolant: Interpolant) -> Result<Vec<f64>> {
-    let space = views.space();
-    let d = space.len();
-    let n = views.len();
-    let (mut sum, mut count) = (vec![0.0; dim], 0usize);
-    let mut f = vec![0.0; dim];
-    for keep in both_folds(views, grid) {
-        let kept: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
-        let poses: Vec<f64> = kept.iter().flat_map(|&i| views.pose(i).iter().copied()).collect();
-        let names: Vec<String> = kept.iter().map(|&i| views.manifest().images()[i].clone()).collect();
-        let sub = Grid::new(space, &poses, &names, views.manifest().root())?;
-        let knots: Vec<f64> = sub.sample_at.iter().flat_map(|&k| coords[kept[k] * dim..(kept[k] + 1) * dim].iter().copied()).collect();
-        let surface = Surface::new(space, &sub.axes, &knots, dim, interpolant)?;
-        for i in (0..n).filter(|&i| !keep[i]) {
-            let mut t = views.pose(i).to_vec();
-            surface.clamp(&mut t[..d]);
-            surface.eval(&t, &mut f, None);
-            for (c, s) in sum.iter_mut().enumerate() {
-                *s += (coords[i * dim + c] - f[c]).powi(2);
-            }
-            count += 1;
-        }
-    }
-    Ok(sum.iter().map(|s| s / count.max(1) as f64).collect())
 }

@@ -464,20 +464,26 @@ pub fn error_cap(grid: &Grid) -> f64 {
 }
 
 /// The mean squared interpolation error of each of the `dim` coordinates (`coords`, N x dim, in
-/// training order) over the held-out folds of `grid`: each held-out knot's coordinates against
-/// the surface through the remaining knots by `interpolant`, at its pose. None when no fold is
-/// possible.
+/// training order) over the held-out folds of `grid` ([`folds`]): each held-out knot's coordinates
+/// against the surface through the remaining knots by `interpolant`, at its pose. None when no
+/// fold is possible.
 pub fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim: usize, interpolant: Interpolant) -> Result<Option<Vec<f64>>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);
     }
+    held_out_errors(train, &folds, coords, dim, interpolant).map(Some)
+}
+
+/// [`interpolation_variance`] over the given `folds` (each: which training samples are kept); all
+/// zeros when they hold nothing out.
+pub(crate) fn held_out_errors(train: &Dataset, folds: &[Vec<bool>], coords: &[f64], dim: usize, interpolant: Interpolant) -> Result<Vec<f64>> {
     let space = train.space();
     let d = space.len();
     let mut sum = vec![0.0; dim];
     let mut count = 0usize;
     let mut f = vec![0.0; dim];
-    for keep in &folds {
+    for keep in folds {
         let kept: Vec<usize> = (0..train.len()).filter(|&i| keep[i]).collect();
         let poses: Vec<f64> = kept.iter().flat_map(|&i| train.pose(i).iter().copied()).collect();
         let names: Vec<String> = kept.iter().map(|&i| train.manifest().images()[i].clone()).collect();
@@ -495,5 +501,5 @@ pub fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim:
             count += 1;
         }
     }
-    Ok(Some(sum.iter().map(|s| s / count.max(1) as f64).collect()))
+    Ok(sum.iter().map(|s| s / count.max(1) as f64).collect())
 }
