@@ -39,7 +39,8 @@ use crate::binning::Binning;
 use crate::confidence::{grid_minima, posterior, Estimate, Hypothesis, GROSS_DEG, MAX_HYPOTHESES};
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
-use crate::linalg::squared_distance;
+use crate::kernels::scan::sq_dist;
+use crate::kernels::Level;
 use crate::methods::eigenspace::manifold::Grid;
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::eigenspace::projector::Projector;
@@ -120,10 +121,13 @@ pub(crate) struct SecondLook {
     /// The training views' coordinates on the knot grid (N x K, row-major, last parameter fastest).
     knots: Vec<f32>,
     surface: Surface,
-    /// The scan grid: its shape, poses (row-major, D each) and surface points (G x K).
+    /// The scan grid: its shape, poses (row-major, D each) and surface points, coordinate-major
+    /// (K rows of G values: the points in SIMD lanes, [`crate::kernels::scan::sq_dist`]).
     scan_shape: Vec<(usize, bool)>,
     scan_poses: Vec<f64>,
-    scan_points: Vec<f32>,
+    scan_cols: Vec<f32>,
+    /// Unit weights (K) for that kernel.
+    ones: Vec<f32>,
 }
 
 /// Per-thread buffers of [`SecondLook::apply`].
@@ -139,6 +143,10 @@ struct Scratch {
     /// Its coordinates, and their raw products.
     z: Vec<f64>,
     y: Vec<f32>,
+    /// Its coordinates in f32, and its squared distance to each scan point.
+    z32: Vec<f32>,
+    dist32: Vec<f32>,
+    dist: Vec<f64>,
 }
 
 /// One query as the method was given it.
@@ -195,15 +203,18 @@ impl SecondLook {
         let scan_shape = surface.grid_shape(PER_CELL);
         let scan_poses = surface.grid_poses(PER_CELL);
         let d = space.len();
-        let mut scan_points = Vec::with_capacity(scan_poses.len() / d * k);
+        let g = scan_poses.len() / d.max(1);
+        let mut scan_cols = vec![0f32; g * k];
         let mut f = vec![0.0; k];
-        for t in scan_poses.chunks_exact(d) {
+        for (j, t) in scan_poses.chunks_exact(d).enumerate() {
             surface.eval(t, &mut f, None);
-            scan_points.extend(f.iter().map(|&v| v as f32));
+            for (c, &v) in f.iter().enumerate() {
+                scan_cols[c * g + j] = v as f32;
+            }
         }
         let mean_proj = basis.chunks_exact(mb).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum()).collect();
         let proj = Projector::new(&basis, mb);
-        Ok(SecondLook { settings, binning, space, mean, mean_proj, basis, proj, knots, surface, scan_shape, scan_poses, scan_points })
+        Ok(SecondLook { settings, binning, space, mean, mean_proj, basis, proj, knots, surface, scan_shape, scan_poses, scan_cols, ones: vec![1.0; k] })
     }
 
     /// What the model records of it.
@@ -309,15 +320,20 @@ impl SecondLook {
     /// The basins of the query `z` (see the module doc): the first is the estimate `pose`'s (its
     /// pose as given, its distance climbed), then the others, each at least [`GROSS_DEG`] from it
     /// and from each other, at their climbed poses; at most [`MAX_HYPOTHESES`] in all.
-    fn basins(&self, z: &[f64], pose: &[f64]) -> Vec<(Vec<f64>, f64)> {
+    fn basins(&self, s: &mut Scratch, pose: &[f64]) -> Vec<(Vec<f64>, f64)> {
         let (k, d) = (self.settings.components, self.space.len());
+        let Scratch { z, z32, dist32, dist, .. } = s;
         let mut f = vec![0.0; k];
         let mut t = pose.to_vec();
         let own = self.climb(z, &mut t, &mut f);
         let mut out = vec![(pose.to_vec(), own)];
-        let z32: Vec<f32> = z.iter().map(|&v| v as f32).collect();
-        let dist: Vec<f64> = self.scan_points.chunks_exact(k).map(|p| squared_distance(p, &z32)).collect();
-        let mut minima = grid_minima(&self.scan_shape, &dist);
+        z32.clear();
+        z32.extend(z.iter().map(|&v| v as f32));
+        dist32.resize(self.scan_poses.len() / d.max(1), 0.0);
+        sq_dist(Level::detect(), &self.scan_cols, z32, &self.ones, dist32);
+        dist.clear();
+        dist.extend(dist32.iter().map(|&v| v as f64));
+        let mut minima = grid_minima(&self.scan_shape, dist);
         minima.sort_by(|&a, &b| dist[a].total_cmp(&dist[b]));
         for j in minima {
             if out.len() == MAX_HYPOTHESES {
@@ -367,7 +383,7 @@ impl SecondLook {
             if pose[0].is_nan() || !self.coords(q, s) {
                 return None;
             }
-            let mut basins = self.basins(&s.z, pose);
+            let mut basins = self.basins(s, pose);
             let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
             let score = posterior(&dist, self.settings.floor, self.settings.effective_dims);
             // The most probable basin; the method's own on a tie.
