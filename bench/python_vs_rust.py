@@ -2,7 +2,8 @@
 """linpose from Python against the Rust library and the numpy peer, side by side in one run.
 
 For each data set and method: the fit on the training views' 8-bit pixels in memory and the
-predict of every view (8-bit images, one batch), medians of at least REPS runs and 0.3 s, from
+predict of every view (8-bit images, one batch), medians of at least REPS runs and 0.3 s
+(Python: REPS pairs and 0.6 s, below), from
 Python (the installed `linpose` package, in this
 process), from Rust (crates/linpose/examples/fit_predict_timing.rs, the same work through the
 library) and from the peer (peer.py's in-process fit_s and predict_s; the refined method has no
@@ -11,7 +12,7 @@ minus Rust's is the Python overhead per call. Decoding is not timed anywhere.
 
 Besides the separate Rust process, the estimator is timed against the bare core call it wraps
 (`linpose._linpose.fit` / `Model.predict`, the library behind PyO3's argument conversion),
-alternated in one process: the difference is what the Python layer costs. Each figure is a
+alternated call by call in one process: the difference is what the Python layer costs. Each figure is a
 median over ROUNDS rounds that alternate the Rust process and the Python measurements; the
 predicts' lowest and highest round follow the table (the spread of a shared machine).
 
@@ -49,12 +50,14 @@ cls = {"linear": linpose.LinearPose, "eigenspace": linpose.EigenspacePose, "refi
 med = statistics.median
 
 
-def timed(f, reps):
-    """Median seconds of f over at least REPS calls and 0.3 s."""
-    ts, start = [], time.perf_counter()
-    while len(ts) < reps or time.perf_counter() - start < 0.3:
-        t = time.perf_counter(); f(); ts.append(time.perf_counter() - t)
-    return med(ts)
+def timed_pair(f, g, reps):
+    """Median seconds of f and of g, called alternately (f, g, f, g, ...) for at least REPS
+    pairs and 0.6 s, so that both see the same moments of the machine's load."""
+    tf, tg, start = [], [], time.perf_counter()
+    while len(tf) < reps or time.perf_counter() - start < 0.6:
+        t = time.perf_counter(); f(); tf.append(time.perf_counter() - t)
+        t = time.perf_counter(); g(); tg.append(time.perf_counter() - t)
+    return med(tf), med(tg)
 
 
 def py_times(X, y, params, train, method):
@@ -69,10 +72,8 @@ def py_times(X, y, params, train, method):
     core_fit = lambda: linpose._linpose.fit(method, settings, Xt.reshape(len(Xt), -1), h, w, yt2, params, None)
     est.fit(Xt, yt)
     X2 = X.reshape(len(X), -1)
-    fit = timed(lambda: est.fit(Xt, yt), a.reps)
-    cfit = timed(core_fit, a.reps)
-    pred = timed(lambda: est.predict(X), a.reps)
-    cpred = timed(lambda: est.model_.predict(X2), a.reps)
+    fit, cfit = timed_pair(lambda: est.fit(Xt, yt), core_fit, a.reps)
+    pred, cpred = timed_pair(lambda: est.predict(X), lambda: est.model_.predict(X2), a.reps)
     one = []
     for i in range(2000):
         q = X[i % len(X)][None]

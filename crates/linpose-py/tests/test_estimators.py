@@ -42,6 +42,23 @@ def test_fit_predict_score(cls, turntable):
     np.testing.assert_allclose(est.predict(X[:5].astype(np.float32) / np.float32(255)), pred[:5], atol=1e-3)
 
 
+def test_the_core_reads_images_as_rows(turntable):
+    """The core reads (n, h, w) arrays as rows of h w values, in place or strided (in their
+    logical order); arrays of another rank are a TypeError."""
+    X, y, params = turntable
+    est = linpose.LinearPose(params=params).fit(X[::3], y[::3])
+    m = est.model_
+    np.testing.assert_array_equal(m.predict(X), m.predict(X.reshape(len(X), -1)))
+    flipped = (X.astype(np.float32) / np.float32(255))[:, ::-1, :]
+    assert not flipped.flags.c_contiguous
+    want = m.predict(np.ascontiguousarray(flipped).reshape(len(X), -1))
+    np.testing.assert_array_equal(m.predict(flipped), want)
+    np.testing.assert_array_equal(est.predict(flipped), want[:, 0])
+    for bad in (X[0].reshape(-1), X[None]):
+        with pytest.raises(TypeError, match="2-D or 3-D"):
+            m.predict(bad)
+
+
 def test_coef_is_the_papers_figure(turntable):
     X, y, params = turntable
     est = linpose.LinearPose(params=params).fit(X[::3], y[::3])

@@ -132,16 +132,16 @@ class PoseEstimator(RegressorMixin, BaseEstimator):
         return model
 
     def _rows(self, X: Any) -> Any:
-        """``X`` as rows of the model's features; arrays the core reads as they are skip
-        scikit-learn's validation, which would cost more than estimating one image."""
+        """``X`` as images the core reads: rows of the model's features, or (n, h, w) arrays as
+        they are (the core reads them as rows, so no view is made here). Arrays the core reads
+        as they are skip scikit-learn's validation, which would cost more than estimating one
+        image."""
         if type(X) is np.ndarray and X.dtype in _FAST and "feature_names_in_" not in self.__dict__:
-            if X.ndim == 3:
-                X = X.reshape(X.shape[0], X.shape[1] * X.shape[2])
-            if X.ndim == 2:
-                if X.shape[1] != self.n_features_in_:
-                    raise ValueError(
-                        f"X has {X.shape[1]} features, but {type(self).__name__} is expecting {self.n_features_in_} features as input."
-                    )
+            s = X.shape
+            m = s[1] if len(s) == 2 else s[1] * s[2] if len(s) == 3 else None
+            if m is not None:
+                if m != self.n_features_in_:
+                    raise ValueError(f"X has {m} features, but {type(self).__name__} is expecting {self.n_features_in_} features as input.")
                 return X
         X, _ = _flatten(X, None)
         return validate_data(self, X, reset=False, dtype=_DTYPES, order="C")

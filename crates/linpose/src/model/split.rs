@@ -8,7 +8,8 @@
 //! round trip costs about 10 us, and on a 72-image COIL-20 batch (0.09-0.25 ms on one thread)
 //! the second worker often wakes too late to take a share. A batch smaller than
 //! [`SPLIT_FROM_PIXELS`] therefore runs whole on the calling thread (no pool, no switches); a
-//! larger one is split as before, each task at least half that size.
+//! larger one is split as before, each task at least half that size. The linear model's, the
+//! eigenspace's and the refined eigenspace's 8-bit paths and the second look all follow it.
 //!
 //! What it trades: below the threshold a batch never uses the second core, which costs up to
 //! half its time when both cores are idle and the workers awake; above it, the round trip is

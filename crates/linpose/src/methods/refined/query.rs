@@ -7,6 +7,7 @@ use super::tuning::NOISE_EARLY;
 use crate::kernels::{dot_w, Level};
 use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::projector::BATCH_FROM;
+use crate::methods::eigenspace::u8_tasks;
 use crate::model::batch_len;
 use crate::Result;
 use rayon::prelude::*;
@@ -143,15 +144,23 @@ impl RefinedModel {
         let n = batch_len(m, queries.len(), out.len(), p)?;
         let level = Level::detect();
         let block = if self.words_at(level) { dot_w::BLOCK } else { self.proj.u8_block(level, &self.clean_rows()) };
-        let rows = if n >= BATCH_FROM { crate::methods::eigenspace::u8_task_rows(n, block) } else { n };
-        queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, |s, (q, o)| {
+        // The small-batch rule of the other methods (crate::model::split): a batch under the
+        // threshold, or of fewer than BATCH_FROM queries (one task), runs on the calling thread.
+        let (rows, parallel) = if n >= BATCH_FROM { u8_tasks(n, m, block) } else { (n, false) };
+        let task = |s: &mut QueryScratch, (q, o): (&[u8], &mut [f64])| {
             if self.binning.bins() {
                 self.project_u8_binned(level, q, noise, s);
             } else {
                 self.project_u8(level, q, noise, s);
             }
             self.poses_of(s, o);
-        });
+        };
+        if parallel {
+            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, task);
+        } else {
+            let mut s = QueryScratch::default();
+            queries.chunks(rows * m).zip(out.chunks_mut(rows * p)).for_each(|c| task(&mut s, c));
+        }
         no_black_query(out, p)
     }
 }

@@ -221,3 +221,26 @@ fn the_noisy_match_s_extra_coordinates_serve_its_queries_only() {
         }
     }
 }
+
+/// The small-batch rule (crate::model::split) on the refined path: a batch large enough to be
+/// split across threads gives the estimates of the same images in a batch run whole on the
+/// calling thread, as given and binned, clean and noisy.
+#[test]
+fn u8_batches_split_or_whole_give_the_same_estimates() {
+    let d = train_set();
+    let (test, q8, _) = mixed_queries(|i| i % 3 == 0, 11);
+    let (n, m) = (test.len(), test.n_features());
+    assert!(!crate::model::split::splits(n, m));
+    let copies = crate::model::split::SPLIT_FROM_PIXELS.div_ceil(q8.len()) + 1;
+    assert!(crate::model::split::splits(copies * n, m));
+    let many = q8.repeat(copies);
+    for b in [1, 2] {
+        let model = RefinedParams::default().components(8).bin(b).fit(&d).unwrap();
+        let (mut whole, mut split) = (vec![0.0; n * 2], vec![0.0; copies * n * 2]);
+        model.predict_u8_into(&q8, &mut whole).unwrap();
+        model.predict_u8_into(&many, &mut split).unwrap();
+        for (c, p) in split.chunks_exact(n * 2).enumerate() {
+            assert_eq!(p, &whole[..], "by {b}, copy {c}");
+        }
+    }
+}
