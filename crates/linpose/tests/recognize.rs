@@ -107,11 +107,10 @@ fn recognised_views_get_their_objects_pose_and_the_model_file_keeps_everything()
     assert_eq!(back.settings(), model.settings());
     assert_eq!(back.model_bytes(), model.model_bytes());
     assert_eq!(back.estimate(&queries, 2).unwrap(), est);
-    // The second stage's thresholds come back as calibrated (the fitted quantile of the held-out
-    // distances brought to the model's spacing), and every recognised view was measured against
-    // them.
+    // The second stage's thresholds come back as calibrated (the largest held-out distance), and
+    // every recognised view was measured against them.
     let own = back.settings().own.as_ref().expect("a second stage");
-    assert_eq!(own.thresholds, own.calibrated);
+    assert_eq!(own.thresholds, own.held_out_max);
     assert!(own.thresholds.iter().zip(&own.held_out_median).all(|(t, m)| t.is_finite() && m <= t), "{own:?}");
     assert!(est.iter().all(|e| e.recognition.own_distance.is_some_and(|d| d <= e.recognition.own_threshold)));
 }
@@ -122,7 +121,16 @@ fn a_model_file_written_before_the_second_stage_recognises_with_the_first_alone(
     let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
     // The file as an older linpose wrote it: no `own` in the settings (its arrays, unread, may
     // stay).
-    let old = with_settings(&model_file::objects_to_bytes(&model).unwrap(), |s| assert!(s.as_object_mut().unwrap().remove("own").is_some()));
+    let bytes = model_file::objects_to_bytes(&model).unwrap();
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+    let meta = header["__metadata__"]["linpose.objects"].as_str().unwrap();
+    let mut objects: serde_json::Value = serde_json::from_str(meta).unwrap();
+    assert!(objects["settings"].as_object_mut().unwrap().remove("own").is_some());
+    header["__metadata__"]["linpose.objects"] = serde_json::Value::String(objects.to_string());
+    let mut text = header.to_string().into_bytes();
+    text.resize(text.len().div_ceil(8) * 8, b' ');
+    let old = [(text.len() as u64).to_le_bytes().as_slice(), &text, &bytes[8 + n..]].concat();
     let back = model_file::objects_from_bytes(Path::new("old.safetensors"), &old).unwrap();
     assert!(back.settings().own.is_none());
     assert!(back.model_bytes() < model.model_bytes());
@@ -138,62 +146,6 @@ fn a_model_file_written_before_the_second_stage_recognises_with_the_first_alone(
             assert_eq!(f.own_distance, None);
         }
     }
-}
-
-/// A model file's bytes with its objects' settings changed by `change`.
-fn with_settings(bytes: &[u8], change: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
-    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
-    let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
-    let meta = header["__metadata__"]["linpose.objects"].as_str().unwrap();
-    let mut objects: serde_json::Value = serde_json::from_str(meta).unwrap();
-    change(&mut objects["settings"]);
-    header["__metadata__"]["linpose.objects"] = serde_json::Value::String(objects.to_string());
-    let mut text = header.to_string().into_bytes();
-    text.resize(text.len().div_ceil(8) * 8, b' ');
-    [(text.len() as u64).to_le_bytes().as_slice(), &text, &bytes[8 + n..]].concat()
-}
-
-#[test]
-fn a_model_file_written_before_the_fitted_second_stage_calibration_keeps_the_largest_held_out_distance() {
-    let (all, train) = builtins();
-    let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
-    let own = model.settings().own.as_ref().unwrap();
-    assert_eq!(own.thresholds, own.calibrated);
-    assert!(own.spacing_ratio.iter().all(|&r| r > 0.0 && r <= 1.0), "{:?}", own.spacing_ratio);
-    let bytes = model_file::objects_to_bytes(&model).unwrap();
-    let fields = ["spacing_ratio", "spread_dims", "calibrated"];
-    // As the earlier linpose wrote it: its thresholds the largest held-out distances.
-    let old = with_settings(&bytes, |s| {
-        fields.iter().for_each(|f| assert!(s["own"].as_object_mut().unwrap().remove(*f).is_some()));
-        s["own"]["thresholds"] = s["own"]["held_out_max"].clone();
-    });
-    let back = model_file::objects_from_bytes(Path::new("old.safetensors"), &old).unwrap();
-    let o = back.settings().own.as_ref().unwrap();
-    assert!(o.calibrated.is_empty());
-    assert_eq!(o.thresholds, o.held_out_max);
-    // Re-calibrated (`eval --unknown calibrated`), it keeps them.
-    let back = back.with_unknown(Unknown::Off).unwrap().with_unknown(Unknown::Calibrated).unwrap();
-    let o = back.settings().own.as_ref().unwrap();
-    assert_eq!(o.thresholds, o.held_out_max);
-    for d in all.objects() {
-        for r in back.recognize(d.features()).unwrap() {
-            assert_eq!(r.own_threshold, o.held_out_max[r.nearest]);
-            if let Some(own) = r.own_distance {
-                assert_eq!(r.object.is_some(), own <= r.own_threshold);
-            }
-        }
-    }
-    // One of the three without the others, or of another length: a damaged file, named.
-    for f in fields {
-        let bad = with_settings(&bytes, |s| {
-            s["own"].as_object_mut().unwrap().remove(f);
-        });
-        let e = model_file::objects_from_bytes(Path::new("bad.safetensors"), &bad).unwrap_err().to_string();
-        assert!(e.contains("bad.safetensors") && e.contains("calibration values"), "{e}");
-    }
-    let bad = with_settings(&bytes, |s| s["own"]["calibrated"].as_array_mut().unwrap().truncate(2));
-    let e = model_file::objects_from_bytes(Path::new("bad.safetensors"), &bad).unwrap_err().to_string();
-    assert!(e.contains("calibration values"), "{e}");
 }
 
 #[test]

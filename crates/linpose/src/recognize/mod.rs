@@ -16,11 +16,9 @@
 //!   what that object's own held-out training views show ([`Unknown::Calibrated`]: the largest
 //!   distance of a training view to the object's model fitted without it, so a fresh view of a
 //!   known object, which lies between two training views, is rarely beyond it), or a threshold
-//!   given ([`Unknown::Threshold`]); then, when its distance to that object's manifold in the
-//!   object's own eigenspace is beyond what a fresh view of the object shows, calibrated from its
-//!   held-out views brought to the model's knot spacing, at a stated rate
-//!   ([`OWN_FALSE_REJECTION`]; `own.rs`: the shared space cannot see the details that tell, say,
-//!   two toy cars apart);
+//!   given ([`Unknown::Threshold`]); then, calibrated the same way, when its distance to that
+//!   object's manifold in the object's own eigenspace is beyond what its held-out views show
+//!   (`own.rs`: the shared space cannot see the details that tell, say, two toy cars apart);
 //! - the **pose** of a recognised query comes from its object's own pose model, fitted by any
 //!   method ([`crate::MethodSpec`]).
 //!
@@ -62,7 +60,6 @@ mod universal;
 mod tests;
 
 pub use model::{ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
-pub use own::OWN_FALSE_REJECTION;
 
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -115,11 +112,10 @@ impl RecognizerKind {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Unknown {
-    /// Calibrated per object from its held-out training views (each against its object's model
-    /// fitted without it): in the recogniser's space, beyond the largest distance one shows; then
-    /// in the object's own eigenspace, beyond the distance a fresh view of the object exceeds at
-    /// the rate [`OWN_FALSE_REJECTION`] (the held-out distances brought to the model's knot
-    /// spacing, `own.rs`). Unknown when either is exceeded.
+    /// Beyond the largest distance any held-out training view of the nearest object shows (each
+    /// training view against its object's model fitted without it), calibrated per object, in
+    /// the recogniser's space and then in the object's own eigenspace (`own.rs`): unknown when
+    /// either is exceeded.
     Calibrated,
     /// Beyond this distance in the recogniser's measure, for every object; the second stage is
     /// off (its distances are each object's own, on another scale).

@@ -73,23 +73,6 @@ pub struct OwnSettings {
     pub thresholds: Vec<f64>,
     /// The binning factor of the images the own eigenspaces are of.
     pub bin: usize,
-    /// Per object, the share of a held-out view's squared distance at twice the knot spacing
-    /// that a fresh view keeps at the model's spacing, from the held-out distances at 2, 4 and 6
-    /// times it (at most 1; 1 where no axis has knots enough or the object is too sparse to hold
-    /// views out). Empty in model files written before it.
-    #[serde(default, with = "infinite_as_null")]
-    pub spacing_ratio: Vec<f64>,
-    /// Per object, the degrees of freedom of the scaled chi-square fitted to its corrected
-    /// held-out squared distances (infinite, `null`, when they do not spread or none were held
-    /// out). Empty in model files written before it.
-    #[serde(default, with = "infinite_as_null")]
-    pub spread_dims: Vec<f64>,
-    /// Per object, the calibrated threshold: the distance its known views exceed at the rate
-    /// [`super::OWN_FALSE_REJECTION`] under that fit (the largest of the other objects' for
-    /// one too sparse to hold views out; infinite for one without an eigenspace of its own).
-    /// Empty in model files written before it, which calibrate with `held_out_max`.
-    #[serde(default, with = "infinite_as_null")]
-    pub calibrated: Vec<f64>,
 }
 
 /// A query's object and, when it is one of the known objects, its pose.
@@ -199,20 +182,8 @@ impl ObjectModel {
                 *v = f64::INFINITY;
             }
         }
-        let widest = own.calibration.iter().flatten().map(|c| c.threshold).fold(f64::NEG_INFINITY, f64::max);
-        let widest = if widest.is_finite() { widest } else { f64::INFINITY };
-        let calibrated =
-            own.calibration.iter().enumerate().map(|(k, c)| if !own.model.has(k) { f64::INFINITY } else { c.map_or(widest, |c| c.threshold) }).collect();
-        let own_settings = OwnSettings {
-            components: own.components,
-            held_out_max: own_max,
-            held_out_median: own_median,
-            thresholds: Vec::new(),
-            bin: own.model.bin(),
-            spacing_ratio: own.calibration.iter().map(|c| c.map_or(1.0, |c| c.spacing_ratio)).collect(),
-            spread_dims: own.calibration.iter().map(|c| c.map_or(f64::INFINITY, |c| c.spread_dims)).collect(),
-            calibrated,
-        };
+        let own_settings =
+            OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new(), bin: own.model.bin() };
         let mut settings =
             ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new(), own: Some(own_settings) };
         set_thresholds(&mut settings, params.unknown);
@@ -431,16 +402,6 @@ impl ObjectModel {
                         return Err(damaged(format!("{} per-object values of the own eigenspaces for {k} objects", v.len())));
                     }
                 }
-                // The fitted calibration: all three or none (a file written before it).
-                let fitted = [&o.spacing_ratio, &o.spread_dims, &o.calibrated];
-                if !(fitted.iter().all(|v| v.is_empty()) || fitted.iter().all(|v| v.len() == k && v.iter().all(|x| !x.is_nan() && *x >= 0.0))) {
-                    return Err(damaged(format!(
-                        "{}, {} and {} per-object calibration values of the own eigenspaces for {k} objects",
-                        o.spacing_ratio.len(),
-                        o.spread_dims.len(),
-                        o.calibrated.len()
-                    )));
-                }
                 if o.components.len() != k {
                     return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
                 }
@@ -474,9 +435,7 @@ fn set_thresholds(s: &mut ObjectSettings, unknown: Unknown) {
     };
     if let Some(o) = &mut s.own {
         o.thresholds = match unknown {
-            // A model file written before the fitted calibration: the largest held-out distance.
-            Unknown::Calibrated if o.calibrated.is_empty() => o.held_out_max.clone(),
-            Unknown::Calibrated => o.calibrated.clone(),
+            Unknown::Calibrated => o.held_out_max.clone(),
             Unknown::Threshold(_) | Unknown::Off => vec![f64::INFINITY; k],
         };
     }

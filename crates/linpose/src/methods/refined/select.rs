@@ -60,49 +60,6 @@ pub fn both_folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
     out
 }
 
-/// Folds at `stride` times the knot spacing: along each axis of at least `MIN_FOLD_KNOTS *
-/// stride / 2` knots and for each phase p in `0..stride`, the views on knots k = p (mod
-/// `stride`) kept (a linear axis also keeps both its ends) and the others left out of the fit;
-/// each fold's second list marks the left-out views to measure, those midway between two kept
-/// knots, k = p + stride / 2 (mod `stride`), bar a linear axis's ends. Each knot is measured
-/// once per usable axis, at `stride / 2` knot intervals from the nearest kept knot, so the
-/// distances at two strides along one axis compare the same views (`stride` even, at least 2).
-/// With stride 2 these are the folds of [`both_folds`] (in another order), every left-out view
-/// measured.
-pub fn strided_folds(train: &Dataset, grid: &Grid, stride: usize) -> Vec<StridedFold> {
-    debug_assert!(stride >= 2 && stride.is_multiple_of(2));
-    let shape = grid.shape();
-    let mut out = Vec::new();
-    for (j, &n) in shape.iter().enumerate() {
-        if n < MIN_FOLD_KNOTS * stride / 2 {
-            continue;
-        }
-        let circular = train.space().params()[j].period.is_some();
-        let end = |k: usize| !circular && (k == 0 || k == n - 1);
-        let inner: usize = shape[j + 1..].iter().product();
-        for p in 0..stride {
-            let (mut keep, mut measured) = (vec![true; train.len()], vec![false; train.len()]);
-            for (flat, &i) in grid.sample_at.iter().enumerate() {
-                let k = flat / inner % n;
-                keep[i] = k % stride == p || end(k);
-                measured[i] = k % stride == (p + stride / 2) % stride && !end(k);
-            }
-            out.push(StridedFold { axis: j, keep, measured });
-        }
-    }
-    out
-}
-
-/// One fold of [`strided_folds`].
-pub struct StridedFold {
-    /// The pose axis along which knots are left out.
-    pub axis: usize,
-    /// The views the fit keeps.
-    pub keep: Vec<bool>,
-    /// The left-out views measured (midway between two kept knots).
-    pub measured: Vec<bool>,
-}
-
 /// The folds holding out, along each usable axis in turn, the knots of index parity `parity`
 /// (bar a linear axis's ends).
 fn folds_of(train: &Dataset, grid: &Grid, parity: usize) -> Vec<Vec<bool>> {

@@ -63,45 +63,6 @@ fn every_knot_is_held_out_once() {
 }
 
 #[test]
-fn strided_folds_keep_one_knot_in_stride_and_measure_each_knot_once_midway() {
-    let d = train_set();
-    let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
-    let shape = g.shape();
-    // Stride 2: the folds of both_folds, every left-out view measured.
-    let two = select::strided_folds(&d, &g, 2);
-    let mut a: Vec<Vec<bool>> = two.iter().map(|f| f.keep.clone()).collect();
-    let mut b = select::both_folds(&d, &g);
-    a.sort();
-    b.sort();
-    assert_eq!(a, b);
-    assert!(two.iter().all(|f| f.keep.iter().zip(&f.measured).all(|(&k, &m)| m != k)));
-    for stride in [2, 4] {
-        let folds = select::strided_folds(&d, &g, stride);
-        let axes: Vec<usize> = (0..shape.len()).filter(|&a| shape[a] >= 4 * stride / 2).collect();
-        assert_eq!(folds.len(), axes.len() * stride, "stride {stride}");
-        for &axis in &axes {
-            let circular = d.space().params()[axis].period.is_some();
-            let n = shape[axis];
-            let mut times = vec![0; d.len()];
-            for (p, f) in folds.iter().filter(|f| f.axis == axis).enumerate() {
-                for (flat, &i) in g.sample_at.iter().enumerate() {
-                    let k = flat / shape[axis + 1..].iter().product::<usize>() % n;
-                    let end = !circular && (k == 0 || k == n - 1);
-                    assert_eq!(f.keep[i], k % stride == p || end, "stride {stride} axis {axis} knot {k}");
-                    assert_eq!(f.measured[i], !end && k % stride == (p + stride / 2) % stride);
-                    times[i] += f.measured[i] as usize;
-                }
-            }
-            // Every knot but a linear axis's ends measured once along this axis.
-            for (flat, &i) in g.sample_at.iter().enumerate() {
-                let k = flat / shape[axis + 1..].iter().product::<usize>() % n;
-                assert_eq!(times[i], usize::from(circular || (k != 0 && k != n - 1)), "stride {stride} axis {axis} knot {k}");
-            }
-        }
-    }
-}
-
-#[test]
 fn a_candidate_never_buys_a_smaller_mean_error_with_a_gross_error() {
     // (gross errors, mean error): fewer gross errors first, then the mean.
     assert!(select::better((0, 5.0), (1, 1.0)));
