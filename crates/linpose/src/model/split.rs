@@ -40,3 +40,27 @@ pub(crate) fn splits(n: usize, m: usize) -> bool {
 pub(crate) fn min_task_queries(m: usize) -> usize {
     (split_from() / 2).div_ceil(m.max(1)).max(1)
 }
+
+/// Runs `task` over a batch in tasks: `queries` in chunks of `q_len` values beside `out` in chunks
+/// of `o_len`, spread over rayon's threads (each thread with its own `init()` state) when
+/// `parallel`, else one after the other on the calling thread with one state.
+pub(crate) fn for_each_task<Q, O, S>(
+    queries: &[Q],
+    q_len: usize,
+    out: &mut [O],
+    o_len: usize,
+    parallel: bool,
+    init: impl Fn() -> S + Sync + Send,
+    task: impl Fn(&mut S, (&[Q], &mut [O])) + Sync + Send,
+) where
+    Q: Sync,
+    O: Send,
+{
+    use rayon::prelude::*;
+    if parallel {
+        queries.par_chunks(q_len).zip(out.par_chunks_mut(o_len)).for_each_init(init, task);
+    } else {
+        let mut s = init();
+        queries.chunks(q_len).zip(out.chunks_mut(o_len)).for_each(|c| task(&mut s, c));
+    }
+}

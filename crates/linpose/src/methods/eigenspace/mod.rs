@@ -90,7 +90,7 @@ const U8_BATCH: usize = 192;
 
 /// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
 /// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
-pub(crate) fn u8_task_rows(n: usize, block: usize) -> usize {
+fn u8_task_rows(n: usize, block: usize) -> usize {
     n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
 }
 
@@ -376,12 +376,7 @@ impl EigenspaceModel {
         if n >= BATCH_FROM {
             let (rows, parallel) = u8_tasks(n, m, self.proj.u8_block(level, &self.eigen()));
             let task = |scratch: &mut dot_q::Scratch, (q, y): (&[u8], &mut [f32])| self.project_u8_batch(level, q, y, scratch);
-            if parallel {
-                queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * l)).for_each_init(dot_q::Scratch::default, task);
-            } else {
-                let mut scratch = dot_q::Scratch::default();
-                queries.chunks(rows * m).zip(out.chunks_mut(rows * l)).for_each(|c| task(&mut scratch, c));
-            }
+            split::for_each_task(queries, rows * m, out, rows * l, parallel, dot_q::Scratch::default, task);
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(l)).for_each(|(x, y)| self.project_one_u8(level, x, y));
         }
@@ -632,12 +627,7 @@ impl EigenspaceModel {
                 self.project_u8_batch(level, q, y, scratch);
                 y.chunks_exact(l).zip(o.chunks_exact_mut(p)).for_each(|(y, o)| search(y, o));
             };
-            if parallel {
-                queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(init, task);
-            } else {
-                let mut s = init();
-                queries.chunks(rows * m).zip(out.chunks_mut(rows * p)).for_each(|c| task(&mut s, c));
-            }
+            split::for_each_task(queries, rows * m, out, rows * p, parallel, init, task);
         } else {
             queries.chunks_exact(m).zip(out.chunks_exact_mut(p)).for_each(|(x, o)| {
                 let mut y = [0f32; 64];

@@ -8,7 +8,7 @@ use crate::kernels::{dot_w, Level};
 use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::projector::BATCH_FROM;
 use crate::methods::eigenspace::u8_tasks;
-use crate::model::batch_len;
+use crate::model::{batch_len, split};
 use crate::Result;
 use rayon::prelude::*;
 
@@ -155,12 +155,7 @@ impl RefinedModel {
             }
             self.poses_of(s, o);
         };
-        if parallel {
-            queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each_init(QueryScratch::default, task);
-        } else {
-            let mut s = QueryScratch::default();
-            queries.chunks(rows * m).zip(out.chunks_mut(rows * p)).for_each(|c| task(&mut s, c));
-        }
+        split::for_each_task(queries, rows * m, out, rows * p, parallel, QueryScratch::default, task);
         no_black_query(out, p)
     }
 }
