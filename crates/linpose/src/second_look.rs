@@ -416,8 +416,8 @@ impl SecondLook {
             Some(Estimate { pose: hyps[0].pose.clone(), confidence: hyps[0].score, hypotheses: hyps })
         };
         let scratch = || Scratch { z: vec![0.0; k], y: vec![0.0; k], ..Scratch::default() };
-        // A small batch runs on the calling thread, as the methods' own searches do.
-        if split::splits(poses.len() / d.max(1), m) {
+        // A batch of fewer than split::LOOK_SPLIT_FROM queries runs on the calling thread.
+        if split::look_splits(poses.len() / d.max(1), m) {
             poses.par_chunks_mut(d).enumerate().map_init(scratch, one).flatten().collect()
         } else {
             let mut s = scratch();

@@ -36,6 +36,25 @@ pub(crate) fn splits(n: usize, m: usize) -> bool {
     n.saturating_mul(m) >= split_from()
 }
 
+/// Queries from which a batch's second look ([`crate::second_look`]) is split across threads.
+/// A second look costs 12-90 us a query (COIL-20 to the paper's grid, BENCHMARKS.md), so 8 of
+/// them are more work than the 72 COIL-20 images (about 0.08 ms of the linear model's products)
+/// at which [`SPLIT_FROM_PIXELS`] starts splitting: the same amount of work, not the same pixels.
+/// Measured on COIL-20 object 1 (BENCHMARKS.md, "Small batches", `bench/split_timing.py`, load
+/// 1-1.7): a 72-image batch, which the pixel rule keeps whole, took 0.91 -> 0.64 ms
+/// (eigenspace) and 0.74 -> 0.46 ms (refined) with its second look split; at 8 images the split
+/// costs the eigenspace 0.10 -> 0.11 ms, at 16 it pays (0.20 -> 0.19, refined 0.15 -> 0.12).
+pub(crate) const LOOK_SPLIT_FROM: usize = 8;
+
+/// Whether a batch of `n` second looks is split across threads: from [`LOOK_SPLIT_FROM`]
+/// queries, or as [`splits`] would where `LINPOSE_SPLIT_FROM_PIXELS` is set (for measuring).
+pub(crate) fn look_splits(n: usize, m: usize) -> bool {
+    if std::env::var_os("LINPOSE_SPLIT_FROM_PIXELS").is_some() {
+        return splits(n, m);
+    }
+    n >= LOOK_SPLIT_FROM
+}
+
 /// The fewest queries of `m` pixels a parallel task takes: half the threshold's pixels.
 pub(crate) fn min_task_queries(m: usize) -> usize {
     (split_from() / 2).div_ceil(m.max(1)).max(1)
