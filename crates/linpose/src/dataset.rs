@@ -6,13 +6,22 @@ use crate::manifest::Manifest;
 use crate::pose::PoseSpace;
 use crate::{Error, Result};
 use rayon::prelude::*;
+use std::sync::OnceLock;
 
 /// Images as feature rows (f32 in [0, 1]) with their poses.
+///
+/// A data set made from 8-bit values ([`Dataset::from_u8`], [`Dataset::from_pixels`], the
+/// renderer) keeps them ([`Dataset::pixels_u8`]) and makes the f32 features from them on first
+/// use: the linear model's fit reads the 8-bit values only (a quarter of the bytes), and a
+/// method that needs the features then holds both (1.25x the features' memory).
 #[derive(Debug, Clone)]
 pub struct Dataset {
     manifest: Manifest,
     spec: ImageSpec,
-    features: Vec<f32>,
+    /// The features; made from `pixels` on first use when those are given.
+    features: OnceLock<Vec<f32>>,
+    /// The 8-bit values the features are made of, when the data set was built from them.
+    pixels: Option<Vec<u8>>,
 }
 
 impl Dataset {
@@ -47,17 +56,17 @@ impl Dataset {
     }
 
     /// A data set of the images of `manifest` whose 8-bit values are in memory
-    /// (`manifest.len()` rows of `spec.features()`), converted to features in parallel; 8-bit
-    /// values need no finiteness check.
-    pub fn from_pixels(manifest: Manifest, spec: ImageSpec, pixels: &[u8]) -> Result<Self> {
+    /// (`manifest.len()` rows of `spec.features()`; taken, or copied from a slice), kept as they
+    /// are: the features are made from them on first use. 8-bit values need no finiteness check.
+    pub fn from_pixels(manifest: Manifest, spec: ImageSpec, pixels: impl Into<Vec<u8>>) -> Result<Self> {
+        let pixels = pixels.into();
         if pixels.len() != manifest.len() * spec.features() {
             return Err(Error::Dataset {
                 path: manifest.root().to_path_buf(),
                 message: format!("{} pixel values for {} images of {} features", pixels.len(), manifest.len(), spec.features()),
             });
         }
-        let features = pixels.par_iter().with_min_len(1 << 16).map(|&v| crate::image_io::feature_of_u8(v)).collect();
-        Ok(Dataset { manifest, spec, features })
+        Ok(Dataset { manifest, spec, features: OnceLock::new(), pixels: Some(pixels) })
     }
 
     /// Decodes every image of `manifest` (in parallel). All images must have the size of the
@@ -88,7 +97,7 @@ impl Dataset {
         if let Some(i) = features.iter().position(|v| !v.is_finite()) {
             return Err(Error::Dataset { path: manifest.image_path(i / spec.features()), message: "image has a non-finite value".into() });
         }
-        Ok(Dataset { manifest, spec, features })
+        Ok(Dataset { manifest, spec, features: OnceLock::from(features), pixels: None })
     }
 
     /// The manifest: image names and poses.
@@ -121,15 +130,35 @@ impl Dataset {
         self.spec.features()
     }
 
-    /// All features, one row of M values per sample.
+    /// All features, one row of M values per sample. For a data set made from 8-bit values, made
+    /// on the first call (v / 255, the image reader's bits; on the calling thread, so a call from
+    /// inside a parallel loop cannot wait on itself).
     pub fn features(&self) -> &[f32] {
-        &self.features
+        self.features.get_or_init(|| {
+            let pixels = self.pixels.as_deref().expect("a data set holds its features or its 8-bit values");
+            pixels.iter().map(|&v| crate::image_io::feature_of_u8(v)).collect()
+        })
+    }
+
+    /// The 8-bit values the features are made of (`features()[i] == feature_of_u8(pixels[i])`),
+    /// when the data set was built from them; None for one read as features.
+    pub fn pixels_u8(&self) -> Option<&[u8]> {
+        self.pixels.as_deref()
+    }
+
+    /// The rows as they are held: the 8-bit values where the data set keeps them, else the
+    /// features.
+    pub fn rows(&self) -> Rows<'_> {
+        match &self.pixels {
+            Some(p) => Rows::U8(p),
+            None => Rows::F32(self.features()),
+        }
     }
 
     /// Sample `i`'s features.
     pub fn row(&self, i: usize) -> &[f32] {
         let m = self.n_features();
-        &self.features[i * m..(i + 1) * m]
+        &self.features()[i * m..(i + 1) * m]
     }
 
     /// All poses, row-major.
@@ -145,11 +174,42 @@ impl Dataset {
     /// The samples where `mask` is true, copied.
     pub fn subset(&self, mask: &[bool]) -> Result<Self> {
         let manifest = self.manifest.subset(mask)?;
-        let mut features = Vec::with_capacity(manifest.len() * self.n_features());
-        for (i, _) in mask.iter().enumerate().filter(|(_, &m)| m) {
+        let m = self.n_features();
+        let kept = || mask.iter().enumerate().filter(|(_, &k)| k).map(|(i, _)| i);
+        if let Some(pixels) = &self.pixels {
+            let rows: Vec<u8> = kept().flat_map(|i| &pixels[i * m..(i + 1) * m]).copied().collect();
+            return Ok(Dataset { manifest, spec: self.spec, features: OnceLock::new(), pixels: Some(rows) });
+        }
+        let mut features = Vec::with_capacity(manifest.len() * m);
+        for i in kept() {
             features.extend_from_slice(self.row(i));
         }
-        Ok(Dataset { manifest, spec: self.spec, features })
+        Ok(Dataset { manifest, spec: self.spec, features: OnceLock::from(features), pixels: None })
+    }
+}
+
+/// A data set's rows as held (row-major, M values a row): f32 features, or the 8-bit values
+/// whose features are `feature_of_u8` of each.
+#[derive(Debug, Clone, Copy)]
+pub enum Rows<'a> {
+    /// Features.
+    F32(&'a [f32]),
+    /// 8-bit values.
+    U8(&'a [u8]),
+}
+
+impl Rows<'_> {
+    /// Number of values.
+    pub fn len(&self) -> usize {
+        match self {
+            Rows::F32(x) => x.len(),
+            Rows::U8(x) => x.len(),
+        }
+    }
+
+    /// Whether there are no values.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 

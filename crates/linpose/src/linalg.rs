@@ -60,6 +60,19 @@ pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> M
     crate::kernels::gram::gram_f32(features, n, m, mean)
 }
 
+/// [`gram_f32`] of a data set's features (each minus `mean` when given), with the same bits:
+/// read from its 8-bit values where it keeps them ([`Dataset::rows`]) and the 8-bit Gram
+/// applies (uncentred, AVX-512 VNNI), a quarter of the features' bytes.
+pub fn gram_of(data: &crate::Dataset, mean: Option<&[f64]>) -> Mat<f64> {
+    let (n, m) = (data.len(), data.n_features());
+    if let (crate::dataset::Rows::U8(px), None) = (data.rows(), mean) {
+        if let Some(g) = crate::kernels::gram8::gram_u8(px, n, m) {
+            return g;
+        }
+    }
+    gram_f32(data.features(), n, m, mean)
+}
+
 /// A row-major N x K matrix as faer's column-major one.
 pub fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
     Mat::from_fn(n, k, |i, j| data[i * k + j])

@@ -157,6 +157,46 @@ fn duplicate_images_with_different_poses_are_named() {
 }
 
 #[test]
+fn duplicates_are_found_in_8_bit_and_centred_data_and_near_duplicates_are_not() {
+    // 40 images of 64 x 48 8-bit values; image 31 repeats image 12.
+    let (n, m) = (40, 64 * 48);
+    let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
+    let spec = ImageSpec { width: 64, height: 48, color: ColorMode::Gray };
+    let mut px: Vec<u8> = (0..n * m).map(|i| ((i * 2654435761usize) >> 11) as u8).collect();
+    px.copy_within(12 * m..13 * m, 31 * m);
+    let poses: Vec<f64> = (0..n).map(|i| i as f64 * 9.0).collect();
+    for center in [false, true] {
+        let data = Dataset::from_u8(spec, &px, space.clone(), poses.clone()).unwrap();
+        let e = LinearParams::default().center(center).fit(&data).unwrap_err().to_string();
+        assert!(e.contains("'sample 12' and 'sample 31' are identical"), "centre {center}: {e}");
+    }
+    // One level apart in one pixel of 3072: not identical, and the fit goes on.
+    px[31 * m + 1000] ^= 1;
+    let data = Dataset::from_u8(spec, &px, space, poses).unwrap();
+    assert!(LinearParams::default().fit(&data).is_ok());
+}
+
+#[test]
+fn a_data_set_of_8_bit_values_fits_the_model_its_features_fit() {
+    // The fit reads the 8-bit values themselves (Gram, weights): the same bits as from the
+    // features they make, centred or not.
+    let (n, m) = (30, 40 * 32);
+    let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
+    let spec = ImageSpec { width: 40, height: 32, color: ColorMode::Gray };
+    let px: Vec<u8> = (0..n * m).map(|i| ((i * 2654435761usize) >> 13) as u8).collect();
+    let poses: Vec<f64> = (0..n).map(|i| i as f64 * 12.0).collect();
+    let from_u8 = Dataset::from_u8(spec, &px, space.clone(), poses.clone()).unwrap();
+    let features = px.iter().map(|&v| linpose::image_io::feature_of_u8(v)).collect();
+    let from_f32 = Dataset::new(spec, features, space, poses).unwrap();
+    assert!(from_u8.pixels_u8().is_some() && from_f32.pixels_u8().is_none());
+    for params in [LinearParams::default(), LinearParams::default().center(true)] {
+        let (a, b) = (params.fit(&from_u8).unwrap(), params.fit(&from_f32).unwrap());
+        assert!(a.weights().iter().zip(b.weights()).all(|(x, y)| x.to_bits() == y.to_bits()), "{params:?}");
+    }
+    assert_eq!(from_u8.features(), from_f32.features());
+}
+
+#[test]
 fn linearly_dependent_images_are_a_clear_error() {
     // Three images where the third is the sum of the first two: G is singular.
     let space = PoseSpace::new(vec![Param::linear("tilt")]).unwrap();

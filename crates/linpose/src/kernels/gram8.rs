@@ -26,6 +26,7 @@
 use super::levels::{residuals, S8, SCALE_CROSS, SCALE_PAIRS};
 use super::syrk::{padded, SyrkAcc, GROUP16, KCP_MAX, KCQ_MAX};
 use super::Level;
+use crate::dataset::Rows as Rows8;
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -52,12 +53,34 @@ const CHUNK: usize = 64;
 /// integers, on a CPU with AVX-512 VNNI; None otherwise (packing stops at the first panel with
 /// a value that is not one).
 pub fn gram_levels(x: &[f32], n: usize, m: usize) -> Option<Mat<f64>> {
+    gram_rows8(Rows8::F32(x), n, m)
+}
+
+/// [`gram_levels`] of the features of `n` rows of `m` 8-bit values (`feature_of_u8` of each),
+/// read from the bytes (a quarter of the features' memory traffic), with the same bits; None
+/// on a CPU without AVX-512 VNNI.
+pub fn gram_u8(pixels: &[u8], n: usize, m: usize) -> Option<Mat<f64>> {
+    gram_rows8(Rows8::U8(pixels), n, m)
+}
+
+fn gram_rows8(x: Rows8, n: usize, m: usize) -> Option<Mat<f64>> {
     if !SyrkAcc::new(0).uses_vnni() {
         return None;
     }
     gram_levels_with(x, n, m, || SyrkAcc::new(n), Level::detect())
 }
 
+/// Values `at` of `x` as features: borrowed, or made from the 8-bit values in `buf`.
+fn features_at<'b>(x: &'b Rows8, at: std::ops::Range<usize>, buf: &'b mut [f32; CHUNK]) -> &'b [f32] {
+    match x {
+        Rows8::F32(x) => &x[at],
+        Rows8::U8(x) => {
+            let src = &x[at];
+            buf.iter_mut().zip(src).for_each(|(f, &v)| *f = crate::image_io::feature_of_u8(v));
+            &buf[..src.len()]
+        }
+    }
+}
 /// Most partial Grams: with two, each of two threads sums one with no fork-join per panel;
 /// chosen by timing one, two and four at N = 222, M = 19,200 on two cores (two were fastest).
 const MAX_CHUNKS8: usize = 2;
@@ -71,7 +94,7 @@ fn chunks8(n: usize, m: usize) -> usize {
 }
 
 /// The 8-bit Gram, packing with `level`; `acc()` makes a zero n x n accumulator.
-fn gram_levels_with(x: &[f32], n: usize, m: usize, acc: impl Fn() -> SyrkAcc + Sync, level: Level) -> Option<Mat<f64>> {
+fn gram_levels_with(x: Rows8, n: usize, m: usize, acc: impl Fn() -> SyrkAcc + Sync, level: Level) -> Option<Mat<f64>> {
     assert_eq!(x.len(), n * m, "feature rows size");
     let panels = m.div_ceil(kc8(n));
     let chunks = chunks8(n, m).min(panels.max(1));
@@ -86,7 +109,7 @@ fn gram_levels_with(x: &[f32], n: usize, m: usize, acc: impl Fn() -> SyrkAcc + S
 }
 
 /// The sum over panels `panels` (in order) into `acc`; None when a value is not an 8-bit feature.
-fn partial(x: &[f32], n: usize, m: usize, panels: std::ops::Range<usize>, mut acc: SyrkAcc, level: Level) -> Option<SyrkAcc> {
+fn partial(x: Rows8, n: usize, m: usize, panels: std::ops::Range<usize>, mut acc: SyrkAcc, level: Level) -> Option<SyrkAcc> {
     let np = padded(n);
     let kc8 = kc8(n);
     let kc_max = kc8.min(m);
@@ -111,7 +134,7 @@ fn partial(x: &[f32], n: usize, m: usize, panels: std::ops::Range<usize>, mut ac
 /// [`SyrkAcc::update_u8_cross_in_place`] (`ak`, `ar`: pixel quads of levels and residuals), in
 /// parallel over the groups. False when a value is not an 8-bit feature.
 #[allow(clippy::too_many_arguments)]
-pub fn pack_panel(x: &[f32], n: usize, m: usize, k0: usize, kc: usize, a: &mut [i32], ak: &mut [i32], ar: &mut [i32], level: Level) -> bool {
+fn pack_panel(x: Rows8, n: usize, m: usize, k0: usize, kc: usize, a: &mut [i32], ak: &mut [i32], ar: &mut [i32], level: Level) -> bool {
     let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
     let np = padded(n);
     let r = residuals();
@@ -129,12 +152,13 @@ pub fn pack_panel(x: &[f32], n: usize, m: usize, k0: usize, kc: usize, a: &mut [
 /// residuals (as bytes) of pixels 4j..4j + 4; pixels past kc are zero. False when a value is not
 /// an 8-bit feature.
 #[allow(clippy::too_many_arguments)]
-fn pack_group(x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a, ak, ar]: [&mut [i32]; 3], r: &[i8; 256], level: Level) -> bool {
+fn pack_group(x: Rows8, n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a, ak, ar]: [&mut [i32]; 3], r: &[i8; 256], level: Level) -> bool {
     let rows = n.saturating_sub(i0).min(GROUP16);
     // One chunk of 64 pixels of the 16 rows: levels, residuals, 16-bit levels.
     let mut l8 = Words::default();
     let mut r8 = Words::default();
     let mut l16 = [Words::default(), Words::default()];
+    let mut buf = [0f32; CHUNK];
     let mut ok = true;
     for c0 in (0..kc).step_by(CHUNK) {
         let w = CHUNK.min(kc - c0);
@@ -142,8 +166,11 @@ fn pack_group(x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a
             let [w0, w1] = &mut l16;
             let out = [l8.bytes_mut(l), r8.bytes_mut(l), w0.bytes_mut(l), w1.bytes_mut(l)];
             if l < rows {
-                let src = &x[(i0 + l) * m + k0 + c0..(i0 + l) * m + k0 + c0 + w];
-                ok &= convert(src, out, r, level);
+                let at = (i0 + l) * m + k0 + c0..(i0 + l) * m + k0 + c0 + w;
+                ok &= match x {
+                    Rows8::U8(px) => convert_u8(&px[at], out, r, level),
+                    Rows8::F32(_) => convert(features_at(&x, at, &mut buf), out, r, level),
+                };
             } else {
                 out.into_iter().for_each(|o| o.fill(0));
             }
@@ -198,6 +225,22 @@ fn convert(src: &[f32], [lv, rv, w0, w1]: [&mut [u8]; 4], r: &[i8; 256], level: 
     ok
 }
 
+/// [`convert`] of the features of 8-bit values `src` (at most 64; each an 8-bit feature, so
+/// always true): the same outputs.
+fn convert_u8(src: &[u8], [lv, rv, w0, w1]: [&mut [u8]; 4], r: &[i8; 256], level: Level) -> bool {
+    assert!(src.len() <= CHUNK && [&*lv, &*rv, &*w0, &*w1].iter().all(|o| o.len() == CHUNK));
+    #[cfg(target_arch = "x86_64")]
+    if level.avx512() && src.len() == CHUNK {
+        // SAFETY: the level is a token of detection that found AVX-512 F and BW; src and every
+        // output hold 64 values (asserted above).
+        unsafe { x86::convert_u8_avx512(src, [lv, rv, w0, w1]) };
+        return true;
+    }
+    let mut buf = [0f32; CHUNK];
+    buf.iter_mut().zip(src).for_each(|(f, &v)| *f = crate::image_io::feature_of_u8(v));
+    convert(&buf[..src.len()], [lv, rv, w0, w1], r, level)
+}
+
 /// `out[16 j + l] = src[l][j]` for the first `out.len() / 16` words j of each row.
 fn transpose(src: &Words, out: &mut [i32], level: Level) {
     let count = out.len() / GROUP16;
@@ -224,6 +267,28 @@ mod x86 {
 
     /// m = S8 2^31, the level's weight in V = k m + r.
     const M8: i32 = 8_421_505;
+
+    /// [`super::convert_u8`] on 64 values: k the byte, r = V - k m with V = fl(k S8) 2^31.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F and BW; `src` and every output must hold 64 values.
+    #[target_feature(enable = "avx512f,avx512bw")]
+    pub unsafe fn convert_u8_avx512(src: &[u8], [lv, rv, w0, w1]: [&mut [u8]; 4]) {
+        let (s8, two31, m8) = (_mm512_set1_ps(S8), _mm512_set1_ps(2147483648.0), _mm512_set1_epi32(M8));
+        _mm_prefetch::<_MM_HINT_T0>(src.as_ptr().wrapping_add(2 * 64) as *const i8);
+        let bytes = _mm512_loadu_si512(src.as_ptr() as *const __m512i);
+        _mm512_storeu_si512(lv.as_mut_ptr() as *mut __m512i, bytes);
+        _mm512_storeu_si512(w0.as_mut_ptr() as *mut __m512i, _mm512_cvtepu8_epi16(_mm512_castsi512_si256(bytes)));
+        _mm512_storeu_si512(w1.as_mut_ptr() as *mut __m512i, _mm512_cvtepu8_epi16(_mm512_extracti64x4_epi64::<1>(bytes)));
+        for q in 0..4 {
+            let k = _mm512_cvtepu8_epi32(_mm_loadu_si128(src.as_ptr().add(16 * q) as *const __m128i));
+            // The feature fl(k S8) as the reader makes it, then its integer V = v 2^31 (exact).
+            let v = _mm512_mul_ps(_mm512_cvtepi32_ps(k), s8);
+            let big = _mm512_cvttps_epu32(_mm512_mul_ps(v, two31));
+            let r = _mm512_sub_epi32(big, _mm512_mullo_epi32(k, m8));
+            _mm_storeu_si128(rv.as_mut_ptr().add(16 * q) as *mut __m128i, _mm512_cvtepi32_epi8(r));
+        }
+    }
 
     /// [`super::convert`] on 64 values: k = trunc(v 255 + 0.5), accepted when k <= 255 and
     /// k * S8 == v; r = V - k m with V = v 2^31 (an integer below 2^32 for every level).
@@ -332,7 +397,10 @@ mod tests {
                         continue;
                     }
                     let acc = || if vnni { SyrkAcc::new(n) } else { SyrkAcc::new(n).without_vnni() };
-                    let g = gram_levels_with(&x, n, m, acc, level).expect("8-bit features");
+                    let g = gram_levels_with(Rows8::F32(&x), n, m, acc, level).expect("8-bit features");
+                    let u8_rows: Vec<u8> = x.iter().map(|&v| (v * 255.0).round() as u8).collect();
+                    let g8 = gram_levels_with(Rows8::U8(&u8_rows), n, m, acc, level).expect("8-bit values");
+                    assert!(g8.as_ref() == g.as_ref(), "{level:?} vnni {vnni}: the 8-bit values' Gram differs at n {n} m {m}");
                     for i in 0..n {
                         for j in 0..n {
                             let w = want[i * n + j];
@@ -359,7 +427,7 @@ mod tests {
             let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
             let pack = |x: &[f32], level| {
                 let (mut a, mut ak, mut ar) = (vec![7; np * kcp], vec![7; np * kcq], vec![7; np * kcq]);
-                let ok = pack_panel(x, n, m, k0, kc, &mut a, &mut ak, &mut ar, level);
+                let ok = pack_panel(Rows8::F32(x), n, m, k0, kc, &mut a, &mut ak, &mut ar, level);
                 (ok, a, ak, ar)
             };
             let want = pack(&x, Level::supported()[0]);
@@ -387,9 +455,9 @@ mod tests {
             x[20 * m + 150] = bad;
             for level in Level::supported() {
                 let (mut a, mut ak, mut ar) = (vec![0; np * 100], vec![0; np * 50], vec![0; np * 50]);
-                assert!(!pack_panel(&x, n, m, 0, m, &mut a, &mut ak, &mut ar, level), "{bad} accepted by {level:?}");
+                assert!(!pack_panel(Rows8::F32(&x), n, m, 0, m, &mut a, &mut ak, &mut ar, level), "{bad} accepted by {level:?}");
             }
-            assert!(gram_levels_with(&x, n, m, || SyrkAcc::new(n), Level::detect()).is_none());
+            assert!(gram_levels_with(Rows8::F32(&x), n, m, || SyrkAcc::new(n), Level::detect()).is_none());
         }
     }
 
@@ -400,7 +468,7 @@ mod tests {
         let x = levels(n, m);
         let run = |threads| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| gram_levels_with(&x, n, m, || SyrkAcc::new(n), Level::detect()).expect("8-bit"))
+            pool.install(|| gram_levels_with(Rows8::F32(&x), n, m, || SyrkAcc::new(n), Level::detect()).expect("8-bit"))
         };
         assert!(run(1).as_ref() == run(3).as_ref());
     }

@@ -17,6 +17,7 @@
 //! peaks for them to report against.
 
 pub mod bench;
+pub(crate) mod combine;
 pub(crate) mod dot_q;
 pub(crate) mod dot_u8;
 pub(crate) mod dot_w;

@@ -56,8 +56,8 @@ impl LinearRecognizer {
             }
             row += d.len();
         }
-        let g = crate::linalg::gram_f32(all.features(), n, m, None);
-        let sys = GramSystem { x: all.features(), m, g, p: mat_from_rows(&y, n, k), mean_x: None, mean_p: None };
+        let g = crate::linalg::gram_of(all, None);
+        let sys = GramSystem { x: all.rows(), m, g, p: mat_from_rows(&y, n, k), mean_x: None, mean_p: None };
         // Views that repeat (a symmetric object's, say) make G singular while their targets
         // agree: the minimum-norm fit is then the limit of the ridge fit as the ridge goes to
         // zero, which a ridge just above the factorisation's refusal level gives.

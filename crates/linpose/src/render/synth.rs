@@ -138,7 +138,7 @@ pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path,
     let manifest = grid.manifest(root)?;
     let pixels = render_u8(mesh, grid, params, progress)?;
     let spec = ImageSpec { width: params.get_width(), height: params.get_height(), color: ColorMode::Gray };
-    Dataset::from_pixels(manifest, spec, &pixels)
+    Dataset::from_pixels(manifest, spec, pixels)
 }
 
 /// Renders every pose of `grid` into memory as 8-bit gray images, one after another in the

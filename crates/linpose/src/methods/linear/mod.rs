@@ -35,9 +35,10 @@ pub mod ridge;
 pub mod stream;
 
 use crate::dataset::Dataset;
-use crate::kernels::{dot_u8::dots, AlignedF32, Level};
+use crate::kernels::{combine::combine_rows, dot_u8::dots, AlignedF32, Level};
 use crate::model::split;
-use crate::linalg::{dot_f32, gram_f32, mat_from_rows, mean_row};
+use crate::linalg::{dot_f32, gram_of, mat_from_rows, mean_row};
+use crate::dataset::Rows;
 use crate::confidence::{pair_confidence, Estimate};
 use crate::methods::linear::ridge::{loo_curve, RidgeRule};
 use crate::pixel_noise::estimate_noise_sigma;
@@ -48,7 +49,6 @@ use faer::linalg::solvers::{DenseSolveCore, Llt, Solve};
 use faer::{Mat, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 
 /// The linear model in the method registry.
 pub static METHOD: Method = Method {
@@ -164,8 +164,9 @@ pub(crate) fn encoded_poses(train: &Dataset) -> Vec<f64> {
 
 /// The Gram system of a training set: what every Gram-based fit needs.
 pub(crate) struct GramSystem<'a> {
-    /// X (N x M, row-major f32): the training features, borrowed (no f64 copy is made).
-    pub x: &'a [f32],
+    /// X (N x M, row-major): the training rows as the data set holds them (f32 features or
+    /// their 8-bit values), borrowed (no f64 copy is made).
+    pub x: Rows<'a>,
     /// Features per image M.
     pub m: usize,
     /// G = X X^T (N x N).
@@ -179,7 +180,7 @@ pub(crate) struct GramSystem<'a> {
 }
 
 impl<'a> GramSystem<'a> {
-    /// Builds the system after refusing exact duplicate images with different poses.
+    /// Builds the system, refusing exact duplicate images ([`check_duplicates`]).
     pub fn new(train: &'a Dataset, center: bool) -> Result<Self> {
         Self::with_gram(train, center, None)
     }
@@ -187,7 +188,6 @@ impl<'a> GramSystem<'a> {
     /// [`Self::new`] with G given (summed elsewhere, e.g. over shards of pixels: centred about
     /// the mean image when `center`); computed from `train` when None.
     pub fn with_gram(train: &'a Dataset, center: bool, given: Option<Mat<f64>>) -> Result<Self> {
-        check_duplicates(train)?;
         let (n, m) = (train.len(), train.n_features());
         let k = train.space().encoded_len();
         let mut p = encoded_poses(train);
@@ -209,9 +209,10 @@ impl<'a> GramSystem<'a> {
                 assert!(g.nrows() == n && g.ncols() == n, "a given Gram matrix of the training set's size");
                 g
             }
-            None => gram_f32(train.features(), n, m, mean_x.as_deref()),
+            None => gram_of(train, mean_x.as_deref()),
         };
-        Ok(GramSystem { x: train.features(), m, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
+        check_duplicates(train, &g)?;
+        Ok(GramSystem { x: train.rows(), m, g, p: mat_from_rows(&p, n, k), mean_x, mean_p })
     }
 
     /// The Cholesky factor of [`Self::system`] with `lambda`, refusing a numerically singular
@@ -274,35 +275,27 @@ impl<'a> GramSystem<'a> {
     }
 
     /// W^T = D^T X (K x M), row-major: each row is one coefficient image w_j (paper Fig. 2).
-    /// Computed from the f32 features in pixel chunks (in parallel), each summed over the
+    /// Computed from the rows (features or their 8-bit values: the same bits) in pixel chunks (in parallel), each summed over the
     /// images in order, so the result does not depend on the thread count.
     pub fn weights(&self, d: &Mat<f64>) -> Vec<f64> {
-        const CHUNK: usize = 2048;
         let (n, m, k) = (self.g.nrows(), self.m, d.ncols());
-        let parts: Vec<Vec<f64>> = (0..m.div_ceil(CHUNK))
+        // The chunk's K sums and its row within 32 KiB, in the core's L1 cache.
+        let chunk = ((4096 / (k + 1)) & !63).max(64);
+        let d_rows: Vec<f64> = (0..n * k).map(|t| d[(t / k, t % k)]).collect();
+        let level = Level::detect();
+        let parts: Vec<Vec<f64>> = (0..m.div_ceil(chunk))
             .into_par_iter()
             .map(|c| {
-                let (p0, p1) = (c * CHUNK, ((c + 1) * CHUNK).min(m));
+                let (p0, p1) = (c * chunk, ((c + 1) * chunk).min(m));
                 let len = p1 - p0;
-                let mut w = vec![0.0; k * len];
-                let mut row = vec![0.0; len];
-                for i in 0..n {
-                    let x = &self.x[i * m + p0..i * m + p1];
-                    match &self.mean_x {
-                        Some(mu) => row.iter_mut().zip(x.iter().zip(&mu[p0..p1])).for_each(|(r, (&v, &u))| *r = v as f64 - u),
-                        None => row.iter_mut().zip(x).for_each(|(r, &v)| *r = v as f64),
-                    }
-                    for j in 0..k {
-                        let dij = d[(i, j)];
-                        w[j * len..(j + 1) * len].iter_mut().zip(&row).for_each(|(w, &v)| *w += dij * v);
-                    }
-                }
+                let (mut w, mut row) = (vec![0.0; k * len], vec![0.0; len]);
+                combine_rows(level, self.x, self.mean_x.as_deref(), m, p0, &d_rows, k, &mut w, &mut row);
                 w
             })
             .collect();
         let mut out = vec![0.0; k * m];
         for (c, w) in parts.iter().enumerate() {
-            let (p0, len) = (c * CHUNK, w.len() / k);
+            let (p0, len) = (c * chunk, w.len() / k);
             for j in 0..k {
                 out[j * m + p0..j * m + p0 + len].copy_from_slice(&w[j * len..(j + 1) * len]);
             }
@@ -381,39 +374,31 @@ pub(crate) fn expected_clipped(x: f64, a: f64) -> f64 {
     v.clamp(0.0, 1.0)
 }
 
-/// A hash of a row's bits: FNV-1a over eight interleaved lanes (the lanes' multiplies are
-/// independent, so the row is hashed at memory speed rather than one multiply's latency per
-/// value), then the lanes folded together. Equal rows have equal hashes; rows that share a hash
-/// are compared in full.
-fn row_hash(row: &[f32]) -> u64 {
-    const PRIME: u64 = 0x100000001b3;
-    let mut lanes = [0xcbf29ce484222325u64; 8];
-    let mut chunks = row.chunks_exact(8);
-    for c in &mut chunks {
-        for (h, v) in lanes.iter_mut().zip(c) {
-            *h = (*h ^ v.to_bits() as u64).wrapping_mul(PRIME);
-        }
-    }
-    for (h, v) in lanes.iter_mut().zip(chunks.remainder()) {
-        *h = (*h ^ (v.to_bits() as u64 | 1 << 32)).wrapping_mul(PRIME);
-    }
-    lanes.iter().fold(row.len() as u64, |a, &h| (a ^ h).wrapping_mul(PRIME))
-}
-
 /// Exact duplicate images under different poses make the problem impossible in principle (the
-/// paper, section 2): name the two images.
-fn check_duplicates(train: &Dataset) -> Result<()> {
-    let mut seen: HashMap<u64, usize> = HashMap::new();
-    let hashes: Vec<u64> = train.features().par_chunks(train.n_features().max(1)).map(row_hash).collect();
-    for (i, &h) in hashes.iter().enumerate() {
-        let row = train.row(i);
-        if let Some(&j) = seen.get(&h) {
-            if train.row(j) == row {
+/// paper, section 2): name the two images. Found through the Gram matrix G (centred or not):
+/// identical rows i, j have ||x_i - x_j||^2 = G_ii + G_jj - 2 G_ij = 0, which G's rounding
+/// (each entry a sum of M products, within 4 M eps of the sum of the two diagonals) keeps
+/// below 4 M eps (G_ii + G_jj); only pairs that close are compared in full. The pair reported
+/// is the first in order (the later image least, then the earlier).
+fn check_duplicates(train: &Dataset, g: &Mat<f64>) -> Result<()> {
+    let n = g.nrows();
+    let tol = 4.0 * train.n_features() as f64 * f64::EPSILON;
+    let same = |i: usize, j: usize| match train.rows() {
+        Rows::U8(x) => {
+            let m = train.n_features();
+            x[i * m..(i + 1) * m] == x[j * m..(j + 1) * m]
+        }
+        Rows::F32(_) => train.row(i) == train.row(j),
+    };
+    for i in 1..n {
+        for j in 0..i {
+            let s = g[(i, i)] + g[(j, j)];
+            if s - 2.0 * g[(j, i)] <= tol * s && same(i, j) {
                 let names = train.manifest().images();
-                let same = train.space().same_pose(train.pose(i), train.pose(j), 1e-9);
+                let same_pose = train.space().same_pose(train.pose(i), train.pose(j), 1e-9);
                 return Err(Error::SingularGram {
                     detail: format!("images '{}' and '{}' are identical", names[j], names[i]),
-                    hint: if same {
+                    hint: if same_pose {
                         "the same view is listed twice; remove one".into()
                     } else {
                         format!(
@@ -425,7 +410,6 @@ fn check_duplicates(train: &Dataset) -> Result<()> {
                 });
             }
         }
-        seen.insert(h, i);
     }
     Ok(())
 }
