@@ -275,8 +275,9 @@ impl<'a> GramSystem<'a> {
     }
 
     /// W^T = D^T X (K x M), row-major: each row is one coefficient image w_j (paper Fig. 2).
-    /// Computed from the rows (features or their 8-bit values: the same bits) in pixel chunks (in parallel), each summed over the
-    /// images in order, so the result does not depend on the thread count.
+    /// Computed from the rows (features or their 8-bit values: the same bits) in pixel chunks
+    /// (in parallel), each summed over the images in order, so the result does not depend on
+    /// the thread count.
     pub fn weights(&self, d: &Mat<f64>) -> Vec<f64> {
         let (n, m, k) = (self.g.nrows(), self.m, d.ncols());
         // The chunk's K sums and its row within 32 KiB, in the core's L1 cache (this machine's
