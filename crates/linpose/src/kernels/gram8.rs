@@ -6,9 +6,10 @@
 //! triangle costs about half the f64 kernel's time ([`super::peak::vnni_gram_flops`] measures
 //! that rate).
 //!
-//! Packing reads the f32 rows once per panel: for each group of 16 images, 64 pixels at a time,
-//! each row's values are turned into levels (checked: a value that is not an 8-bit feature
-//! makes the whole Gram fall back to the f64 kernel), residuals and 16-bit levels, and the
+//! Packing reads the rows once per panel: for each group of 16 images, 64 pixels at a time,
+//! each row's values are turned into levels (f32 features checked: a value that is not an 8-bit
+//! feature makes the whole Gram fall back to the f64 kernel; a data set's 8-bit values
+//! ([`gram_u8`]) are levels already), residuals and 16-bit levels, and the
 //! 16 x 16 blocks of 32-bit words are transposed so that one word holds one image's pixel pair
 //! (or quad) and 16 images sit side by side, as the micro-kernels load them.
 //!
@@ -70,17 +71,6 @@ fn gram_rows8(x: Rows8, n: usize, m: usize) -> Option<Mat<f64>> {
     gram_levels_with(x, n, m, || SyrkAcc::new(n), Level::detect())
 }
 
-/// Values `at` of `x` as features: borrowed, or made from the 8-bit values in `buf`.
-fn features_at<'b>(x: &'b Rows8, at: std::ops::Range<usize>, buf: &'b mut [f32; CHUNK]) -> &'b [f32] {
-    match x {
-        Rows8::F32(x) => &x[at],
-        Rows8::U8(x) => {
-            let src = &x[at];
-            buf.iter_mut().zip(src).for_each(|(f, &v)| *f = crate::image_io::feature_of_u8(v));
-            &buf[..src.len()]
-        }
-    }
-}
 /// Most partial Grams: with two, each of two threads sums one with no fork-join per panel;
 /// chosen by timing one, two and four at N = 222, M = 19,200 on two cores (two were fastest).
 const MAX_CHUNKS8: usize = 2;
@@ -158,7 +148,6 @@ fn pack_group(x: Rows8, n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a,
     let mut l8 = Words::default();
     let mut r8 = Words::default();
     let mut l16 = [Words::default(), Words::default()];
-    let mut buf = [0f32; CHUNK];
     let mut ok = true;
     for c0 in (0..kc).step_by(CHUNK) {
         let w = CHUNK.min(kc - c0);
@@ -169,7 +158,7 @@ fn pack_group(x: Rows8, n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a,
                 let at = (i0 + l) * m + k0 + c0..(i0 + l) * m + k0 + c0 + w;
                 ok &= match x {
                     Rows8::U8(px) => convert_u8(&px[at], out, r, level),
-                    Rows8::F32(_) => convert(features_at(&x, at, &mut buf), out, r, level),
+                    Rows8::F32(f) => convert(&f[at], out, r, level),
                 };
             } else {
                 out.into_iter().for_each(|o| o.fill(0));
