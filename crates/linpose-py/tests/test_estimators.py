@@ -26,6 +26,9 @@ def test_fit_predict_score(cls, turntable):
     train = linpose.train_mask(y, params, 9)
     est = cls(params=params).fit(X[train], y[train])
     assert est.n_features_in_ == 64 * 48 and est.image_shape_ == (48, 64)
+    # The fit sets these from its inputs; the model holds the same.
+    m = est.model_
+    assert (est.image_shape_, est.params_, est.n_features_in_) == (tuple(m.image_shape), [tuple(p) for p in m.params], m.n_features)
     pred = est.predict(X)
     assert pred.shape == y.shape
     # Training views are reproduced (the linear model exactly fits them; the manifolds pass
@@ -102,7 +105,9 @@ def test_grid_search_over_a_parameter(turntable):
 def test_two_parameters_default_names():
     X, y, params = linpose.synth("pot", azimuth="0:350:10", elevation="32:68:12", size=(40, 30))
     est = linpose.EigenspacePose().fit(X, y)
-    assert est.params_ == [("elevation", None), ("azimuth", 360.0)]
+    assert est.params_ == [("elevation", None), ("azimuth", 360.0)] == [tuple(p) for p in est.model_.params]
+    flat = linpose.EigenspacePose(image_shape=(30, 40)).fit(X.reshape(len(X), -1), y)
+    assert flat.image_shape_ == (30, 40) == tuple(flat.model_.image_shape)
     assert est.predict(X[:3]).shape == (3, 2)
 
 
