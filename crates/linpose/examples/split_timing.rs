@@ -9,15 +9,19 @@
 //! `LINPOSE_SPLIT_FROM_PIXELS=0` splits every batch as before the threshold.
 //! `bench/split_timing.py` alternates the three in rounds.
 //!
+//! `--gap MS` makes the caller sleep MS milliseconds before each timed predict, as a caller
+//! waiting for its next camera frame does: rayon's workers go to sleep in between, and a split
+//! batch pays for waking them.
+//!
 //!     cargo run --release -p linpose --example split_timing -- DIR [--object O] --train-step S
-//!         [--sizes 8,16,36,72,144,288] [--reps R] [--whole]
+//!         [--sizes 8,16,36,72,144,288] [--reps R] [--whole] [--gap MS]
 use linpose::image_io::ColorMode;
 use linpose::{Dataset, Manifest, PoseModel, Settings, TrainSelection};
 use std::path::PathBuf;
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let (mut dir, mut object, mut step, mut reps, mut whole) = (None, None, None, 300usize, false);
+    let (mut dir, mut object, mut step, mut reps, mut whole, mut gap) = (None, None, None, 300usize, false, 0.0f64);
     let mut sizes = vec![8usize, 16, 36, 72, 144, 288];
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -27,10 +31,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--sizes" => sizes = args.next().ok_or("--sizes A,B,...")?.split(',').map(str::parse).collect::<Result<_, _>>()?,
             "--reps" => reps = args.next().ok_or("--reps R")?.parse()?,
             "--whole" => whole = true,
+            "--gap" => gap = args.next().ok_or("--gap MS")?.parse()?,
             _ => dir = Some(PathBuf::from(a)),
         }
     }
-    let usage = "usage: split_timing DIR [--object O] --train-step S [--sizes A,B,...] [--reps R] [--whole]";
+    let usage = "usage: split_timing DIR [--object O] --train-step S [--sizes A,B,...] [--reps R] [--whole] [--gap MS]";
+    let gap = std::time::Duration::from_secs_f64(gap.max(0.0) / 1e3);
     let (dir, step) = (dir.ok_or(usage)?, step.ok_or(usage)?);
     // The calling thread as the one thread of a pool of its own: parallel iterators then run on it.
     let _pool = if whole { Some(rayon::ThreadPoolBuilder::new().num_threads(1).use_current_thread().build()?) } else { None };
@@ -50,6 +56,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             model.predict_u8_into(&batch, &mut out)?;
             let mut ts: Vec<f64> = (0..reps)
                 .map(|_| {
+                    if !gap.is_zero() {
+                        std::thread::sleep(gap);
+                    }
                     let t = Instant::now();
                     model.predict_u8_into(&batch, &mut out).map(|_| t.elapsed().as_secs_f64())
                 })
