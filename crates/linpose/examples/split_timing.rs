@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let usage = "usage: split_timing DIR [--object O] --train-step S [--sizes A,B,...] [--reps R] [--whole] [--gap MS]";
-    let gap = std::time::Duration::from_secs_f64(gap.max(0.0) / 1e3);
+    let gap = std::time::Duration::try_from_secs_f64(gap / 1e3).map_err(|_| "--gap MS: a number of milliseconds, 0 or more")?;
     let (dir, step) = (dir.ok_or(usage)?, step.ok_or(usage)?);
     // The calling thread as the one thread of a pool of its own: parallel iterators then run on it.
     let _pool = if whole { Some(rayon::ThreadPoolBuilder::new().num_threads(1).use_current_thread().build()?) } else { None };
