@@ -111,22 +111,19 @@ class PoseEstimator(RegressorMixin, BaseEstimator):
         # What the model was fitted with, as the model holds it (its getters give the same values):
         # after a fit the interpreter's own data is out of the cache, and reading back through
         # the getters cost about 8 us of a 0.6 ms fit.
-        self.model_ = model
-        self.image_shape_ = shape
-        self.params_ = params
-        self.n_features_in_ = m
-        self._y_1d = y_1d
+        self._set_fitted(model, y_1d, shape, params, m)
         return self
 
     def _check_size(self, n: int, m: int) -> None:
         """Refuses training sets the method cannot fit, in scikit-learn's words."""
 
-    def _set_fitted(self, model: Any, y_1d: bool) -> None:
-        """The fitted attributes of a model made elsewhere (a model file), read from it."""
+    def _set_fitted(self, model: Any, y_1d: bool, image_shape: Tuple[int, int], params: list, n_features: int) -> None:
+        """The fitted attributes: the model and what it holds (image size, pose parameters,
+        features per image)."""
         self.model_ = model
-        self.image_shape_ = tuple(model.image_shape)
-        self.params_ = [tuple(p) for p in model.params]
-        self.n_features_in_ = model.n_features
+        self.image_shape_ = image_shape
+        self.params_ = params
+        self.n_features_in_ = n_features
         self._y_1d = y_1d
 
     # -- estimating ----------------------------------------------------------------------------
@@ -477,9 +474,10 @@ def from_model(model) -> PoseEstimator:
     cls = ESTIMATORS.get(model.method)
     if cls is None:
         raise ValueError(f"a model of method {model.method!r}, which this package has no estimator for")
-    est = cls(params=[tuple(p) for p in model.params], normalize=_stage(model))
+    params = [tuple(p) for p in model.params]
+    est = cls(params=list(params), normalize=_stage(model))
     est.set_params(**cls._given(json.loads(model.settings_json).get("params", {})))
-    est._set_fitted(model, len(model.params) == 1)
+    est._set_fitted(model, len(params) == 1, tuple(model.image_shape), params, model.n_features)
     return est
 
 

@@ -13,13 +13,13 @@
 //!
 //! What it trades: below the threshold a batch never uses the second core, which costs up to
 //! half its time when both cores are idle and the workers awake; above it, the round trip is
-//! small beside the work. Both are measured for a caller that predicts back to back: after a
-//! millisecond idle the workers are asleep, waking them costs that machine 0.06-0.47 ms a split
-//! call, and the batches just above the thresholds run slower split than whole (BENCHMARKS.md,
-//! `--gap`). The value is measured, not derived: BENCHMARKS.md ("Small batches")
+//! small beside the work. The value is measured, not derived: BENCHMARKS.md ("Small batches")
 //! has the batch sizes, times and the command (`examples/split_timing.rs`, which compares both
 //! sides at every size with the environment variable `LINPOSE_SPLIT_FROM_PIXELS=0`: every
-//! batch split, as before this threshold).
+//! batch split, as before this threshold). It is measured for a caller that predicts back to
+//! back. After a millisecond idle the workers are asleep, waking them costs that machine
+//! 0.06-0.47 ms a split call, and the batches just above the thresholds run slower split than
+//! whole (the same section, `--gap`).
 
 use std::sync::OnceLock;
 
