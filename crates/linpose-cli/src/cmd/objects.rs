@@ -145,6 +145,9 @@ struct Sample {
     /// The distance to the nearest object in its own eigenspace (the second stage); null when
     /// not measured.
     own_distance: Option<f64>,
+    /// Another object whose own manifold lies nearer the view than the nearest object's does
+    /// (then unknown); null when none.
+    own_nearer: Option<String>,
     confidence: f64,
     /// The pose estimated by the recognised object's model (degrees); null when unknown.
     pose: Option<Vec<f64>>,
@@ -255,6 +258,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
                 nearest: names[r.nearest].clone(),
                 distance: r.distance,
                 own_distance: r.own_distance,
+                own_nearer: r.own_nearer.map(|k| names[k].clone()),
                 confidence: r.confidence,
                 pose,
                 error_deg,
@@ -349,6 +353,7 @@ struct Estimate<'a> {
     nearest: &'a str,
     distance: f64,
     own_distance: Option<f64>,
+    own_nearer: Option<&'a str>,
     confidence: f64,
     pose: Option<BTreeMap<&'a str, f64>>,
 }
@@ -395,6 +400,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
                     nearest: &model.names()[r.nearest],
                     distance: r.distance,
                     own_distance: r.own_distance,
+                    own_nearer: r.own_nearer.map(|k| model.names()[k].as_str()),
                     confidence: r.confidence,
                     pose,
                 };
@@ -405,9 +411,13 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
                     Some(o) => write!(out, "{name}\tobject={o}\tconfidence={:.3}", r.confidence)?,
                     None => {
                         write!(out, "{name}\tobject=unknown\tnearest={}\tdistance={:.4}\tthreshold={:.4}", model.names()[r.nearest], r.distance, r.threshold)?;
-                        // Within the recogniser's threshold: the object's own eigenspace rejected it.
+                        // Within the recogniser's threshold: the object's own eigenspace rejected
+                        // it, or another object's own manifold lies nearer.
                         if let Some(d) = r.own_distance {
                             write!(out, "\town_distance={d:.4}\town_threshold={:.4}", r.own_threshold)?
+                        }
+                        if let Some(k) = r.own_nearer {
+                            write!(out, "\town_nearer={}", model.names()[k])?
                         }
                     }
                 }

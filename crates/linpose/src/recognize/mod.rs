@@ -18,7 +18,9 @@
 //!   known object, which lies between two training views, is rarely beyond it), or a threshold
 //!   given ([`Unknown::Threshold`]); then, calibrated the same way, when its distance to that
 //!   object's manifold in the object's own eigenspace is beyond what its held-out views show
-//!   (`own.rs`: the shared space cannot see the details that tell, say, two toy cars apart);
+//!   (`own.rs`: the shared space cannot see the details that tell, say, two toy cars apart), or
+//!   when another object's manifold, in that object's own eigenspace, lies nearer still (the
+//!   recogniser named an object the query is not most like);
 //! - the **pose** of a recognised query comes from its object's own pose model, fitted by any
 //!   method ([`crate::MethodSpec`]).
 //!
@@ -204,6 +206,10 @@ pub struct Recognition {
     /// The distance in the object's own eigenspace beyond which the query is unknown (infinite
     /// when the second stage is off).
     pub own_threshold: f64,
+    /// Another object whose own manifold lies nearer the query than the nearest object's does,
+    /// in its own eigenspace (then unknown): the nearest such. `None` when there is none or the
+    /// query was not measured against the others (rejected before, or the second stage off).
+    pub own_nearer: Option<usize>,
     /// How far the nearest object stands out from the second: 1 - (distance / second)^2, in
     /// [0, 1] (0: a tie, 1: the second infinitely farther). A margin, not a probability.
     pub confidence: f64,
@@ -229,6 +235,6 @@ impl Recognition {
         let confidence = if second.is_finite() && second > 0.0 { (1.0 - (distance / second).powi(2)).clamp(0.0, 1.0) } else { 1.0 };
         let threshold = thresholds[best];
         let object = if distance <= threshold { Some(best) } else { None };
-        Recognition { object, nearest: best, distance, second, threshold, own_distance: None, own_threshold: f64::INFINITY, confidence }
+        Recognition { object, nearest: best, distance, second, threshold, own_distance: None, own_threshold: f64::INFINITY, own_nearer: None, confidence }
     }
 }

@@ -276,27 +276,54 @@ impl ObjectModel {
 
     /// The second stage: each query the recogniser accepted as object k is measured in k's own
     /// eigenspace (queries of one object together) and reported unknown beyond k's own
-    /// threshold; a query that cannot be scaled to unit energy there is unknown.
+    /// threshold; a query that cannot be scaled to unit energy there is unknown. A query within
+    /// it is then measured against every other object's own manifold, and reported unknown when
+    /// one of them lies nearer (the recogniser's answer is not the object the query looks most
+    /// like).
     fn check_own(&self, queries: &[f32], rec: &mut [Recognition]) {
         let (Some(own), Some(s)) = (&self.own, &self.settings.own) else { return };
         let m = self.spec.features();
-        for (k, &threshold) in s.thresholds.iter().enumerate() {
-            if threshold == f64::INFINITY || !own.has(k) {
+        let measured = |r: &Recognition| r.object.filter(|&k| s.thresholds[k] != f64::INFINITY && own.has(k));
+        let idx: Vec<usize> = (0..rec.len()).filter(|&i| measured(&rec[i]).is_some()).collect();
+        if idx.is_empty() {
+            return;
+        }
+        let batch: Vec<f32> = idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let binned = own.binned(&batch);
+        let mb = binned.len() / idx.len();
+        let named: Vec<usize> = idx.iter().map(|&i| measured(&rec[i]).expect("measured")).collect();
+        let mut d = vec![0.0; idx.len()];
+        for k in 0..self.names.len() {
+            let of_k: Vec<usize> = (0..idx.len()).filter(|&j| named[j] == k).collect();
+            if of_k.is_empty() {
                 continue;
             }
-            let idx: Vec<usize> = (0..rec.len()).filter(|&i| rec[i].object == Some(k)).collect();
-            if idx.is_empty() {
-                continue;
+            let b: Vec<f32> = of_k.iter().flat_map(|&j| binned[j * mb..(j + 1) * mb].iter().copied()).collect();
+            let mut dk = vec![0.0; of_k.len()];
+            own.distances(k, &b, &mut dk);
+            for (&j, &v) in of_k.iter().zip(&dk) {
+                d[j] = v;
             }
-            let batch: Vec<f32> = idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
-            let mut d = vec![0.0; idx.len()];
-            own.distances(k, &batch, &mut d);
-            for (&i, &d) in idx.iter().zip(&d) {
-                let r = &mut rec[i];
-                (r.own_distance, r.own_threshold) = (Some(d), threshold);
-                if !(d <= threshold) {
-                    r.object = None;
-                }
+        }
+        // Only the queries within their object's threshold meet the other objects.
+        let within: Vec<usize> = (0..idx.len()).filter(|&j| d[j] <= s.thresholds[named[j]]).collect();
+        let rivals = if within.is_empty() {
+            Vec::new()
+        } else {
+            let b: Vec<f32> = within.iter().flat_map(|&j| binned[j * mb..(j + 1) * mb].iter().copied()).collect();
+            let nk: Vec<usize> = within.iter().map(|&j| named[j]).collect();
+            let dk: Vec<f64> = within.iter().map(|&j| d[j]).collect();
+            own.nearer(&b, &nk, &dk)
+        };
+        let mut rival = vec![None; idx.len()];
+        for (&j, r) in within.iter().zip(rivals) {
+            rival[j] = r;
+        }
+        for (j, &i) in idx.iter().enumerate() {
+            let r = &mut rec[i];
+            (r.own_distance, r.own_threshold, r.own_nearer) = (Some(d[j]), s.thresholds[named[j]], rival[j].map(|(k, _)| k));
+            if !(d[j] <= r.own_threshold) || rival[j].is_some() {
+                r.object = None;
             }
         }
     }

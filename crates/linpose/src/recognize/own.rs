@@ -21,14 +21,25 @@
 //! largest threshold of the others; one with a single training view has no eigenspace of its own
 //! and no second stage (its threshold is infinite).
 //!
+//! A query within the threshold is then measured against every other object's own manifold the
+//! same way, and is unknown when one of them lies nearer ([`OwnSpaces::nearer`]). The distances
+//! are all in one space (the binned image, at unit energy), so they compare across objects. The
+//! recogniser picks an object in a space that keeps only what tells the known objects apart; a
+//! view of an object it never saw can be named as one object there while it looks more like
+//! another in image space (a toy car left out, named one car, nearer a third), and then neither
+//! answer can be trusted. No constant is involved: the rule asks only which distance is least.
+//!
 //! The eigenspaces are of the images binned as the pose models' second look bins them
 //! ([`crate::second_look::SECOND_LOOK_BIN`], coarser only while the binned images keep as many
 //! pixels as an object has training views): what tells a car from a car survives 4 x 4 blocks,
 //! and the stage stores and multiplies b^2 times fewer numbers.
 //!
 //! Cost: per object M_b L_k + M_b numbers (eigenimages, mean; M_b = M / b^2) and N_k,dense L_k
-//! (its manifold); per query, only for the one object recognised, L_k M_b multiply-adds and a
-//! pruned search of that object's manifold.
+//! (its manifold); per query accepted by the recogniser, L_k M_b multiply-adds and a pruned
+//! search for the object recognised, then for each other object M_b multiply-adds (its distance
+//! to the range of the manifold's norms), and only where that leaves it a chance to be nearer,
+//! L_k M_b more (its residual off the eigenspace) and, where the residual leaves a chance, the
+//! search of its manifold. At 100 objects the eigenimages read for one query are memory bound.
 
 use super::universal::{to32, Universal};
 use super::RecognizerParams;
@@ -44,6 +55,8 @@ use crate::methods::refined::Interpolant;
 use crate::model::{Tensor, TensorSet};
 use crate::second_look::SECOND_LOOK_BIN;
 use crate::{Error, Result};
+use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Every object's own eigenspace with its manifold (a [`Universal`] of one object each; `None`
 /// for an object of a single training view), of the images binned by `binning`.
@@ -103,17 +116,57 @@ impl OwnSpaces {
         self.spaces.get(k).is_some_and(Option::is_some)
     }
 
-    /// Each query's distance to object `k`'s manifold in its own eigenspace into `out` (one per
-    /// query); NaN for a query that cannot be scaled to unit energy. Object `k` has one
-    /// ([`OwnSpaces::has`]).
-    pub fn distances(&self, k: usize, queries: &[f32], out: &mut [f64]) {
-        if let Some(s) = &self.spaces[k] {
-            if self.binning.bins() {
-                s.own_distances(&self.binning.apply_all(queries), out);
-            } else {
-                s.own_distances(queries, out);
-            }
+    /// The queries binned as the own eigenspaces' images are (the queries themselves when they
+    /// are not binned).
+    pub fn binned<'a>(&self, queries: &'a [f32]) -> Cow<'a, [f32]> {
+        if self.binning.bins() {
+            Cow::Owned(self.binning.apply_all(queries))
+        } else {
+            Cow::Borrowed(queries)
         }
+    }
+
+    /// Each query's distance to object `k`'s manifold in its own eigenspace into `out` (one per
+    /// query), the queries [`OwnSpaces::binned`]; NaN for a query that cannot be scaled to unit
+    /// energy. Object `k` has one ([`OwnSpaces::has`]).
+    pub fn distances(&self, k: usize, binned: &[f32], out: &mut [f64]) {
+        if let Some(s) = &self.spaces[k] {
+            s.own_distances(binned, out);
+        }
+    }
+
+    /// For each query ([`OwnSpaces::binned`]) recognised as `named[i]` at distance `d[i]` in that
+    /// object's own eigenspace: the object, of the others with an eigenspace of their own, whose
+    /// manifold lies nearest the query when nearer than `d[i]`, with its distance. Every object is
+    /// measured (in parallel over the objects), but a manifold is searched only where the
+    /// query's residual off that object's eigenspace leaves it a chance to be nearer.
+    pub fn nearer(&self, binned: &[f32], named: &[usize], d: &[f64]) -> Vec<Option<(usize, f64)>> {
+        let n = named.len();
+        let per_object: Vec<Option<Vec<f64>>> = self
+            .spaces
+            .par_iter()
+            .enumerate()
+            .map(|(j, s)| {
+                let s = s.as_ref()?;
+                // The named object itself is not a rival: a bound of 0 skips its search.
+                let bounds: Vec<f64> = named.iter().zip(d).map(|(&k, &d)| if k == j { 0.0 } else { d }).collect();
+                let mut out = vec![0.0; n];
+                s.own_distances_under(binned, &bounds, &mut out);
+                Some(out)
+            })
+            .collect();
+        (0..n)
+            .map(|i| {
+                let mut best: Option<(usize, f64)> = None;
+                for (j, dj) in per_object.iter().enumerate() {
+                    let Some(dj) = dj else { continue };
+                    if j != named[i] && dj[i] < d[i] && best.is_none_or(|(_, b)| dj[i] < b) {
+                        best = Some((j, dj[i]));
+                    }
+                }
+                best
+            })
+            .collect()
     }
 
     /// The binning factor of the images the own eigenspaces are of.

@@ -34,6 +34,9 @@ pub(crate) struct Universal {
     mean_proj: Vec<f32>,
     /// Each object's manifold points (rows of L).
     points: Vec<Vec<f32>>,
+    /// Each object's least and largest manifold point norm: a centred query c lies at least
+    /// | ||c|| - ||p|| | from a point p, so at least this far outside the range from them all.
+    norms: Vec<(f64, f64)>,
     /// The manifolds cut into segments of [`SEGMENT`] consecutive points (neighbours along the
     /// last pose axis), each with a bounding sphere, and runs of [`GROUP`] segments of one object
     /// into groups with a sphere of their own: a query's distance to a segment's points is at
@@ -144,7 +147,15 @@ impl Universal {
             group_radii.push(r);
             s0 = s1;
         }
-        Ok(Universal { proj, mean, mean_proj, points, segments, centres, radii, groups, group_centres, group_radii })
+        let norms = points
+            .iter()
+            .map(|p| {
+                p.chunks_exact(l)
+                    .map(|p| p.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt())
+                    .fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r), b.max(r)))
+            })
+            .collect();
+        Ok(Universal { proj, mean, mean_proj, points, norms, segments, centres, radii, groups, group_centres, group_radii })
     }
 
     /// Dimensions L.
@@ -204,24 +215,73 @@ impl Universal {
     /// be scaled to unit energy.
     pub fn own_distances(&self, queries: &[f32], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
-        let mean_sq: f64 = self.mean.iter().map(|&v| v as f64 * v as f64).sum();
+        let mean_sq = self.mean_energy();
         let rows = chunk_rows(queries.len() / m);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
             self.proj.f32_products(&(0..l), q, &mut y);
             let mut scratch = Scratch::default();
             for ((x, y), o) in q.chunks_exact(m).zip(y.chunks_exact_mut(l)).zip(o.iter_mut()) {
-                let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
-                let Some(norm) = unit_coords(energy, &self.mean_proj, y) else {
-                    *o = f64::NAN;
-                    continue;
-                };
-                let centred = 1.0 - 2.0 * dot / norm + mean_sq;
-                let inside: f64 = y.iter().map(|&v| v as f64 * v as f64).sum();
-                let d = self.search(y, &mut scratch).1;
-                *o = ((centred - inside).max(0.0) + d * d).sqrt();
+                *o = self.own_distance(x, y, mean_sq, f64::INFINITY, &mut scratch);
             }
         });
+    }
+
+    /// [`Universal::own_distances`] where only a distance under each query's `bound` matters,
+    /// on the calling thread. A query gets, instead of its distance, a lower bound of it that
+    /// reaches its bound, when one does: first how far its centred image lies outside the range of
+    /// the manifold points' norms (one product with the mean, no projection), then its residual
+    /// off the eigenspace (the projection, no search of the manifold).
+    pub fn own_distances_under(&self, queries: &[f32], bounds: &[f64], out: &mut [f64]) {
+        let (l, m) = (self.components(), self.mean.len());
+        let mean_sq = self.mean_energy();
+        let (lo, hi) = self.norms[0];
+        let mut near = Vec::new();
+        for (i, (x, (&b, o))) in queries.chunks_exact(m).zip(bounds.iter().zip(out.iter_mut())).enumerate() {
+            let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
+            let c = (1.0 - 2.0 * dot / energy.sqrt() + mean_sq).max(0.0).sqrt();
+            // Less a relative 1e-4: the distance computed in full carries the rounding of the
+            // f32 projection (about 1e-6 relative), and the bound must not pass it.
+            let outside = (c - hi).max(lo - c).max(0.0) * (1.0 - 1e-4);
+            if energy > 0.0 && outside >= b {
+                *o = outside;
+            } else {
+                near.push(i);
+            }
+        }
+        if near.is_empty() {
+            return;
+        }
+        let q: Vec<f32> = near.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let mut y = vec![0f32; near.len() * l];
+        self.proj.f32_products(&(0..l), &q, &mut y);
+        let mut scratch = Scratch::default();
+        for ((&i, x), y) in near.iter().zip(q.chunks_exact(m)).zip(y.chunks_exact_mut(l)) {
+            out[i] = self.own_distance(x, y, mean_sq, bounds[i], &mut scratch);
+        }
+    }
+
+    /// The squared norm of the mean image.
+    fn mean_energy(&self) -> f64 {
+        self.mean.iter().map(|&v| v as f64 * v as f64).sum()
+    }
+
+    /// One query's distance to the object's manifold ([`Universal::own_distances`]), from its
+    /// image `x` and its raw coordinates `y` (made unit-energy coordinates here); its residual
+    /// alone when that reaches `bound`.
+    fn own_distance(&self, x: &[f32], y: &mut [f32], mean_sq: f64, bound: f64, scratch: &mut Scratch) -> f64 {
+        let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
+        let Some(norm) = unit_coords(energy, &self.mean_proj, y) else {
+            return f64::NAN;
+        };
+        let centred = 1.0 - 2.0 * dot / norm + mean_sq;
+        let inside: f64 = y.iter().map(|&v| v as f64 * v as f64).sum();
+        let residual = (centred - inside).max(0.0);
+        if residual >= bound * bound {
+            return residual.sqrt();
+        }
+        let d = self.search(y, scratch).1;
+        (residual + d * d).sqrt()
     }
 
     /// The nearest object to unit-energy coordinates `y`, its distance and the second nearest
