@@ -36,10 +36,12 @@
 //!
 //! Cost: per object M_b L_k + M_b numbers (eigenimages, mean; M_b = M / b^2) and N_k,dense L_k
 //! (its manifold); per query accepted by the recogniser, L_k M_b multiply-adds and a pruned
-//! search for the object recognised, then for each other object M_b multiply-adds (its distance
-//! to the range of the manifold's norms), and only where that leaves it a chance to be nearer,
-//! L_k M_b more (its residual off the eigenspace) and, where the residual leaves a chance, the
-//! search of its manifold. At 100 objects the eigenimages read for one query are memory bound.
+//! search for the object recognised, then for each other object M_b multiply-adds (how far the
+//! query lies outside the range of its manifold points' norms), and only where that leaves it a
+//! chance to be nearer, 4 M_b more (a bound from the first 4 coordinates and the manifold's
+//! segments), then L_k M_b (the residual off the eigenspace), then the search of its manifold,
+//! each only where the bound before leaves a chance. On COIL-20 the first bound settles 67% of
+//! the other objects, the second 30%, the residual the rest; no manifold was searched.
 
 use super::universal::{to32, Universal};
 use super::RecognizerParams;
@@ -47,6 +49,7 @@ use crate::binning::Binning;
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
+use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::manifold::{Grid, Manifold};
 use crate::methods::eigenspace::pca::{self, Dimension};
 use crate::methods::refined::select::both_folds;
@@ -138,35 +141,32 @@ impl OwnSpaces {
     /// For each query ([`OwnSpaces::binned`]) recognised as `named[i]` at distance `d[i]` in that
     /// object's own eigenspace: the object, of the others with an eigenspace of their own, whose
     /// manifold lies nearest the query when nearer than `d[i]`, with its distance. Every object is
-    /// measured (in parallel over the objects), but a manifold is searched only where the
-    /// query's residual off that object's eigenspace leaves it a chance to be nearer.
+    /// measured, but mostly by bounds ([`Universal::own_distances_under`]); chunks of queries in
+    /// parallel, each against every object (one query is answered on the calling thread: its
+    /// objects are too little work each to hand to other threads).
     pub fn nearer(&self, binned: &[f32], named: &[usize], d: &[f64]) -> Vec<Option<(usize, f64)>> {
         let n = named.len();
-        let per_object: Vec<Option<Vec<f64>>> = self
-            .spaces
-            .par_iter()
-            .enumerate()
-            .map(|(j, s)| {
-                let s = s.as_ref()?;
+        let mut out = vec![None; n];
+        if n == 0 {
+            return out;
+        }
+        let mb = binned.len() / n;
+        let rows = chunk_rows(n);
+        binned.par_chunks(rows * mb).zip(named.par_chunks(rows)).zip(d.par_chunks(rows)).zip(out.par_chunks_mut(rows)).for_each(|(((q, named), d), out)| {
+            let (mut bounds, mut dj) = (vec![0.0; named.len()], vec![0.0; named.len()]);
+            for (j, s) in self.spaces.iter().enumerate() {
+                let Some(s) = s else { continue };
                 // The named object itself is not a rival: a bound of 0 skips its search.
-                let bounds: Vec<f64> = named.iter().zip(d).map(|(&k, &d)| if k == j { 0.0 } else { d }).collect();
-                let mut out = vec![0.0; n];
-                s.own_distances_under(binned, &bounds, &mut out);
-                Some(out)
-            })
-            .collect();
-        (0..n)
-            .map(|i| {
-                let mut best: Option<(usize, f64)> = None;
-                for (j, dj) in per_object.iter().enumerate() {
-                    let Some(dj) = dj else { continue };
-                    if j != named[i] && dj[i] < d[i] && best.is_none_or(|(_, b)| dj[i] < b) {
-                        best = Some((j, dj[i]));
+                bounds.iter_mut().zip(named.iter().zip(d)).for_each(|(b, (&k, &d))| *b = if k == j { 0.0 } else { d });
+                s.own_distances_under(q, &bounds, &mut dj);
+                for (((o, &k), &d), &v) in out.iter_mut().zip(named).zip(d).zip(&dj) {
+                    if k != j && v < d && o.is_none_or(|(_, b): (usize, f64)| v < b) {
+                        *o = Some((j, v));
                     }
                 }
-                best
-            })
-            .collect()
+            }
+        });
+        out
     }
 
     /// The binning factor of the images the own eigenspaces are of.

@@ -111,7 +111,8 @@ fn the_nearer_object_is_the_one_every_object_measured_in_full_gives() {
             let want = (0..k).filter(|&j| j != named && full[j][i] < d[i]).min_by(|&a, &b| full[a][i].total_cmp(&full[b][i])).map(|j| (j, full[j][i]));
             assert_eq!(got.map(|g| g.0), want.map(|w| w.0), "query {i} named {named}");
             if let (Some(g), Some(w)) = (got, want) {
-                assert!((g.1 - w.1).abs() <= 1e-9 * w.1, "query {i}: {} against {}", g.1, w.1);
+                // The same distance up to the f32 projection's rounding (one query alone, or in a batch).
+                assert!((g.1 - w.1).abs() <= 1e-5 * (1.0 + w.1), "query {i}: {} against {}", g.1, w.1);
                 found += 1;
             }
         }

@@ -32,11 +32,16 @@ pub(crate) struct Universal {
     mean: Vec<f32>,
     /// Each eigenimage's product with the mean.
     mean_proj: Vec<f32>,
+    /// The squared norm of the mean.
+    mean_sq: f64,
     /// Each object's manifold points (rows of L).
     points: Vec<Vec<f32>>,
     /// Each object's least and largest manifold point norm: a centred query c lies at least
     /// | ||c|| - ||p|| | from a point p, so at least this far outside the range from them all.
     norms: Vec<(f64, f64)>,
+    /// Per segment, the least and largest norm of its points' coordinates past the first
+    /// [`PREFIX`] ([`Universal::own_distances_under`]'s second bound).
+    tails: Vec<(f64, f64)>,
     /// The manifolds cut into segments of [`SEGMENT`] consecutive points (neighbours along the
     /// last pose axis), each with a bounding sphere, and runs of [`GROUP`] segments of one object
     /// into groups with a sphere of their own: a query's distance to a segment's points is at
@@ -55,6 +60,13 @@ pub(crate) struct Universal {
 /// 8-degree arc, short enough for a tight sphere. Not tuned: the answer is exact whatever its
 /// value; only the speed depends on it.
 const SEGMENT: usize = 16;
+
+/// Coordinates of a query computed first when its distance to one object's manifold only
+/// matters under a bound ([`Universal::own_distances_under`]): with the first q coordinates y' and
+/// the energy R^2 left past them, a point p of a segment of centre c and radius r lies at least
+/// sqrt((||y' - c'|| - r)^2 + (R - ||p''||)^2) away, p'' its coordinates past q. Not tuned: the
+/// answer is exact whatever its value; only the speed depends on it.
+const PREFIX: usize = 4;
 
 /// Segments per group of the pruned search's first level (256 points): a query's bounds are
 /// computed for every group, then for the segments of the groups within reach. Not tuned, as
@@ -155,7 +167,20 @@ impl Universal {
                     .fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r), b.max(r)))
             })
             .collect();
-        Ok(Universal { proj, mean, mean_proj, points, norms, segments, centres, radii, groups, group_centres, group_radii })
+        let q = PREFIX.min(l);
+        let tails = segments
+            .iter()
+            .map(|&(k, start)| {
+                let p = &points[k as usize];
+                let (a, b) = (start as usize, (start as usize + SEGMENT).min(p.len() / l));
+                p[a * l..b * l]
+                    .chunks_exact(l)
+                    .map(|p| p[q..].iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt())
+                    .fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r), hi.max(r)))
+            })
+            .collect();
+        let mean_sq = mean.iter().map(|&v| v as f64 * v as f64).sum();
+        Ok(Universal { proj, mean, mean_proj, mean_sq, points, norms, tails, segments, centres, radii, groups, group_centres, group_radii })
     }
 
     /// Dimensions L.
@@ -215,7 +240,7 @@ impl Universal {
     /// be scaled to unit energy.
     pub fn own_distances(&self, queries: &[f32], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
-        let mean_sq = self.mean_energy();
+        let mean_sq = self.mean_sq;
         let rows = chunk_rows(queries.len() / m);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
@@ -230,40 +255,57 @@ impl Universal {
     /// [`Universal::own_distances`] where only a distance under each query's `bound` matters,
     /// on the calling thread. A query gets, instead of its distance, a lower bound of it that
     /// reaches its bound, when one does: first how far its centred image lies outside the range of
-    /// the manifold points' norms (one product with the mean, no projection), then its residual
-    /// off the eigenspace (the projection, no search of the manifold).
+    /// the manifold points' norms (one product with the mean), then the bound from its first
+    /// [`PREFIX`] coordinates and each segment's sphere and tail norms, then its residual off the
+    /// eigenspace (the whole projection, no search of the manifold).
     pub fn own_distances_under(&self, queries: &[f32], bounds: &[f64], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
-        let mean_sq = self.mean_energy();
+        let q = PREFIX.min(l);
+        let mean_sq = self.mean_sq;
         let (lo, hi) = self.norms[0];
-        let mut near = Vec::new();
-        for (i, (x, (&b, o))) in queries.chunks_exact(m).zip(bounds.iter().zip(out.iter_mut())).enumerate() {
+        // A bound is lowered by 1e-6 in the squared distance: a distance computed in full carries
+        // the rounding of the f32 projection (about 1e-7 of the unit energy in its square), and
+        // a bound must not pass it.
+        let shy = |v: f64| (v * v - 1e-6).max(0.0).sqrt();
+        let (mut head, mut y, mut scratch) = (vec![0f32; q], vec![0f32; l], Scratch::default());
+        for ((x, &b), o) in queries.chunks_exact(m).zip(bounds).zip(out.iter_mut()) {
             let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
-            let c = (1.0 - 2.0 * dot / energy.sqrt() + mean_sq).max(0.0).sqrt();
-            // Less a relative 1e-4: the distance computed in full carries the rounding of the
-            // f32 projection (about 1e-6 relative), and the bound must not pass it.
-            let outside = (c - hi).max(lo - c).max(0.0) * (1.0 - 1e-4);
-            if energy > 0.0 && outside >= b {
-                *o = outside;
-            } else {
-                near.push(i);
+            if !(energy > 0.0 && energy.is_finite()) {
+                *o = f64::NAN;
+                continue;
             }
+            let c2 = (1.0 - 2.0 * dot / energy.sqrt() + mean_sq).max(0.0);
+            let c = c2.sqrt();
+            let outside = shy((c - hi).max(lo - c).max(0.0));
+            if outside >= b {
+                *o = outside;
+                continue;
+            }
+            // Product by product: a matrix product's set-up costs more than these q dots.
+            for (h, r) in head.iter_mut().zip(self.proj.range(&(0..q)).chunks_exact(m)) {
+                *h = crate::linalg::dot_f32(x, r);
+            }
+            unit_coords(energy, &self.mean_proj[..q], &mut head);
+            let rest = (c2 - head.iter().map(|&v| v as f64 * v as f64).sum::<f64>()).max(0.0).sqrt();
+            let mut least = f64::INFINITY;
+            for ((&r, &(tlo, thi)), c) in self.radii.iter().zip(&self.tails).zip(self.centres.chunks_exact(l)) {
+                // The tail's term first: it alone may already pass the least found.
+                let t = (rest - thi).max(tlo - rest).max(0.0);
+                if t * t >= least {
+                    continue;
+                }
+                let h: f32 = head.iter().zip(&c[..q]).map(|(a, b)| (a - b) * (a - b)).sum();
+                let a = ((h as f64).sqrt() - r).max(0.0);
+                least = least.min(a * a + t * t);
+            }
+            let near = shy(least.sqrt());
+            if near >= b {
+                *o = near;
+                continue;
+            }
+            self.proj.f32_products(&(0..l), x, &mut y);
+            *o = self.own_distance(x, &mut y, mean_sq, b, &mut scratch);
         }
-        if near.is_empty() {
-            return;
-        }
-        let q: Vec<f32> = near.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
-        let mut y = vec![0f32; near.len() * l];
-        self.proj.f32_products(&(0..l), &q, &mut y);
-        let mut scratch = Scratch::default();
-        for ((&i, x), y) in near.iter().zip(q.chunks_exact(m)).zip(y.chunks_exact_mut(l)) {
-            out[i] = self.own_distance(x, y, mean_sq, bounds[i], &mut scratch);
-        }
-    }
-
-    /// The squared norm of the mean image.
-    fn mean_energy(&self) -> f64 {
-        self.mean.iter().map(|&v| v as f64 * v as f64).sum()
     }
 
     /// One query's distance to the object's manifold ([`Universal::own_distances`]), from its
