@@ -117,7 +117,8 @@ pub enum Unknown {
     /// Beyond the largest distance any held-out training view of the nearest object shows (each
     /// training view against its object's model fitted without it), calibrated per object, in
     /// the recogniser's space and then in the object's own eigenspace (`own.rs`): unknown when
-    /// either is exceeded.
+    /// either is exceeded, or when another object's own manifold lies nearer the query than the
+    /// recognised object's.
     Calibrated,
     /// Beyond this distance in the recogniser's measure, for every object; the second stage is
     /// off (its distances are each object's own, on another scale).
