@@ -86,8 +86,9 @@ fn the_nearer_object_is_the_one_every_object_measured_in_full_gives() {
     use std::path::Path;
     // The five built-in objects at 32 x 24, trained every 20 degrees; the views between them are
     // the queries, each set against every object as if recognised as it, at its own distance
-    // there: the pruned search (bounds from the norms and the residuals) must name the same
-    // nearer object, at the same distance, as every object's distance measured in full.
+    // there: the pruned search (bounds from the norms, the first coordinates and the residuals)
+    // must name the same nearer object, at the same distance, as every object's distance
+    // measured in full.
     let grid = |a: &str| PoseGrid::new(Grid::parse("elevation", "30").unwrap(), Grid::parse("azimuth", a).unwrap()).unwrap();
     let params = RenderParams::default().width(32).height(24);
     let names: Vec<String> = objects::OBJECTS.iter().map(|o| o.0.to_string()).collect();
