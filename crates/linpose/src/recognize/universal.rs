@@ -252,8 +252,8 @@ impl Universal {
         });
     }
 
-    /// [`Universal::own_distances`] where only a distance under each query's `bound` matters,
-    /// on the calling thread. A query gets, instead of its distance, a lower bound of it that
+    /// [`Universal::own_distances`] (a model of one object) where only a distance under each
+    /// query's `bound` matters, on the calling thread. A query gets, instead of its distance, a lower bound of it that
     /// reaches its bound, when one does: first how far its centred image lies outside the range of
     /// the manifold points' norms (one product with the mean), then the bound from its first
     /// [`PREFIX`] coordinates and each segment's sphere and tail norms, then its residual off the
