@@ -37,6 +37,27 @@ def run(cmd):
     return time.perf_counter() - t
 
 
+def left_out_rates(linpose, train, model, data, objects, folds, ev):
+    """Objects left out in FOLDS folds (object i in fold i mod FOLDS), each fold in turn: TRAIN
+    (a train command writing MODEL) without it, then eval on DATA. Pooled over the folds: the
+    share of the left-out objects' views reported unknown and of the known objects' unseen
+    views, with the worst fold's."""
+    t_rej = t_n = f_rej = f_n = 0
+    worst_true, worst_false = 1.0, 0.0
+    for f in range(folds):
+        left = [o for i, o in enumerate(objects) if i % folds == f]
+        run(train + ["--leave-out", ",".join(left)])
+        run([linpose, "eval", "--model", model, "--data", data, "--json", ev])
+        e = json.load(open(ev))["unknown"]
+        t_rej += round(e["true_rejections"] * e["unknown_views"])
+        t_n += e["unknown_views"]
+        f_rej += round(e["false_rejections"] * e["known_unseen_views"])
+        f_n += e["known_unseen_views"]
+        worst_true = min(worst_true, e["true_rejections"])
+        worst_false = max(worst_false, e["false_rejections"])
+    return {"left_out_rejected": t_rej / t_n, "known_unseen_rejected": f_rej / f_n, "worst_fold_rejected": worst_true, "worst_fold_false": worst_false}
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("data")
@@ -72,20 +93,7 @@ def main():
                 "eval_s": t_eval,
                 "model_bytes": r["model_bytes"],
             }
-            t_rej = t_n = f_rej = f_n = 0
-            worst_true, worst_false = 1.0, 0.0
-            for f in range(a.folds):
-                left = [o for i, o in enumerate(objects) if i % a.folds == f]
-                run(base + ["--leave-out", ",".join(left)])
-                run([a.linpose, "eval", "--model", model, "--data", a.data, "--json", ev])
-                e = json.load(open(ev))["unknown"]
-                t_rej += round(e["true_rejections"] * e["unknown_views"])
-                t_n += e["unknown_views"]
-                f_rej += round(e["false_rejections"] * e["known_unseen_views"])
-                f_n += e["known_unseen_views"]
-                worst_true = min(worst_true, e["true_rejections"])
-                worst_false = max(worst_false, e["false_rejections"])
-            row.update({"left_out_rejected": t_rej / t_n, "known_unseen_rejected": f_rej / f_n, "worst_fold_rejected": worst_true, "worst_fold_false": worst_false})
+            row.update(left_out_rates(a.linpose, base, model, a.data, objects, a.folds, ev))
             out["rows"].append(row)
             print(json.dumps(row), flush=True)
     if a.json:

@@ -159,24 +159,14 @@ impl Universal {
             group_radii.push(r);
             s0 = s1;
         }
-        let norms = points
-            .iter()
-            .map(|p| {
-                p.chunks_exact(l)
-                    .map(|p| p.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt())
-                    .fold((f64::INFINITY, 0.0f64), |(a, b), r| (a.min(r), b.max(r)))
-            })
-            .collect();
+        let norms = points.iter().map(|p| norm_range(p, l, 0)).collect();
         let q = PREFIX.min(l);
         let tails = segments
             .iter()
             .map(|&(k, start)| {
                 let p = &points[k as usize];
                 let (a, b) = (start as usize, (start as usize + SEGMENT).min(p.len() / l));
-                p[a * l..b * l]
-                    .chunks_exact(l)
-                    .map(|p| p[q..].iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt())
-                    .fold((f64::INFINITY, 0.0f64), |(lo, hi), r| (lo.min(r), hi.max(r)))
+                norm_range(&p[a * l..b * l], l, q)
             })
             .collect();
         let mean_sq = mean.iter().map(|&v| v as f64 * v as f64).sum();
@@ -240,28 +230,27 @@ impl Universal {
     /// be scaled to unit energy.
     pub fn own_distances(&self, queries: &[f32], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
-        let mean_sq = self.mean_sq;
         let rows = chunk_rows(queries.len() / m);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
             self.proj.f32_products(&(0..l), q, &mut y);
             let mut scratch = Scratch::default();
             for ((x, y), o) in q.chunks_exact(m).zip(y.chunks_exact_mut(l)).zip(o.iter_mut()) {
-                *o = self.own_distance(x, y, mean_sq, f64::INFINITY, &mut scratch);
+                let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
+                *o = self.own_distance(energy, dot, y, f64::INFINITY, &mut scratch);
             }
         });
     }
 
     /// [`Universal::own_distances`] (a model of one object) where only a distance under each
-    /// query's `bound` matters, on the calling thread. A query gets, instead of its distance, a lower bound of it that
-    /// reaches its bound, when one does: first how far its centred image lies outside the range of
-    /// the manifold points' norms (one product with the mean), then the bound from its first
-    /// [`PREFIX`] coordinates and each segment's sphere and tail norms, then its residual off the
-    /// eigenspace (the whole projection, no search of the manifold).
+    /// query's `bound` matters, on the calling thread. A query gets, instead of its distance, a
+    /// lower bound of it that reaches its bound, when one does: first how far its centred image
+    /// lies outside the range of the manifold points' norms (one product with the mean), then the
+    /// bound from its first [`PREFIX`] coordinates and each segment's sphere and tail norms, then
+    /// its residual off the eigenspace (the whole projection, no search of the manifold).
     pub fn own_distances_under(&self, queries: &[f32], bounds: &[f64], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
         let q = PREFIX.min(l);
-        let mean_sq = self.mean_sq;
         let (lo, hi) = self.norms[0];
         // A bound is lowered by 1e-6 in the squared distance: a distance computed in full carries
         // the rounding of the f32 projection (about 1e-7 of the unit energy in its square), and
@@ -274,7 +263,7 @@ impl Universal {
                 *o = f64::NAN;
                 continue;
             }
-            let c2 = (1.0 - 2.0 * dot / energy.sqrt() + mean_sq).max(0.0);
+            let c2 = (1.0 - 2.0 * dot / energy.sqrt() + self.mean_sq).max(0.0);
             let c = c2.sqrt();
             let outside = shy((c - hi).max(lo - c).max(0.0));
             if outside >= b {
@@ -294,8 +283,7 @@ impl Universal {
                 if t * t >= least {
                     continue;
                 }
-                let h: f32 = head.iter().zip(&c[..q]).map(|(a, b)| (a - b) * (a - b)).sum();
-                let a = ((h as f64).sqrt() - r).max(0.0);
+                let a = (distance(&head, &c[..q]) - r).max(0.0);
                 least = least.min(a * a + t * t);
             }
             let near = shy(least.sqrt());
@@ -304,19 +292,18 @@ impl Universal {
                 continue;
             }
             self.proj.f32_products(&(0..l), x, &mut y);
-            *o = self.own_distance(x, &mut y, mean_sq, b, &mut scratch);
+            *o = self.own_distance(energy, dot, &mut y, b, &mut scratch);
         }
     }
 
     /// One query's distance to the object's manifold ([`Universal::own_distances`]), from its
-    /// image `x` and its raw coordinates `y` (made unit-energy coordinates here); its residual
-    /// alone when that reaches `bound`.
-    fn own_distance(&self, x: &[f32], y: &mut [f32], mean_sq: f64, bound: f64, scratch: &mut Scratch) -> f64 {
-        let (energy, dot) = crate::linalg::energy_and_dot(x, &self.mean);
+    /// image's energy and product with the mean and its raw coordinates `y` (made unit-energy
+    /// coordinates here); its residual alone when that reaches `bound`.
+    fn own_distance(&self, energy: f64, dot: f64, y: &mut [f32], bound: f64, scratch: &mut Scratch) -> f64 {
         let Some(norm) = unit_coords(energy, &self.mean_proj, y) else {
             return f64::NAN;
         };
-        let centred = 1.0 - 2.0 * dot / norm + mean_sq;
+        let centred = 1.0 - 2.0 * dot / norm + self.mean_sq;
         let inside: f64 = y.iter().map(|&v| v as f64 * v as f64).sum();
         let residual = (centred - inside).max(0.0);
         if residual >= bound * bound {
@@ -463,6 +450,12 @@ impl Universal {
         }
         Universal::new(basis, mean, points).map_err(|e| t.error(e.to_string()))
     }
+}
+
+/// The least and largest norm of the rows of `l` coordinates in `rows`, each from coordinate
+/// `from` on.
+fn norm_range(rows: &[f32], l: usize, from: usize) -> (f64, f64) {
+    rows.chunks_exact(l).map(|p| crate::linalg::energy(&p[from..]).sqrt()).fold((f64::INFINITY, 0.0), |(lo, hi), r| (lo.min(r), hi.max(r)))
 }
 
 /// `v` rounded to f32.
