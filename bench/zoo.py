@@ -6,7 +6,8 @@ every 5 degrees (72 views, the protocol of COIL-20); every method is trained on 
 and evaluated on all views. Per method it reports over the seeds the unseen mean error (mean,
 median, worst), how many objects the refined method does worse than the eigenspace on (and by
 more than 1 degree), and the confidence's flag statistics pooled over the unseen views: the share
-of views flagged, the share of gross errors (over 20 degrees) flagged.
+of views flagged, the share of gross errors (over 20 degrees) flagged, and the share of views the
+best threshold must flag to catch 90% of the gross errors (how well the confidence ranks them).
 
 Seeds are split: development seeds (where thresholds and choices may be looked at) and held-out
 seeds (reported, never tuned on). BENCHMARKS.md says which were which.
