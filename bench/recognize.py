@@ -15,7 +15,7 @@
    to the peer's run.
 
     python3 bench/recognize.py DATA [--linpose target/release/linpose] [--method refined]
-        [--peer ../.peer-venv/bin/python] [--repeats 3] [--json OUT]
+        [--normalize] [--peer ../.peer-venv/bin/python] [--repeats 3] [--json OUT]
 """
 
 import argparse
@@ -69,9 +69,10 @@ def main():
     ap.add_argument("--peer", help="python with numpy, scipy, scikit-learn, pillow")
     ap.add_argument("--peer-script", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "peer", "recognize.py"))
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--normalize", action="store_true", help="train behind the normalisation stage (train --normalize)")
     ap.add_argument("--json")
     a = ap.parse_args()
-    out = {"data": a.data, "method": a.method, "rows": []}
+    out = {"data": a.data, "method": a.method, "normalize": a.normalize, "rows": []}
     with tempfile.TemporaryDirectory() as tmp:
         if a.peer:
             out["side_by_side"] = side_by_side(a, tmp)
@@ -79,6 +80,8 @@ def main():
         model, ev = os.path.join(tmp, "m.st"), os.path.join(tmp, "e.json")
         for rec in a.recognizers.split(","):
             base = [a.linpose, "train", "--data", a.data, "--train-step", a.train_step, "--method", a.method, "--recognizer", rec, "--out", model]
+            if a.normalize:
+                base.append("--normalize")
             t_train = run(base)
             t_eval = run([a.linpose, "eval", "--model", model, "--data", a.data, "--json", ev])
             r = json.load(open(ev))
@@ -92,6 +95,7 @@ def main():
                 "train_s": t_train,
                 "eval_s": t_eval,
                 "model_bytes": r["model_bytes"],
+                "refused": len(r.get("rejected", [])),
             }
             row.update(left_out_rates(a.linpose, base, model, a.data, objects, a.folds, ev))
             out["rows"].append(row)

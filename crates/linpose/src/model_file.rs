@@ -61,6 +61,7 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
         names: model.names().to_vec(),
         settings: model.settings().clone(),
         models: model.pose_models().iter().map(|p| p.meta().clone()).collect(),
+        normalize: model.stage().cloned(),
     };
     let mut tensors = model.recognizer_tensors();
     for (k, p) in model.pose_models().iter().enumerate() {
@@ -82,6 +83,9 @@ struct ObjectsHeader {
     names: Vec<String>,
     settings: ObjectSettings,
     models: Vec<ModelMeta>,
+    /// The normalisation stage every query goes through first (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    normalize: Option<crate::normalize::Normalizer>,
 }
 
 /// The file's bytes: the `meta` entries with the format and its version, then the tensors.
@@ -266,7 +270,7 @@ pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
         poses.push(pose_model(meta, &set)?);
     }
     own.extend(rest);
-    ObjectModel::from_parts(header.names, header.settings, &TensorSet { path: path.to_path_buf(), tensors: own }, poses)
+    ObjectModel::from_parts(header.names, header.settings, &TensorSet { path: path.to_path_buf(), tensors: own }, poses, header.normalize)
 }
 
 /// Whether the model file at `path` holds several objects ([`load_objects`]) rather than one

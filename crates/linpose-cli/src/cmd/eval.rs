@@ -39,7 +39,7 @@ pub struct EvalArgs {
 }
 
 /// Refused images listed by name on the terminal; the JSON has them all.
-const REFUSED_SHOWN: usize = 5;
+pub(crate) const REFUSED_SHOWN: usize = 5;
 
 /// Runs `linpose eval`.
 pub fn run(a: &EvalArgs) -> anyhow::Result<()> {

@@ -71,10 +71,10 @@ pub fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, nor
 }
 
 /// Plans training on a catalog of many objects (in memory) and says so on stderr.
-pub fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams) -> anyhow::Result<Plan> {
+pub fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams, normalize: bool) -> anyhow::Result<Plan> {
     let first = catalog.manifests().first().ok_or_else(|| anyhow::anyhow!("{}: no object to train on", a.data.data.display()))?;
     let spec = first_image_spec(first, a.color.into())?;
-    let job = Job::for_objects(catalog.manifests(), spec, method, &a.settings.settings, params).map_err(as_flag)?;
+    let job = Job::for_objects(catalog.manifests(), spec, method, &a.settings.settings, params).map_err(as_flag)?.normalized(normalize);
     let plan = linpose::memory::plan(&job, &limit(a), None).map_err(|e| explain(e, spec, a))?;
     eprintln!("{}", plan.describe());
     Ok(plan)

@@ -7,6 +7,7 @@ use crate::cmd::predict::{eight_bit_as_features, read_one, PredictArgs};
 use crate::cmd::train::TrainArgs;
 use crate::common::{progress, write_json};
 use anyhow::Context;
+use linpose::normalize::NormalizeParams;
 use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
 use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source};
 use serde::Serialize;
@@ -75,22 +76,35 @@ struct TrainSummary<'a> {
     recognizer_bytes: usize,
     file_bytes: u64,
     settings: &'a linpose::recognize::ObjectSettings,
+    /// The normalisation stage, in words (absent: none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    normalize: Option<String>,
     memory: crate::cmd::memory_plan::MemorySummary,
 }
 
 /// `train` on a many-object data set.
-pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose::Method, spec: &linpose::MethodSpec) -> anyhow::Result<()> {
+pub fn train(
+    a: &TrainArgs,
+    params: &RecognizerParams,
+    method: &'static linpose::Method,
+    spec: &linpose::MethodSpec,
+    normalize: Option<NormalizeParams>,
+) -> anyhow::Result<()> {
     let out = a.out.as_deref().context("--out MODEL is required")?;
     let t0 = Instant::now();
     let c = catalog(&a.data.data, &a.leave_out)?;
     let c = c.subset(&c.training_masks(&a.selection()?)?)?;
     // In memory only: checked before any image is decoded.
-    let plan = crate::cmd::memory_plan::plan_objects(a, &c, method, params)?;
+    let plan = crate::cmd::memory_plan::plan_objects(a, &c, method, params, normalize.is_some())?;
     let train = load(&c, a.color.into())?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let bar = progress(train.len() as u64 + 1, "fitting");
-    let model = ObjectModel::fit_with(&train, params, spec, &|k| bar.inc(k)).map_err(as_flag)?;
+    let model = match normalize {
+        None => ObjectModel::fit_with(&train, params, spec, &|k| bar.inc(k)),
+        Some(n) => ObjectModel::fit_normalized(&train, params, spec, n, &|k| bar.inc(k)),
+    }
+    .map_err(as_flag)?;
     bar.finish_and_clear();
     let fit_s = t1.elapsed().as_secs_f64();
     let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
@@ -107,6 +121,7 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose:
         recognizer_bytes: model.recognizer_bytes(),
         file_bytes,
         settings: model.settings(),
+        normalize: model.stage().map(|s| s.describe()),
         memory: crate::cmd::memory_plan::MemorySummary::of(&plan),
     };
     eprintln!(
@@ -121,6 +136,9 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose:
         summary.recognizer_bytes,
         out.display()
     );
+    if let Some(n) = &summary.normalize {
+        eprintln!("{n}");
+    }
     if let Some(j) = &a.json {
         write_json(j, &summary)?;
     }
@@ -176,12 +194,23 @@ struct Rejection {
     false_rejections: Option<f64>,
 }
 
+/// An image the model's normalisation stage refused: counted apart, in no figure.
+#[derive(Serialize)]
+struct Refused {
+    object: String,
+    image: String,
+    reason: String,
+}
+
 #[derive(Serialize)]
 struct Report {
     recognizer: &'static str,
     method: String,
     objects: Vec<String>,
     n_eval: usize,
+    /// Images the model's normalisation refused (not among the samples).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    rejected: Vec<Refused>,
     recognition: Rates,
     unknown: Rejection,
     /// Rows: the data set's objects; columns: the model's objects then "unknown".
@@ -237,14 +266,23 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     }
     let names = model.names();
     let mut samples = Vec::with_capacity(data.total_len());
+    let mut rejected = Vec::new();
     let mut predict_s = 0.0;
     let space = model.space();
     for (name, d) in data.names().iter().zip(data.objects()) {
         let truth = names.iter().position(|n| n == name);
         let t = Instant::now();
-        let est = model.estimate(d.features(), 1)?;
+        // Behind a normalisation stage, the images it refuses are set apart, in no figure.
+        let est = model.estimate_each(d.features(), 1)?;
         predict_s += t.elapsed().as_secs_f64();
         for (i, e) in est.into_iter().enumerate() {
+            let e = match e {
+                Ok(e) => e,
+                Err(r) => {
+                    rejected.push(Refused { object: name.clone(), image: d.manifest().images()[i].clone(), reason: r.to_string() });
+                    continue;
+                }
+            };
             let r = &e.recognition;
             let seen = truth.is_some_and(|k| model.pose_model(k).meta().is_seen(d.pose(i)));
             let pose = e.pose.map(|p| p.pose);
@@ -293,6 +331,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
         method: model.method_name().to_string(),
         objects: names.to_vec(),
         n_eval: samples.len(),
+        rejected,
         recognition,
         unknown: rejection,
         confusion,
@@ -312,6 +351,15 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
 fn print_report(r: &Report) {
     let pct = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{:.2}%", 100.0 * v));
     println!("{} recogniser, {} pose models of {} objects; {} images evaluated", r.recognizer, r.method, r.objects.len(), r.n_eval);
+    if !r.rejected.is_empty() {
+        println!("{} images refused by the model's normalisation (not in the figures below):", r.rejected.len());
+        for x in r.rejected.iter().take(crate::cmd::eval::REFUSED_SHOWN) {
+            println!("  {} ({}): {}", x.image, x.object, x.reason);
+        }
+        if r.rejected.len() > crate::cmd::eval::REFUSED_SHOWN {
+            println!("  ... and {} more (all in the JSON's \"rejected\")", r.rejected.len() - crate::cmd::eval::REFUSED_SHOWN);
+        }
+    }
     println!(
         "recognised: {} of the known objects' {} views, {} of their {} unseen views",
         pct(Some(r.recognition.all)),
@@ -374,6 +422,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     let bar = progress(files.len() as u64, "estimating");
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut refused = 0usize;
     for chunk in files.chunks(crate::cmd::predict::BATCH) {
         // Decoded in parallel as `predict` decodes one object's queries, then all as features.
         let (mut feats, mut pix) = (vec![0f32; chunk.len() * m], vec![0u8; chunk.len() * m]);
@@ -387,8 +436,18 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
                 .collect::<linpose::Result<Vec<bool>>>()?;
         }
         eight_bit_as_features(&mut feats, &pix, m);
-        let est = model.estimate(&feats, 1)?;
+        // Behind a normalisation stage, the images it refuses are reported on stderr (the exit
+        // status says so at the end).
+        let est = model.estimate_each(&feats, 1)?;
         for (path, e) in chunk.iter().zip(&est) {
+            let e = match e {
+                Ok(e) => e,
+                Err(r) => {
+                    bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {r}", path.display()));
+                    refused += 1;
+                    continue;
+                }
+            };
             let name = path.display().to_string();
             let r = &e.recognition;
             let object = r.object.map(|k| model.names()[k].as_str());
@@ -433,6 +492,9 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     }
     bar.finish_and_clear();
     out.flush()?;
+    if refused > 0 {
+        anyhow::bail!("{refused} of {} images could not be normalised (each named above) and have no estimate", files.len());
+    }
     Ok(())
 }
 

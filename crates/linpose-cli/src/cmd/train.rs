@@ -162,11 +162,11 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     }
     let many_only = a.recognizer.is_some() || a.recognizer_components.is_some() || a.unknown.is_some() || !a.leave_out.is_empty();
     if let linpose::Source::Many(_) = linpose::Source::open(&a.data.data, a.data.object)? {
-        if a.stream || normalize.is_some() {
-            anyhow::bail!("{}: a data set of many objects is fitted in memory and without --normalize (not yet: --stream, --normalize)", a.data.data.display());
+        if a.stream {
+            anyhow::bail!("{}: a data set of many objects is fitted in memory (not yet: --stream)", a.data.data.display());
         }
         let params = crate::cmd::objects::recognizer_params(a)?;
-        return crate::cmd::objects::train(a, &params, method, &spec);
+        return crate::cmd::objects::train(a, &params, method, &spec, normalize);
     }
     if many_only {
         anyhow::bail!(

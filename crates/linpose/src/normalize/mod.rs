@@ -7,7 +7,9 @@
 //!
 //! A [`Normalizer`] is fitted on the training images and stored in the model file
 //! ([`crate::model::ModelMeta::normalize`]); training and query images go through the same
-//! stage ([`Normalized`], a model wrapper any method's model fits in). For each image:
+//! stage ([`Normalized`], a model wrapper any method's model fits in; for many objects, one stage
+//! fitted on all their training views, [`crate::recognize::ObjectModel::fit_normalized`]). For
+//! each image:
 //!
 //! 1. **Background.** Its level is 0 when the training views' backgrounds are dark, otherwise the
 //!    median of the image's border, per image (so a change of lighting moves it). Everything
@@ -152,10 +154,23 @@ impl Normalizer {
     /// touch the edge, and the target radius and brightness. A training image the stage cannot
     /// normalise is an error naming it.
     pub fn fit(train: &Dataset, params: NormalizeParams) -> Result<Normalizer> {
+        Self::fit_sets(std::slice::from_ref(train), params)
+    }
+
+    /// As [`Normalizer::fit`], on the images of several data sets of one image size together
+    /// (the training views of several objects: one stage for all of them).
+    pub fn fit_sets(sets: &[Dataset], params: NormalizeParams) -> Result<Normalizer> {
+        let Some(first) = sets.first() else { return Err(Error::invalid("normalisation", "no images", "needs training images to fit on")) };
+        if let Some(d) = sets.iter().find(|d| d.spec() != first.spec()) {
+            return Err(Error::invalid("normalisation", d.manifest().root().display(), "images of another size or colour than the first set's"));
+        }
+        // Every image as (set, index within it), in order.
+        let rows: Vec<(&Dataset, usize)> = sets.iter().flat_map(|d| (0..d.len()).map(move |i| (d, i))).collect();
+        let train = Rows(&rows);
         if !params.geometry && !params.brightness {
             return Err(Error::invalid("normalisation", "none", "ask for position and scale, brightness, or both"));
         }
-        let spec = train.spec();
+        let spec = first.spec();
         let (w, h, c) = (spec.width as usize, spec.height as usize, spec.color.channels());
         if w < 3 || h < 3 {
             return Err(Error::invalid("normalisation", format!("{w}x{h} images"), "needs images of at least 3x3 pixels"));
@@ -169,7 +184,7 @@ impl Normalizer {
             Background::Border => borders.iter().map(|b| b.q90).collect(),
         };
         let threshold = HALF_LEVEL.max(NOISE_FACTOR * median(&mut q90));
-        let name = |i: usize| train.manifest().image_path(i);
+        let name = |i: usize| rows[i].0.manifest().image_path(rows[i].1);
         let found: Vec<Placement> = (0..train.len())
             .into_par_iter()
             .map(|i| {
@@ -309,6 +324,20 @@ impl Normalizer {
             return Err(Error::Normalize { image: data.manifest().image_path(i).display().to_string(), reason: r });
         }
         Dataset::from_features(data.manifest().clone(), data.spec(), out)
+    }
+}
+
+/// Images of several data sets in one sequence (for [`Normalizer::fit_sets`]).
+struct Rows<'a>(&'a [(&'a Dataset, usize)]);
+
+impl Rows<'_> {
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    fn row(&self, i: usize) -> &[f32] {
+        let (d, j) = self.0[i];
+        d.row(j)
     }
 }
 

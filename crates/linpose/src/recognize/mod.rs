@@ -25,7 +25,10 @@
 //!   method ([`crate::MethodSpec`]).
 //!
 //! [`ObjectModel`] holds the recogniser, the thresholds, the objects' names and their pose
-//! models; [`crate::model_file`] saves it as one file.
+//! models; [`crate::model_file`] saves it as one file. [`ObjectModel::fit_normalized`] puts all
+//! of it behind one normalisation stage ([`crate::normalize`]) fitted on every object's training
+//! views, as Murase & Nayar segment and normalise before recognising, for queries not
+//! registered like the training views.
 //!
 //! ```
 //! use linpose::image_io::{ColorMode, ImageSpec};

@@ -1,6 +1,7 @@
 //! [`ObjectModel`]: a recogniser, each object's unknown-object thresholds (in the recogniser's
 //! space, then in the object's own eigenspace: `own.rs`), and each object's pose model, with the
-//! objects' names.
+//! objects' names; optionally behind one normalisation stage ([`crate::normalize`]) fitted on
+//! every object's training views, as Murase & Nayar segment and normalise before recognising.
 
 use super::linear::LinearRecognizer;
 use super::own::OwnSpaces;
@@ -11,11 +12,12 @@ use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::model::{check_queries, AnyModel, MethodSpec, PoseModel, Storage, Tensor, TensorSet};
-use crate::normalize::median64;
+use crate::normalize::{median64, NormalizeParams, Normalizer, Rejection};
 use crate::pose::PoseSpace;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
 /// A fitted recogniser.
 #[derive(Debug, Clone)]
@@ -95,6 +97,9 @@ pub struct ObjectModel {
     own: Option<OwnSpaces>,
     settings: ObjectSettings,
     poses: Vec<AnyModel>,
+    /// The normalisation every query goes through first (the recogniser and the pose models were
+    /// fitted on normalised images); `None`: queries are used as they are.
+    stage: Option<Normalizer>,
 }
 
 impl ObjectModel {
@@ -140,7 +145,48 @@ impl ObjectModel {
             own: Some(own),
             settings,
             poses: poses?,
+            stage: None,
         })
+    }
+
+    /// As [`ObjectModel::fit_with`], behind a normalisation stage ([`crate::normalize`]): the
+    /// stage is fitted on every object's training views together (one background, threshold
+    /// and target size for all, so that the objects' normalised views compare as the
+    /// recogniser needs), each object's views are normalised by it, and the recogniser and the
+    /// pose models are fitted on the result. Queries then go through the same stage. A training
+    /// view the stage cannot normalise is an error naming it.
+    pub fn fit_normalized(
+        objects: &ObjectSet,
+        params: &RecognizerParams,
+        method: &MethodSpec,
+        normalize: NormalizeParams,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<Self> {
+        params.validate()?;
+        let stage = Normalizer::fit_sets(objects.objects(), normalize)?;
+        let normalised = objects.objects().iter().map(|d| stage.apply_dataset(d)).collect::<Result<Vec<Dataset>>>()?;
+        let normalised = ObjectSet::new(objects.names().to_vec(), normalised)?;
+        let mut model = Self::fit_with(&normalised, params, method, progress)?;
+        model.stage = Some(stage);
+        Ok(model)
+    }
+
+    /// The normalisation stage queries go through first, if the model has one.
+    pub fn stage(&self) -> Option<&Normalizer> {
+        self.stage.as_ref()
+    }
+
+    /// The queries as the recogniser and the pose models take them: normalised by the stage
+    /// when there is one; a query the stage refuses is an error naming its place in the batch
+    /// (check queries one by one with [`Normalizer::check`] to set such images apart first).
+    fn prepared<'a>(&self, queries: &'a [f32]) -> Result<Cow<'a, [f32]>> {
+        check_queries(self.spec.features(), queries.len(), "query batch")?;
+        let Some(stage) = &self.stage else { return Ok(Cow::Borrowed(queries)) };
+        let (rows, verdicts) = stage.apply_batch(queries);
+        match verdicts.into_iter().enumerate().find_map(|(i, v)| v.map(|r| (i, r))) {
+            Some((i, reason)) => Err(Error::Normalize { image: format!("query #{i} of the batch"), reason }),
+            None => Ok(Cow::Owned(rows)),
+        }
     }
 
     /// Fits the recogniser on every object's training views and puts the objects' pose models,
@@ -155,7 +201,16 @@ impl ObjectModel {
             return Err(Error::invalid("pose model", &objects.names()[k], format!("fitted on other images or parameters ({})", p.meta().method)));
         }
         let (recognizer, own, settings) = Self::fit_recognizer(objects, params)?;
-        Ok(ObjectModel { names: objects.names().to_vec(), spec: objects.spec(), space: objects.space().clone(), recognizer, own: Some(own), settings, poses })
+        Ok(ObjectModel {
+            names: objects.names().to_vec(),
+            spec: objects.spec(),
+            space: objects.space().clone(),
+            recognizer,
+            own: Some(own),
+            settings,
+            poses,
+            stage: None,
+        })
     }
 
     /// The recogniser, the objects' own eigenspaces (the second stage) and their calibration.
@@ -238,8 +293,12 @@ impl ObjectModel {
 
     /// Each query's distance to each object (rows of K values): the recogniser's measure.
     pub fn distances(&self, queries: &[f32]) -> Result<Vec<f64>> {
+        self.distances_of(&self.prepared(queries)?)
+    }
+
+    /// [`ObjectModel::distances`] of queries already prepared.
+    fn distances_of(&self, queries: &[f32]) -> Result<Vec<f64>> {
         let m = self.spec.features();
-        check_queries(m, queries.len(), "query batch")?;
         let n = queries.len() / m;
         let mut out = vec![0.0; n * self.names.len()];
         match &self.recognizer {
@@ -254,14 +313,18 @@ impl ObjectModel {
 
     /// Which object each query shows.
     pub fn recognize(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
+        self.recognize_of(&self.prepared(queries)?)
+    }
+
+    /// [`ObjectModel::recognize`] of queries already prepared.
+    fn recognize_of(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
         let mut rec: Vec<Recognition> = match &self.recognizer {
             Recognizer::Linear(_) => {
-                let d = self.distances(queries)?;
+                let d = self.distances_of(queries)?;
                 d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect()
             }
             Recognizer::Universal(u) => {
                 let m = self.spec.features();
-                check_queries(m, queries.len(), "query batch")?;
                 let mut near = vec![(0, 0.0, 0.0); queries.len() / m];
                 u.nearest_two(queries, &mut near);
                 if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
@@ -331,7 +394,23 @@ impl ObjectModel {
     /// Each query's object and, for a known one, its pose from that object's model with up to
     /// `top` hypotheses ([`PoseModel::estimate`]); queries of one object are estimated together.
     pub fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<ObjectEstimate>> {
-        let rec = self.recognize(queries)?;
+        self.estimate_of(&self.prepared(queries)?, top)
+    }
+
+    /// As [`ObjectModel::estimate`], where a query the normalisation stage refuses gets why,
+    /// in its place, instead of failing the batch (each query normalised once). Without a stage
+    /// every query has its estimate.
+    pub fn estimate_each(&self, queries: &[f32], top: usize) -> Result<Vec<std::result::Result<ObjectEstimate, Rejection>>> {
+        check_queries(self.spec.features(), queries.len(), "query batch")?;
+        let Some(stage) = &self.stage else { return Ok(self.estimate_of(queries, top)?.into_iter().map(Ok).collect()) };
+        let (rows, verdicts) = stage.apply_batch(queries);
+        let mut est = if rows.is_empty() { Vec::new() } else { self.estimate_of(&rows, top)? }.into_iter();
+        Ok(verdicts.into_iter().map(|v| v.map_or_else(|| Ok(est.next().expect("one estimate per query the stage accepted")), Err)).collect())
+    }
+
+    /// [`ObjectModel::estimate`] of queries already prepared.
+    fn estimate_of(&self, queries: &[f32], top: usize) -> Result<Vec<ObjectEstimate>> {
+        let rec = self.recognize_of(queries)?;
         let m = self.spec.features();
         let mut poses: Vec<Option<Estimate>> = vec![None; rec.len()];
         for k in 0..self.names.len() {
@@ -395,8 +474,8 @@ impl ObjectModel {
     }
 
     /// Rebuilds a model from a model file's parts: the names, the settings, the recogniser's
-    /// arrays and the pose models (already read back).
-    pub(crate) fn from_parts(names: Vec<String>, settings: ObjectSettings, t: &TensorSet, poses: Vec<AnyModel>) -> Result<Self> {
+    /// arrays, the pose models (already read back) and the normalisation stage, if any.
+    pub(crate) fn from_parts(names: Vec<String>, settings: ObjectSettings, t: &TensorSet, poses: Vec<AnyModel>, stage: Option<Normalizer>) -> Result<Self> {
         let k = names.len();
         let damaged = |m: String| t.error(format!("damaged object model: {m}"));
         if k == 0 || poses.len() != k {
@@ -411,6 +490,9 @@ impl ObjectModel {
         let (spec, space) = (poses[0].meta().spec, poses[0].meta().space.clone());
         if let Some(p) = poses.iter().find(|p| p.meta().spec != spec || p.meta().space != space || p.meta().method != poses[0].meta().method) {
             return Err(damaged(format!("pose models of different image sizes, parameters or methods ({})", p.meta().method)));
+        }
+        if let Some(st) = &stage {
+            st.check_spec(&spec).map_err(damaged)?;
         }
         let recognizer = match settings.params.kind {
             RecognizerKind::Universal => {
@@ -435,7 +517,7 @@ impl ObjectModel {
                 Some(OwnSpaces::from_parts(t, spec, o.bin, &o.components)?)
             }
         };
-        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses })
+        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses, stage })
     }
 }
 
