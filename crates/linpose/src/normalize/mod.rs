@@ -314,6 +314,16 @@ impl Normalizer {
         (out, verdicts)
     }
 
+    /// Normalises a batch of queries (rows of [`Normalizer::features`] values); the first one the
+    /// stage refuses is an error naming its place in the batch.
+    pub(crate) fn apply_queries(&self, queries: &[f32]) -> Result<Vec<f32>> {
+        let (rows, verdicts) = self.apply_batch(queries);
+        match verdicts.into_iter().enumerate().find_map(|(i, v)| v.map(|r| (i, r))) {
+            Some((i, reason)) => Err(Error::Normalize { image: format!("query #{i} of the batch"), reason }),
+            None => Ok(rows),
+        }
+    }
+
     /// Normalises every image of `data`; an image the stage refuses is an error naming it.
     pub fn apply_dataset(&self, data: &Dataset) -> Result<Dataset> {
         let m = self.features();

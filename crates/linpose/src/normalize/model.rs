@@ -6,7 +6,7 @@ use super::{NormalizeParams, Normalizer};
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::model::{AnyModel, Method, MethodSpec, ModelMeta, PoseModel, Storage, Tensor};
-use crate::{Error, Result};
+use crate::Result;
 
 /// A fitted model whose queries go through a [`Normalizer`] first.
 ///
@@ -63,11 +63,7 @@ impl Normalized {
     /// Normalises a batch of queries; a refused one is an error naming its place in the batch.
     fn normalise(&self, queries: &[f32]) -> Result<Vec<f32>> {
         crate::model::check_queries(self.stage.features(), queries.len(), "query batch")?;
-        let (rows, verdicts) = self.stage.apply_batch(queries);
-        match verdicts.into_iter().enumerate().find_map(|(i, v)| v.map(|r| (i, r))) {
-            Some((i, r)) => Err(Error::Normalize { image: format!("query #{i} of the batch"), reason: r }),
-            None => Ok(rows),
-        }
+        self.stage.apply_queries(queries)
     }
 }
 

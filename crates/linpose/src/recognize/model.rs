@@ -178,14 +178,12 @@ impl ObjectModel {
 
     /// The queries as the recogniser and the pose models take them: normalised by the stage
     /// when there is one; a query the stage refuses is an error naming its place in the batch
-    /// (check queries one by one with [`Normalizer::check`] to set such images apart first).
+    /// ([`ObjectModel::estimate_each`] answers the others).
     fn prepared<'a>(&self, queries: &'a [f32]) -> Result<Cow<'a, [f32]>> {
         check_queries(self.spec.features(), queries.len(), "query batch")?;
-        let Some(stage) = &self.stage else { return Ok(Cow::Borrowed(queries)) };
-        let (rows, verdicts) = stage.apply_batch(queries);
-        match verdicts.into_iter().enumerate().find_map(|(i, v)| v.map(|r| (i, r))) {
-            Some((i, reason)) => Err(Error::Normalize { image: format!("query #{i} of the batch"), reason }),
-            None => Ok(Cow::Owned(rows)),
+        match &self.stage {
+            None => Ok(Cow::Borrowed(queries)),
+            Some(stage) => stage.apply_queries(queries).map(Cow::Owned),
         }
     }
 
