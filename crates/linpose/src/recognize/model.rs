@@ -136,17 +136,22 @@ impl ObjectModel {
             r
         };
         let (recognizer, poses) = rayon::join(recognise, fit);
-        let (recognizer, own, settings) = recognizer?;
-        Ok(ObjectModel {
+        Ok(Self::fitted(objects, recognizer?, poses?))
+    }
+
+    /// The model of `objects` with its recogniser, second stage and settings, and `poses`; no
+    /// normalisation stage.
+    fn fitted(objects: &ObjectSet, (recognizer, own, settings): (Recognizer, OwnSpaces, ObjectSettings), poses: Vec<AnyModel>) -> Self {
+        ObjectModel {
             names: objects.names().to_vec(),
             spec: objects.spec(),
             space: objects.space().clone(),
             recognizer,
             own: Some(own),
             settings,
-            poses: poses?,
+            poses,
             stage: None,
-        })
+        }
     }
 
     /// As [`ObjectModel::fit_with`], behind a normalisation stage ([`crate::normalize`]): the
@@ -198,17 +203,7 @@ impl ObjectModel {
         if let Some((k, p)) = poses.iter().enumerate().find(|(_, p)| p.meta().spec != objects.spec() || p.meta().space != *objects.space()) {
             return Err(Error::invalid("pose model", &objects.names()[k], format!("fitted on other images or parameters ({})", p.meta().method)));
         }
-        let (recognizer, own, settings) = Self::fit_recognizer(objects, params)?;
-        Ok(ObjectModel {
-            names: objects.names().to_vec(),
-            spec: objects.spec(),
-            space: objects.space().clone(),
-            recognizer,
-            own: Some(own),
-            settings,
-            poses,
-            stage: None,
-        })
+        Ok(Self::fitted(objects, Self::fit_recognizer(objects, params)?, poses))
     }
 
     /// The recogniser, the objects' own eigenspaces (the second stage) and their calibration.
