@@ -82,3 +82,14 @@ def test_sixteen_bit_images_are_read_as_features(tmp_path):
     assert X.dtype == np.float32 and X.shape == (3, 4, 5) and names == ["v0.png", "v1.png", "v2.png"]
     np.testing.assert_array_equal(X, levels.astype(np.float32) * (np.float32(1) / np.float32(65535)))
     assert params == [("azimuth", 360.0)] and y[:, 0].tolist() == [0.0, 10.0, 20.0]
+
+
+def test_many_object_model_files_are_refused_with_what_reads_them(cli, tmp_path):
+    for o in ("duck", "cap"):
+        run(cli, "synth", "--object", o, "--out", tmp_path / "set" / o, "--azimuth", "0:350:10", "--elevation", "40", "--size", "32x24")
+    model = tmp_path / "m.safetensors"
+    run(cli, "train", "--data", tmp_path / "set", "--method", "linear", "--out", model)
+    with pytest.raises(ValueError, match="several objects.*Python package does not read many-object models"):
+        linpose.load(model)
+    with pytest.raises(ValueError, match="several objects"):
+        linpose.from_bytes(model.read_bytes())

@@ -211,7 +211,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     }
     if meta.get("kind").map(String::as_str) == Some(OBJECTS_KIND) {
         return Err(err(
-            "this model file holds several objects (a recogniser and each object's pose model); read it as a many-object model (model_file::load_objects)"
+            "this model file holds several objects (a recogniser and each object's pose model), not one object's pose model: `linpose predict` and `eval` read it, and in Rust model_file::load_objects; the Python package does not read many-object models yet"
                 .into(),
         ));
     }
