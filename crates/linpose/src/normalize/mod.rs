@@ -160,36 +160,35 @@ impl Normalizer {
     /// As [`Normalizer::fit`], on the images of several data sets of one image size together
     /// (the training views of several objects: one stage for all of them).
     pub fn fit_sets(sets: &[Dataset], params: NormalizeParams) -> Result<Normalizer> {
+        if !params.geometry && !params.brightness {
+            return Err(Error::invalid("normalisation", "none", "ask for position and scale, brightness, or both"));
+        }
         let Some(first) = sets.first() else { return Err(Error::invalid("normalisation", "no images", "needs training images to fit on")) };
         if let Some(d) = sets.iter().find(|d| d.spec() != first.spec()) {
             return Err(Error::invalid("normalisation", d.manifest().root().display(), "images of another size or colour than the first set's"));
         }
         // Every image as (set, index within it), in order.
         let rows: Vec<(&Dataset, usize)> = sets.iter().flat_map(|d| (0..d.len()).map(move |i| (d, i))).collect();
-        let train = Rows(&rows);
-        if !params.geometry && !params.brightness {
-            return Err(Error::invalid("normalisation", "none", "ask for position and scale, brightness, or both"));
-        }
+        let row = |i: usize| rows[i].0.row(rows[i].1);
         let spec = first.spec();
         let (w, h, c) = (spec.width as usize, spec.height as usize, spec.color.channels());
         if w < 3 || h < 3 {
             return Err(Error::invalid("normalisation", format!("{w}x{h} images"), "needs images of at least 3x3 pixels"));
         }
-        let borders: Vec<find::Border> = (0..train.len()).into_par_iter().map(|i| find::border(train.row(i), w, h, c, None)).collect();
+        let borders: Vec<find::Border> = (0..rows.len()).into_par_iter().map(|i| find::border(row(i), w, h, c, None)).collect();
         let mut medians: Vec<f32> = borders.iter().map(|b| b.median[..c].iter().sum::<f32>() / c as f32).collect();
         let background = if median(&mut medians) <= DARK_LEVEL { Background::Dark } else { Background::Border };
         let dark = [0.0f32; 3];
         let mut q90: Vec<f32> = match background {
-            Background::Dark => (0..train.len()).into_par_iter().map(|i| find::border(train.row(i), w, h, c, Some(dark)).q90).collect(),
+            Background::Dark => (0..rows.len()).into_par_iter().map(|i| find::border(row(i), w, h, c, Some(dark)).q90).collect(),
             Background::Border => borders.iter().map(|b| b.q90).collect(),
         };
         let threshold = HALF_LEVEL.max(NOISE_FACTOR * median(&mut q90));
         let name = |i: usize| rows[i].0.manifest().image_path(rows[i].1);
-        let found: Vec<Placement> = (0..train.len())
+        let found: Vec<Placement> = (0..rows.len())
             .into_par_iter()
             .map(|i| {
-                find::locate(train.row(i), w, h, c, background, threshold, true)
-                    .map_err(|r| Error::Normalize { image: name(i).display().to_string(), reason: r })
+                find::locate(row(i), w, h, c, background, threshold, true).map_err(|r| Error::Normalize { image: name(i).display().to_string(), reason: r })
             })
             .collect::<Result<_>>()?;
         let touching: Vec<usize> = (0..found.len()).filter(|&i| found[i].touches.iter().any(|&t| t)).collect();
@@ -334,20 +333,6 @@ impl Normalizer {
             return Err(Error::Normalize { image: data.manifest().image_path(i).display().to_string(), reason: r });
         }
         Dataset::from_features(data.manifest().clone(), data.spec(), out)
-    }
-}
-
-/// Images of several data sets in one sequence (for [`Normalizer::fit_sets`]).
-struct Rows<'a>(&'a [(&'a Dataset, usize)]);
-
-impl Rows<'_> {
-    fn len(&self) -> usize {
-        self.0.len()
-    }
-
-    fn row(&self, i: usize) -> &[f32] {
-        let (d, j) = self.0[i];
-        d.row(j)
     }
 }
 

@@ -263,7 +263,7 @@ impl Universal {
                 *o = f64::NAN;
                 continue;
             }
-            let c2 = (1.0 - 2.0 * dot / energy.sqrt() + self.mean_sq).max(0.0);
+            let c2 = self.centred_sq(energy, dot).max(0.0);
             let c = c2.sqrt();
             let outside = shy((c - hi).max(lo - c).max(0.0));
             if outside >= b {
@@ -296,14 +296,20 @@ impl Universal {
         }
     }
 
+    /// The squared norm of a query's unit-energy image less the mean, from the image's energy
+    /// and its product with the mean.
+    fn centred_sq(&self, energy: f64, dot: f64) -> f64 {
+        1.0 - 2.0 * dot / energy.sqrt() + self.mean_sq
+    }
+
     /// One query's distance to the object's manifold ([`Universal::own_distances`]), from its
     /// image's energy and product with the mean and its raw coordinates `y` (made unit-energy
     /// coordinates here); its residual alone when that reaches `bound`.
     fn own_distance(&self, energy: f64, dot: f64, y: &mut [f32], bound: f64, scratch: &mut Scratch) -> f64 {
-        let Some(norm) = unit_coords(energy, &self.mean_proj, y) else {
+        if unit_coords(energy, &self.mean_proj, y).is_none() {
             return f64::NAN;
-        };
-        let centred = 1.0 - 2.0 * dot / norm + self.mean_sq;
+        }
+        let centred = self.centred_sq(energy, dot);
         let inside: f64 = y.iter().map(|&v| v as f64 * v as f64).sum();
         let residual = (centred - inside).max(0.0);
         if residual >= bound * bound {
