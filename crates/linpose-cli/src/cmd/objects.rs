@@ -443,7 +443,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
             let e = match e {
                 Ok(e) => e,
                 Err(r) => {
-                    bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {r}", path.display()));
+                    crate::cmd::predict::cannot_normalise(&bar, path, r);
                     refused += 1;
                     continue;
                 }
@@ -492,10 +492,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     }
     bar.finish_and_clear();
     out.flush()?;
-    if refused > 0 {
-        anyhow::bail!("{refused} of {} images could not be normalised (each named above) and have no estimate", files.len());
-    }
-    Ok(())
+    crate::cmd::predict::refusals(refused, files.len())
 }
 
 /// A pose space's parameter names, for a message.

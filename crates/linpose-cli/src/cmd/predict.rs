@@ -144,7 +144,7 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
                         kept += 1;
                     }
                     Some(r) => {
-                        bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {r}", chunk[i].display()));
+                        cannot_normalise(&bar, chunk[i], r);
                         refused += 1;
                     }
                 }
@@ -214,8 +214,19 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     out.flush()?;
+    refusals(refused, files.len())
+}
+
+/// Names an image the model's normalisation stage refused, with the reason, on stderr.
+pub(crate) fn cannot_normalise(bar: &indicatif::ProgressBar, path: &std::path::Path, reason: &linpose::normalize::Rejection) {
+    bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {reason}", path.display()));
+}
+
+/// The end of a `predict` of `total` images of which `refused` were refused by the stage (each
+/// named by [`cannot_normalise`]): an error when any was, so the exit status says so.
+pub(crate) fn refusals(refused: usize, total: usize) -> anyhow::Result<()> {
     if refused > 0 {
-        anyhow::bail!("{refused} of {} images could not be normalised (each named above) and have no estimate", files.len());
+        anyhow::bail!("{refused} of {total} images could not be normalised (each named above) and have no estimate");
     }
     Ok(())
 }
