@@ -39,7 +39,22 @@ pub struct EvalArgs {
 }
 
 /// Refused images listed by name on the terminal; the JSON has them all.
-pub(crate) const REFUSED_SHOWN: usize = 5;
+const REFUSED_SHOWN: usize = 5;
+
+/// Prints how many of the evaluated images the model's normalisation refused (`count`, none:
+/// nothing) and the first [`REFUSED_SHOWN`] of `lines` (one per image, its name and why).
+pub(crate) fn print_refused(count: usize, lines: impl Iterator<Item = String>) {
+    if count == 0 {
+        return;
+    }
+    println!("{count} images refused by the model's normalisation (not in the figures below):");
+    for l in lines.take(REFUSED_SHOWN) {
+        println!("  {l}");
+    }
+    if count > REFUSED_SHOWN {
+        println!("  ... and {} more (all in the JSON's \"rejected\")", count - REFUSED_SHOWN);
+    }
+}
 
 /// Runs `linpose eval`.
 pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
@@ -73,15 +88,7 @@ pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
     let opt = linpose::EvalOptions { top: a.top as usize, flag_below: a.flag_below, ..linpose::EvalOptions::new(a.noise, a.seed) };
     let r = linpose::evaluate_with(&model, &data, &opt)?;
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
-    if !r.rejected.is_empty() {
-        println!("{} images refused by the model's normalisation (not in the figures below):", r.rejected.len());
-        for x in r.rejected.iter().take(REFUSED_SHOWN) {
-            println!("  {}: {}", x.image, x.reason);
-        }
-        if r.rejected.len() > REFUSED_SHOWN {
-            println!("  ... and {} more (all in the JSON's \"rejected\")", r.rejected.len() - REFUSED_SHOWN);
-        }
-    }
+    print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{}: {}", x.image, x.reason)));
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
     let line =
         |name: &str, s: &ErrorSummary| println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg);

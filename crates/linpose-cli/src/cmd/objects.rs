@@ -351,15 +351,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
 fn print_report(r: &Report) {
     let pct = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{:.2}%", 100.0 * v));
     println!("{} recogniser, {} pose models of {} objects; {} images evaluated", r.recognizer, r.method, r.objects.len(), r.n_eval);
-    if !r.rejected.is_empty() {
-        println!("{} images refused by the model's normalisation (not in the figures below):", r.rejected.len());
-        for x in r.rejected.iter().take(crate::cmd::eval::REFUSED_SHOWN) {
-            println!("  {} ({}): {}", x.image, x.object, x.reason);
-        }
-        if r.rejected.len() > crate::cmd::eval::REFUSED_SHOWN {
-            println!("  ... and {} more (all in the JSON's \"rejected\")", r.rejected.len() - crate::cmd::eval::REFUSED_SHOWN);
-        }
-    }
+    crate::cmd::eval::print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{} ({}): {}", x.image, x.object, x.reason)));
     println!(
         "recognised: {} of the known objects' {} views, {} of their {} unseen views",
         pct(Some(r.recognition.all)),
