@@ -67,8 +67,9 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
-    /// A data set is unusable as a whole (empty, no matching files, inconsistent).
-    #[error("{path}: {message}")]
+    /// A data set is unusable as a whole (empty, no matching files, inconsistent). A data set in
+    /// memory has an empty path, and its message stands alone.
+    #[error("{}{message}", located(path))]
     Dataset {
         /// The data set folder or manifest.
         path: PathBuf,
@@ -177,5 +178,15 @@ impl Error {
     /// An invalid parameter value.
     pub fn invalid(name: &'static str, value: impl ToString, reason: impl Into<String>) -> Self {
         Error::InvalidParameter { name, value: value.to_string(), reason: reason.into() }
+    }
+}
+
+/// `path: ` before a message about the data set at `path`; nothing for a data set in memory
+/// (an empty path), whose message then stands alone.
+fn located(path: &std::path::Path) -> String {
+    if path.as_os_str().is_empty() {
+        String::new()
+    } else {
+        format!("{}: ", path.display())
     }
 }
