@@ -61,6 +61,7 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
         names: model.names().to_vec(),
         settings: model.settings().clone(),
         models: model.pose_models().iter().map(|p| p.meta().clone()).collect(),
+        views: model.space().is_none().then(|| model.spec()),
         normalize: model.stage().cloned(),
     };
     let mut tensors = model.recognizer_tensors();
@@ -69,7 +70,7 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
     }
     let mut meta = BTreeMap::new();
     meta.insert("kind", OBJECTS_KIND.to_string());
-    meta.insert("method", model.method_name().to_string());
+    meta.insert("method", model.method_name().unwrap_or(VIEWS_ONLY).to_string());
     meta.insert("linpose.objects", serde_json::to_string(&header).expect("header serialises"));
     write_parts(meta, tensors)
 }
@@ -77,12 +78,19 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
 /// The `kind` metadata of a many-object model file (a file without it holds one pose model).
 const OBJECTS_KIND: &str = "objects";
 
+/// The `method` metadata of a many-object model file fitted without poses (no pose models).
+const VIEWS_ONLY: &str = "none";
+
 /// What a many-object model file's `linpose.objects` holds besides its arrays.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct ObjectsHeader {
     names: Vec<String>,
     settings: ObjectSettings,
     models: Vec<ModelMeta>,
+    /// The image size of a model fitted without poses, which has no pose models to tell it
+    /// (absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    views: Option<crate::image_io::ImageSpec>,
     /// The normalisation stage every query goes through first (absent: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     normalize: Option<crate::normalize::Normalizer>,
@@ -211,7 +219,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     }
     if meta.get("kind").map(String::as_str) == Some(OBJECTS_KIND) {
         return Err(err(
-            "this model file holds several objects (a recogniser and each object's pose model), not one object's pose model: `linpose predict` and `eval` read it, and in Rust model_file::load_objects; the Python package does not read many-object models yet"
+            "this model file holds several objects (a recogniser and each object's pose model), not one object's pose model: `linpose predict` and `eval` read it, in Python `linpose.load` (an ObjectRecognizer), in Rust model_file::load_objects"
                 .into(),
         ));
     }
@@ -257,7 +265,7 @@ pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
     }
     let json = meta.get("linpose.objects").ok_or_else(|| err("model file has no linpose.objects".into()))?;
     let header: ObjectsHeader = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
-    if header.models.len() != header.names.len() {
+    if header.models.len() != header.names.len() && !header.settings.views_only {
         return Err(err(format!("damaged metadata: {} names for {} pose models", header.names.len(), header.models.len())));
     }
     let (mut own, mut rest): (Vec<Tensor>, Vec<Tensor>) = tensors.tensors.into_iter().partition(|t| t.name.starts_with("recognizer."));
@@ -270,7 +278,7 @@ pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
         poses.push(pose_model(meta, &set)?);
     }
     own.extend(rest);
-    ObjectModel::from_parts(header.names, header.settings, &TensorSet { path: path.to_path_buf(), tensors: own }, poses, header.normalize)
+    ObjectModel::from_parts(header.names, header.settings, &TensorSet { path: path.to_path_buf(), tensors: own }, poses, header.views, header.normalize)
 }
 
 /// Whether the model file at `path` holds several objects ([`load_objects`]) rather than one
@@ -289,6 +297,12 @@ pub fn holds_objects(path: &Path) -> Result<bool> {
     f.read_exact(&mut header).map_err(|_| err("not a linpose model file (its header is cut short)"))?;
     let v: serde_json::Value = serde_json::from_slice(&header).map_err(|_| err("not a linpose model file (its header is not JSON)"))?;
     Ok(v.get("__metadata__").and_then(|m| m.get("kind")).and_then(|k| k.as_str()) == Some(OBJECTS_KIND))
+}
+
+/// Whether model file bytes hold several objects ([`objects_from_bytes`]) rather than one pose
+/// model ([`from_bytes`]); false for bytes that are no safetensors file (reading them says why).
+pub fn bytes_hold_objects(bytes: &[u8]) -> bool {
+    SafeTensors::read_metadata(bytes).ok().and_then(|(_, h)| h.metadata().as_ref().and_then(|m| m.get("kind").cloned())).as_deref() == Some(OBJECTS_KIND)
 }
 
 /// A safetensors file's metadata.

@@ -3,7 +3,7 @@
 //! stage in each object's own eigenspace); the model file round trip, a file written before the
 //! second stage included; bad sets of objects refused with clear errors; and behind one
 //! normalisation stage, a query moved by whole pixels answered exactly as it was, and a query the
-//! stage cannot normalise refused by its place, alone.
+//! stage cannot normalise refused by its place, alone; and without poses, the views alone.
 
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::normalize::{NormalizeParams, Rejection};
@@ -94,7 +94,7 @@ fn recognised_views_get_their_objects_pose_and_the_model_file_keeps_everything()
         assert_eq!(e.recognition.object, Some(k), "object {k} view {i}");
         // The pose is the object's own model's estimate (the twin's front and back may swap, and
         // the column's stripes repeat: their poses are not checked here).
-        let own = model.pose_model(k).predict(all.object(k).row(i)).unwrap();
+        let own = model.pose_model(k).expect("fitted with poses").predict(all.object(k).row(i)).unwrap();
         assert_eq!(e.pose.as_ref().map(|p| &p.pose), Some(&own), "object {k} view {i}");
         let err = all.space().error_deg(all.object(k).pose(i), &own);
         assert!(err < 3.0 || ["twin", "column"].contains(&all.names()[k].as_str()), "object {k} view {i}: pose error {err}");
@@ -334,4 +334,80 @@ fn a_query_the_stage_cannot_normalise_is_refused_by_its_place_and_alone() {
     let bad = ObjectSet::new(names, sets).unwrap();
     let e = ObjectModel::fit_normalized(&bad, &RecognizerParams::default(), &eigenspace(), NormalizeParams::geometry(), &|_| {}).unwrap_err().to_string();
     assert!(e.contains("no object found"), "{e}");
+}
+
+/// `set` with each object's views in reverse order and their poses replaced by the views'
+/// places in that order (a pose that says nothing).
+fn posed_by_place(set: &ObjectSet) -> ObjectSet {
+    let space = PoseSpace::new(vec![Param::linear("place")]).unwrap();
+    let objects = set
+        .objects()
+        .iter()
+        .map(|d| {
+            let features: Vec<f32> = (0..d.len()).rev().flat_map(|i| d.row(i).iter().copied()).collect();
+            Dataset::new(d.spec(), features, space.clone(), (0..d.len()).map(|i| i as f64).collect()).unwrap()
+        })
+        .collect();
+    ObjectSet::new(set.names().to_vec(), objects).unwrap()
+}
+
+#[test]
+fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
+    let (all, train) = builtins();
+    for kind in RecognizerKind::ALL {
+        let params = RecognizerParams::new(kind);
+        let model = ObjectModel::fit_views(train, &params).unwrap();
+        assert!(model.space().is_none() && model.method_name().is_none() && model.pose_model(0).is_none());
+        assert!(model.settings().views_only);
+        // The views in another order with other (meaningless) poses: the same model.
+        let shuffled = ObjectModel::fit_views(&posed_by_place(train), &params).unwrap();
+        for d in all.objects() {
+            let (a, b) = (model.recognize(d.features()).unwrap(), shuffled.recognize(d.features()).unwrap());
+            for (a, b) in a.iter().zip(&b) {
+                assert_eq!((a.object, a.nearest), (b.object, b.nearest), "{kind:?}");
+                assert!((a.distance - b.distance).abs() <= 1e-4 * a.distance.max(1e-3), "{kind:?}: {} against {}", a.distance, b.distance);
+            }
+        }
+        // Identity: a training view is one of its object's points (universal) or has its one-hot
+        // target as outputs (linear).
+        for (k, d) in train.objects().iter().enumerate() {
+            for r in model.recognize(d.features()).unwrap() {
+                assert!(r.distance < 2e-3 && r.object == Some(k), "{kind:?}: training view at distance {}, as {:?}", r.distance, r.object);
+            }
+        }
+        let (seen_ok, seen, unseen_ok, unknown, unseen) = rates(&model, all, all.names());
+        println!("{}, without poses: {unseen_ok} of {unseen} unseen views recognised, {unknown} reported unknown", kind.name());
+        assert_eq!(seen_ok, seen, "{kind:?}");
+        assert!(unseen_ok as f64 >= 0.97 * unseen as f64, "{kind:?}: {unseen_ok} of {unseen} unseen views recognised");
+        // Estimates carry the object and no pose; the model file keeps it so.
+        let est = model.estimate(all.object(2).features(), 1).unwrap();
+        assert!(est.iter().all(|e| e.pose.is_none()));
+        let bytes = model_file::objects_to_bytes(&model).unwrap();
+        let back = model_file::objects_from_bytes(Path::new("views.safetensors"), &bytes).unwrap();
+        assert_eq!((back.settings(), back.spec(), back.space()), (model.settings(), model.spec(), None));
+        assert_eq!(back.estimate(all.object(2).features(), 1).unwrap(), est);
+    }
+}
+
+#[test]
+fn without_poses_objects_left_out_are_reported_unknown() {
+    let (all, train) = builtins();
+    for kind in RecognizerKind::ALL {
+        let (mut rejected, mut left, mut false_rejected, mut unseen) = (0, 0, 0, 0);
+        for out in all.names() {
+            let known: Vec<String> = all.names().iter().filter(|n| *n != out).cloned().collect();
+            let model = ObjectModel::fit_views(&train.select(&known).unwrap(), &RecognizerParams::new(kind)).unwrap();
+            let (_, _, _, f, u) = rates(&model, &all.select(&known).unwrap(), &known);
+            (false_rejected, unseen) = (false_rejected + f, unseen + u);
+            let rec = model.recognize(all.object(all.names().iter().position(|n| n == out).unwrap()).features()).unwrap();
+            rejected += rec.iter().filter(|r| r.object.is_none()).count();
+            left += rec.len();
+        }
+        println!(
+            "{}, without poses: {rejected} of {left} views of the object left out reported unknown; {false_rejected} of {unseen} unseen views of the known objects",
+            kind.name()
+        );
+        assert!(rejected as f64 >= 0.95 * left as f64, "{kind:?}: {rejected} of {left} views of objects left out reported unknown");
+        assert!(false_rejected as f64 <= 0.02 * unseen as f64, "{kind:?}: {false_rejected} of {unseen} unseen views of known objects reported unknown");
+    }
 }

@@ -110,7 +110,7 @@ pub fn train(
     let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
     let summary = TrainSummary {
         recognizer: model.kind().name(),
-        method: model.method_name(),
+        method: model.method_name().unwrap_or("none"),
         data: a.data.data.display().to_string(),
         objects: model.names(),
         n_train: train.total_len(),
@@ -252,7 +252,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
         ),
     };
     let data = load(&c, model.spec().color)?;
-    if data.spec() != model.spec() || data.space() != model.space() {
+    if data.spec() != model.spec() || model.space().is_some_and(|s| s != data.space()) {
         anyhow::bail!(
             "{}: images of {}x{} with parameters {}, but the model was trained on {}x{} with {}",
             a.data.data.display(),
@@ -261,8 +261,11 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
             params(data.space()),
             model.spec().width,
             model.spec().height,
-            params(model.space())
+            model.space().map_or_else(|| "no poses".to_string(), params)
         );
+    }
+    if model.space().is_none() {
+        eprintln!("the model was fitted without poses: it gives no pose, and it cannot tell its training views, so every known view counts as unseen");
     }
     let names = model.names();
     let mut samples = Vec::with_capacity(data.total_len());
@@ -284,9 +287,9 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
                 }
             };
             let r = &e.recognition;
-            let seen = truth.is_some_and(|k| model.pose_model(k).meta().is_seen(d.pose(i)));
+            let seen = truth.and_then(|k| model.pose_model(k)).is_some_and(|m| m.meta().is_seen(d.pose(i)));
             let pose = e.pose.map(|p| p.pose);
-            let error_deg = pose.as_ref().map(|p| space.error_deg(d.pose(i), p));
+            let error_deg = pose.as_ref().zip(space).map(|(p, space)| space.error_deg(d.pose(i), p));
             samples.push(Sample {
                 object: name.clone(),
                 image: d.manifest().images()[i].clone(),
@@ -328,7 +331,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     let pose = PoseErrors { all: errors(&known), unseen: errors(&known_unseen) };
     let report = Report {
         recognizer: model.kind().name(),
-        method: model.method_name().to_string(),
+        method: model.method_name().unwrap_or("none").to_string(),
         objects: names.to_vec(),
         n_eval: samples.len(),
         rejected,
@@ -444,7 +447,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
             let r = &e.recognition;
             let object = r.object.map(|k| model.names()[k].as_str());
             if a.json {
-                let pose = e.pose.as_ref().map(|p| space.params().iter().map(|q| q.name.as_str()).zip(p.pose.iter().copied()).collect());
+                let pose = e.pose.as_ref().zip(space).map(|(p, space)| space.params().iter().map(|q| q.name.as_str()).zip(p.pose.iter().copied()).collect());
                 let row = Estimate {
                     image: &name,
                     object,
@@ -472,7 +475,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
                         }
                     }
                 }
-                if let Some(p) = &e.pose {
+                if let (Some(p), Some(space)) = (&e.pose, space) {
                     for (q, v) in space.params().iter().zip(&p.pose) {
                         write!(out, "\t{}={v:.4}", q.name)?;
                     }

@@ -44,7 +44,9 @@ pub(crate) struct LinearRecognizer {
 impl LinearRecognizer {
     /// Fits on `all`, the training views of every object of `objects` row after row (object
     /// 0's first). Returns the model and, per object, its views' held-out distances.
-    pub fn fit(objects: &ObjectSet, all: &Dataset) -> Result<(Self, Vec<Vec<f64>>)> {
+    /// With `views_only` the poses are not read: each view is held out with its nearest other
+    /// view of its object.
+    pub fn fit(objects: &ObjectSet, all: &Dataset, views_only: bool) -> Result<(Self, Vec<Vec<f64>>)> {
         let (n, m, k) = (all.len(), all.n_features(), objects.len());
         let mut y = vec![0.0; n * k];
         let mut offsets = Vec::with_capacity(k);
@@ -72,20 +74,43 @@ impl LinearRecognizer {
         let inv = factor.inverse();
         let mut held_out = Vec::with_capacity(k);
         for (d_obj, &start) in objects.objects().iter().zip(&offsets) {
-            let grid = Grid::new(all.space(), d_obj.poses(), d_obj.manifest().images(), d_obj.manifest().root())?;
-            let mut folds = crate::methods::refined::select::both_folds(d_obj, &grid);
-            if folds.is_empty() {
-                // Too few knots to hold every other one out: each view alone.
-                folds = (0..d_obj.len()).map(|i| (0..d_obj.len()).map(|j| j != i).collect()).collect();
-            }
+            // Each block of views held out together, and which of them to measure.
+            let blocks: Vec<(Vec<usize>, usize)> = if views_only {
+                // Each view with its nearest other view of its object (in image space, from the
+                // Gram matrix), which may be a near-duplicate of it: the rule of the universal
+                // eigenspace's held-out distance without poses (`universal::nearest_other`).
+                let views = start..start + d_obj.len();
+                let sq = |i: usize, j: usize| sys.g[(i, i)] + sys.g[(j, j)] - 2.0 * sys.g[(i, j)];
+                views
+                    .clone()
+                    .map(|i| {
+                        let nearest = views.clone().filter(|&j| j != i).min_by(|&a, &b| sq(i, a).total_cmp(&sq(i, b)));
+                        (std::iter::once(i).chain(nearest).collect(), 1)
+                    })
+                    .collect()
+            } else {
+                let grid = Grid::new(all.space(), d_obj.poses(), d_obj.manifest().images(), d_obj.manifest().root())?;
+                let mut folds = crate::methods::refined::select::both_folds(d_obj, &grid);
+                if folds.is_empty() {
+                    // Too few knots to hold every other one out: each view alone.
+                    folds = (0..d_obj.len()).map(|i| (0..d_obj.len()).map(|j| j != i).collect()).collect();
+                }
+                folds
+                    .into_iter()
+                    .map(|keep| {
+                        let block: Vec<usize> = (0..d_obj.len()).filter(|&i| !keep[i]).map(|i| start + i).collect();
+                        let b = block.len();
+                        (block, b)
+                    })
+                    .collect()
+            };
             let mut dist = Vec::new();
-            for keep in folds {
-                let block: Vec<usize> = (0..d_obj.len()).filter(|&i| !keep[i]).map(|i| start + i).collect();
+            for (block, measured) in blocks {
                 let b = block.len();
                 let inv_bb = Mat::from_fn(b, b, |r, c| inv[(block[r], block[c])]);
                 let d_b = Mat::from_fn(b, k, |r, c| d[(block[r], c)]);
                 let e = inv_bb.partial_piv_lu().solve(d_b.as_ref());
-                dist.extend((0..b).map(|r| (0..k).map(|c| e[(r, c)].powi(2)).sum::<f64>().sqrt()));
+                dist.extend((0..measured).map(|r| (0..k).map(|c| e[(r, c)].powi(2)).sum::<f64>().sqrt()));
             }
             held_out.push(dist);
         }

@@ -22,7 +22,11 @@
 //!   when another object's manifold, in that object's own eigenspace, lies nearer still (the
 //!   recogniser named an object the query is not most like);
 //! - the **pose** of a recognised query comes from its object's own pose model, fitted by any
-//!   method ([`crate::MethodSpec`]).
+//!   method ([`crate::MethodSpec`]);
+//! - **without poses** ([`ObjectModel::fit_views`]), for views whose poses nobody recorded: each
+//!   object's manifold is its training views' points rather than a curve through them, the
+//!   held-out distance is a view's distance to its second nearest other view (`universal.rs`,
+//!   `NEIGHBOUR`), and there is no pose to estimate.
 //!
 //! [`ObjectModel`] holds the recogniser, the thresholds, the objects' names and their pose
 //! models; [`crate::model_file`] saves it as one file. [`ObjectModel::fit_normalized`] puts all

@@ -52,6 +52,11 @@ pub struct ObjectSettings {
     /// model files written before it (they recognise as they did, with the first stage alone).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub own: Option<OwnSettings>,
+    /// Fitted without poses ([`ObjectModel::fit_views`]): each object's manifold is its training
+    /// views' points, the held-out distances are to the nearest other view, and there are no
+    /// pose models.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub views_only: bool,
 }
 
 /// What an [`ObjectModel`] records about its second stage, each object's own eigenspace
@@ -91,11 +96,13 @@ pub struct ObjectEstimate {
 pub struct ObjectModel {
     names: Vec<String>,
     spec: ImageSpec,
-    space: PoseSpace,
+    /// The pose parameters (`None`: fitted without poses, [`ObjectModel::fit_views`]).
+    space: Option<PoseSpace>,
     recognizer: Recognizer,
     /// The second stage (`None` for a model file written before it).
     own: Option<OwnSpaces>,
     settings: ObjectSettings,
+    /// One per object; none for a model fitted without poses.
     poses: Vec<AnyModel>,
     /// The normalisation every query goes through first (the recogniser and the pose models were
     /// fitted on normalised images); `None`: queries are used as they are.
@@ -131,12 +138,45 @@ impl ObjectModel {
             poses.into_iter().collect()
         };
         let recognise = || {
-            let r = Self::fit_recognizer(objects, params);
+            let r = Self::fit_recognizer(objects, params, false);
             progress(1);
             r
         };
         let (recognizer, poses) = rayon::join(recognise, fit);
         Ok(Self::fitted(objects, recognizer?, poses?))
+    }
+
+    /// A recogniser without poses: which object each query shows, and "none of these", from
+    /// each object's training views alone, whatever order they come in. Each object's manifold
+    /// (in the universal eigenspace, and in its own for the second stage) is its training views'
+    /// points, not a curve through them, and a view's held-out distance, which calibrates the
+    /// unknown-object thresholds, is its distance to the nearest other view of its object. The
+    /// objects' poses are not read, and the model has no pose models: its estimates have no
+    /// pose ([`ObjectEstimate::pose`] is `None`). Views between the training views are nearer
+    /// a curve than any point, so, fitted with poses ([`ObjectModel::fit`]), a model recognises
+    /// them at least as well; this is for views whose poses are unknown.
+    pub fn fit_views(objects: &ObjectSet, params: &RecognizerParams) -> Result<Self> {
+        params.validate()?;
+        let mut model = Self::fitted(objects, Self::fit_recognizer(objects, params, true)?, Vec::new());
+        model.space = None;
+        Ok(model)
+    }
+
+    /// As [`ObjectModel::fit_views`], behind a normalisation stage fitted on every object's
+    /// training views ([`ObjectModel::fit_normalized`]).
+    pub fn fit_views_normalized(objects: &ObjectSet, params: &RecognizerParams, normalize: NormalizeParams) -> Result<Self> {
+        params.validate()?;
+        let (stage, normalised) = Self::normalise(objects, normalize)?;
+        let mut model = Self::fit_views(&normalised, params)?;
+        model.stage = Some(stage);
+        Ok(model)
+    }
+
+    /// The stage fitted on every object's training views, and the objects normalised by it.
+    fn normalise(objects: &ObjectSet, normalize: NormalizeParams) -> Result<(Normalizer, ObjectSet)> {
+        let stage = Normalizer::fit_sets(objects.objects(), normalize)?;
+        let normalised = objects.objects().iter().map(|d| stage.apply_dataset(d)).collect::<Result<Vec<Dataset>>>()?;
+        Ok((stage, ObjectSet::new(objects.names().to_vec(), normalised)?))
     }
 
     /// The model of `objects` with its recogniser, second stage and settings, and `poses`; no
@@ -145,7 +185,7 @@ impl ObjectModel {
         ObjectModel {
             names: objects.names().to_vec(),
             spec: objects.spec(),
-            space: objects.space().clone(),
+            space: Some(objects.space().clone()),
             recognizer,
             own: Some(own),
             settings,
@@ -168,9 +208,7 @@ impl ObjectModel {
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<Self> {
         params.validate()?;
-        let stage = Normalizer::fit_sets(objects.objects(), normalize)?;
-        let normalised = objects.objects().iter().map(|d| stage.apply_dataset(d)).collect::<Result<Vec<Dataset>>>()?;
-        let normalised = ObjectSet::new(objects.names().to_vec(), normalised)?;
+        let (stage, normalised) = Self::normalise(objects, normalize)?;
         let mut model = Self::fit_with(&normalised, params, method, progress)?;
         model.stage = Some(stage);
         Ok(model)
@@ -203,25 +241,26 @@ impl ObjectModel {
         if let Some((k, p)) = poses.iter().enumerate().find(|(_, p)| p.meta().spec != objects.spec() || p.meta().space != *objects.space()) {
             return Err(Error::invalid("pose model", &objects.names()[k], format!("fitted on other images or parameters ({})", p.meta().method)));
         }
-        Ok(Self::fitted(objects, Self::fit_recognizer(objects, params)?, poses))
+        Ok(Self::fitted(objects, Self::fit_recognizer(objects, params, false)?, poses))
     }
 
     /// The recogniser, the objects' own eigenspaces (the second stage) and their calibration.
-    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams) -> Result<(Recognizer, OwnSpaces, ObjectSettings)> {
+    /// With `views_only`, each object's manifolds are its views' points ([`ObjectModel::fit_views`]).
+    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<(Recognizer, OwnSpaces, ObjectSettings)> {
         let all = concatenate(objects)?;
         let (recognizer, components, energy_kept, held_out) = match params.kind {
             RecognizerKind::Universal => {
-                let fit = Universal::fit(objects, &all, params)?;
+                let fit = Universal::fit(objects, &all, params, views_only)?;
                 let l = fit.model.components();
                 (Recognizer::Universal(Box::new(fit.model)), l, fit.energy_kept, fit.held_out)
             }
             RecognizerKind::Linear => {
-                let (model, held_out) = LinearRecognizer::fit(objects, &all)?;
+                let (model, held_out) = LinearRecognizer::fit(objects, &all, views_only)?;
                 (Recognizer::Linear(model), 0, 1.0, held_out)
             }
         };
         drop(all);
-        let own = OwnSpaces::fit(objects, params)?;
+        let own = OwnSpaces::fit(objects, params, views_only)?;
         let (held_out_max, held_out_median) = calibration(held_out);
         let (mut own_max, own_median) = calibration(own.held_out);
         // An object without an eigenspace of its own (a single training view): no second stage.
@@ -232,8 +271,16 @@ impl ObjectModel {
         }
         let own_settings =
             OwnSettings { components: own.components, held_out_max: own_max, held_out_median: own_median, thresholds: Vec::new(), bin: own.model.bin() };
-        let mut settings =
-            ObjectSettings { params: *params, components, energy_kept, held_out_max, held_out_median, thresholds: Vec::new(), own: Some(own_settings) };
+        let mut settings = ObjectSettings {
+            params: *params,
+            components,
+            energy_kept,
+            held_out_max,
+            held_out_median,
+            thresholds: Vec::new(),
+            own: Some(own_settings),
+            views_only,
+        };
         set_thresholds(&mut settings, params.unknown);
         Ok((recognizer, own.model, settings))
     }
@@ -248,9 +295,9 @@ impl ObjectModel {
         self.spec
     }
 
-    /// The pose parameters.
-    pub fn space(&self) -> &PoseSpace {
-        &self.space
+    /// The pose parameters; `None` for a model fitted without poses ([`ObjectModel::fit_views`]).
+    pub fn space(&self) -> Option<&PoseSpace> {
+        self.space.as_ref()
     }
 
     /// The recogniser.
@@ -263,14 +310,16 @@ impl ObjectModel {
         &self.settings
     }
 
-    /// Object `k`'s pose model.
-    pub fn pose_model(&self, k: usize) -> &AnyModel {
-        &self.poses[k]
+    /// Object `k`'s pose model (`None` for a model fitted without poses); panics when `k` is
+    /// not an object's index.
+    pub fn pose_model(&self, k: usize) -> Option<&AnyModel> {
+        assert!(k < self.names.len(), "object {k} of {}", self.names.len());
+        self.poses.get(k)
     }
 
-    /// The pose method's name.
-    pub fn method_name(&self) -> &str {
-        &self.poses[0].meta().method
+    /// The pose method's name (`None` for a model fitted without poses).
+    pub fn method_name(&self) -> Option<&str> {
+        self.poses.first().map(|p| p.meta().method.as_str())
     }
 
     /// The same model with the unknown-object rule `unknown` (thresholds recomputed from the
@@ -406,7 +455,7 @@ impl ObjectModel {
         let rec = self.recognize_of(queries)?;
         let m = self.spec.features();
         let mut poses: Vec<Option<Estimate>> = vec![None; rec.len()];
-        for k in 0..self.names.len() {
+        for k in 0..self.poses.len() {
             let idx: Vec<usize> = (0..rec.len()).filter(|&i| rec[i].object == Some(k)).collect();
             if idx.is_empty() {
                 continue;
@@ -467,12 +516,25 @@ impl ObjectModel {
     }
 
     /// Rebuilds a model from a model file's parts: the names, the settings, the recogniser's
-    /// arrays, the pose models (already read back) and the normalisation stage, if any.
-    pub(crate) fn from_parts(names: Vec<String>, settings: ObjectSettings, t: &TensorSet, poses: Vec<AnyModel>, stage: Option<Normalizer>) -> Result<Self> {
+    /// arrays, the pose models (already read back), the image size of a model without pose
+    /// models (`views`, [`ObjectModel::fit_views`]) and the normalisation stage, if any.
+    pub(crate) fn from_parts(
+        names: Vec<String>,
+        settings: ObjectSettings,
+        t: &TensorSet,
+        poses: Vec<AnyModel>,
+        views: Option<ImageSpec>,
+        stage: Option<Normalizer>,
+    ) -> Result<Self> {
         let k = names.len();
         let damaged = |m: String| t.error(format!("damaged object model: {m}"));
-        if k == 0 || poses.len() != k {
-            return Err(damaged(format!("{k} names for {} pose models", poses.len())));
+        let (spec, space) = match (settings.views_only, views, poses.first()) {
+            (true, Some(spec), None) => (spec, None),
+            (false, None, Some(p)) if poses.len() == k => (p.meta().spec, Some(p.meta().space.clone())),
+            _ => return Err(damaged(format!("{k} names for {} pose models (fitted without poses: {})", poses.len(), settings.views_only))),
+        };
+        if k == 0 {
+            return Err(damaged("no objects".into()));
         }
         settings.params.validate().map_err(|e| damaged(e.to_string()))?;
         for v in [&settings.held_out_max, &settings.held_out_median, &settings.thresholds] {
@@ -480,8 +542,7 @@ impl ObjectModel {
                 return Err(damaged(format!("{} per-object values for {k} objects", v.len())));
             }
         }
-        let (spec, space) = (poses[0].meta().spec, poses[0].meta().space.clone());
-        if let Some(p) = poses.iter().find(|p| p.meta().spec != spec || p.meta().space != space || p.meta().method != poses[0].meta().method) {
+        if let Some(p) = poses.iter().find(|p| p.meta().spec != spec || Some(&p.meta().space) != space.as_ref() || p.meta().method != poses[0].meta().method) {
             return Err(damaged(format!("pose models of different image sizes, parameters or methods ({})", p.meta().method)));
         }
         if let Some(st) = &stage {

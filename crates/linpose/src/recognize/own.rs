@@ -81,7 +81,12 @@ impl OwnSpaces {
     /// Fits every object's own eigenspace on its training views, one object after the other (the
     /// largest object's fit is far smaller than the recogniser's, so the training's peak memory
     /// is unchanged).
-    pub fn fit(objects: &ObjectSet, params: &RecognizerParams) -> Result<OwnFit> {
+    ///
+    /// With `views_only`, each object's manifold is its training views' points themselves and a
+    /// view's held-out distance is its distance, residual included, to the nearest other view of
+    /// its object in the object's eigenspace (fitted with every view: refitting without each
+    /// one would cost one eigenspace per view); the poses are not read.
+    pub fn fit(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<OwnFit> {
         let space = objects.space();
         let most = objects.objects().iter().map(Dataset::len).max().unwrap_or(0);
         let binning = Binning::coarsest(objects.spec(), SECOND_LOOK_BIN, most);
@@ -101,6 +106,15 @@ impl OwnSpaces {
                 spaces.push(None);
                 components.push(0);
                 held_out.push(Vec::new());
+                continue;
+            }
+            if views_only {
+                let pca = pca::fit(d, Dimension::Fixed(params.components)).map_err(named)?;
+                let l = pca.dim();
+                let residuals: Vec<f64> = (0..d.len()).map(|i| residual(d.row(i), &pca)).collect();
+                held_out.push(super::universal::nearest_other(&pca.coords, l, Some(&residuals)));
+                spaces.push(Some(Universal::new(to32(&pca.basis), to32(&pca.mean), vec![to32(&pca.coords)]).map_err(named)?));
+                components.push(l);
                 continue;
             }
             let grid = Grid::new(space, d.poses(), d.manifest().images(), d.manifest().root()).map_err(named)?;
@@ -215,7 +229,7 @@ fn prefix(k: usize) -> String {
 /// own pose: the residual off that eigenspace and the distance within it to the manifold
 /// interpolated from the kept knots (the same splines). Empty when no axis has knots enough.
 fn held_out_distances(train: &Dataset, grid: &Grid, components: usize) -> Result<Vec<f64>> {
-    let (space, m) = (train.space(), train.n_features());
+    let space = train.space();
     let mut out = Vec::new();
     for keep in both_folds(train, grid) {
         let kept = train.subset(&keep)?;
@@ -226,12 +240,7 @@ fn held_out_distances(train: &Dataset, grid: &Grid, components: usize) -> Result
         let surface = Surface::new(space, &sub.axes, &knots, l, Interpolant::Spline)?;
         let mut f = vec![0.0; l];
         for i in (0..train.len()).filter(|&i| !keep[i]) {
-            let x = train.row(i);
-            // A training view has energy: the eigenspace's fit refuses one that has none.
-            let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
-            let c: Vec<f64> = x.iter().zip(&pca.mean).map(|(&v, &mu)| v as f64 / norm - mu).collect();
-            let y: Vec<f64> = pca.basis.chunks_exact(m).map(|u| u.iter().zip(&c).map(|(a, b)| a * b).sum()).collect();
-            let residual = c.iter().map(|v| v * v).sum::<f64>() - y.iter().map(|v| v * v).sum::<f64>();
+            let (y, residual) = project(train.row(i), &pca);
             let mut t = train.pose(i).to_vec();
             surface.clamp(&mut t);
             surface.eval(&t, &mut f, None);
@@ -240,4 +249,21 @@ fn held_out_distances(train: &Dataset, grid: &Grid, components: usize) -> Result
         }
     }
     Ok(out)
+}
+
+/// A training view's coordinates in the eigenspace `pca` and its squared residual off it, the
+/// view scaled to unit energy (a training view has energy: the eigenspace's fit refuses one that
+/// has none).
+fn project(x: &[f32], pca: &pca::Pca) -> (Vec<f64>, f64) {
+    let m = x.len();
+    let norm = x.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
+    let c: Vec<f64> = x.iter().zip(&pca.mean).map(|(&v, &mu)| v as f64 / norm - mu).collect();
+    let y: Vec<f64> = pca.basis.chunks_exact(m).map(|u| u.iter().zip(&c).map(|(a, b)| a * b).sum()).collect();
+    let residual = c.iter().map(|v| v * v).sum::<f64>() - y.iter().map(|v| v * v).sum::<f64>();
+    (y, residual)
+}
+
+/// A training view's squared residual off the eigenspace `pca` ([`project`]).
+fn residual(x: &[f32], pca: &pca::Pca) -> f64 {
+    project(x, pca).1
 }

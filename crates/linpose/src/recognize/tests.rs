@@ -52,7 +52,7 @@ fn the_own_distance_is_the_image_space_distance_to_the_nearest_manifold_point() 
     let spec = ImageSpec { width: 48, height: 1, color: ColorMode::Gray };
     let d = Dataset::new(spec, poses.chunks(2).flat_map(|p| image(p[0], p[1])).collect(), space, poses.clone()).unwrap();
     let objects = ObjectSet::new(vec!["lobe".into()], vec![d]).unwrap();
-    let fit = own::OwnSpaces::fit(&objects, &RecognizerParams::default().components(6).manifold_step(2.0)).unwrap();
+    let fit = own::OwnSpaces::fit(&objects, &RecognizerParams::default().components(6).manifold_step(2.0), false).unwrap();
     assert_eq!(fit.components, vec![6]);
     // Every fold held a knot out: along each axis with enough knots, both parities.
     assert!(!fit.held_out[0].is_empty() && fit.held_out[0].iter().all(|&v| v.is_finite() && v > 0.0));
@@ -95,7 +95,7 @@ fn the_nearer_object_is_the_one_every_object_measured_in_full_gives() {
     let render =
         |a: &str| -> Vec<Dataset> { names.iter().map(|n| dataset(&objects::builtin(n).unwrap(), &grid(a), &params, Path::new(n), &|_| {}).unwrap()).collect() };
     let train = ObjectSet::new(names.clone(), render("0:340:20")).unwrap();
-    let fit = own::OwnSpaces::fit(&train, &RecognizerParams::default().components(8)).unwrap();
+    let fit = own::OwnSpaces::fit(&train, &RecognizerParams::default().components(8), false).unwrap();
     let queries: Vec<f32> = render("10:350:20").iter().flat_map(|d| d.features().to_vec()).collect();
     let binned = fit.model.binned(&queries);
     let n = queries.len() / train.spec().features();
