@@ -12,6 +12,7 @@
 mod arrays;
 mod data;
 mod model;
+mod objects;
 mod partial;
 
 use pyo3::prelude::*;
@@ -33,6 +34,11 @@ fn _linpose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load, m)?)?;
     m.add_function(wrap_pyfunction!(model::methods, m)?)?;
+    m.add_class::<objects::Objects>()?;
+    m.add_function(wrap_pyfunction!(objects::fit_objects, m)?)?;
+    m.add_function(wrap_pyfunction!(objects::load_objects, m)?)?;
+    m.add_function(wrap_pyfunction!(objects::holds_objects, m)?)?;
+    m.add_function(wrap_pyfunction!(objects::bytes_hold_objects, m)?)?;
     m.add_function(wrap_pyfunction!(data::synth, m)?)?;
     m.add_function(wrap_pyfunction!(data::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(data::pose_error, m)?)?;

@@ -6,7 +6,7 @@
 use crate::arrays::{pixels, Pixels};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::normalize::{NormalizeParams, Normalized};
+use linpose::normalize::Normalized;
 use linpose::{model_file, AnyModel, Dataset, Param, PoseModel, PoseSpace, Settings};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -252,13 +252,7 @@ pub fn fit(
     })?;
     let settings = settings.into_iter().fold(Settings::new(), |s, (n, v)| s.set(n, v));
     let spec = method.spec(&settings).map_err(py_err)?;
-    let stage = match normalize {
-        None => None,
-        Some("all") => Some(NormalizeParams { geometry: true, brightness: true }),
-        Some("geometry") => Some(NormalizeParams { geometry: true, brightness: false }),
-        Some("brightness") => Some(NormalizeParams { geometry: false, brightness: true }),
-        Some(v) => return Err(PyValueError::new_err(format!("normalize={v:?}: expected None, 'all', 'geometry' or 'brightness'"))),
-    };
+    let stage = crate::objects::stage(normalize)?;
     let space = space(params)?;
     let x = pixels(x, "X")?;
     let (n, m) = x.shape();

@@ -84,12 +84,15 @@ def test_sixteen_bit_images_are_read_as_features(tmp_path):
     assert params == [("azimuth", 360.0)] and y[:, 0].tolist() == [0.0, 10.0, 20.0]
 
 
-def test_many_object_model_files_are_refused_with_what_reads_them(cli, tmp_path):
+def test_many_object_model_files_are_read_as_recognisers_and_refused_as_one_model(cli, tmp_path):
     for o in ("duck", "cap"):
         run(cli, "synth", "--object", o, "--out", tmp_path / "set" / o, "--azimuth", "0:350:10", "--elevation", "40", "--size", "32x24")
     model = tmp_path / "m.safetensors"
     run(cli, "train", "--data", tmp_path / "set", "--method", "linear", "--out", model)
-    with pytest.raises(ValueError, match="several objects.*Python package does not read many-object models"):
-        linpose.load(model)
+    assert isinstance(linpose.load(model), linpose.ObjectRecognizer)
+    assert isinstance(linpose.from_bytes(model.read_bytes()), linpose.ObjectRecognizer)
+    # The one-model reader says what reads it.
+    with pytest.raises(ValueError, match="several objects.*in Python `linpose.load` \\(an ObjectRecognizer\\)"):
+        linpose._linpose.load(str(model))
     with pytest.raises(ValueError, match="several objects"):
-        linpose.from_bytes(model.read_bytes())
+        linpose._linpose.Model.from_bytes(model.read_bytes())

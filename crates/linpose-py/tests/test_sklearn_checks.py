@@ -17,6 +17,9 @@ The reasons:
   must form a grid with one image per point. Checks whose targets repeat a value (class labels,
   integer targets) or are random multi-column values give no such grid; linpose refuses them
   naming the repeated pose (or the missing grid point).
+- ``ObjectRecognizer`` (either recogniser) on ``check_estimators_dtypes``: its random integer
+  images include one of all zeros, and Murase & Nayar's eigenspaces scale every image to unit
+  energy, which a black image does not have; linpose refuses it naming the image.
 """
 
 import re
@@ -29,6 +32,7 @@ import linpose
 SINGULAR = r"Gram matrix is singular"
 TWICE = r"are identical\); the same view is listed twice"
 GRID = r"have the same training pose|needs one image per grid point|grid"
+BLACK = r"the image is all black \(zero energy\)"
 
 # Checks that fit random tabular data: more samples than features, and targets that are no pose
 # grid (class labels, integers, random columns).
@@ -53,8 +57,17 @@ EXPECTED = {
     "LinearPose(ridge=1e-06)": {"check_positive_only_tag_during_fit": TWICE},
     "EigenspacePose()": {c: GRID for c in _FIT_RANDOM},
     "RefinedPose()": {c: GRID for c in _FIT_RANDOM},
+    "ObjectRecognizer()": {"check_estimators_dtypes": BLACK},
+    "ObjectRecognizer(recognizer='linear')": {"check_estimators_dtypes": BLACK},
 }
-ESTIMATORS = [linpose.LinearPose(), linpose.LinearPose(ridge=1e-6), linpose.EigenspacePose(), linpose.RefinedPose()]
+ESTIMATORS = [
+    linpose.LinearPose(),
+    linpose.LinearPose(ridge=1e-6),
+    linpose.EigenspacePose(),
+    linpose.RefinedPose(),
+    linpose.ObjectRecognizer(),
+    linpose.ObjectRecognizer(recognizer="linear"),
+]
 
 
 def _name(check):

@@ -59,3 +59,19 @@ def test_other_threads_run_during_a_large_call(model_and_queries, call):
         shares.append(during / max(alone, 1))
     # Held, the share would be about 0 (the loop runs only before and after the call).
     assert max(shares) > 0.3, shares
+
+
+def test_other_threads_run_while_the_recogniser_fits_and_predicts():
+    X, y = [], []
+    for o in ("duck", "pot", "cap"):
+        images, poses, params = linpose.synth(o, azimuth="0:357:3", elevation="40", size=(160, 120))
+        X.append(images)
+        y += [o] * len(images)
+    X, y = np.concatenate(X), np.array(y)
+    est = linpose.ObjectRecognizer()
+    for work in (lambda: est.fit(X[::2], y[::2]), lambda: est.predict(np.tile(X, (4, 1, 1)))):
+        shares = []
+        for _ in range(3):
+            during, elapsed = _count_while(work)
+            shares.append(during / max(_count_for(elapsed), 1))
+        assert max(shares) > 0.3, shares

@@ -6,7 +6,10 @@ learns to tell the pose of a new image. Three methods, each a scikit-learn estim
 - :class:`LinearPose`: Okatani & Deguchi's linear model (MVA 2000), each pose parameter a linear
   function of the pixels, circular parameters as (cos, sin);
 - :class:`EigenspacePose`: Murase & Nayar's parametric eigenspace, the paper's baseline;
-- :class:`RefinedPose`: linpose's refined eigenspace, its most accurate.
+- :class:`RefinedPose`: linpose's refined eigenspace, its most accurate;
+
+and for several objects, :class:`ObjectRecognizer`, a classifier: which object an image shows
+(or none of the known ones), then its pose.
 
 The models are the Rust library's, and their files are the command line's: :func:`load` reads
 one ``linpose train`` wrote, and ``save`` writes one ``linpose predict`` reads. :func:`synth`
@@ -26,6 +29,7 @@ import numpy as np
 
 from . import _linpose
 from ._estimators import EigenspacePose, LinearPose, PoseEstimator, RefinedPose, from_model, resolve_params
+from ._objects import ObjectRecognizer, from_objects
 
 __version__ = _linpose.__version__
 
@@ -34,6 +38,7 @@ __all__ = [
     "EigenspacePose",
     "RefinedPose",
     "PoseEstimator",
+    "ObjectRecognizer",
     "load",
     "from_bytes",
     "synth",
@@ -45,15 +50,22 @@ __all__ = [
 PathLike = Union[str, "os.PathLike[str]"]
 
 
-def load(path: PathLike) -> PoseEstimator:
+def load(path: PathLike) -> Union[PoseEstimator, ObjectRecognizer]:
     """Reads a model file (written by ``linpose train`` or an estimator's ``save``) as a fitted
-    estimator of its method."""
-    return from_model(_linpose.load(os.fspath(path)))
+    estimator of its method, or, for a model of several objects, a fitted
+    :class:`ObjectRecognizer`."""
+    path = os.fspath(path)
+    if _linpose.holds_objects(path):
+        return from_objects(_linpose.load_objects(path))
+    return from_model(_linpose.load(path))
 
 
-def from_bytes(data: bytes) -> PoseEstimator:
+def from_bytes(data: bytes) -> Union[PoseEstimator, ObjectRecognizer]:
     """A fitted estimator from a model file's bytes (an estimator's ``to_bytes``)."""
-    return from_model(_linpose.Model.from_bytes(bytes(data)))
+    data = bytes(data)
+    if _linpose.bytes_hold_objects(data):
+        return from_objects(_linpose.Objects.from_bytes(data))
+    return from_model(_linpose.Model.from_bytes(data))
 
 
 def synth(

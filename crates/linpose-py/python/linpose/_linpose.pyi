@@ -46,6 +46,54 @@ def fit(
     normalize: Optional[str] = None,
 ) -> Model: ...
 def load(path: Union[str, PathLike[str]]) -> Model: ...
+
+class Objects:
+    """A fitted many-object model: a recogniser and, fitted with poses, each object's pose model."""
+
+    names: List[str]
+    recognizer: str
+    method: Optional[str]
+    image_shape: Tuple[int, int]
+    n_features: int
+    params: Optional[Params]
+    settings_json: str
+    normalize_json: Optional[str]
+    model_bytes: int
+    def estimate(
+        self, x: Images
+    ) -> Tuple[
+        npt.NDArray[np.int64],
+        npt.NDArray[np.int64],
+        npt.NDArray[np.float64],
+        npt.NDArray[np.float64],
+        Optional[npt.NDArray[np.float64]],
+    ]: ...
+    def distances(self, x: Images) -> npt.NDArray[np.float64]: ...
+    def pose_settings_json(self, k: int) -> Optional[str]: ...
+    def to_bytes(self) -> bytes: ...
+    @staticmethod
+    def from_bytes(data: bytes) -> "Objects": ...
+    def save(self, path: Union[str, PathLike[str]]) -> int: ...
+
+def fit_objects(
+    recognizer: str,
+    components: int,
+    manifold_step: float,
+    unknown: Union[str, float],
+    x: Images,
+    height: int,
+    width: int,
+    labels: npt.NDArray[np.int64],
+    names: Sequence[str],
+    y: Optional[npt.NDArray[np.float64]] = None,
+    params: Optional[Params] = None,
+    method: Optional[str] = None,
+    settings: Sequence[Tuple[str, str]] = (),
+    normalize: Optional[str] = None,
+) -> Objects: ...
+def load_objects(path: Union[str, PathLike[str]]) -> Objects: ...
+def holds_objects(path: Union[str, PathLike[str]]) -> bool: ...
+def bytes_hold_objects(data: bytes) -> bool: ...
 def methods() -> List[Tuple[str, str, List[Tuple[str, str, str]]]]: ...
 def synth(
     object: Optional[str] = None,

@@ -1,0 +1,319 @@
+"""The recogniser: which of several objects each image shows ("none of these" included), then its
+pose, as a scikit-learn classifier.
+
+It wraps a fitted many-object model of the Rust library (``model_``), the model ``linpose train``
+fits on a data set of many objects: Murase & Nayar's universal eigenspace (or the paper's linear
+model with one-hot targets) tells the objects apart, each object's own eigenspace checks the
+answer, and each object's own pose model gives the pose.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Optional
+
+import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.exceptions import NotFittedError
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import validate_data
+
+from . import _linpose
+from ._estimators import _DTYPES, _FAST, ESTIMATORS, LinearPose, PoseEstimator, _flatten, _integer, _number, _stage, resolve_params
+
+
+class ObjectRecognizer(ClassifierMixin, BaseEstimator):
+    """Which object each image shows, or none of the known ones, then its pose.
+
+    ``fit(X, y, poses=None)``: ``y`` names each training image's object (any labels, as for a
+    scikit-learn classifier). With ``poses`` (degrees, as the pose estimators take them), each
+    object also gets a pose model (``pose``) and each object's appearance manifold is the curve
+    through its views at their poses, as Murase & Nayar build it. Without them, each object's
+    manifold is its training views' points, and there is no pose: recognition of objects whose
+    poses nobody recorded (views between the training views then lie nearer a curve than any
+    point, so give the poses when you have them).
+
+    ``predict`` gives each image's object, or ``unknown_label`` when it is none of the known
+    objects: its distance to the nearest object exceeds what that object's held-out training
+    views show, in the shared space and then in the object's own eigenspace, or another object's
+    own manifold lies nearer (``unknown="calibrated"``). ``predict_pose`` gives the pose of each
+    image recognised.
+
+    Parameters
+    ----------
+    recognizer : {"universal", "linear"}, default="universal"
+        Murase & Nayar's universal eigenspace of every object's views (the nearest manifold), or
+        the paper's minimum-norm linear model with one-hot object targets.
+    components : int, default=20
+        Dimensions of the universal eigenspace (and at most of each object's own), capped at the
+        number of training images less one.
+    manifold_step : float, default=0.5
+        The manifolds' resampling step in degrees (fitted with poses).
+    unknown : "calibrated", None or float, default="calibrated"
+        When an image is none of the known objects: calibrated on each object's held-out
+        training views, ``None`` never, or beyond this distance in the recogniser's measure.
+    unknown_label : default=-1
+        What ``predict`` gives for an image of none of the known objects.
+    pose : LinearPose, EigenspacePose or RefinedPose, default=None
+        The pose method for each object and its parameters (an unfitted estimator; ``None``:
+        ``LinearPose()``, the command line's default). Only used when ``fit`` gets poses; its
+        own ``params``, ``image_shape`` and ``normalize`` must be left unset (set them here).
+    params : list, default=None
+        The pose parameters, as for :class:`LinearPose`.
+    image_shape : (h, w), default=None
+        As for :class:`LinearPose`.
+    normalize : {None, "all", "geometry", "brightness"}, default=None
+        One normalisation stage fitted on every object's training views together, every query
+        going through it first (images as a camera takes them).
+
+    Attributes
+    ----------
+    model_ : the Rust many-object model
+    classes_ : array of the objects' labels
+    params_ : the pose parameters, ``None`` when fitted without poses
+    image_shape_, n_features_in_
+        As for :class:`LinearPose`.
+    """
+
+    def __init__(
+        self,
+        *,
+        recognizer="universal",
+        components=20,
+        manifold_step=0.5,
+        unknown="calibrated",
+        unknown_label=-1,
+        pose=None,
+        params=None,
+        image_shape=None,
+        normalize=None,
+    ):
+        self.recognizer = recognizer
+        self.components = components
+        self.manifold_step = manifold_step
+        self.unknown = unknown
+        self.unknown_label = unknown_label
+        self.pose = pose
+        self.params = params
+        self.image_shape = image_shape
+        self.normalize = normalize
+
+    # -- fitting -------------------------------------------------------------------------------
+
+    def fit(self, X, y, poses=None):
+        """Fits the recogniser on images ``X`` of the objects ``y`` and, with ``poses``, each
+        object's pose model.
+
+        Parameters
+        ----------
+        X : array of shape (n, h, w) or (n, pixels)
+            Training images. ``uint8``/``uint16`` are image levels, floats are features.
+        y : array of shape (n,)
+            Each image's object (any labels).
+        poses : array of shape (n, K) or (n,), default=None
+            Their poses in degrees (see ``params``); each object's must form a full grid for
+            the eigenspace methods, and for the universal recogniser.
+
+        Returns
+        -------
+        self
+        """
+        X, shape = _flatten(X, self.image_shape)
+        X, y = validate_data(self, X, y, dtype=_DTYPES, order="C")
+        check_classification_targets(y)
+        n, m = X.shape
+        if n < 2:
+            raise ValueError(f"ObjectRecognizer needs at least 2 training images; got n_samples={n} (1 sample).")
+        if m < 2:
+            raise ValueError("ObjectRecognizer needs images of at least 2 pixels (n_features=1): scaled to unit energy, images of one pixel are all alike")
+        if shape is None:
+            shape = (1, m)
+        if shape[0] * shape[1] != m:
+            raise ValueError(f"image_shape {shape} has {shape[0] * shape[1]} pixels but X has {m} values per image")
+        classes, labels = np.unique(y, return_inverse=True)
+        names = [str(c) for c in classes]
+        if len(set(names)) != len(names):
+            raise ValueError(f"the labels {classes.tolist()} do not read as distinct names")
+        if self.unknown is None:
+            unknown: Any = "off"
+        elif isinstance(self.unknown, str):
+            unknown = self.unknown
+        else:
+            unknown = float(_number(self.unknown))
+        common = dict(
+            recognizer=str(self.recognizer),
+            components=int(_integer(self.components, "components")),
+            manifold_step=float(_number(self.manifold_step)),
+            unknown=unknown,
+            x=X,
+            height=shape[0],
+            width=shape[1],
+            labels=np.ascontiguousarray(labels, dtype=np.int64),
+            names=names,
+            normalize=self.normalize,
+        )
+        y_1d = False
+        params = None
+        if poses is None:
+            model = _linpose.fit_objects(**common)
+        else:
+            p = np.asarray(poses, dtype=np.float64)
+            if p.ndim not in (1, 2) or len(p) != n:
+                raise ValueError(f"poses has shape {p.shape}; {n} images need (n, K) or (n,) poses")
+            y_1d = p.ndim == 1
+            p2 = p.reshape(-1, 1) if y_1d else p
+            params = resolve_params(self.params, p2.shape[1])
+            method = LinearPose() if self.pose is None else self.pose
+            if not isinstance(method, PoseEstimator):
+                raise TypeError(f"pose must be a LinearPose, EigenspacePose or RefinedPose, got {method!r}")
+            for name in ("params", "image_shape", "normalize"):
+                if getattr(method, name) is not None:
+                    raise ValueError(f"pose={method!r}: set {name} on the ObjectRecognizer, not on its pose estimator")
+            model = _linpose.fit_objects(
+                **common, y=np.ascontiguousarray(p2), params=params, method=method._method, settings=method._settings()
+            )
+        self._set_fitted(model, classes, params, y_1d, shape, m)
+        return self
+
+    def _set_fitted(self, model: Any, classes: np.ndarray, params: Optional[list], y_1d: bool, image_shape, n_features: int) -> None:
+        self.model_ = model
+        self.classes_ = classes
+        self.params_ = params
+        self.image_shape_ = tuple(image_shape)
+        self.n_features_in_ = n_features
+        self._y_1d = y_1d
+
+    # -- recognising ---------------------------------------------------------------------------
+
+    def _model(self) -> Any:
+        model = self.__dict__.get("model_")
+        if model is None:
+            raise NotFittedError(
+                f"This {type(self).__name__} instance is not fitted yet. Call 'fit' with appropriate arguments before using this estimator."
+            )
+        return model
+
+    def _rows(self, X: Any) -> Any:
+        """``X`` as the core reads it (see the pose estimators' ``_rows``)."""
+        if type(X) is np.ndarray and X.dtype in _FAST and "feature_names_in_" not in self.__dict__:
+            s = X.shape
+            m = s[1] if len(s) == 2 else s[1] * s[2] if len(s) == 3 else None
+            if m is not None:
+                if m != self.n_features_in_:
+                    raise ValueError(f"X has {m} features, but {type(self).__name__} is expecting {self.n_features_in_} features as input.")
+                return X
+        X, _ = _flatten(X, None)
+        return validate_data(self, X, reset=False, dtype=_DTYPES, order="C")
+
+    def _labels(self, index: np.ndarray) -> np.ndarray:
+        """The labels of object indices, ``unknown_label`` for -1."""
+        out = self.classes_[np.maximum(index, 0)]
+        unknown = index < 0
+        if unknown.any():
+            try:
+                with np.errstate(all="ignore"):
+                    cast = np.asarray(self.unknown_label, dtype=out.dtype)
+                fits = cast.item() == self.unknown_label
+            except (TypeError, ValueError):
+                fits = False
+            if not fits:
+                out = out.astype(object)
+            out[unknown] = self.unknown_label
+        return out
+
+    def recognize(self, X):
+        """Each image's object in detail: ``(label, nearest, distance, confidence)``: the
+        object's label (``unknown_label`` for none of the known objects), the nearest object's
+        label even then, the distance to it in the recogniser's measure, and how far it stands
+        out from the second nearest, 1 - (distance / second distance)^2 in [0, 1] (a margin,
+        not a probability)."""
+        obj, nearest, distance, confidence, _ = self._model().estimate(self._rows(X))
+        return self._labels(obj), self.classes_[nearest], distance, confidence
+
+    def predict(self, X):
+        """Each image's object: one of ``classes_``, or ``unknown_label`` for none of them."""
+        return self._labels(self._model().estimate(self._rows(X))[0])
+
+    def predict_pose(self, X):
+        """Each image's pose in degrees from its object's pose model: (n, K), or (n,) when
+        fitted on 1-D poses; NaN for an image of none of the known objects. Needs a model
+        fitted with poses."""
+        pose = self._model().estimate(self._rows(X))[4]
+        if pose is None:
+            raise ValueError("this ObjectRecognizer was fitted without poses: it tells objects apart but gives no pose (fit it with poses=...)")
+        return pose[:, 0] if self._y_1d else pose
+
+    def distances(self, X):
+        """Each image's distance to each object, (n, len(classes_)), in the recogniser's
+        measure (smaller: more like that object)."""
+        return self._model().distances(self._rows(X))
+
+    # -- model files and pickling --------------------------------------------------------------
+
+    def save(self, path) -> int:
+        """Writes the model file (the command line's format, which ``linpose predict`` and
+        ``eval`` read; written atomically). Returns its size in bytes. The objects' names in it
+        are the labels as text."""
+        return self._model().save(str(path))
+
+    def to_bytes(self) -> bytes:
+        """The model file's bytes."""
+        return self._model().to_bytes()
+
+    def __getstate__(self):
+        state = super().__getstate__()
+        if "model_" in state:
+            state = dict(state)
+            state["model_"] = state["model_"].to_bytes()
+        return state
+
+    def __setstate__(self, state):
+        if isinstance(state.get("model_"), (bytes, bytearray)):
+            state = dict(state)
+            state["model_"] = _linpose.Objects.from_bytes(bytes(state["model_"]))
+        super().__setstate__(state)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.allow_nan = False
+        return tags
+
+    # -- what the model learnt -----------------------------------------------------------------
+
+    @property
+    def settings_(self) -> dict:
+        """The recogniser's settings and its calibration (each object's held-out distances and
+        thresholds), from the model."""
+        return json.loads(self._model().settings_json)
+
+    @property
+    def model_bytes_(self) -> int:
+        """Bytes of the numbers the model stores to serve queries: the recogniser's and every
+        pose model's."""
+        return self._model().model_bytes
+
+
+def from_objects(model) -> ObjectRecognizer:
+    """A fitted recogniser around a many-object model of the Rust core (as a model file gives
+    it): its labels are the objects' names, its parameters read back from the settings."""
+    s = json.loads(model.settings_json)["params"]
+    unknown = s["unknown"]
+    unknown = "calibrated" if unknown == "calibrated" else None if unknown == "off" else float(unknown["threshold"])
+    pose = None
+    if model.method is not None:
+        cls = ESTIMATORS.get(model.method)
+        if cls is None:
+            raise ValueError(f"pose models of method {model.method!r}, which this package has no estimator for")
+        pose = cls(**cls._given(json.loads(model.pose_settings_json(0)).get("params", {})))
+    params = None if model.params is None else [tuple(p) for p in model.params]
+    est = ObjectRecognizer(
+        recognizer=s["kind"],
+        components=int(s["components"]),
+        manifold_step=float(s["manifold_step"]),
+        unknown=unknown,
+        pose=pose,
+        params=params,
+        normalize=_stage(model),
+    )
+    est._set_fitted(model, np.array(model.names), params, params is not None and len(params) == 1, model.image_shape, model.n_features)
+    return est

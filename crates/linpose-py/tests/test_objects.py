@@ -1,0 +1,186 @@
+"""The recogniser from Python: several rendered objects told apart and their poses, objects left
+out reported unknown, recognition without poses, the command line's model files both ways, and
+bad inputs refused by name."""
+
+import json
+import pickle
+import subprocess
+
+import numpy as np
+import PIL.Image
+import pytest
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+
+import linpose
+from conftest import run
+
+OBJECTS = ("duck", "pot", "cap")
+PARAMS = [("elevation", None), ("azimuth", 360.0)]
+
+
+@pytest.fixture(scope="module")
+def views():
+    """Each of the three objects and the twin every 5 degrees of azimuth at elevation 40, 64 x
+    48: ``{name: (images, poses)}``."""
+    out = {}
+    for o in OBJECTS + ("twin",):
+        images, poses, params = linpose.synth(o, azimuth="0:355:5", elevation="40", size=(64, 48))
+        assert [tuple(p) for p in params] == PARAMS
+        out[o] = (images, poses)
+    return out
+
+
+def training(views, names=OBJECTS):
+    """Every 10 degrees of each object's views: (X, labels, poses)."""
+    X, y, P = [], [], []
+    for o in names:
+        images, poses = views[o]
+        keep = poses[:, 1] % 10 == 0
+        X.append(images[keep])
+        y += [o] * int(keep.sum())
+        P.append(poses[keep])
+    return np.concatenate(X), np.array(y), np.concatenate(P)
+
+
+def unseen(views, o):
+    images, poses = views[o]
+    keep = poses[:, 1] % 10 != 0
+    return images[keep], poses[keep]
+
+
+def test_objects_are_told_apart_their_poses_estimated_and_an_object_left_out_is_unknown(views):
+    X, y, P = training(views)
+    est = linpose.ObjectRecognizer(pose=linpose.EigenspacePose(components=12), params=PARAMS).fit(X, y, P)
+    assert list(est.classes_) == sorted(OBJECTS) and est.params_ == PARAMS
+    # Identity: the training views are recognised as themselves.
+    assert (est.predict(X) == y).all()
+    for o in OBJECTS:
+        images, poses = unseen(views, o)
+        assert (est.predict(images) == o).mean() >= 0.97, o
+        err = linpose.pose_error(poses, est.predict_pose(images), PARAMS)
+        assert np.nanmean(err) < 3.0, (o, np.nanmean(err))
+    images, _ = views["twin"]
+    label, nearest, distance, confidence = est.recognize(images)
+    assert (label == -1).mean() >= 0.95
+    assert set(nearest) <= set(OBJECTS) and (distance > 0).all() and ((confidence >= 0) & (confidence <= 1)).all()
+    # An image of none of the objects has no pose; the label for it is the user's.
+    assert np.isnan(est.predict_pose(images)[label == -1]).all()
+    named = clone(est).set_params(unknown_label="none").fit(X, y, P)
+    assert set(named.predict(images)) <= set(OBJECTS) | {"none"}
+    # Without the unknown-object rule every image is one of the objects.
+    assert set(clone(est).set_params(unknown=None).fit(X, y, P).predict(images)) <= set(OBJECTS)
+    assert est.distances(images).shape == (len(images), 3)
+
+
+def test_without_poses_the_objects_are_told_apart_from_their_views_alone_in_any_order(views):
+    X, y, _ = training(views)
+    est = linpose.ObjectRecognizer().fit(X, y)
+    assert est.params_ is None
+    order = np.random.default_rng(0).permutation(len(X))
+    shuffled = linpose.ObjectRecognizer().fit(X[order], y[order])
+    for o in OBJECTS:
+        images, _ = unseen(views, o)
+        assert (est.predict(images) == o).mean() >= 0.97, o
+        assert (shuffled.predict(images) == est.predict(images)).all()
+    assert (est.predict(views["twin"][0]) == -1).mean() >= 0.95
+    with pytest.raises(ValueError, match="fitted without poses"):
+        est.predict_pose(X[:1])
+    back = linpose.from_bytes(est.to_bytes())
+    assert back.params_ is None and (back.predict(X) == est.predict(X)).all()
+
+
+def test_integer_labels_and_pickling_keep_the_answers(views):
+    X, y, P = training(views)
+    ids = np.array([OBJECTS.index(o) * 10 for o in y])
+    est = linpose.ObjectRecognizer(recognizer="linear").fit(X, ids)
+    twin = views["twin"][0]
+    pred = est.predict(np.concatenate([X, twin]))
+    assert pred.dtype.kind == "i" and set(pred) <= {0, 10, 20, -1}
+    back = pickle.loads(pickle.dumps(est))
+    assert (back.predict(twin) == est.predict(twin)).all()
+    assert list(back.classes_) == [0, 10, 20]
+
+
+def test_model_files_are_the_command_lines_both_ways(views, cli, tmp_path):
+    for o in OBJECTS:
+        run(cli, "synth", "--object", o, "--out", tmp_path / "set" / o, "--azimuth", "0:350:10", "--elevation", "40", "--size", "64x48")
+    model = tmp_path / "cli.safetensors"
+    run(cli, "train", "--data", tmp_path / "set", "--method", "linear", "--out", model)
+    est = linpose.load(model)
+    assert isinstance(est, linpose.ObjectRecognizer) and list(est.classes_) == sorted(OBJECTS)
+    assert isinstance(est.pose, linpose.LinearPose) and est.params_ == PARAMS
+    # Fitted here on the same images (as the command line reads them), the same file.
+    X, y, P = [], [], []
+    for o in sorted(OBJECTS):
+        images, poses, params, _ = linpose.read_dataset(tmp_path / "set" / o)
+        X.append(images)
+        y += [o] * len(images)
+        P.append(poses)
+    mine = linpose.ObjectRecognizer(params=[tuple(p) for p in params]).fit(np.concatenate(X), np.array(y), np.concatenate(P))
+    assert mine.to_bytes() == model.read_bytes()
+    # The command line's answers are the estimator's, for a file written here too.
+    images, poses = unseen(views, "pot")
+    files = []
+    for i in range(4):
+        f = tmp_path / f"q{i}.png"
+        PIL.Image.fromarray(images[i]).save(f)
+        files.append(f)
+    saved = tmp_path / "py.safetensors"
+    mine.save(saved)
+    out = subprocess.run([cli, "predict", "--model", saved, "--json", *files], capture_output=True, text=True, check=True).stdout
+    rows = [json.loads(line) for line in out.splitlines()]
+    assert [r["object"] for r in rows] == list(mine.predict(images[:4]))
+    got = np.array([[r["pose"]["elevation"], r["pose"]["azimuth"]] for r in rows])
+    np.testing.assert_allclose(got, mine.predict_pose(images[:4]), atol=1e-9)
+
+
+def test_bad_inputs_are_refused_by_name(views):
+    X, y, P = training(views)
+    with pytest.raises(NotFittedError):
+        linpose.ObjectRecognizer().predict(X[:1])
+    with pytest.raises(ValueError, match="poses has shape"):
+        linpose.ObjectRecognizer().fit(X, y, P[:-1])
+    with pytest.raises(ValueError, match="set params on the ObjectRecognizer"):
+        linpose.ObjectRecognizer(pose=linpose.LinearPose(params=PARAMS)).fit(X, y, P)
+    with pytest.raises(TypeError, match="pose must be"):
+        linpose.ObjectRecognizer(pose="refined").fit(X, y, P)
+    with pytest.raises(ValueError, match="unknown="):
+        linpose.ObjectRecognizer(unknown="maybe").fit(X, y)
+    with pytest.raises(ValueError, match="known recognisers"):
+        linpose.ObjectRecognizer(recognizer="svm").fit(X, y)
+    with pytest.raises(ValueError, match="Unknown label type"):
+        linpose.ObjectRecognizer().fit(X, np.linspace(0, 1, len(X)))
+    est = linpose.ObjectRecognizer().fit(X, y)
+    with pytest.raises(ValueError, match="features"):
+        est.predict(X[:, :10, :10])
+    black = np.zeros_like(X)
+    with pytest.raises(ValueError, match="all black"):
+        linpose.ObjectRecognizer().fit(black, y)
+
+
+def test_a_model_without_poses_serves_the_command_line(views, cli, tmp_path):
+    for o in OBJECTS:
+        run(cli, "synth", "--object", o, "--out", tmp_path / "set" / o, "--azimuth", "0:355:5", "--elevation", "40", "--size", "64x48")
+    X, y = [], []
+    for o in OBJECTS:
+        images, poses, _, _ = linpose.read_dataset(tmp_path / "set" / o)
+        keep = poses[:, 1] % 10 == 0
+        X.append(images[keep])
+        y += [o] * int(keep.sum())
+    est = linpose.ObjectRecognizer().fit(np.concatenate(X), np.array(y))
+    model = tmp_path / "views.safetensors"
+    est.save(model)
+    # predict: each image's object, no pose.
+    files = sorted((tmp_path / "set" / "cap").glob("*.png"))[:3]
+    out = subprocess.run([cli, "predict", "--model", model, "--json", *files], capture_output=True, text=True, check=True).stdout
+    rows = [json.loads(line) for line in out.splitlines()]
+    assert [r["object"] for r in rows] == ["cap"] * 3 and all(r["pose"] is None for r in rows)
+    # eval: recognition, every view counted as unseen (the model cannot tell its training
+    # views), and no pose error.
+    r = subprocess.run([cli, "eval", "--model", model, "--data", tmp_path / "set", "--json", tmp_path / "e.json"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "fitted without poses" in r.stderr
+    e = json.loads((tmp_path / "e.json").read_text())
+    assert e["method"] == "none" and e["recognition"]["unseen"] == 1.0 and e["recognition"]["n_unseen"] == 216
+    assert all(s["pose"] is None and s["error_deg"] is None for s in e["samples"])
