@@ -62,10 +62,12 @@ def test_objects_are_told_apart_their_poses_estimated_and_an_object_left_out_is_
         assert np.nanmean(err) < 3.0, (o, np.nanmean(err))
     images, _ = views["twin"]
     label, nearest, distance, confidence = est.recognize(images)
-    assert (label == -1).mean() >= 0.95
+    assert est.unknown_label_ == "unknown" and (label == "unknown").mean() >= 0.95
     assert set(nearest) <= set(OBJECTS) and (distance > 0).all() and ((confidence >= 0) & (confidence <= 1)).all()
     # An image of none of the objects has no pose; the label for it is the user's.
-    assert np.isnan(est.predict_pose(images)[label == -1]).all()
+    assert np.isnan(est.predict_pose(images)[label == "unknown"]).all()
+    # scikit-learn's scores compare predictions with labels, unknown ones included.
+    assert 0.0 <= est.score(np.concatenate([images, X]), np.concatenate([["twin"] * len(images), y])) < 1.0
     named = clone(est).set_params(unknown_label="none").fit(X, y, P)
     assert set(named.predict(images)) <= set(OBJECTS) | {"none"}
     # Without the unknown-object rule every image is one of the objects.
@@ -83,7 +85,7 @@ def test_without_poses_the_objects_are_told_apart_from_their_views_alone_in_any_
         images, _ = unseen(views, o)
         assert (est.predict(images) == o).mean() >= 0.97, o
         assert (shuffled.predict(images) == est.predict(images)).all()
-    assert (est.predict(views["twin"][0]) == -1).mean() >= 0.95
+    assert (est.predict(views["twin"][0]) == "unknown").mean() >= 0.95
     with pytest.raises(ValueError, match="fitted without poses"):
         est.predict_pose(X[:1])
     back = linpose.from_bytes(est.to_bytes())
@@ -100,6 +102,12 @@ def test_integer_labels_and_pickling_keep_the_answers(views):
     back = pickle.loads(pickle.dumps(est))
     assert (back.predict(twin) == est.predict(twin)).all()
     assert list(back.classes_) == [0, 10, 20]
+    # The label for none of them is the user's, of the labels' kind and none of them.
+    with pytest.raises(ValueError, match="not of the labels' kind"):
+        linpose.ObjectRecognizer(unknown_label="none").fit(X, ids)
+    with pytest.raises(ValueError, match="one of the objects' labels"):
+        linpose.ObjectRecognizer(unknown_label=10).fit(X, ids)
+    assert linpose.ObjectRecognizer().fit(X, ids - 1).unknown_label_ == -2
 
 
 def test_model_files_are_the_command_lines_both_ways(views, cli, tmp_path):

@@ -52,8 +52,12 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
     unknown : "calibrated", None or float, default="calibrated"
         When an image is none of the known objects: calibrated on each object's held-out
         training views, ``None`` never, or beyond this distance in the recogniser's measure.
-    unknown_label : default=-1
-        What ``predict`` gives for an image of none of the known objects.
+    unknown_label : default=None
+        What ``predict`` gives for an image of none of the known objects; ``None``: -1 for
+        numeric labels (one less than the least when -1 is a label), ``"unknown"`` for text
+        (with ``_`` appended while it names an object). A label given must be of the labels'
+        kind (a number or text) and none of them, so that predictions and labels compare (as
+        scikit-learn's scores need).
     pose : LinearPose, EigenspacePose or RefinedPose, default=None
         The pose method for each object and its parameters (an unfitted estimator; ``None``:
         ``LinearPose()``, the command line's default). Only used when ``fit`` gets poses; its
@@ -71,6 +75,7 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
     model_ : the Rust many-object model
     classes_ : array of the objects' labels
     params_ : the pose parameters, ``None`` when fitted without poses
+    unknown_label_ : the label ``predict`` gives for none of the known objects
     image_shape_, n_features_in_
         As for :class:`LinearPose`.
     """
@@ -82,7 +87,7 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         components=20,
         manifold_step=0.5,
         unknown="calibrated",
-        unknown_label=-1,
+        unknown_label=None,
         pose=None,
         params=None,
         image_shape=None,
@@ -134,6 +139,7 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         names = [str(c) for c in classes]
         if len(set(names)) != len(names):
             raise ValueError(f"the labels {classes.tolist()} do not read as distinct names")
+        unknown_label = _unknown_label(classes, self.unknown_label)
         if self.unknown is None:
             unknown: Any = "off"
         elif isinstance(self.unknown, str):
@@ -172,12 +178,15 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
             model = _linpose.fit_objects(
                 **common, y=np.ascontiguousarray(p2), params=params, method=method._method, settings=method._settings()
             )
-        self._set_fitted(model, classes, params, y_1d, shape, m)
+        self._set_fitted(model, classes, unknown_label, params, y_1d, shape, m)
         return self
 
-    def _set_fitted(self, model: Any, classes: np.ndarray, params: Optional[list], y_1d: bool, image_shape, n_features: int) -> None:
+    def _set_fitted(
+        self, model: Any, classes: np.ndarray, unknown_label: Any, params: Optional[list], y_1d: bool, image_shape, n_features: int
+    ) -> None:
         self.model_ = model
         self.classes_ = classes
+        self.unknown_label_ = unknown_label
         self.params_ = params
         self.image_shape_ = tuple(image_shape)
         self.n_features_in_ = n_features
@@ -206,24 +215,18 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         return validate_data(self, X, reset=False, dtype=_DTYPES, order="C")
 
     def _labels(self, index: np.ndarray) -> np.ndarray:
-        """The labels of object indices, ``unknown_label`` for -1."""
+        """The labels of object indices, ``unknown_label_`` for -1."""
         out = self.classes_[np.maximum(index, 0)]
         unknown = index < 0
         if unknown.any():
-            try:
-                with np.errstate(all="ignore"):
-                    cast = np.asarray(self.unknown_label, dtype=out.dtype)
-                fits = cast.item() == self.unknown_label
-            except (TypeError, ValueError):
-                fits = False
-            if not fits:
-                out = out.astype(object)
-            out[unknown] = self.unknown_label
+            label = np.asarray(self.unknown_label_)
+            out = out.astype(np.result_type(out.dtype, label.dtype))
+            out[unknown] = label
         return out
 
     def recognize(self, X):
         """Each image's object in detail: ``(label, nearest, distance, confidence)``: the
-        object's label (``unknown_label`` for none of the known objects), the nearest object's
+        object's label (``unknown_label_`` for none of the known objects), the nearest object's
         label even then, the distance to it in the recogniser's measure, and how far it stands
         out from the second nearest, 1 - (distance / second distance)^2 in [0, 1] (a margin,
         not a probability)."""
@@ -231,7 +234,7 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         return self._labels(obj), self.classes_[nearest], distance, confidence
 
     def predict(self, X):
-        """Each image's object: one of ``classes_``, or ``unknown_label`` for none of them."""
+        """Each image's object: one of ``classes_``, or ``unknown_label_`` for none of them."""
         return self._labels(self._model().estimate(self._rows(X))[0])
 
     def predict_pose(self, X):
@@ -293,6 +296,24 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         return self._model().model_bytes
 
 
+def _unknown_label(classes: np.ndarray, given: Any) -> Any:
+    """The label for none of the known objects: ``given``, checked to be of the labels' kind and
+    none of them, or by default -1 (numbers) or "unknown" (text), moved off the labels."""
+    numeric = classes.dtype.kind in "iufb"
+    if given is None:
+        if numeric:
+            return -1 if -1 not in classes else int(np.floor(classes.min())) - 1
+        label = "unknown"
+        while label in set(map(str, classes)):
+            label += "_"
+        return label
+    if numeric != isinstance(given, (int, float, np.integer, np.floating)) or isinstance(given, (bool, np.bool_)):
+        raise ValueError(f"unknown_label={given!r} is not of the labels' kind ({classes.dtype}): predictions and labels would not compare")
+    if given in set(classes.tolist()):
+        raise ValueError(f"unknown_label={given!r} is one of the objects' labels")
+    return given
+
+
 def from_objects(model) -> ObjectRecognizer:
     """A fitted recogniser around a many-object model of the Rust core (as a model file gives
     it): its labels are the objects' names, its parameters read back from the settings."""
@@ -315,5 +336,6 @@ def from_objects(model) -> ObjectRecognizer:
         params=params,
         normalize=_stage(model),
     )
-    est._set_fitted(model, np.array(model.names), params, params is not None and len(params) == 1, model.image_shape, model.n_features)
+    classes = np.array(model.names)
+    est._set_fitted(model, classes, _unknown_label(classes, None), params, params is not None and len(params) == 1, model.image_shape, model.n_features)
     return est
