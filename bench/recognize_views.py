@@ -66,7 +66,7 @@ def main():
             pred = {o: est.predict(objects[o][0]) for o in names}
             predict_s = time.perf_counter() - t
             right = sum(int((pred[o][~train[o]] == o).sum()) for o in names)
-            unknown = sum(int((pred[o][~train[o]] == -1).sum()) for o in names)
+            unknown = sum(int((pred[o][~train[o]] == est.unknown_label_).sum()) for o in names)
             n_unseen = sum(int((~train[o]).sum()) for o in names)
             rejected = left = false = n_known = 0
             for f in range(a.folds):
@@ -75,11 +75,11 @@ def main():
                 e = fit(kind, posed, known)
                 for o in out:
                     p = e.predict(objects[o][0])
-                    rejected += int((p == -1).sum())
+                    rejected += int((p == e.unknown_label_).sum())
                     left += len(p)
                 for o in known:
                     p = e.predict(objects[o][0][~train[o]])
-                    false += int((p == -1).sum())
+                    false += int((p == e.unknown_label_).sum())
                     n_known += len(p)
             print(
                 f"| {kind} | {'yes' if posed else 'no'} | {100 * right / n_unseen:.2f}% | {100 * unknown / n_unseen:.2f}% "
