@@ -94,6 +94,26 @@ impl Objects {
         Ok((PyArray1::from_vec(py, object), PyArray1::from_vec(py, nearest), PyArray1::from_vec(py, distance), PyArray1::from_vec(py, confidence), pose))
     }
 
+    /// Each image's object alone, without the pose (the pose models are not run):
+    /// `(object, nearest, distance, confidence)` as [`Objects::estimate`] gives them.
+    #[allow(clippy::type_complexity)]
+    fn recognize<'py>(
+        &self,
+        py: Python<'py>,
+        x: &Bound<'py, PyAny>,
+    ) -> PyResult<(Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+        let x = pixels(x, "X")?;
+        self.check(&x)?;
+        let f = x.features("X")?;
+        let model = &self.inner;
+        let rec = py.detach(|| model.recognize(&f)).map_err(py_err)?;
+        let object = rec.iter().map(|r| r.object.map_or(-1, |k| k as i64)).collect();
+        let nearest = rec.iter().map(|r| r.nearest as i64).collect();
+        let distance = rec.iter().map(|r| r.distance).collect();
+        let confidence = rec.iter().map(|r| r.confidence).collect();
+        Ok((PyArray1::from_vec(py, object), PyArray1::from_vec(py, nearest), PyArray1::from_vec(py, distance), PyArray1::from_vec(py, confidence)))
+    }
+
     /// Each image's distance to each object (n, objects), the recogniser's measure (smaller:
     /// more like that object).
     fn distances<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Bound<'py, numpy::PyArray2<f64>>> {

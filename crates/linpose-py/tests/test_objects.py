@@ -73,6 +73,10 @@ def test_objects_are_told_apart_their_poses_estimated_and_an_object_left_out_is_
     # Without the unknown-object rule every image is one of the objects.
     assert set(clone(est).set_params(unknown=None).fit(X, y, P).predict(images)) <= set(OBJECTS)
     assert est.distances(images).shape == (len(images), 3)
+    # predict recognises without running the pose models, to the same answers.
+    both = np.concatenate([images, X])
+    for a, b in zip(est.model_.recognize(both), est.model_.estimate(both)):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_without_poses_the_objects_are_told_apart_from_their_views_alone_in_any_order(views):

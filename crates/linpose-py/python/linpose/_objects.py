@@ -230,12 +230,12 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         label even then, the distance to it in the recogniser's measure, and how far it stands
         out from the second nearest, 1 - (distance / second distance)^2 in [0, 1] (a margin,
         not a probability)."""
-        obj, nearest, distance, confidence, _ = self._model().estimate(self._rows(X))
+        obj, nearest, distance, confidence = self._model().recognize(self._rows(X))
         return self._labels(obj), self.classes_[nearest], distance, confidence
 
     def predict(self, X):
         """Each image's object: one of ``classes_``, or ``unknown_label_`` for none of them."""
-        return self._labels(self._model().estimate(self._rows(X))[0])
+        return self._labels(self._model().recognize(self._rows(X))[0])
 
     def predict_pose(self, X):
         """Each image's pose in degrees from its object's pose model: (n, K), or (n,) when
