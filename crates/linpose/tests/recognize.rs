@@ -151,18 +151,31 @@ fn a_model_file_written_before_the_second_stage_recognises_with_the_first_alone(
     }
 }
 
+/// Each built-in object left out in turn, the others fitted by `fit`: the views of the object
+/// left out reported unknown and all views, the known objects' unseen views reported unknown and
+/// all, summed; `inspect` sees each left-out object's recognitions.
+fn each_left_out(fit: impl Fn(&ObjectSet) -> ObjectModel, mut inspect: impl FnMut(&[linpose::recognize::Recognition])) -> (usize, usize, usize, usize) {
+    let (all, train) = builtins();
+    let (mut rejected, mut left, mut false_rejected, mut unseen) = (0, 0, 0, 0);
+    for out in all.names() {
+        let known: Vec<String> = all.names().iter().filter(|n| *n != out).cloned().collect();
+        let model = fit(&train.select(&known).unwrap());
+        let (_, _, _, f, u) = rates(&model, &all.select(&known).unwrap(), &known);
+        (false_rejected, unseen) = (false_rejected + f, unseen + u);
+        let rec = model.recognize(all.object(all.names().iter().position(|n| n == out).unwrap()).features()).unwrap();
+        rejected += rec.iter().filter(|r| r.object.is_none()).count();
+        left += rec.len();
+        inspect(&rec);
+    }
+    (rejected, left, false_rejected, unseen)
+}
+
 #[test]
 fn every_recogniser_with_its_second_stage_reports_each_object_left_out_unknown() {
-    let (all, train) = builtins();
     for kind in RecognizerKind::ALL {
-        let (mut rejected, mut left, mut false_rejected, mut unseen, mut by_second, mut by_nearer) = (0, 0, 0, 0, 0, 0);
-        for out in all.names() {
-            let known: Vec<String> = all.names().iter().filter(|n| *n != out).cloned().collect();
-            let model = ObjectModel::fit(&train.select(&known).unwrap(), &RecognizerParams::new(kind), &eigenspace()).unwrap();
-            let (_, _, _, f, u) = rates(&model, &all.select(&known).unwrap(), &known);
-            (false_rejected, unseen) = (false_rejected + f, unseen + u);
-            let rec = model.recognize(all.object(all.names().iter().position(|n| n == out).unwrap()).features()).unwrap();
-            rejected += rec.iter().filter(|r| r.object.is_none()).count();
+        let (mut by_second, mut by_nearer) = (0, 0);
+        let fit = |known: &ObjectSet| ObjectModel::fit(known, &RecognizerParams::new(kind), &eigenspace()).unwrap();
+        let (rejected, left, false_rejected, unseen) = each_left_out(fit, |rec| {
             by_second += rec.iter().filter(|r| r.object.is_none() && r.own_distance.is_some()).count();
             by_nearer += rec.iter().filter(|r| r.object.is_none() && r.own_nearer.is_some()).count();
             // Another object's own manifold nearer only ever rejects a query its own threshold
@@ -171,8 +184,7 @@ fn every_recogniser_with_its_second_stage_reports_each_object_left_out_unknown()
                 .iter()
                 .filter_map(|r| r.own_nearer.map(|j| (j, r)))
                 .all(|(j, r)| j != r.nearest && r.object.is_none() && r.own_distance.is_some_and(|d| d <= r.own_threshold)));
-            left += rec.len();
-        }
+        });
         println!(
             "{}: {rejected} of {left} views of the object left out reported unknown ({by_second} by the second stage, {by_nearer} of them nearer another object's own manifold); {false_rejected} of {unseen} unseen views of the known objects",
             kind.name()
@@ -391,18 +403,9 @@ fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
 
 #[test]
 fn without_poses_objects_left_out_are_reported_unknown() {
-    let (all, train) = builtins();
     for kind in RecognizerKind::ALL {
-        let (mut rejected, mut left, mut false_rejected, mut unseen) = (0, 0, 0, 0);
-        for out in all.names() {
-            let known: Vec<String> = all.names().iter().filter(|n| *n != out).cloned().collect();
-            let model = ObjectModel::fit_views(&train.select(&known).unwrap(), &RecognizerParams::new(kind)).unwrap();
-            let (_, _, _, f, u) = rates(&model, &all.select(&known).unwrap(), &known);
-            (false_rejected, unseen) = (false_rejected + f, unseen + u);
-            let rec = model.recognize(all.object(all.names().iter().position(|n| n == out).unwrap()).features()).unwrap();
-            rejected += rec.iter().filter(|r| r.object.is_none()).count();
-            left += rec.len();
-        }
+        let fit = |known: &ObjectSet| ObjectModel::fit_views(known, &RecognizerParams::new(kind)).unwrap();
+        let (rejected, left, false_rejected, unseen) = each_left_out(fit, |_| {});
         println!(
             "{}, without poses: {rejected} of {left} views of the object left out reported unknown; {false_rejected} of {unseen} unseen views of the known objects",
             kind.name()

@@ -14,15 +14,15 @@ from typing import Any, Optional
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.exceptions import NotFittedError
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import validate_data
 
 from . import _linpose
-from ._estimators import _DTYPES, _FAST, ESTIMATORS, LinearPose, PoseEstimator, _flatten, _integer, _number, _stage, resolve_params
+from ._core import _DTYPES, CoreModel, _flatten
+from ._estimators import ESTIMATORS, LinearPose, PoseEstimator, _integer, _number, _stage, resolve_params
 
 
-class ObjectRecognizer(ClassifierMixin, BaseEstimator):
+class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
     """Which object each image shows, or none of the known ones, then its pose.
 
     ``fit(X, y, poses=None)``: ``y`` names each training image's object (any labels, as for a
@@ -79,6 +79,8 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
     image_shape_, n_features_in_
         As for :class:`LinearPose`.
     """
+
+    _core = _linpose.Objects
 
     def __init__(
         self,
@@ -194,26 +196,6 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
 
     # -- recognising ---------------------------------------------------------------------------
 
-    def _model(self) -> Any:
-        model = self.__dict__.get("model_")
-        if model is None:
-            raise NotFittedError(
-                f"This {type(self).__name__} instance is not fitted yet. Call 'fit' with appropriate arguments before using this estimator."
-            )
-        return model
-
-    def _rows(self, X: Any) -> Any:
-        """``X`` as the core reads it (see the pose estimators' ``_rows``)."""
-        if type(X) is np.ndarray and X.dtype in _FAST and "feature_names_in_" not in self.__dict__:
-            s = X.shape
-            m = s[1] if len(s) == 2 else s[1] * s[2] if len(s) == 3 else None
-            if m is not None:
-                if m != self.n_features_in_:
-                    raise ValueError(f"X has {m} features, but {type(self).__name__} is expecting {self.n_features_in_} features as input.")
-                return X
-        X, _ = _flatten(X, None)
-        return validate_data(self, X, reset=False, dtype=_DTYPES, order="C")
-
     def _labels(self, index: np.ndarray) -> np.ndarray:
         """The labels of object indices, ``unknown_label_`` for -1."""
         out = self.classes_[np.maximum(index, 0)]
@@ -251,50 +233,10 @@ class ObjectRecognizer(ClassifierMixin, BaseEstimator):
         measure (smaller: more like that object)."""
         return self._model().distances(self._rows(X))
 
-    # -- model files and pickling --------------------------------------------------------------
-
-    def save(self, path) -> int:
-        """Writes the model file (the command line's format, which ``linpose predict`` and
-        ``eval`` read; written atomically). Returns its size in bytes. The objects' names in it
-        are the labels as text."""
-        return self._model().save(str(path))
-
-    def to_bytes(self) -> bytes:
-        """The model file's bytes."""
-        return self._model().to_bytes()
-
-    def __getstate__(self):
-        state = super().__getstate__()
-        if "model_" in state:
-            state = dict(state)
-            state["model_"] = state["model_"].to_bytes()
-        return state
-
-    def __setstate__(self, state):
-        if isinstance(state.get("model_"), (bytes, bytearray)):
-            state = dict(state)
-            state["model_"] = _linpose.Objects.from_bytes(bytes(state["model_"]))
-        super().__setstate__(state)
-
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
-
-    # -- what the model learnt -----------------------------------------------------------------
-
-    @property
-    def settings_(self) -> dict:
-        """The recogniser's settings and its calibration (each object's held-out distances and
-        thresholds), from the model."""
-        return json.loads(self._model().settings_json)
-
-    @property
-    def model_bytes_(self) -> int:
-        """Bytes of the numbers the model stores to serve queries: the recogniser's and every
-        pose model's."""
-        return self._model().model_bytes
-
 
 def _unknown_label(classes: np.ndarray, given: Any) -> Any:
     """The label for none of the known objects: ``given``, checked to be of the labels' kind and
