@@ -196,3 +196,23 @@ def test_a_model_without_poses_serves_the_command_line(views, cli, tmp_path):
     e = json.loads((tmp_path / "e.json").read_text())
     assert e["method"] == "none" and e["recognition"]["unseen"] == 1.0 and e["recognition"]["n_unseen"] == 216
     assert all(s["pose"] is None and s["error_deg"] is None for s in e["samples"])
+
+
+def test_behind_one_normalisation_stage_moved_views_are_recognised_and_an_empty_one_named(views):
+    X, y, P = training(views)
+    plain = linpose.ObjectRecognizer(params=PARAMS).fit(X, y, P)
+    est = linpose.ObjectRecognizer(params=PARAMS, normalize="geometry").fit(X, y, P)
+    assert est.get_params()["normalize"] == "geometry"
+    moved, truth = [], []
+    for o in OBJECTS:
+        images, _ = unseen(views, o)
+        moved.append(np.roll(images, (3, -2), axis=(1, 2)))
+        truth += [o] * len(images)
+    moved, truth = np.concatenate(moved), np.array(truth)
+    assert (est.predict(moved) == truth).mean() >= 0.97
+    assert (plain.predict(moved) == truth).mean() < 0.9
+    back = linpose.from_bytes(est.to_bytes())
+    assert back.normalize == "geometry" and (back.predict(moved) == est.predict(moved)).all()
+    black = np.concatenate([moved[:2], np.zeros_like(moved[:1])])
+    with pytest.raises(ValueError, match="query #2.*no object found"):
+        est.predict(black)
