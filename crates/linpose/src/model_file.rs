@@ -70,7 +70,7 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
     }
     let mut meta = BTreeMap::new();
     meta.insert("kind", OBJECTS_KIND.to_string());
-    meta.insert("method", model.method_name().unwrap_or(VIEWS_ONLY).to_string());
+    meta.insert("method", model.method_name().unwrap_or(NO_POSES).to_string());
     meta.insert("linpose.objects", serde_json::to_string(&header).expect("header serialises"));
     write_parts(meta, tensors)
 }
@@ -78,8 +78,9 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
 /// The `kind` metadata of a many-object model file (a file without it holds one pose model).
 const OBJECTS_KIND: &str = "objects";
 
-/// The `method` metadata of a many-object model file fitted without poses (no pose models).
-const VIEWS_ONLY: &str = "none";
+/// The `method` of a many-object model fitted without poses (no pose models), in its file's
+/// metadata and in what the command line reports.
+pub const NO_POSES: &str = "none";
 
 /// What a many-object model file's `linpose.objects` holds besides its arrays.
 #[derive(serde::Serialize, serde::Deserialize)]

@@ -110,7 +110,7 @@ pub fn train(
     let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
     let summary = TrainSummary {
         recognizer: model.kind().name(),
-        method: model.method_name().unwrap_or("none"),
+        method: model.method_name().unwrap_or(linpose::model_file::NO_POSES),
         data: a.data.data.display().to_string(),
         objects: model.names(),
         n_train: train.total_len(),
@@ -331,7 +331,7 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     let pose = PoseErrors { all: errors(&known), unseen: errors(&known_unseen) };
     let report = Report {
         recognizer: model.kind().name(),
-        method: model.method_name().unwrap_or("none").to_string(),
+        method: model.method_name().unwrap_or(linpose::model_file::NO_POSES).to_string(),
         objects: names.to_vec(),
         n_eval: samples.len(),
         rejected,
@@ -353,7 +353,9 @@ pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
 
 fn print_report(r: &Report) {
     let pct = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{:.2}%", 100.0 * v));
-    println!("{} recogniser, {} pose models of {} objects; {} images evaluated", r.recognizer, r.method, r.objects.len(), r.n_eval);
+    let posed = r.method != linpose::model_file::NO_POSES;
+    let method = if posed { r.method.as_str() } else { "no" };
+    println!("{} recogniser, {method} pose models of {} objects; {} images evaluated", r.recognizer, r.objects.len(), r.n_eval);
     crate::cmd::eval::print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{} ({}): {}", x.image, x.object, x.reason)));
     println!(
         "recognised: {} of the known objects' {} views, {} of their {} unseen views",
@@ -379,11 +381,13 @@ fn print_report(r: &Report) {
     } else {
         println!("confusions: {}", confused.join(", "));
     }
-    println!("pose error of views recognised as their object (degrees):");
-    println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
-    for (name, s) in [("all", &r.pose.all), ("unseen", &r.pose.unseen)] {
-        if let Some(s) = s {
-            println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg);
+    if posed {
+        println!("pose error of views recognised as their object (degrees):");
+        println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
+        for (name, s) in [("all", &r.pose.all), ("unseen", &r.pose.unseen)] {
+            if let Some(s) = s {
+                println!("{name:<8} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4}", s.n, s.mean_deg, s.median_deg, s.p90_deg, s.max_deg);
+            }
         }
     }
     println!("model {} bytes ({} the recogniser); estimation {:.4} s", r.model_bytes, r.recognizer_bytes, r.predict_s);
