@@ -118,8 +118,9 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
         y : array of shape (n,)
             Each image's object (any labels).
         poses : array of shape (n, K) or (n,), default=None
-            Their poses in degrees (see ``params``); each object's must form a full grid for
-            the eigenspace methods, and for the universal recogniser.
+            Their poses in degrees (see ``params``); each object's must form a full grid (one
+            view at each combination of its parameters' values), as the manifolds pass through
+            them. Without them the recogniser takes the views as points and gives no pose.
 
         Returns
         -------

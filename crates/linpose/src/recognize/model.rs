@@ -53,8 +53,8 @@ pub struct ObjectSettings {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub own: Option<OwnSettings>,
     /// Fitted without poses ([`ObjectModel::fit_views`]): each object's manifold is its training
-    /// views' points, the held-out distances are to the nearest other view, and there are no
-    /// pose models.
+    /// views' points, each view was held out together with its nearest other view, and there
+    /// are no pose models.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub views_only: bool,
 }
@@ -149,8 +149,9 @@ impl ObjectModel {
     /// A recogniser without poses: which object each query shows, and "none of these", from
     /// each object's training views alone, whatever order they come in. Each object's manifold
     /// (in the universal eigenspace, and in its own for the second stage) is its training views'
-    /// points, not a curve through them, and a view's held-out distance, which calibrates the
-    /// unknown-object thresholds, is its distance to the nearest other view of its object. The
+    /// points, not a curve through them, and the unknown-object thresholds are calibrated with
+    /// each view held out together with its nearest other view of its object (a near-duplicate
+    /// of it, as a symmetric object's other side, would otherwise calibrate nothing). The
     /// objects' poses are not read, and the model has no pose models: its estimates have no
     /// pose ([`ObjectEstimate::pose`] is `None`). Views between the training views are nearer
     /// a curve than any point, so, fitted with poses ([`ObjectModel::fit`]), a model recognises

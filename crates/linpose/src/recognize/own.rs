@@ -83,9 +83,11 @@ impl OwnSpaces {
     /// is unchanged).
     ///
     /// With `views_only`, each object's manifold is its training views' points themselves and a
-    /// view's held-out distance is its distance, residual included, to the nearest other view of
-    /// its object in the object's eigenspace (fitted with every view: refitting without each
-    /// one would cost one eigenspace per view); the poses are not read.
+    /// view is held out together with its nearest other view: its held-out distance is its
+    /// distance, residual included, to the second nearest other view of its object in the
+    /// object's eigenspace ([`super::universal::nearest_other`]; the eigenspace fitted with
+    /// every view: refitting without each pair would cost one eigenspace per view); the poses are
+    /// not read.
     pub fn fit(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<OwnFit> {
         let space = objects.space();
         let most = objects.objects().iter().map(Dataset::len).max().unwrap_or(0);
@@ -111,7 +113,7 @@ impl OwnSpaces {
             if views_only {
                 let pca = pca::fit(d, Dimension::Fixed(params.components)).map_err(named)?;
                 let l = pca.dim();
-                let residuals: Vec<f64> = (0..d.len()).map(|i| residual(d.row(i), &pca)).collect();
+                let residuals: Vec<f64> = (0..d.len()).map(|i| project(d.row(i), &pca).1).collect();
                 held_out.push(super::universal::nearest_other(&pca.coords, l, Some(&residuals)));
                 spaces.push(Some(Universal::new(to32(&pca.basis), to32(&pca.mean), vec![to32(&pca.coords)]).map_err(named)?));
                 components.push(l);
@@ -261,9 +263,4 @@ fn project(x: &[f32], pca: &pca::Pca) -> (Vec<f64>, f64) {
     let y: Vec<f64> = pca.basis.chunks_exact(m).map(|u| u.iter().zip(&c).map(|(a, b)| a * b).sum()).collect();
     let residual = c.iter().map(|v| v * v).sum::<f64>() - y.iter().map(|v| v * v).sum::<f64>();
     (y, residual)
-}
-
-/// A training view's squared residual off the eigenspace `pca` ([`project`]).
-fn residual(x: &[f32], pca: &pca::Pca) -> f64 {
-    project(x, pca).1
 }

@@ -93,9 +93,11 @@ pub(crate) struct UniversalFit {
 impl Universal {
     /// Fits on the training views of `objects`, whose images are also given row after row in
     /// `all` (object 0's first).
+    ///
     /// With `views_only`, each object's manifold is its training views' points themselves and
-    /// a view's held-out distance is its distance to the nearest other view of its object
-    /// ([`nearest_other`]); the poses are not read.
+    /// a view is held out together with its nearest other view: its held-out distance is its
+    /// distance to the second nearest other view of its object ([`nearest_other`]); the poses
+    /// are not read.
     pub fn fit(objects: &ObjectSet, all: &Dataset, params: &RecognizerParams, views_only: bool) -> Result<UniversalFit> {
         if views_only {
             let pca = pca::fit(all, Dimension::Fixed(params.components))?;
