@@ -6,8 +6,8 @@
 use crate::arrays::{pixels, Pixels};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::normalize::Normalized;
-use linpose::{model_file, AnyModel, Dataset, Param, PoseModel, PoseSpace, Settings};
+use linpose::normalize::{NormalizeParams, Normalized};
+use linpose::{model_file, AnyModel, Dataset, Method, MethodSpec, Param, PoseModel, PoseSpace, Settings};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -44,20 +44,48 @@ impl Model {
 
     /// Checks that `x` holds whole images of the model's size.
     fn check(&self, x: &Pixels<'_>) -> PyResult<usize> {
-        let (n, m) = x.shape();
-        let want = self.meta().spec.features();
-        if m != want {
-            let s = self.meta().spec;
-            return Err(PyValueError::new_err(format!(
-                "X has {m} features per image, but the model was trained on {}x{} images ({want} features)",
-                s.width, s.height
-            )));
-        }
-        if n == 0 {
-            return Err(PyValueError::new_err("X holds no images (0 rows); at least one is needed"));
-        }
-        Ok(n)
+        check_rows(x, self.meta().spec)
     }
+}
+
+/// Checks that `x` holds at least one whole image of `spec`'s size; returns their number.
+pub(crate) fn check_rows(x: &Pixels<'_>, spec: ImageSpec) -> PyResult<usize> {
+    let (n, m) = x.shape();
+    let want = spec.features();
+    if m != want {
+        return Err(PyValueError::new_err(format!(
+            "X has {m} features per image, but the model was trained on {}x{} images ({want} features)",
+            spec.width, spec.height
+        )));
+    }
+    if n == 0 {
+        return Err(PyValueError::new_err("X holds no images (0 rows); at least one is needed"));
+    }
+    Ok(n)
+}
+
+/// The method named `method` and its `settings` (name, value), checked: an unknown method is a
+/// `ValueError` listing the methods, a setting the method cannot read one with its message.
+pub(crate) fn method_of(method: &str, settings: Vec<(String, String)>) -> PyResult<(&'static Method, Settings, MethodSpec)> {
+    let method = linpose::methods::find(method).ok_or_else(|| {
+        let names: Vec<&str> = linpose::METHODS.iter().map(|m| m.name).collect();
+        PyValueError::new_err(format!("unknown method {method:?} (methods: {})", names.join(", ")))
+    })?;
+    let settings = settings.into_iter().fold(Settings::new(), |s, (n, v)| s.set(n, v));
+    let spec = method.spec(&settings).map_err(py_err)?;
+    Ok((method, settings, spec))
+}
+
+/// The normalisation stage's parameters of `normalize` (`None`, `all`, `geometry`,
+/// `brightness`).
+pub(crate) fn stage(normalize: Option<&str>) -> PyResult<Option<NormalizeParams>> {
+    Ok(match normalize {
+        None => None,
+        Some("all") => Some(NormalizeParams { geometry: true, brightness: true }),
+        Some("geometry") => Some(NormalizeParams { geometry: true, brightness: false }),
+        Some("brightness") => Some(NormalizeParams { geometry: false, brightness: true }),
+        Some(v) => return Err(PyValueError::new_err(format!("normalize={v:?}: expected None, 'all', 'geometry' or 'brightness'"))),
+    })
 }
 
 #[pymethods]
@@ -246,13 +274,8 @@ pub fn fit(
     params: Vec<(String, Option<f64>)>,
     normalize: Option<&str>,
 ) -> PyResult<Model> {
-    let method = linpose::methods::find(method).ok_or_else(|| {
-        let names: Vec<&str> = linpose::METHODS.iter().map(|m| m.name).collect();
-        PyValueError::new_err(format!("unknown method {method:?} (methods: {})", names.join(", ")))
-    })?;
-    let settings = settings.into_iter().fold(Settings::new(), |s, (n, v)| s.set(n, v));
-    let spec = method.spec(&settings).map_err(py_err)?;
-    let stage = crate::objects::stage(normalize)?;
+    let (_, _, spec) = method_of(method, settings)?;
+    let stage = stage(normalize)?;
     let space = space(params)?;
     let x = pixels(x, "X")?;
     let (n, m) = x.shape();

@@ -5,12 +5,11 @@
 //! objects.
 
 use crate::arrays::{pixels, Pixels};
-use crate::model::{array2, space};
+use crate::model::{array2, check_rows, method_of, space, stage};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::normalize::NormalizeParams;
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
-use linpose::{model_file, Dataset, ObjectSet, Param, PoseSpace, Settings};
+use linpose::recognize::{ObjectModel, Recognition, RecognizerKind, RecognizerParams, Unknown};
+use linpose::{model_file, Dataset, ObjectSet, Param, PoseSpace};
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -23,36 +22,25 @@ pub struct Objects {
     inner: ObjectModel,
 }
 
-/// The normalisation stage's parameters of `normalize` (`None`, `all`, `geometry`,
-/// `brightness`).
-pub(crate) fn stage(normalize: Option<&str>) -> PyResult<Option<NormalizeParams>> {
-    Ok(match normalize {
-        None => None,
-        Some("all") => Some(NormalizeParams { geometry: true, brightness: true }),
-        Some("geometry") => Some(NormalizeParams { geometry: true, brightness: false }),
-        Some("brightness") => Some(NormalizeParams { geometry: false, brightness: true }),
-        Some(v) => return Err(PyValueError::new_err(format!("normalize={v:?}: expected None, 'all', 'geometry' or 'brightness'"))),
-    })
-}
-
 impl Objects {
     /// Checks that `x` holds whole images of the model's size; returns their number.
     fn check(&self, x: &Pixels<'_>) -> PyResult<usize> {
-        let (n, m) = x.shape();
-        let s = self.inner.spec();
-        if m != s.features() {
-            return Err(PyValueError::new_err(format!(
-                "X has {m} features per image, but the model was trained on {}x{} images ({} features)",
-                s.width,
-                s.height,
-                s.features()
-            )));
-        }
-        if n == 0 {
-            return Err(PyValueError::new_err("X holds no images (0 rows); at least one is needed"));
-        }
-        Ok(n)
+        check_rows(x, self.inner.spec())
     }
+}
+
+/// Recognitions as arrays: `(object (n,) int64, -1 for none of the known objects; nearest (n,)
+/// int64; distance (n,); confidence (n,))`.
+#[allow(clippy::type_complexity)]
+fn recognition_arrays<'a, 'py>(
+    py: Python<'py>,
+    rec: impl Iterator<Item = &'a Recognition> + Clone,
+) -> (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>) {
+    let object = rec.clone().map(|r| r.object.map_or(-1, |k| k as i64)).collect();
+    let nearest = rec.clone().map(|r| r.nearest as i64).collect();
+    let distance = rec.clone().map(|r| r.distance).collect();
+    let confidence = rec.map(|r| r.confidence).collect();
+    (PyArray1::from_vec(py, object), PyArray1::from_vec(py, nearest), PyArray1::from_vec(py, distance), PyArray1::from_vec(py, confidence))
 }
 
 #[pymethods]
@@ -79,10 +67,7 @@ impl Objects {
         let f = x.features("X")?;
         let model = &self.inner;
         let est = py.detach(|| model.estimate(&f, 1)).map_err(py_err)?;
-        let object = est.iter().map(|e| e.recognition.object.map_or(-1, |k| k as i64)).collect();
-        let nearest = est.iter().map(|e| e.recognition.nearest as i64).collect();
-        let distance = est.iter().map(|e| e.recognition.distance).collect();
-        let confidence = est.iter().map(|e| e.recognition.confidence).collect();
+        let (object, nearest, distance, confidence) = recognition_arrays(py, est.iter().map(|e| &e.recognition));
         let pose = match model.space() {
             None => None,
             Some(s) => {
@@ -91,7 +76,7 @@ impl Objects {
                 Some(array2(py, v, n, k)?)
             }
         };
-        Ok((PyArray1::from_vec(py, object), PyArray1::from_vec(py, nearest), PyArray1::from_vec(py, distance), PyArray1::from_vec(py, confidence), pose))
+        Ok((object, nearest, distance, confidence, pose))
     }
 
     /// Each image's object alone, without the pose (the pose models are not run):
@@ -107,11 +92,7 @@ impl Objects {
         let f = x.features("X")?;
         let model = &self.inner;
         let rec = py.detach(|| model.recognize(&f)).map_err(py_err)?;
-        let object = rec.iter().map(|r| r.object.map_or(-1, |k| k as i64)).collect();
-        let nearest = rec.iter().map(|r| r.nearest as i64).collect();
-        let distance = rec.iter().map(|r| r.distance).collect();
-        let confidence = rec.iter().map(|r| r.confidence).collect();
-        Ok((PyArray1::from_vec(py, object), PyArray1::from_vec(py, nearest), PyArray1::from_vec(py, distance), PyArray1::from_vec(py, confidence)))
+        Ok(recognition_arrays(py, rec.iter()))
     }
 
     /// Each image's distance to each object (n, objects), the recogniser's measure (smaller:
@@ -287,10 +268,7 @@ pub fn fit_objects(
                     space.len()
                 )));
             }
-            let spec = linpose::methods::find(method)
-                .ok_or_else(|| PyValueError::new_err(format!("unknown method {method:?}")))?
-                .spec(&settings.into_iter().fold(Settings::new(), |s, (n, v)| s.set(n, v)))
-                .map_err(py_err)?;
+            let (_, _, spec) = method_of(method, settings)?;
             Some((space, y.as_array().iter().copied().collect::<Vec<f64>>(), spec))
         }
         (None, _, _) => None,

@@ -31,12 +31,7 @@ fn fit_of(
     poses: PyReadonlyArray2<'_, f64>,
     params: Params,
 ) -> PyResult<(&'static Method, Settings, Manifest)> {
-    let method = linpose::methods::find(method).ok_or_else(|| {
-        let names: Vec<&str> = linpose::METHODS.iter().map(|m| m.name).collect();
-        PyValueError::new_err(format!("unknown method {method:?} (methods: {})", names.join(", ")))
-    })?;
-    let settings = settings.into_iter().fold(Settings::new(), |s, (n, v)| s.set(n, v));
-    method.spec(&settings).map_err(py_err)?;
+    let (method, settings, _) = crate::model::method_of(method, settings)?;
     let space = space(params)?;
     let (n, k) = (poses.shape()[0], poses.shape()[1]);
     if n != paths.len() || k != space.len() {
