@@ -14,6 +14,7 @@
 //! out a single view would leave its near twins (the other side of a symmetric object) in the
 //! fit and understate how far a fresh view lands.
 
+use super::universal::NEIGHBOUR;
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::linalg::mat_from_rows;
@@ -76,15 +77,18 @@ impl LinearRecognizer {
         for (d_obj, &start) in objects.objects().iter().zip(&offsets) {
             // Each block of views held out together, and which of them to measure.
             let blocks: Vec<(Vec<usize>, usize)> = if views_only {
-                // Each view with its nearest other view of its object (in image space, from the
-                // Gram matrix), which may be a near-duplicate of it: the rule of the universal
-                // eigenspace's held-out distance without poses (`universal::nearest_other`).
+                // Each view with its nearest other views of its object (in image space, from the
+                // Gram matrix), which may be near-duplicates of it: the rule of the universal
+                // eigenspace's held-out distance without poses (`universal::nearest_other`,
+                // `NEIGHBOUR`).
                 let views = start..start + d_obj.len();
                 let sq = |i: usize, j: usize| sys.g[(i, i)] + sys.g[(j, j)] - 2.0 * sys.g[(i, j)];
                 views
                     .clone()
                     .map(|i| {
-                        let nearest = views.clone().filter(|&j| j != i).min_by(|&a, &b| sq(i, a).total_cmp(&sq(i, b)));
+                        let mut nearest: Vec<usize> = views.clone().filter(|&j| j != i).collect();
+                        nearest.sort_by(|&a, &b| sq(i, a).total_cmp(&sq(i, b)));
+                        nearest.truncate(NEIGHBOUR - 1);
                         (std::iter::once(i).chain(nearest).collect(), 1)
                     })
                     .collect()

@@ -534,7 +534,7 @@ pub(crate) fn nearest_other(coords: &[f64], l: usize, residuals: Option<&[f64]>)
 
 /// Which nearest other view calibrates a model fitted without poses ([`nearest_other`]): the
 /// second, that is, each view is held out together with its nearest other view (the linear
-/// recogniser holds the same pair out: `linear.rs`). A view held out of views sampled along a
+/// recogniser holds the same views out: `linear.rs`). A view held out of views sampled along a
 /// turntable has two neighbours about one step away, one on each side, while a fresh view between
 /// two training views lies about half a step from the nearer: the nearest and the second nearest
 /// both measure the step. But a view can have a near-duplicate among the others (the `twin`'s
@@ -544,7 +544,7 @@ pub(crate) fn nearest_other(coords: &[f64], l: usize, residuals: Option<&[f64]>)
 /// with its nearest, one duplicate per view is survived; more repeats than that (an object of
 /// three identical sides) would call for a larger value. Not tuned on figures: the smallest value
 /// the twin's one duplicate per view requires.
-const NEIGHBOUR: usize = 2;
+pub(crate) const NEIGHBOUR: usize = 2;
 
 /// Each training view's distance to its object's manifold interpolated from the other knots (the
 /// same splines), at the view's own pose, over both folds of every axis with enough knots; empty
