@@ -10,7 +10,10 @@ library) and from the peer (peer.py's in-process fit_s and predict_s; the refine
 peer, so it is set beside the peer's eigenspace). And a single image's predict, 2000 of them:
 the estimator's median minus the Rust process's, and minus the bare core call's alternated
 with it in this process (the binding's own cost per call: the first difference also holds how
-fast each process runs the same library code). Decoding is not timed anywhere.
+fast each process runs the same library code). The Rust process predicts its single images in
+the same order (each timed view followed by an untimed one half the set away), so that neither
+side's timed query finds its neighbour's part of the tables in the cache. Decoding is not timed
+anywhere.
 
 Besides the separate Rust process, the estimator is timed against the bare core call it wraps
 (`linpose._linpose.fit` / `Model.predict`, the library behind PyO3's argument conversion),
