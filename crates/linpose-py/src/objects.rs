@@ -8,7 +8,7 @@ use crate::arrays::{pixels, Pixels};
 use crate::model::{array2, check_rows, method_of, space, stage};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::recognize::{ObjectModel, Recognition, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{Labels, ObjectModel, Recognition, RecognizerKind, RecognizerParams, Unknown};
 use linpose::{model_file, Dataset, ObjectSet, Param, PoseSpace};
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -132,6 +132,13 @@ impl Objects {
         self.inner.names().to_vec()
     }
 
+    /// The caller's labels for the objects as JSON (`values`, `unknown`, `kind`), or None: the
+    /// names are the labels.
+    #[getter]
+    fn labels_json(&self) -> Option<String> {
+        self.inner.labels().map(|l| serde_json::to_string(l).expect("the labels serialise"))
+    }
+
     /// The recogniser's name (`universal` or `linear`).
     #[getter]
     fn recognizer(&self) -> &'static str {
@@ -209,10 +216,11 @@ impl Objects {
 /// (`calibrated`, `off`, or a distance), and with the poses `y` ((n, K) degrees) of the
 /// parameters `params`, each object's pose model by `method` with `settings`; without `y`, the
 /// recogniser alone on the views as points (`ObjectModel::fit_views`). `normalize`: `None`,
-/// `all`, `geometry` or `brightness`.
+/// `all`, `geometry` or `brightness`. `caller_labels`: the caller's labels for the objects
+/// (`linpose::recognize::Labels` as JSON), kept with the model and in its file.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (recognizer, components, manifold_step, unknown, x, height, width, labels, names, y=None, params=None, method=None, settings=Vec::new(), normalize=None))]
+#[pyo3(signature = (recognizer, components, manifold_step, unknown, x, height, width, labels, names, y=None, params=None, method=None, settings=Vec::new(), normalize=None, caller_labels=None))]
 pub fn fit_objects(
     py: Python<'_>,
     recognizer: &str,
@@ -229,7 +237,10 @@ pub fn fit_objects(
     method: Option<&str>,
     settings: Vec<(String, String)>,
     normalize: Option<&str>,
+    caller_labels: Option<&str>,
 ) -> PyResult<Objects> {
+    let caller_labels: Option<Labels> =
+        caller_labels.map(|j| serde_json::from_str(j).map_err(|e| PyValueError::new_err(format!("caller_labels: not the labels' JSON ({e})")))).transpose()?;
     let unknown = if let Ok(s) = unknown.extract::<String>() {
         match s.as_str() {
             "calibrated" => Unknown::Calibrated,
@@ -303,6 +314,10 @@ pub fn fit_objects(
             }
         })
         .map_err(py_err)?;
+    let model = match caller_labels {
+        Some(l) => model.with_labels(l).map_err(py_err)?,
+        None => model,
+    };
     Ok(Objects { inner: model })
 }
 

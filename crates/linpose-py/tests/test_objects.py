@@ -1,6 +1,6 @@
 """The recogniser from Python: several rendered objects told apart and their poses, objects left
-out reported unknown, recognition without poses, the command line's model files both ways, and
-bad inputs refused by name."""
+out reported unknown, recognition without poses, the command line's model files both ways, the
+labels kept by model files as given, and bad inputs refused by name."""
 
 import json
 import pickle
@@ -112,6 +112,28 @@ def test_integer_labels_and_pickling_keep_the_answers(views):
     with pytest.raises(ValueError, match="one of the objects' labels"):
         linpose.ObjectRecognizer(unknown_label=10).fit(X, ids)
     assert linpose.ObjectRecognizer().fit(X, ids - 1).unknown_label_ == -2
+
+
+def test_model_files_keep_the_labels_as_they_were_given(views, tmp_path):
+    X, y, P = training(views)
+    twin = views["twin"][0]
+    ids = np.array([OBJECTS.index(o) * 10 + 1 for o in y], dtype=np.int32)
+    for labels, unknown in ((ids, None), (ids, -5), (ids.astype(np.float64), None), (y, "none")):
+        est = linpose.ObjectRecognizer(unknown_label=unknown).fit(X, labels)
+        est.save(tmp_path / "m.safetensors")
+        for back in (linpose.load(tmp_path / "m.safetensors"), linpose.from_bytes(est.to_bytes())):
+            # Numbers stay numbers of their dtype (so scikit-learn's scores compare them with
+            # the labels), and the label for none of them stays the one given.
+            assert back.classes_.dtype == est.classes_.dtype and list(back.classes_) == list(est.classes_)
+            assert back.unknown_label_ == est.unknown_label_ and back.unknown_label == unknown
+            pred = back.predict(np.concatenate([X, twin]))
+            assert (pred == est.predict(np.concatenate([X, twin]))).all()
+            # One dtype whether or not an image is unknown.
+            assert pred.dtype == back.predict(X).dtype == est.predict(twin).dtype
+            assert back.score(X, labels) == 1.0
+    # Text labels with the default label for none of them are the names: the file says nothing
+    # more (it is the command line's file).
+    assert linpose._linpose.Objects.from_bytes(linpose.ObjectRecognizer().fit(X, y).to_bytes()).labels_json is None
 
 
 def test_model_files_are_the_command_lines_both_ways(views, cli, tmp_path):

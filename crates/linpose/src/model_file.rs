@@ -63,6 +63,7 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
         models: model.pose_models().iter().map(|p| p.meta().clone()).collect(),
         views: model.space().is_none().then(|| model.spec()),
         normalize: model.stage().cloned(),
+        labels: model.labels().cloned(),
     };
     let mut tensors = model.recognizer_tensors();
     for (k, p) in model.pose_models().iter().enumerate() {
@@ -95,6 +96,10 @@ struct ObjectsHeader {
     /// The normalisation stage every query goes through first (absent: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     normalize: Option<crate::normalize::Normalizer>,
+    /// The caller's labels for the objects (absent: their names; a linpose that predates them
+    /// reads the file and ignores them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    labels: Option<crate::recognize::Labels>,
 }
 
 /// The file's bytes: the `meta` entries with the format and its version, then the tensors.
@@ -279,7 +284,15 @@ pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
         poses.push(pose_model(meta, &set)?);
     }
     own.extend(rest);
-    ObjectModel::from_parts(header.names, header.settings, &TensorSet { path: path.to_path_buf(), tensors: own }, poses, header.views, header.normalize)
+    ObjectModel::from_parts(
+        header.names,
+        header.settings,
+        &TensorSet { path: path.to_path_buf(), tensors: own },
+        poses,
+        header.views,
+        header.normalize,
+        header.labels,
+    )
 }
 
 /// Whether the model file at `path` holds several objects ([`load_objects`]) rather than one

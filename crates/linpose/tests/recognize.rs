@@ -1,13 +1,14 @@
 //! Recognition then pose on rendered objects: the built-in objects on a turntable, every object
 //! known or some left out of training to be reported unknown (by each recogniser, with the second
 //! stage in each object's own eigenspace); the model file round trip, a file written before the
-//! second stage included; bad sets of objects refused with clear errors; and behind one
-//! normalisation stage, a query moved by whole pixels answered exactly as it was, and a query the
-//! stage cannot normalise refused by its place, alone; and without poses, the views alone.
+//! second stage and the caller's labels included; bad sets of objects refused with clear errors;
+//! and behind one normalisation stage, a query moved by whole pixels answered exactly as it was,
+//! and a query the stage cannot normalise refused by its place, alone; and without poses, the
+//! views alone.
 
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::normalize::{NormalizeParams, Rejection};
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{Labels, ObjectModel, RecognizerKind, RecognizerParams, Unknown};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
 use linpose::{model_file, Dataset, EigenspaceParams, LinearParams, MethodSpec, ObjectSet, Param, PoseModel, PoseSpace, TrainSelection};
@@ -116,6 +117,32 @@ fn recognised_views_get_their_objects_pose_and_the_model_file_keeps_everything()
     assert_eq!(own.thresholds, own.held_out_max);
     assert!(own.thresholds.iter().zip(&own.held_out_median).all(|(t, m)| t.is_finite() && m <= t), "{own:?}");
     assert!(est.iter().all(|e| e.recognition.own_distance.is_some_and(|d| d <= e.recognition.own_threshold)));
+}
+
+#[test]
+fn the_model_file_keeps_the_callers_labels_and_writes_none_without_them() {
+    let (_, train) = builtins();
+    let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
+    let k = model.names().len();
+    let header = |bytes: &[u8]| {
+        let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+        let h: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+        serde_json::from_str::<serde_json::Value>(h["__metadata__"]["linpose.objects"].as_str().unwrap()).unwrap()
+    };
+    // Without labels the file says nothing of them, as before they existed.
+    let plain = model_file::objects_to_bytes(&model).unwrap();
+    assert!(header(&plain).get("labels").is_none());
+    assert!(model_file::objects_from_bytes(Path::new("m"), &plain).unwrap().labels().is_none());
+    // Numbers stay numbers through the file.
+    let labels = Labels { values: (0..k).map(|i| serde_json::json!(10 * i + 3)).collect(), unknown: serde_json::json!(-1), kind: "int64".into() };
+    let e = model.clone().with_labels(Labels { values: labels.values[1..].to_vec(), ..labels.clone() }).unwrap_err().to_string();
+    assert!(e.contains(&format!("one label per object ({k} objects)")), "{e}");
+    let labelled = model.with_labels(labels.clone()).unwrap();
+    let bytes = model_file::objects_to_bytes(&labelled).unwrap();
+    assert_eq!(header(&bytes)["labels"]["values"][1], serde_json::json!(13));
+    let back = model_file::objects_from_bytes(Path::new("m"), &bytes).unwrap();
+    assert_eq!(back.labels(), Some(&labels));
+    assert_eq!(back.names(), labelled.names());
 }
 
 #[test]

@@ -58,6 +58,7 @@ class Objects:
     params: Optional[Params]
     settings_json: str
     normalize_json: Optional[str]
+    labels_json: Optional[str]
     model_bytes: int
     def estimate(
         self, x: Images
@@ -93,6 +94,7 @@ def fit_objects(
     method: Optional[str] = None,
     settings: Sequence[Tuple[str, str]] = (),
     normalize: Optional[str] = None,
+    caller_labels: Optional[str] = None,
 ) -> Objects: ...
 def load_objects(path: Union[str, PathLike[str]]) -> Objects: ...
 def holds_objects(path: Union[str, PathLike[str]]) -> bool: ...

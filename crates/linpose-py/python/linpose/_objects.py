@@ -160,6 +160,7 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
             labels=np.ascontiguousarray(labels, dtype=np.int64),
             names=names,
             normalize=self.normalize,
+            caller_labels=_stored_labels(classes, unknown_label, self.unknown_label is not None),
         )
         y_1d = False
         params = None
@@ -198,13 +199,12 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
     # -- recognising ---------------------------------------------------------------------------
 
     def _labels(self, index: np.ndarray) -> np.ndarray:
-        """The labels of object indices, ``unknown_label_`` for -1."""
-        out = self.classes_[np.maximum(index, 0)]
-        unknown = index < 0
-        if unknown.any():
-            label = np.asarray(self.unknown_label_)
-            out = out.astype(np.result_type(out.dtype, label.dtype))
-            out[unknown] = label
+        """The labels of object indices, ``unknown_label_`` for -1: always of one dtype, the
+        labels' and the unknown label's together (whether or not any image is unknown)."""
+        label = self.unknown_label_
+        kind = np.min_scalar_type(label) if isinstance(label, (int, float, np.number)) else np.asarray(label).dtype
+        out = self.classes_[np.maximum(index, 0)].astype(np.result_type(self.classes_.dtype, kind), copy=False)
+        out[index < 0] = label
         return out
 
     def recognize(self, X):
@@ -257,9 +257,25 @@ def _unknown_label(classes: np.ndarray, given: Any) -> Any:
     return given
 
 
+def _stored_labels(classes: np.ndarray, unknown_label: Any, given: bool) -> Optional[str]:
+    """The labels for the model file where its names would not give them back: numbers (and
+    any labels but text) as JSON values with their dtype, or text labels with an
+    ``unknown_label`` given. ``None`` for text labels with the default unknown label, whose
+    names are the labels (so such a file is the one the command line writes). Labels JSON cannot
+    hold (bytes, objects) come back as their names."""
+    if classes.dtype.kind == "U" and not given:
+        return None
+    unknown = unknown_label.item() if isinstance(unknown_label, np.generic) else unknown_label
+    try:
+        return json.dumps({"values": classes.tolist(), "unknown": unknown, "kind": classes.dtype.str if classes.dtype.kind != "O" else "object"})
+    except (TypeError, ValueError):
+        return None
+
+
 def from_objects(model) -> ObjectRecognizer:
     """A fitted recogniser around a many-object model of the Rust core (as a model file gives
-    it): its labels are the objects' names, its parameters read back from the settings."""
+    it): its labels are those it was fitted with where the file keeps them (numbers stay numbers),
+    else the objects' names; its parameters read back from the settings."""
     s = json.loads(model.settings_json)["params"]
     unknown = s["unknown"]
     unknown = "calibrated" if unknown == "calibrated" else None if unknown == "off" else float(unknown["threshold"])
@@ -279,6 +295,14 @@ def from_objects(model) -> ObjectRecognizer:
         params=params,
         normalize=_stage(model),
     )
-    classes = np.array(model.names)
-    est._set_fitted(model, classes, _unknown_label(classes, None), params, params is not None and len(params) == 1, model.image_shape, model.n_features)
+    if model.labels_json is None:
+        classes = np.array(model.names)
+        unknown_label = _unknown_label(classes, None)
+    else:
+        labels = json.loads(model.labels_json)
+        classes = np.array(labels["values"], dtype=np.dtype(labels["kind"]))
+        unknown_label = labels["unknown"]
+        if unknown_label != _unknown_label(classes, None):
+            est.unknown_label = unknown_label
+    est._set_fitted(model, classes, unknown_label, params, params is not None and len(params) == 1, model.image_shape, model.n_features)
     return est

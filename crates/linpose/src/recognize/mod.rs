@@ -68,7 +68,7 @@ mod universal;
 #[cfg(test)]
 mod tests;
 
-pub use model::{ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
+pub use model::{Labels, ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
 
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};

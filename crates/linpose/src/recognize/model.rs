@@ -107,6 +107,24 @@ pub struct ObjectModel {
     /// The normalisation every query goes through first (the recogniser and the pose models were
     /// fitted on normalised images); `None`: queries are used as they are.
     stage: Option<Normalizer>,
+    /// The caller's labels for the objects, where the names do not say them ([`Labels`]).
+    labels: Option<Labels>,
+}
+
+/// How a caller labels the objects where their names, as text, do not say it: each object's
+/// label as a JSON value (numbers stay numbers), in the order of the names, the label the caller
+/// gives an image of none of them, and the labels' type in the caller's words (the Python package
+/// writes numpy's dtype). The library keeps them with the model and in its file, and reads
+/// nothing from them: the command line names objects by their names. Without them, a caller's
+/// labels are the names (the Python package's default for text labels).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Labels {
+    /// Each object's label, in the order of [`ObjectModel::names`].
+    pub values: Vec<serde_json::Value>,
+    /// The label of an image of none of the objects.
+    pub unknown: serde_json::Value,
+    /// The labels' type, as the caller names it (e.g. `int64`).
+    pub kind: String,
 }
 
 impl ObjectModel {
@@ -192,6 +210,7 @@ impl ObjectModel {
             settings,
             poses,
             stage: None,
+            labels: None,
         }
     }
 
@@ -289,6 +308,21 @@ impl ObjectModel {
     /// The objects' names, in the order of their indices.
     pub fn names(&self) -> &[String] {
         &self.names
+    }
+
+    /// The caller's labels for the objects, if given ([`ObjectModel::with_labels`]).
+    pub fn labels(&self) -> Option<&Labels> {
+        self.labels.as_ref()
+    }
+
+    /// The model with the caller's labels for its objects (kept with it and in its file), one
+    /// per object in the order of [`ObjectModel::names`]; a different number is an error.
+    pub fn with_labels(mut self, labels: Labels) -> Result<Self> {
+        if labels.values.len() != self.names.len() {
+            return Err(Error::invalid("labels", labels.values.len(), format!("one label per object ({} objects)", self.names.len())));
+        }
+        self.labels = Some(labels);
+        Ok(self)
     }
 
     /// The image size and preprocessing every query must have.
@@ -518,7 +552,9 @@ impl ObjectModel {
 
     /// Rebuilds a model from a model file's parts: the names, the settings, the recogniser's
     /// arrays, the pose models (already read back), the image size of a model without pose
-    /// models (`views`, [`ObjectModel::fit_views`]) and the normalisation stage, if any.
+    /// models (`views`, [`ObjectModel::fit_views`]), the normalisation stage and the caller's
+    /// labels, if any.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_parts(
         names: Vec<String>,
         settings: ObjectSettings,
@@ -526,6 +562,7 @@ impl ObjectModel {
         poses: Vec<AnyModel>,
         views: Option<ImageSpec>,
         stage: Option<Normalizer>,
+        labels: Option<Labels>,
     ) -> Result<Self> {
         let k = names.len();
         let damaged = |m: String| t.error(format!("damaged object model: {m}"));
@@ -536,6 +573,9 @@ impl ObjectModel {
         };
         if k == 0 {
             return Err(damaged("no objects".into()));
+        }
+        if let Some(l) = labels.as_ref().filter(|l| l.values.len() != k) {
+            return Err(damaged(format!("{} labels for {k} objects", l.values.len())));
         }
         settings.params.validate().map_err(|e| damaged(e.to_string()))?;
         for v in [&settings.held_out_max, &settings.held_out_median, &settings.thresholds] {
@@ -572,7 +612,7 @@ impl ObjectModel {
                 Some(OwnSpaces::from_parts(t, spec, o.bin, &o.components)?)
             }
         };
-        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses, stage })
+        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses, stage, labels })
     }
 }
 
