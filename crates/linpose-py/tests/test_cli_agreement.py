@@ -84,6 +84,26 @@ def test_sixteen_bit_images_are_read_as_features(tmp_path):
     assert params == [("azimuth", 360.0)] and y[:, 0].tolist() == [0.0, 10.0, 20.0]
 
 
+def test_eight_bit_images_come_in_numpys_own_array_unless_a_later_one_is_wider(tmp_path):
+    """8-bit images are read into an array numpy allocated (its own in every way); a data set
+    whose first image is 8-bit and a later one 16-bit comes back as features, as a 16-bit one."""
+    from PIL import Image
+
+    levels = (np.arange(3 * 4 * 5).reshape(3, 4, 5) * 4).astype(np.uint8)
+    rows = ["image,azimuth"]
+    for k, img in enumerate(levels):
+        Image.fromarray(img).save(tmp_path / f"v{k}.png")
+        rows.append(f"v{k}.png,{10 * k}")
+    (tmp_path / "poses.csv").write_text("\n".join(rows) + "\n")
+    X, _, _, _ = linpose.read_dataset(tmp_path)
+    assert X.dtype == np.uint8 and X.flags.owndata and X.flags.c_contiguous
+    np.testing.assert_array_equal(X, levels)
+    Image.fromarray(levels[2].astype(np.uint16) * 257).save(tmp_path / "v2.png")
+    X, _, _, _ = linpose.read_dataset(tmp_path)
+    assert X.dtype == np.float32
+    np.testing.assert_allclose(X, levels / 255.0, rtol=1e-6)
+
+
 def test_many_object_model_files_are_read_as_recognisers_and_refused_as_one_model(cli, tmp_path):
     for o in ("duck", "cap"):
         run(cli, "synth", "--object", o, "--out", tmp_path / "set" / o, "--azimuth", "0:350:10", "--elevation", "40", "--size", "32x24")

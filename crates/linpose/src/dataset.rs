@@ -219,21 +219,36 @@ impl Rows<'_> {
 /// is not 8-bit (16-bit, say): then read the features with [`Dataset::load`]. Sizes are checked
 /// against the first image, and memory is refused before allocation, as `load` does.
 pub fn load_gray8(manifest: &Manifest, progress: &(dyn Fn(u64) + Sync)) -> Result<Option<(ImageSpec, Vec<u8>)>> {
-    use crate::image_io::{read_image, read_query, QueryImage};
-    use std::sync::atomic::{AtomicBool, Ordering};
+    let Some((spec, row0)) = first_gray8(manifest)? else { return Ok(None) };
+    let mut pixels = alloc_rows(manifest, spec)?;
+    Ok(load_gray8_into(manifest, spec, &row0, &mut pixels, progress)?.then_some((spec, pixels)))
+}
+
+/// The first image of `manifest` when it is 8-bit gray (colour turned gray): its size and
+/// pixels, where [`load_gray8_into`] starts; `None` when it is not.
+pub fn first_gray8(manifest: &Manifest) -> Result<Option<(ImageSpec, Vec<u8>)>> {
+    use crate::image_io::{read_image, QueryImage};
     let (w, h, first) = read_image(&manifest.image_path(0), ColorMode::Gray)?;
     let QueryImage::Gray8(row0) = first else { return Ok(None) };
-    let spec = ImageSpec { width: w, height: h, color: ColorMode::Gray };
+    Ok(Some((ImageSpec { width: w, height: h, color: ColorMode::Gray }, row0)))
+}
+
+/// [`load_gray8`] into a buffer the caller holds (`out`: `manifest.len()` rows of
+/// `spec.features()`, as a caller's array allocator lays them out), after [`first_gray8`] gave
+/// `spec` and `row0`: false, with `out` partly written, when an image is not 8-bit.
+pub fn load_gray8_into(manifest: &Manifest, spec: ImageSpec, row0: &[u8], out: &mut [u8], progress: &(dyn Fn(u64) + Sync)) -> Result<bool> {
+    use crate::image_io::{read_query, QueryImage};
+    use std::sync::atomic::{AtomicBool, Ordering};
     let context = first_image_context(manifest);
     let wider = AtomicBool::new(false);
-    let pixels = read_rows(manifest, spec, &row0, progress, |path, slot| {
+    fill_rows(manifest, spec, row0, out, progress, |path, slot| {
         match read_query(path, spec, &context)? {
             QueryImage::Gray8(v) => slot.copy_from_slice(&v),
             QueryImage::Features(_) => wider.store(true, Ordering::Relaxed),
         }
         Ok(())
     })?;
-    Ok((!wider.into_inner()).then_some((spec, pixels)))
+    Ok(!wider.into_inner())
 }
 
 /// What the images of a data set must match: the size of its first image.
@@ -252,6 +267,14 @@ fn read_rows<T: Copy + Default + Send + Sync>(
     progress: &(dyn Fn(u64) + Sync),
     read: impl Fn(&std::path::Path, &mut [T]) -> Result<()> + Sync,
 ) -> Result<Vec<T>> {
+    let mut rows = alloc_rows(manifest, spec)?;
+    fill_rows(manifest, spec, row0, &mut rows, progress, read)?;
+    Ok(rows)
+}
+
+/// A buffer for every image of `manifest` at `spec`, refused (not aborted) when it cannot be
+/// held in memory.
+fn alloc_rows<T: Copy + Default>(manifest: &Manifest, spec: ImageSpec) -> Result<Vec<T>> {
     let (m, n) = (spec.features(), manifest.len());
     let too_big = || Error::Dataset {
         path: manifest.root().to_path_buf(),
@@ -261,6 +284,22 @@ fn read_rows<T: Copy + Default + Send + Sync>(
     let mut rows: Vec<T> = Vec::new();
     rows.try_reserve_exact(total).map_err(|_| too_big())?;
     rows.resize(total, T::default());
+    Ok(rows)
+}
+
+/// [`read_rows`] into `rows` (every image's row): `row0` first, then the others by `read`.
+fn fill_rows<T: Copy + Send + Sync>(
+    manifest: &Manifest,
+    spec: ImageSpec,
+    row0: &[T],
+    rows: &mut [T],
+    progress: &(dyn Fn(u64) + Sync),
+    read: impl Fn(&std::path::Path, &mut [T]) -> Result<()> + Sync,
+) -> Result<()> {
+    let m = spec.features();
+    if rows.len() != manifest.len() * m || row0.len() != m {
+        return Err(Error::invalid("rows", rows.len(), format!("{} images of {m} values", manifest.len())));
+    }
     rows[..m].copy_from_slice(row0);
     progress(1);
     let results: Vec<Result<()>> = rows[m..]
@@ -273,5 +312,5 @@ fn read_rows<T: Copy + Default + Send + Sync>(
         })
         .collect();
     results.into_iter().collect::<Result<Vec<()>>>()?;
-    Ok(rows)
+    Ok(())
 }
