@@ -297,7 +297,7 @@ fn fill_rows<T: Copy + Send + Sync>(
     read: impl Fn(&std::path::Path, &mut [T]) -> Result<()> + Sync,
 ) -> Result<()> {
     let m = spec.features();
-    if rows.len() != manifest.len() * m || row0.len() != m {
+    if manifest.len().checked_mul(m) != Some(rows.len()) || row0.len() != m {
         return Err(Error::invalid("rows", rows.len(), format!("{} images of {m} values", manifest.len())));
     }
     rows[..m].copy_from_slice(row0);
