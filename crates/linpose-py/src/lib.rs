@@ -31,6 +31,7 @@ fn _linpose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("FORMAT_VERSION", linpose::model_file::FORMAT_VERSION)?;
     m.add_class::<model::Model>()?;
+    m.add_class::<model::Serve>()?;
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load, m)?)?;
     m.add_function(wrap_pyfunction!(model::methods, m)?)?;

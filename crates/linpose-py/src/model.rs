@@ -46,6 +46,70 @@ impl Model {
     fn check(&self, x: &Pixels<'_>) -> PyResult<usize> {
         check_rows(x, self.meta().spec)
     }
+
+    /// The poses (degrees, row-major n x K) of the `n` images of `x`, with the interpreter's lock
+    /// released: 8-bit images as they are, others as features.
+    fn poses(&self, py: Python<'_>, x: &Pixels<'_>, n: usize) -> PyResult<Vec<f64>> {
+        let k = self.meta().space.len();
+        let model = &self.inner;
+        match x.u8_slice() {
+            Some(v) => py.detach(|| {
+                let mut out = vec![0.0; n * k];
+                model.predict_u8_into(v, &mut out).map(|_| out)
+            }),
+            None => {
+                let f = x.features("X")?;
+                py.detach(|| {
+                    let mut out = vec![0.0; n * k];
+                    model.predict_into(&f, &mut out).map(|_| out)
+                })
+            }
+        }
+        .map_err(py_err)
+    }
+}
+
+/// A fitted estimator's `predict` on the arrays the core reads as they are, with the
+/// estimator's own checks and output shape, in one call: every line of Python a call runs costs
+/// a microsecond or more after a predict has streamed its images through the caches
+/// (BENCHMARKS.md "From Python"). Anything else (another dtype, a list, no rows) gives `None`,
+/// and the estimator validates it as scikit-learn does.
+#[pyclass(frozen, module = "linpose._linpose")]
+pub struct Serve {
+    model: Py<Model>,
+    n_features: usize,
+    y_1d: bool,
+    name: String,
+}
+
+#[pymethods]
+impl Serve {
+    /// Serves `model` for an estimator named `name` fitted on images of `n_features` values,
+    /// giving (n,) poses when `y_1d`, else (n, K).
+    #[new]
+    fn new(model: Py<Model>, n_features: usize, y_1d: bool, name: String) -> Self {
+        Serve { model, n_features, y_1d, name }
+    }
+
+    /// The poses of the images `x`, or `None` when `x` is not an array the core reads as it is.
+    fn __call__<'py>(&self, py: Python<'py>, x: &Bound<'py, PyAny>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let x = match pixels(x, "X") {
+            Ok(x) => x,
+            Err(e) if e.is_instance_of::<pyo3::exceptions::PyTypeError>(py) => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        let (n, m) = x.shape();
+        if n == 0 {
+            return Ok(None);
+        }
+        if m != self.n_features {
+            return Err(PyValueError::new_err(format!("X has {m} features, but {} is expecting {} features as input.", self.name, self.n_features)));
+        }
+        let model = self.model.get();
+        let k = model.meta().space.len();
+        let poses = model.poses(py, &x, n)?;
+        Ok(Some(if self.y_1d && k == 1 { PyArray1::from_vec(py, poses).into_any() } else { array2(py, poses, n, k)?.into_any() }))
+    }
 }
 
 /// Checks that `x` holds at least one whole image of `spec`'s size; returns their number.
@@ -96,22 +160,7 @@ impl Model {
         let x = pixels(x, "X")?;
         let n = self.check(&x)?;
         let k = self.meta().space.len();
-        let model = &self.inner;
-        let out = match x.u8_slice() {
-            Some(v) => py.detach(|| {
-                let mut out = vec![0.0; n * k];
-                model.predict_u8_into(v, &mut out).map(|_| out)
-            }),
-            None => {
-                let f = x.features("X")?;
-                py.detach(|| {
-                    let mut out = vec![0.0; n * k];
-                    model.predict_into(&f, &mut out).map(|_| out)
-                })
-            }
-        }
-        .map_err(py_err)?;
-        array2(py, out, n, k)
+        array2(py, self.poses(py, &x, n)?, n, k)
     }
 
     /// The estimates of each row of `x` with up to `top` ranked hypotheses and a confidence:

@@ -71,6 +71,8 @@ class CoreModel:
         if "model_" in state:
             state = dict(state)
             state["model_"] = state["model_"].to_bytes()
+            # Rebuilt from the model on unpickling (a pose estimator's one-call predict).
+            state.pop("_serve", None)
         return state
 
     def __setstate__(self, state):

@@ -111,6 +111,19 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         self.params_ = params
         self.n_features_in_ = n_features
         self._y_1d = y_1d
+        self._serve = self._serving()
+
+    def _serving(self) -> Any:
+        """The core's one-call predict for arrays it reads as they are (``_linpose.Serve``), or
+        ``None`` where scikit-learn must see every input (a model fitted on named features)."""
+        if "feature_names_in_" in self.__dict__:
+            return None
+        return _linpose.Serve(self.model_, self.n_features_in_, self._y_1d, type(self).__name__)
+
+    def __setstate__(self, state):
+        super().__setstate__(state)
+        if "model_" in self.__dict__:
+            self._serve = self._serving()
 
     # -- estimating ----------------------------------------------------------------------------
 
@@ -119,6 +132,13 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
 
         Circular parameters come back within one period from 0 (``[0, period)``).
         """
+        # An array the core reads as it is, in one call into the core (checked there as below);
+        # anything else as scikit-learn validates it.
+        serve = self.__dict__.get("_serve")
+        if serve is not None:
+            out = serve(X)
+            if out is not None:
+                return out
         model = self._model()
         out = model.predict(self._rows(X))
         return out[:, 0] if self._y_1d else out

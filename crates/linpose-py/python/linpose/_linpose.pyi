@@ -35,6 +35,13 @@ class Model:
     def save(self, path: Union[str, PathLike[str]]) -> int: ...
     def tensors(self) -> List[Tuple[str, List[int], npt.NDArray[np.float64]]]: ...
 
+class Serve:
+    """A fitted estimator's predict in one call: the poses of an array the core reads as it is,
+    or None for anything else."""
+
+    def __init__(self, model: Model, n_features: int, y_1d: bool, name: str) -> None: ...
+    def __call__(self, x: object) -> Optional[npt.NDArray[np.float64]]: ...
+
 def fit(
     method: str,
     settings: Sequence[Tuple[str, str]],
