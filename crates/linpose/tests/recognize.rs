@@ -119,19 +119,34 @@ fn recognised_views_get_their_objects_pose_and_the_model_file_keeps_everything()
     assert!(est.iter().all(|e| e.recognition.own_distance.is_some_and(|d| d <= e.recognition.own_threshold)));
 }
 
+/// The `linpose.objects` JSON of many-object model file bytes.
+fn objects_header(bytes: &[u8]) -> serde_json::Value {
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let h: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+    serde_json::from_str(h["__metadata__"]["linpose.objects"].as_str().unwrap()).unwrap()
+}
+
+/// The file `bytes` with its `linpose.objects` JSON edited by `edit` (the header padded to 8
+/// bytes as safetensors wants it), as another linpose or a damaged file would hold it.
+fn with_objects_header(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
+    let mut top: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
+    let mut objects = objects_header(bytes);
+    edit(&mut objects);
+    top["__metadata__"]["linpose.objects"] = serde_json::Value::String(objects.to_string());
+    let mut text = top.to_string().into_bytes();
+    text.resize(text.len().div_ceil(8) * 8, b' ');
+    [(text.len() as u64).to_le_bytes().as_slice(), &text, &bytes[8 + n..]].concat()
+}
+
 #[test]
 fn the_model_file_keeps_the_callers_labels_and_writes_none_without_them() {
     let (_, train) = builtins();
     let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
     let k = model.names().len();
-    let header = |bytes: &[u8]| {
-        let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
-        let h: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
-        serde_json::from_str::<serde_json::Value>(h["__metadata__"]["linpose.objects"].as_str().unwrap()).unwrap()
-    };
     // Without labels the file says nothing of them, as before they existed.
     let plain = model_file::objects_to_bytes(&model).unwrap();
-    assert!(header(&plain).get("labels").is_none());
+    assert!(objects_header(&plain).get("labels").is_none());
     assert!(model_file::objects_from_bytes(Path::new("m"), &plain).unwrap().labels().is_none());
     // Numbers stay numbers through the file.
     let labels = Labels { values: (0..k).map(|i| serde_json::json!(10 * i + 3)).collect(), unknown: serde_json::json!(-1), kind: "int64".into() };
@@ -139,10 +154,16 @@ fn the_model_file_keeps_the_callers_labels_and_writes_none_without_them() {
     assert!(e.contains(&format!("one label per object ({k} objects)")), "{e}");
     let labelled = model.with_labels(labels.clone()).unwrap();
     let bytes = model_file::objects_to_bytes(&labelled).unwrap();
-    assert_eq!(header(&bytes)["labels"]["values"][1], serde_json::json!(13));
+    assert_eq!(objects_header(&bytes)["labels"]["values"][1], serde_json::json!(13));
     let back = model_file::objects_from_bytes(Path::new("m"), &bytes).unwrap();
     assert_eq!(back.labels(), Some(&labels));
     assert_eq!(back.names(), labelled.names());
+    // A file whose labels do not match its objects is refused as damaged.
+    let bad = with_objects_header(&bytes, |o| {
+        o["labels"]["values"].as_array_mut().unwrap().pop();
+    });
+    let e = model_file::objects_from_bytes(Path::new("m"), &bad).unwrap_err().to_string();
+    assert!(e.contains(&format!("damaged object model: {} labels for {k} objects", k - 1)), "{e}");
 }
 
 #[test]
@@ -152,15 +173,9 @@ fn a_model_file_written_before_the_second_stage_recognises_with_the_first_alone(
     // The file as an older linpose wrote it: no `own` in the settings (its arrays, unread, may
     // stay).
     let bytes = model_file::objects_to_bytes(&model).unwrap();
-    let n = u64::from_le_bytes(bytes[..8].try_into().unwrap()) as usize;
-    let mut header: serde_json::Value = serde_json::from_slice(&bytes[8..8 + n]).unwrap();
-    let meta = header["__metadata__"]["linpose.objects"].as_str().unwrap();
-    let mut objects: serde_json::Value = serde_json::from_str(meta).unwrap();
-    assert!(objects["settings"].as_object_mut().unwrap().remove("own").is_some());
-    header["__metadata__"]["linpose.objects"] = serde_json::Value::String(objects.to_string());
-    let mut text = header.to_string().into_bytes();
-    text.resize(text.len().div_ceil(8) * 8, b' ');
-    let old = [(text.len() as u64).to_le_bytes().as_slice(), &text, &bytes[8 + n..]].concat();
+    let old = with_objects_header(&bytes, |o| {
+        assert!(o["settings"].as_object_mut().unwrap().remove("own").is_some());
+    });
     let back = model_file::objects_from_bytes(Path::new("old.safetensors"), &old).unwrap();
     assert!(back.settings().own.is_none());
     assert!(back.model_bytes() < model.model_bytes());
