@@ -76,8 +76,9 @@ pub fn read_dataset<'py>(
     let manifest = Manifest::open(&path, object).map_err(py_err)?;
     let n = manifest.len();
     // 8-bit images as they are, read into an array numpy allocates (so it is numpy's in every
-    // way, huge pages for a large one included: a large batch is then read about 15% faster,
-    // BENCHMARKS.md "From Python"); otherwise the features the library's loader reads.
+    // way, huge pages for a large one included: a large batch is then predicted 4-7% faster
+    // than from 4 kB pages, BENCHMARKS.md "From Python"); otherwise the features the library's
+    // loader reads.
     let first = py.detach(|| first_gray8(&manifest)).map_err(py_err)?;
     let gray8 = match first {
         Some((spec, row0)) => {

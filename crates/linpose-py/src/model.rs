@@ -70,10 +70,9 @@ impl Model {
 }
 
 /// A fitted estimator's `predict` on the arrays the core reads as they are, with the
-/// estimator's own checks and output shape, in one call: every line of Python a call runs costs
-/// a microsecond or more after a predict has streamed its images through the caches
-/// (BENCHMARKS.md "From Python"). Anything else (another dtype, a list, no rows) gives `None`,
-/// and the estimator validates it as scikit-learn does.
+/// estimator's own checks and output shape, in one call: those checks in Python cost a single
+/// rendered image's predict 4 us more (BENCHMARKS.md "From Python"). Anything else (another
+/// dtype, a list, no rows) gives `None`, and the estimator validates it as scikit-learn does.
 #[pyclass(frozen, module = "linpose._linpose")]
 pub struct Serve {
     model: Py<Model>,
