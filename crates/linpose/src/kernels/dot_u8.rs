@@ -17,13 +17,19 @@ use super::{dispatch, Level};
 const LANES: usize = 16;
 /// Weight rows per pass over the image (accumulators kept in registers).
 const MAX_ROWS: usize = 8;
+/// [`MAX_ROWS`] on AVX2 (16 registers of 8 lanes: 8 accumulators, the image's two vectors and
+/// the weights).
+const MAX_ROWS_AVX2: usize = 4;
 
 /// `out[r] = sum_p x[p] * w[r * m + p]` for every row r (`out.len()` rows), m = `x.len()`.
 #[track_caller]
 pub fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
     let m = x.len();
     assert_eq!(w.len(), m * out.len(), "weight rows of the image's length");
-    for (rows, o) in w.chunks(m * MAX_ROWS).zip(out.chunks_mut(MAX_ROWS)) {
+    // AVX2 has half AVX-512's registers, and a row's 16 lanes take two: at most 4 rows a pass
+    // keep the accumulators in registers (each row's sums are the same whatever the pass).
+    let per = if level.avx512() || !level.avx2() { MAX_ROWS } else { MAX_ROWS_AVX2 };
+    for (rows, o) in w.chunks(m * per).zip(out.chunks_mut(per)) {
         match o.len() {
             1 => pass::<1>(level, x, rows, o),
             2 => pass::<2>(level, x, rows, o),
@@ -42,6 +48,14 @@ pub fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
 pub const BATCH_IMAGES: usize = 6;
 /// Weight rows per register block of [`dots_batch`].
 pub const BATCH_ROWS: usize = 4;
+/// Images per register block of [`dots_batch`]'s AVX2 kernel, which takes [`BATCH_IMAGES`] in
+/// two such blocks (16 registers: 3 images by 4 rows of 8-lane accumulators, 3 image vectors and
+/// a weight vector).
+const AVX2_IMAGES: usize = 3;
+/// Weight rows per register block of [`dots_batch`]'s AVX2 kernel.
+const AVX2_ROWS: usize = 4;
+const _: () = assert!(BATCH_IMAGES.is_multiple_of(AVX2_IMAGES));
+
 /// Images per cache block of [`dots_batch`]: the weights are read from the outer caches once per
 /// this many images.
 pub const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
@@ -54,13 +68,14 @@ const _: () = assert!(PIXEL_CHUNK.is_multiple_of(LANES) && PIXEL_CHUNK / LANES <
 /// [`dots`] for several images at once: `out[i * rows + r] = sum_p xs[i * m + p] * w[r * m + p]`,
 /// `rows = w.len() / m`, and each image's [`sum_squares`] into `energy`. Bit-identical to
 /// calling [`dots`] and [`sum_squares`] image by image (each product is summed in the same lanes
-/// in the same order). On AVX-512 the work goes in cache blocks of [`PIXEL_CHUNK`] pixels of
-/// [`BATCH_GROUP`] images (converted to f32 once, into 64-byte aligned `scratch`, resized as
-/// needed) and every row, and within them in register blocks of 6 images by 4 rows: a weight
-/// vector loaded serves 6 images, an image vector 4 rows, and the weights are read from the
-/// outer caches once per group. That makes a batch compute-bound; one image at a time is bound
-/// by reading all the weights once per image. Images past the last whole register block go one
-/// at a time.
+/// in the same order). On AVX-512 and AVX2 the work goes in cache blocks of [`PIXEL_CHUNK`]
+/// pixels of [`BATCH_GROUP`] images (converted to f32 once, into 64-byte aligned `scratch`,
+/// resized as needed) and every row, and within them in register blocks: on AVX-512 6 images by
+/// 4 rows (a weight vector loaded serves 6 images, an image vector 4 rows), on AVX2, with half
+/// the registers of half the width, 3 images by 4 rows, each half of the 16 lanes in turn. The
+/// weights are read from the outer caches once per group. That makes a batch compute-bound; one
+/// image at a time is bound by reading all the weights once per image. Images past the last
+/// whole block of [`BATCH_IMAGES`] go one at a time.
 #[track_caller]
 pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<f32>) {
     assert!(m > 0 && xs.len().is_multiple_of(m) && w.len().is_multiple_of(m), "whole images and weight rows of length m");
@@ -69,7 +84,7 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
     assert_eq!(energy.len(), n, "one energy per image");
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
-    if level.avx512() && rows > 0 {
+    if level.avx2() && rows > 0 {
         done = n / BATCH_IMAGES * BATCH_IMAGES;
         for ((xg, og), eg) in xs[..done * m].chunks(BATCH_GROUP * m).zip(out.chunks_mut(BATCH_GROUP * rows)).zip(energy.chunks_mut(BATCH_GROUP)) {
             let g = xg.len() / m;
@@ -93,9 +108,15 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
                 // arrive too late for the widening's loads.
                 let ahead = (p1 + PIXEL_CHUNK..(p1 + 2 * PIXEL_CHUNK).min(m)).step_by(64);
                 for (((f, x), sq), nz) in xf.chunks_exact_mut(PIXEL_CHUNK).zip(xg.chunks_exact(m)).zip(&mut sq).zip(&mut nonzero) {
-                    // SAFETY: the level is a token of detection that found AVX-512 F and BW
-                    // (checked above); both slices hold pc <= PIXEL_CHUNK values, a multiple of 16.
-                    let (s, z) = unsafe { x86::widen_avx512(&x[p0..p1], &mut f[..pc]) };
+                    let (s, z) = if level.avx512() {
+                        // SAFETY: the level is a token of detection that found AVX-512 F and BW;
+                        // both slices hold pc <= PIXEL_CHUNK values, a multiple of 16.
+                        unsafe { x86::widen_avx512(&x[p0..p1], &mut f[..pc]) }
+                    } else {
+                        // SAFETY: the level is a token of detection that found AVX2 (checked
+                        // above); both slices hold pc <= PIXEL_CHUNK values, a multiple of 16.
+                        unsafe { x86::widen_avx2(&x[p0..p1], &mut f[..pc]) }
+                    };
                     (*sq, *nz) = (*sq + s as u64, z);
                     for p in ahead.clone() {
                         x86::prefetch(x.as_ptr().wrapping_add(p));
@@ -117,11 +138,17 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
                     if steps == 0 {
                         continue;
                     }
-                    // SAFETY: AVX-512F was detected (the level, checked above); the blocks hold
-                    // BATCH_IMAGES images of PIXEL_CHUNK values and `rows` weight rows `stride`
-                    // apart, all from 64-byte boundaries, and the steps lie below pc / 16 <=
-                    // PIXEL_CHUNK / 16 (checked in the kernel).
-                    unsafe { x86::block_avx512(xb, wb, stride, rows, pc / LANES, steps, ab) };
+                    if level.avx512() {
+                        // SAFETY: AVX-512F was detected (the level); the blocks hold
+                        // BATCH_IMAGES images of PIXEL_CHUNK values and `rows` weight rows
+                        // `stride` apart, all from 64-byte boundaries, and the steps lie below
+                        // pc / 16 <= PIXEL_CHUNK / 16 (checked in the kernel).
+                        unsafe { x86::block_avx512(xb, wb, stride, rows, pc / LANES, steps, ab) };
+                    } else {
+                        // SAFETY: AVX2 and FMA were detected (the level, checked above); the
+                        // blocks are those above (the AVX2 kernel needs no alignment).
+                        unsafe { x86::block_avx2(xb, wb, stride, rows, pc / LANES, steps, ab) };
+                    }
                 }
             }
             for (b, ((x, o), e)) in xg.chunks_exact(m).zip(og.chunks_exact_mut(rows)).zip(eg.iter_mut()).enumerate() {
@@ -155,6 +182,10 @@ fn pass<const R: usize>(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
         // SAFETY: the level is a token of detection that found AVX-512F; `w` holds R rows of
         // x.len() values (asserted in `dots`, and again by the kernel).
         unsafe { x86::lanes_avx512::<R>(x, w) }
+    } else if level.avx2() {
+        // SAFETY: the level is a token of detection that found AVX2 and FMA; `w` holds R rows
+        // of x.len() values (asserted in `dots`, and again by the kernel).
+        unsafe { x86::lanes_avx2::<R>(x, w) }
     } else {
         lanes_built::<R>(level, x, w)
     };
@@ -221,7 +252,7 @@ fn lanes_portable<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
 // Register blocks index several arrays (accumulators, loaded vectors) by the same loop variables.
 #[allow(clippy::needless_range_loop)]
 mod x86 {
-    use super::{tail, BATCH_IMAGES, BATCH_ROWS, LANES, PIXEL_CHUNK};
+    use super::{tail, AVX2_IMAGES, AVX2_ROWS, BATCH_IMAGES, BATCH_ROWS, LANES, PIXEL_CHUNK};
     use std::arch::x86_64::*;
 
     /// `out[i] = x[i] as f32`, 16 at a time (`x.len()` a multiple of 16, at most 512, `out`
@@ -336,6 +367,131 @@ mod x86 {
         let mut out = [[0f32; LANES]; R];
         for r in 0..R {
             _mm512_storeu_ps(out[r].as_mut_ptr(), acc[r]);
+        }
+        tail(x, w, &mut out);
+        out
+    }
+
+    /// [`widen_avx512`] on AVX2: the same values, sums of squares and mask.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn widen_avx2(x: &[u8], out: &mut [f32]) -> (u32, u32) {
+        assert!(x.len().is_multiple_of(LANES) && out.len() == x.len() && x.len() <= 32 * LANES);
+        let mut sq = _mm256_setzero_si256();
+        let mut nonzero = 0u32;
+        for (s, (c, o)) in x.chunks_exact(LANES).zip(out.chunks_exact_mut(LANES)).enumerate() {
+            let b = _mm_loadu_si128(c.as_ptr() as *const __m128i);
+            nonzero |= ((_mm_testz_si128(b, b) == 0) as u32) << s;
+            let (lo, hi) = (_mm256_cvtepu8_epi32(b), _mm256_cvtepu8_epi32(_mm_unpackhi_epi64(b, b)));
+            _mm256_storeu_ps(o.as_mut_ptr(), _mm256_cvtepi32_ps(lo));
+            _mm256_storeu_ps(o.as_mut_ptr().add(LANES / 2), _mm256_cvtepi32_ps(hi));
+            // v * v per lane (v < 256, so the low 16 bits of each product's pair suffice).
+            sq = _mm256_add_epi32(sq, _mm256_add_epi32(_mm256_madd_epi16(lo, lo), _mm256_madd_epi16(hi, hi)));
+        }
+        // At most 512 squares of 255 in all (< 2^31).
+        let mut lanes = [0u32; 8];
+        _mm256_storeu_si256(lanes.as_mut_ptr() as *mut __m256i, sq);
+        (lanes.iter().sum(), nonzero)
+    }
+
+    /// [`block_avx512`] on AVX2: each 16-lane accumulator as two halves of 8 lanes, summed one
+    /// half after the other (the halves are independent sums, so the order of each is that of
+    /// [`lanes_avx2`]) in register blocks of [`AVX2_IMAGES`] images by up to [`AVX2_ROWS`]
+    /// rows: 12 accumulators, the images' vectors and one weight vector in the 16 registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn block_avx2(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, mask: u32, acc: &mut [f32]) {
+        assert!(steps * LANES <= PIXEL_CHUNK && steps <= 32 && (steps == 32 || mask >> steps == 0));
+        assert!(xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && rows > 0);
+        assert!(stride >= steps * LANES && wf.len() >= (rows - 1) * stride + steps * LANES);
+        assert!(acc.len() >= BATCH_IMAGES * rows * LANES);
+        for b0 in (0..BATCH_IMAGES).step_by(AVX2_IMAGES) {
+            for h in [0, LANES / 2] {
+                for r0 in (0..rows).step_by(AVX2_ROWS) {
+                    match (rows - r0).min(AVX2_ROWS) {
+                        1 => regs_avx2::<1>(xf, wf, stride, rows, b0, r0, h, mask, acc),
+                        2 => regs_avx2::<2>(xf, wf, stride, rows, b0, r0, h, mask, acc),
+                        3 => regs_avx2::<3>(xf, wf, stride, rows, b0, r0, h, mask, acc),
+                        _ => regs_avx2::<AVX2_ROWS>(xf, wf, stride, rows, b0, r0, h, mask, acc),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Images b0..b0 + AVX2_IMAGES, rows r0..r0 + R, lanes h..h + 8 of one cache block, the
+    /// steps in `mask`, in registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA; the slices must have the lengths [`block_avx2`]
+    /// asserts, b0 + AVX2_IMAGES <= BATCH_IMAGES, r0 + R <= rows and h + 8 <= 16.
+    #[target_feature(enable = "avx2,fma")]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn regs_avx2<const R: usize>(xf: &[f32], wf: &[f32], stride: usize, rows: usize, b0: usize, r0: usize, h: usize, mask: u32, acc: &mut [f32]) {
+        let (xp, wp, ap) = (xf.as_ptr().add(b0 * PIXEL_CHUNK + h), wf.as_ptr().add(r0 * stride + h), acc.as_mut_ptr().add(h));
+        let at = |b: usize, r: usize| ((b0 + b) * rows + r0 + r) * LANES;
+        let mut a = [[_mm256_setzero_ps(); R]; AVX2_IMAGES];
+        for b in 0..AVX2_IMAGES {
+            for r in 0..R {
+                a[b][r] = _mm256_loadu_ps(ap.add(at(b, r)));
+            }
+        }
+        let mut left = mask;
+        while left != 0 {
+            let c = left.trailing_zeros() as usize;
+            left &= left - 1;
+            let mut xv = [_mm256_setzero_ps(); AVX2_IMAGES];
+            for b in 0..AVX2_IMAGES {
+                xv[b] = _mm256_loadu_ps(xp.add(b * PIXEL_CHUNK + c * LANES));
+            }
+            for r in 0..R {
+                let wv = _mm256_loadu_ps(wp.add(r * stride + c * LANES));
+                for b in 0..AVX2_IMAGES {
+                    a[b][r] = _mm256_fmadd_ps(xv[b], wv, a[b][r]);
+                }
+            }
+        }
+        for b in 0..AVX2_IMAGES {
+            for r in 0..R {
+                _mm256_storeu_ps(ap.add(at(b, r)), a[b][r]);
+            }
+        }
+    }
+
+    /// [`lanes_avx512`] on AVX2: each row's 16 lanes in two 8-lane accumulators, the same
+    /// fused multiply-adds in the same order (so the same bits). The compiler's vectorisation
+    /// of the portable body, which this replaces on AVX2, kept the zero test and the widening
+    /// scalar (BENCHMARKS.md, "Hand-written kernels against the libraries'").
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 and FMA; `w` holds R rows of `x.len()` values.
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn lanes_avx2<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
+        let m = x.len();
+        assert!(w.len() >= R * m);
+        let (mut lo, mut hi) = ([_mm256_setzero_ps(); R], [_mm256_setzero_ps(); R]);
+        let (xp, wp) = (x.as_ptr(), w.as_ptr());
+        for c in 0..m / LANES {
+            let b = _mm_loadu_si128(xp.add(c * LANES) as *const __m128i);
+            if _mm_testz_si128(b, b) != 0 {
+                continue;
+            }
+            let xl = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(b));
+            let xh = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_unpackhi_epi64(b, b)));
+            for r in 0..R {
+                let p = wp.add(r * m + c * LANES);
+                lo[r] = _mm256_fmadd_ps(xl, _mm256_loadu_ps(p), lo[r]);
+                hi[r] = _mm256_fmadd_ps(xh, _mm256_loadu_ps(p.add(LANES / 2)), hi[r]);
+            }
+        }
+        let mut out = [[0f32; LANES]; R];
+        for r in 0..R {
+            _mm256_storeu_ps(out[r].as_mut_ptr(), lo[r]);
+            _mm256_storeu_ps(out[r].as_mut_ptr().add(LANES / 2), hi[r]);
         }
         tail(x, w, &mut out);
         out

@@ -99,6 +99,11 @@ impl Level {
         self.isa == Isa::Avx512
     }
 
+    /// Whether this level runs AVX2 with FMA (AVX2 itself, or AVX-512, which includes them).
+    pub(crate) fn avx2(self) -> bool {
+        self.isa >= Isa::Avx2
+    }
+
     /// Whether this level is AVX-512 with VNNI.
     pub(crate) fn avx512_vnni(self) -> bool {
         self.avx512() && self.vnni
