@@ -120,6 +120,13 @@ impl Binning {
     /// into `out` (one per binned value, exact: at most 255 x 16^2 = 65,280), with `acc` as
     /// scratch; returns their exact sum of squares.
     pub fn sums_u8(&self, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> u64 {
+        self.sums_u8_at(Level::detect(), x, out, acc)
+    }
+
+    /// [`Self::sums_u8`] at `level`: gray images binned by 2 or 4 (the query paths' factors)
+    /// by a body built for the level's SIMD set (the same integers on every level), others by
+    /// the general loop.
+    pub(crate) fn sums_u8_at(&self, level: Level, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> u64 {
         let ch = self.full.color.channels();
         let (w, b) = (self.full.width as usize, self.factor);
         let s = self.spec();
@@ -128,6 +135,12 @@ impl Binning {
         assert_eq!(out.len(), s.features(), "a binned image of {} values", s.features());
         let (row, span, orow) = (w * ch, wb * b * ch, wb * ch);
         acc.resize(span, 0);
+        if ch == 1 && b == 2 {
+            return gray_sums::<2>(level, x, w, wb, out, acc);
+        }
+        if ch == 1 && b == 4 {
+            return gray_sums::<4>(level, x, w, wb, out, acc);
+        }
         let mut energy = 0u64;
         for (yo, o) in out.chunks_exact_mut(orow).enumerate().take(hb) {
             let top = yo * b * row;
@@ -136,13 +149,9 @@ impl Binning {
                 let src = &x[top + r * row..top + r * row + span];
                 acc.iter_mut().zip(src).for_each(|(a, &v)| *a += v as u16);
             }
-            if ch == 1 && b == 2 {
-                o.iter_mut().zip(acc.chunks_exact(2)).for_each(|(o, p)| *o = p[0] + p[1]);
-            } else {
-                for (xo, px) in o.chunks_exact_mut(ch).enumerate() {
-                    for (c, v) in px.iter_mut().enumerate() {
-                        *v = (0..b).map(|k| acc[(xo * b + k) * ch + c]).sum();
-                    }
+            for (xo, px) in o.chunks_exact_mut(ch).enumerate() {
+                for (c, v) in px.iter_mut().enumerate() {
+                    *v = (0..b).map(|k| acc[(xo * b + k) * ch + c]).sum();
                 }
             }
             energy += o.iter().map(|&v| v as u64 * v as u64).sum::<u64>();
@@ -170,8 +179,7 @@ impl Binning {
             // SAFETY: as above (AVX-512 F and BW detected, the slices asserted).
             return unsafe { simd::sums_4x4_avx512(x, self.full.width as usize, s.width as usize, s.height as usize, out) };
         }
-        let _ = level;
-        let energy = self.sums_u8(x, &mut out[..mb], acc);
+        let energy = self.sums_u8_at(level, x, &mut out[..mb], acc);
         (energy, crate::kernels::dot_u8::sum_squares(x))
     }
 
@@ -191,6 +199,41 @@ impl Binning {
         out.par_chunks_mut(mb).zip(xs.par_chunks_exact(m)).for_each_init(Vec::new, |acc, (o, x)| self.apply(x, o, acc));
         out
     }
+}
+
+crate::kernels::dispatch! {
+    /// [`gray_sums_body`] at `level`.
+    fn gray_sums<const B: usize>(x: &[u8], w: usize, wb: usize, out: &mut [u16], acc: &mut [u16]) -> u64 = gray_sums_body;
+}
+
+/// The block sums by B (2 or 4) of a gray image `x` of width `w` into `out` (binned rows of
+/// `wb`), in [`Binning::sums_u8`]'s order, with `acc` (at least `wb` B values) as scratch;
+/// returns their sum of squares. Written for the compiler to vectorise: the B rows added into
+/// u16 lanes (at most 4 x 255), then each lane group of B summed (at most 4,080), and their
+/// squares summed in u64.
+#[inline(always)]
+fn gray_sums_body<const B: usize>(x: &[u8], w: usize, wb: usize, out: &mut [u16], acc: &mut [u16]) -> u64 {
+    let span = wb * B;
+    assert!(wb > 0 && span <= w && acc.len() >= span && out.len().is_multiple_of(wb) && x.len() >= out.len() / wb * B * w);
+    let acc = &mut acc[..span];
+    let mut energy = 0u64;
+    for (yo, o) in out.chunks_exact_mut(wb).enumerate() {
+        let top = yo * B * w;
+        acc.iter_mut().zip(&x[top..top + span]).for_each(|(a, &v)| *a = v as u16);
+        for r in 1..B {
+            let src = &x[top + r * w..top + r * w + span];
+            acc.iter_mut().zip(src).for_each(|(a, &v)| *a += v as u16);
+        }
+        for (o, p) in o.iter_mut().zip(acc.chunks_exact(B)) {
+            let mut v = 0u16;
+            for &a in p {
+                v += a;
+            }
+            *o = v;
+            energy += (v as u32 * v as u32) as u64;
+        }
+    }
+    energy
 }
 
 /// The squares of the pixels of a gray image `x` of width `w` outside its top-left `used_w` x
@@ -399,17 +442,33 @@ mod tests {
 
     #[test]
     fn eight_bit_sums_are_the_means_times_the_block() {
-        for (w, h, color, b) in [(9, 7, ColorMode::Gray, 2), (10, 9, ColorMode::Gray, 3), (8, 8, ColorMode::Rgb, 2), (64, 48, ColorMode::Gray, 16)] {
+        // Gray by 2 and 4 (the query paths' factors, a body built for each SIMD level: every
+        // level checked, wide images and full blocks included), and the general loop.
+        let cases = [
+            (9, 7, ColorMode::Gray, 2),
+            (10, 9, ColorMode::Gray, 3),
+            (8, 8, ColorMode::Rgb, 2),
+            (64, 48, ColorMode::Gray, 16),
+            (131, 13, ColorMode::Gray, 4),
+            (4100, 14, ColorMode::Gray, 4),
+            (1030, 7, ColorMode::Gray, 2),
+        ];
+        for (w, h, color, b) in cases {
             let s = spec(w, h, color);
             let bin = Binning::new(s, b).unwrap();
-            let x: Vec<u8> = (0..s.features()).map(|i| (i * 37 % 256) as u8).collect();
-            let mut sums = vec![0u16; bin.spec().features()];
-            let energy = bin.sums_u8(&x, &mut sums, &mut Vec::new());
-            let f: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-            for (&sum, &mean) in sums.iter().zip(&naive(&f, s, b)) {
-                assert_eq!(sum as f64, mean * (b * b) as f64, "{w}x{h} by {b}");
+            for bright in [false, true] {
+                let x: Vec<u8> = (0..s.features()).map(|i| if bright { 255 } else { (i * 37 % 256) as u8 }).collect();
+                let f: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+                let want = naive(&f, s, b);
+                for level in Level::supported() {
+                    let mut sums = vec![0u16; bin.spec().features()];
+                    let energy = bin.sums_u8_at(level, &x, &mut sums, &mut Vec::new());
+                    for (&sum, &mean) in sums.iter().zip(&want) {
+                        assert_eq!(sum as f64, mean * (b * b) as f64, "{w}x{h} by {b} {level:?}");
+                    }
+                    assert_eq!(energy, sums.iter().map(|&v| v as u64 * v as u64).sum::<u64>(), "{w}x{h} by {b} {level:?}");
+                }
             }
-            assert_eq!(energy, sums.iter().map(|&v| v as u64 * v as u64).sum::<u64>());
         }
     }
 
