@@ -217,6 +217,11 @@ pub fn pack_group_f32(out: &mut [f64], x: &[f32], n: usize, m: usize, i0: usize,
         // i0..i0 + rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 8)].
         unsafe { x86::pack_group_f32_avx512(out, x, m, i0, rows, k0, kc, mean) };
         done = kc - kc % GROUP;
+    } else if level.avx2() {
+        // SAFETY: the level is a token of detection that found AVX2; the kernel reads rows
+        // i0..i0 + rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 4)].
+        unsafe { x86::pack_group_f32_avx2(out, x, m, i0, rows, k0, kc, mean) };
+        done = kc - kc % 4;
     }
     let _ = level;
     for k in done..kc {
@@ -339,6 +344,46 @@ mod x86 {
                 };
             }
             store_transposed(&r, o.add(k * GROUP));
+        }
+    }
+
+    /// Steps `0..kc - kc % 4` of [`super::pack_group_f32`] on AVX2: per 4 steps, each row's 4
+    /// values converted (and the mean subtracted), then rows 0-3 and 4-7 transposed 4 x 4 in
+    /// registers and stored as 4 steps of 8 rows. The compiler's code for the scalar loop had
+    /// cost COIL-20's linear fit about a tenth of its time on an AVX2 machine.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; rows `i0..i0 + rows` of `x` (row length m) must hold steps
+    /// `k0..k0 + kc`, `out` 8 * kc values and `mean` (when given) m.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn pack_group_f32_avx2(out: &mut [f64], x: &[f32], m: usize, i0: usize, rows: usize, k0: usize, kc: usize, mean: Option<&[f64]>) {
+        assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
+        assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
+        let (xp, o) = (x.as_ptr(), out.as_mut_ptr());
+        for k in (0..kc - kc % 4).step_by(4) {
+            let mut r = [_mm256_setzero_pd(); 8];
+            let mu = mean.map(|u| _mm256_loadu_pd(u.as_ptr().add(k0 + k)));
+            for (l, rl) in r.iter_mut().enumerate().take(rows) {
+                let v = _mm256_cvtps_pd(_mm_loadu_ps(xp.add((i0 + l) * m + k0 + k)));
+                *rl = match mu {
+                    Some(u) => _mm256_sub_pd(v, u),
+                    None => v,
+                };
+            }
+            for (h, q) in r.chunks_exact(4).enumerate() {
+                let (t0, t1) = (_mm256_unpacklo_pd(q[0], q[1]), _mm256_unpackhi_pd(q[0], q[1]));
+                let (t2, t3) = (_mm256_unpacklo_pd(q[2], q[3]), _mm256_unpackhi_pd(q[2], q[3]));
+                let steps = [
+                    _mm256_permute2f128_pd::<0x20>(t0, t2),
+                    _mm256_permute2f128_pd::<0x20>(t1, t3),
+                    _mm256_permute2f128_pd::<0x31>(t0, t2),
+                    _mm256_permute2f128_pd::<0x31>(t1, t3),
+                ];
+                for (j, v) in steps.into_iter().enumerate() {
+                    _mm256_storeu_pd(o.add((k + j) * GROUP + 4 * h), v);
+                }
+            }
         }
     }
 
