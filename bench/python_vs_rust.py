@@ -2,26 +2,33 @@
 """linpose from Python against the Rust library and the numpy peer, side by side in one run.
 
 For each data set and method: the fit on the training views' 8-bit pixels in memory and the
-predict of every view (8-bit images, one batch), medians of at least REPS runs and 0.3 s
-(Python: REPS pairs and 0.6 s, below), from
-Python (the installed `linpose` package, in this
-process), from Rust (crates/linpose/examples/fit_predict_timing.rs, the same work through the
-library) and from the peer (peer.py's in-process fit_s and predict_s; the refined method has no
-peer, so it is set beside the peer's eigenspace). And a single image's predict, 2000 of them:
-the estimator's median minus the Rust process's, and minus the bare core call's alternated
-with it in this process (the binding's own cost per call: the first difference also holds how
-fast each process runs the same library code). The Rust process predicts its single images in
-the same order (each timed view followed by an untimed one half the set away), so that neither
-side's timed query finds its neighbour's part of the tables in the cache. Decoding is not timed
+predict of every view (8-bit images, one batch), from Python (the installed `linpose` package, in
+this process), from Rust (crates/linpose/examples/fit_predict_timing.rs in `--serve` mode: the
+same work through the library, in its own process) and from the peer (bench/peer_serve.py: the
+expressions `peer.py` times, in its own process and virtual environment). Decoding is not timed
 anywhere.
 
-Besides the separate Rust process, the estimator is timed against the bare core call it wraps
-(`linpose._linpose.fit` / `Model.predict`, the library behind PyO3's argument conversion),
-alternated call by call in one process: the difference is what the Python layer costs. Each figure is a
-median over ROUNDS rounds that alternate the Rust process and the Python measurements; the
-predicts' lowest and highest round follow the table (the spread of a shared machine).
+The sides take turns in blocks of BLOCK seconds (each call repeated back to back for that long,
+warm, and the block's median kept), in a rotating order, each timed inside its own process (the
+Rust process and the peer are asked for one block at a time through a pipe and wait idle
+otherwise), so that every side sees the same stretches of a shared machine's load; each figure
+is the median of TURNS blocks. After a block of the peer the next waits PEER_REST seconds: its
+BLAS threads spin for a while after a call, and would take the cores from the next side's
+block. Beside the estimator, the bare core call it wraps (`linpose._linpose.fit` /
+`Model.predict`, the library behind PyO3's argument conversion) takes its turns too: the
+difference is what the Python layer costs.
 
-  python_vs_rust.py [--coil DIR] [--reps 5] [--rounds 5] [--peer-python PY]
+The peer is given two ways: as `peer.py` reports itself (its in-process `fit_s` and `predict_s`,
+each a single call in a fresh process, the first of its kind there; medians of three runs), and
+warm, in blocks like the others (bench/peer_serve.py). The refined method has no peer; its
+ratios are to the peer's eigenspace of the same data.
+
+One image: 2000 single-image predicts a side, in turns of ONE_BLOCK, each timed view followed
+by an untimed one half the set away (in Python the core call takes the other view), so that no
+timed query finds its neighbour's part of the tables in the cache: the estimator's median minus
+the Rust process's, and minus the core call's.
+
+  python_vs_rust.py [--coil DIR] [--turns 15] [--block 0.1] [--peer-python PY]
 """
 import argparse, json, os, statistics, subprocess, sys, tempfile, time
 
@@ -33,8 +40,8 @@ here = os.path.dirname(os.path.abspath(__file__))
 root = os.path.dirname(here)
 ap = argparse.ArgumentParser()
 ap.add_argument("--coil", default=os.path.join(root, "..", "shared", "datasets", "coil-20-proc"))
-ap.add_argument("--reps", type=int, default=5)
-ap.add_argument("--rounds", type=int, default=5)
+ap.add_argument("--turns", type=int, default=15, help="blocks of each side per figure")
+ap.add_argument("--block", type=float, default=0.1, help="least seconds of a block")
 ap.add_argument("--peer-python", default=os.path.join(root, "..", ".peer-venv", "bin", "python"))
 ap.add_argument("--peer", default=os.path.join(root, "..", "shared", "peer", "peer.py"))
 a = ap.parse_args()
@@ -42,6 +49,12 @@ subprocess.run(["cargo", "build", "--release", "-q", "-p", "linpose", "-p", "lin
 timing = os.path.join(root, "target", "release", "examples", "fit_predict_timing")
 cli = os.path.join(root, "target", "release", "linpose")
 tmp = tempfile.mkdtemp(prefix="pyvr-")
+has_peer = os.path.exists(a.peer) and os.path.exists(a.peer_python)
+# The peer's BLAS (OpenBLAS) threads spin after a call (about 2^28 cycles by default) before they
+# sleep; the next side's call waits this long so as not to share the cores with them.
+PEER_REST = 0.15
+# Single-image predicts per block.
+ONE_BLOCK = 200
 
 sets = []
 paper = os.path.join(tmp, "duck")
@@ -55,79 +68,124 @@ cls = {"linear": linpose.LinearPose, "eigenspace": linpose.EigenspacePose, "refi
 med = statistics.median
 
 
-def timed_pair(f, g, reps):
-    """Median seconds of f and of g, called alternately (f, g, f, g, ...) for at least REPS
-    pairs and 0.6 s, so that both see the same moments of the machine's load."""
-    tf, tg, start = [], [], time.perf_counter()
-    while len(tf) < reps or time.perf_counter() - start < 0.6:
-        t = time.perf_counter(); f(); tf.append(time.perf_counter() - t)
-        t = time.perf_counter(); g(); tg.append(time.perf_counter() - t)
-    return med(tf), med(tg)
+class Server:
+    """A process that answers each request line with one timed block's median seconds."""
+
+    def __init__(self, cmd):
+        self.p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1)
+        # Loaded and fitted once: nothing of its start runs beside the others' blocks.
+        if self.p.stdout.readline().strip() != "ready":
+            sys.exit(f"{cmd[0]} did not start (exit {self.p.wait()})")
+
+    def __call__(self, request):
+        self.p.stdin.write(request + "\n")
+        self.p.stdin.flush()
+        line = self.p.stdout.readline()
+        if not line:
+            sys.exit(f"{self.p.args[0]} ended on {request!r} (exit {self.p.wait()})")
+        return float(line)
+
+    def close(self):
+        self.p.stdin.close()
+        self.p.wait()
 
 
-def py_times(X, y, params, train, method):
-    """(fit, predict, one image) through the estimator, and (fit, predict) through the bare core
-    call it wraps, alternated call by call."""
-    est = cls[method](params=params)
-    # The training views picked once, as the Rust side's training set is made before timing.
-    Xt, yt = np.ascontiguousarray(X[train]), np.ascontiguousarray(y[train])
-    yt2 = yt.reshape(len(yt), -1)
-    settings = est._settings()
-    h, w = X.shape[1:]
-    core_fit = lambda: linpose._linpose.fit(method, settings, Xt.reshape(len(Xt), -1), h, w, yt2, params, None)
-    est.fit(Xt, yt)
-    X2 = X.reshape(len(X), -1)
-    fit, cfit = timed_pair(lambda: est.fit(Xt, yt), core_fit, a.reps)
-    pred, cpred = timed_pair(lambda: est.predict(X), lambda: est.model_.predict(X2), a.reps)
-    # One image at a time: the estimator, and the bare core call alternated with it (the
-    # binding's own overhead, in one process, apart from how fast the process runs the library),
-    # each on views the other has not just seen (a view just searched is faster again: its
-    # part of the tables is in the cache).
-    one, cone = [], []
-    for i in range(2000):
-        q, q2 = X[i % len(X)][None], X2[(i + len(X) // 2) % len(X)][None]
-        t = time.perf_counter(); est.predict(q); one.append(time.perf_counter() - t)
-        t = time.perf_counter(); est.model_.predict(q2); cone.append(time.perf_counter() - t)
-    return fit, pred, med(one), cfit, cpred, med(cone)
+def block(f):
+    """Median seconds of f called back to back for a block (at least once)."""
+    ts, start = [], time.perf_counter()
+    while not ts or time.perf_counter() - start < a.block:
+        t = time.perf_counter()
+        f()
+        ts.append(time.perf_counter() - t)
+    return med(ts)
+
+
+def turns(sides, n=None):
+    """Each side's median over its blocks, the sides taking turns (the order rotating by one
+    each turn) for TURNS turns."""
+    names = list(sides)
+    got = {k: [] for k in names}
+    for i in range(n or a.turns):
+        for k in names[i % len(names):] + names[:i % len(names)]:
+            got[k].append(sides[k](i))
+            if k == "peer":
+                time.sleep(PEER_REST)
+    return {k: med(v) for k, v in got.items()}
+
+
+def peer_reported(peer_dir, step):
+    """peer.py's own fit_s and predict_s (one call each in a fresh process, as it times them),
+    medians of three runs."""
+    runs = []
+    for _ in range(3):
+        out = os.path.join(tmp, "p.json")
+        subprocess.run([a.peer_python, a.peer, peer_dir, "--train-step", str(step), "--json", out], check=True, capture_output=True)
+        runs.append(json.load(open(out)))
+    return {m: (med(r[m]["fit_s"] for r in runs), med(r[m]["predict_s"] for r in runs)) for m in ("linear", "eigenspace")}
 
 
 rows = []
 for label, data, obj, step, peer_dir in sets:
     X, y, params, _ = linpose.read_dataset(data, obj)
     train = linpose.train_mask(y, params, step)
-    peer = {}
-    if os.path.exists(a.peer) and os.path.exists(a.peer_python):
-        runs = []
-        for _ in range(3):
-            out = os.path.join(tmp, "p.json")
-            subprocess.run([a.peer_python, a.peer, peer_dir, "--train-step", str(step), "--json", out], check=True, capture_output=True)
-            runs.append(json.load(open(out)))
-        peer = {m: (med(r[m]["fit_s"] for r in runs), med(r[m]["predict_s"] for r in runs)) for m in ("linear", "eigenspace")}
+    # The training views picked once, as the Rust side's training set is made before timing.
+    Xt, yt = np.ascontiguousarray(X[train]), np.ascontiguousarray(y[train])
+    yt2 = yt.reshape(len(yt), -1)
+    h, w = X.shape[1:]
+    X2 = X.reshape(len(X), -1)
+    # peer.py's own runs first: the warm peer's process loads the images as it starts.
+    reported = peer_reported(peer_dir, step) if has_peer else {}
+    peer = Server([a.peer_python, os.path.join(here, "peer_serve.py"), "--peer", a.peer, peer_dir, "--train-step", str(step)]) if has_peer else None
+    warm = {}
     for method in ("linear", "eigenspace", "refined"):
-        rust_args = [timing, data, "--train-step", str(step), "--method", method, "--reps", str(a.reps)] + (["--object", str(obj)] if obj else [])
-        rust, py = [], []
-        # Rounds alternating the Rust process and the Python measurements, so both see the
-        # machine's load drift alike; medians over the rounds.
-        for _ in range(a.rounds):
-            r = json.loads(subprocess.run(rust_args, check=True, capture_output=True, text=True).stdout)
-            rust.append((r["fit_s"], r["predict_s"], r["predict_one_s"]))
-            py.append(py_times(X, y, params, train, method))
-        spread = (min(p[1] for p in py), max(p[1] for p in py), min(p[4] for p in py), max(p[4] for p in py), min(r[1] for r in rust), max(r[1] for r in rust))
-        rust = tuple(med(r[j] for r in rust) for j in range(3))
-        py = tuple(med(p[j] for p in py) for j in range(6))
-        pm = peer.get(method) or peer.get("eigenspace")
-        rows.append((label, method, py, rust, pm, spread))
+        rust = Server([timing, data, "--train-step", str(step), "--method", method, "--serve"] + (["--object", str(obj)] if obj else []))
+        est = cls[method](params=params)
+        settings = est._settings()
+        est.fit(Xt, yt)
+        core_fit = lambda: linpose._linpose.fit(method, settings, Xt.reshape(len(Xt), -1), h, w, yt2, params, None)
+        sides = {"rust": lambda i: rust(f"fit {a.block}"), "python": lambda i: block(lambda: est.fit(Xt, yt)), "core": lambda i: block(core_fit)}
+        if peer and method != "refined":
+            sides["peer"] = lambda i: peer(f"fit {method} {a.block}")
+        fit = turns(sides)
+        sides = {"rust": lambda i: rust(f"predict {a.block}"), "python": lambda i: block(lambda: est.predict(X)), "core": lambda i: block(lambda: est.model_.predict(X2))}
+        if peer and method != "refined":
+            sides["peer"] = lambda i: peer(f"predict {method} {a.block}")
+        pred = turns(sides)
+        if "peer" in fit:
+            warm[method] = (fit["peer"], pred["peer"])
 
-print("| data | method | fit: Python / core call / Rust process | predict: Python / core call / Rust process | Python vs peer (fit, predict) | one image: Python - Rust process | one image: Python - core call |")
-print("|---|---|---|---|---|---|---|")
-for label, method, py, rust, pm, _ in rows:
-    vs = f"{py[0] / pm[0]:.3f}x, {py[1] / pm[1]:.3f}x" + ("" if method != "refined" else " (peer eigenspace)") if pm else "no peer"
-    print(
-        f"| {label} | {method} | {py[0] * 1e3:.2f} / {py[3] * 1e3:.2f} / {rust[0] * 1e3:.2f} ms ({py[0] / py[3] - 1:+.1%}, {py[0] / rust[0] - 1:+.1%}) "
-        f"| {py[1] * 1e3:.3f} / {py[4] * 1e3:.3f} / {rust[1] * 1e3:.3f} ms ({py[1] / py[4] - 1:+.1%}, {py[1] / rust[1] - 1:+.1%}) | {vs} | {(py[2] - rust[2]) * 1e6:.1f} us | {(py[2] - py[5]) * 1e6:.1f} us |"
-    )
+        def singles(first, f):
+            ts = []
+            for i in range(first, first + ONE_BLOCK):
+                t = time.perf_counter()
+                f(i)
+                ts.append(time.perf_counter() - t)
+            return med(ts)
+
+        half = len(X) // 2
+        sides = {
+            "rust": lambda i: rust(f"one {i * ONE_BLOCK} {ONE_BLOCK}"),
+            "python": lambda i: singles(i * ONE_BLOCK, lambda j: est.predict(X[j % len(X)][None])),
+            "core": lambda i: singles(i * ONE_BLOCK, lambda j: est.model_.predict(X2[(j + half) % len(X)][None])),
+        }
+        one = turns(sides, 2000 // ONE_BLOCK)
+        rust.close()
+        rows.append((label, method, fit, pred, one, reported.get(method) or reported.get("eigenspace"), warm.get(method) or warm.get("eigenspace")))
+    if peer:
+        peer.close()
+
+print("| data | method | fit: Python / core call / Rust process | predict: Python / core call / Rust process | Python vs peer as it reports itself (fit, predict) | Python vs peer warm | one image: Python - Rust process | one image: Python - core call |")
+print("|---|---|---|---|---|---|---|---|")
+for label, method, fit, pred, one, rep, warm in rows:
+    note = "" if method != "refined" else " (peer eigenspace)"
+    vs = [f"{fit['python'] / pm[0]:.3f}x, {pred['python'] / pm[1]:.3f}x{note}" if pm else "no peer" for pm in (rep, warm)]
+    cells = []
+    for t, digits in ((fit, 2), (pred, 3)):
+        cells.append(
+            f"{t['python'] * 1e3:.{digits}f} / {t['core'] * 1e3:.{digits}f} / {t['rust'] * 1e3:.{digits}f} ms "
+            f"({t['python'] / t['core'] - 1:+.1%}, {t['python'] / t['rust'] - 1:+.1%})"
+        )
+    print(f"| {label} | {method} | {cells[0]} | {cells[1]} | {vs[0]} | {vs[1]} | {(one['python'] - one['rust']) * 1e6:.1f} us | {(one['python'] - one['core']) * 1e6:.1f} us |")
 
 load = open("/proc/loadavg").read().split()[:3]
-print(f"\nload average at the end: {' '.join(load)}; predict, the rounds' lowest - highest (ms): Python / core call / Rust process")
-for label, method, _, _, _, sp in rows:
-    print(f"  {label}, {method}: {sp[0] * 1e3:.3f}-{sp[1] * 1e3:.3f} / {sp[2] * 1e3:.3f}-{sp[3] * 1e3:.3f} / {sp[4] * 1e3:.3f}-{sp[5] * 1e3:.3f}")
+print(f"\nload average at the end: {' '.join(load)}")
