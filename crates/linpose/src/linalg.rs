@@ -61,14 +61,13 @@ pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> M
 }
 
 /// [`gram_f32`] of a data set's features (each minus `mean` when given), with the same bits:
-/// read from its 8-bit values where it keeps them ([`Dataset::rows`]) and the 8-bit Gram
-/// applies (uncentred, AVX-512 VNNI), a quarter of the features' bytes.
+/// read from its 8-bit values where it keeps them ([`Dataset::rows`]) and no mean is taken, by
+/// the 8-bit Gram (AVX-512 VNNI) or else the f64 kernel packing the bytes, so that the f32
+/// features are not made.
 pub fn gram_of(data: &crate::Dataset, mean: Option<&[f64]>) -> Mat<f64> {
     let (n, m) = (data.len(), data.n_features());
     if let (crate::dataset::Rows::U8(px), None) = (data.rows(), mean) {
-        if let Some(g) = crate::kernels::gram8::gram_u8(px, n, m) {
-            return g;
-        }
+        return crate::kernels::gram8::gram_u8(px, n, m).unwrap_or_else(|| crate::kernels::gram::gram_u8_fma(px, n, m));
     }
     gram_f32(data.features(), n, m, mean)
 }

@@ -236,6 +236,44 @@ pub fn pack_group_f32(out: &mut [f64], x: &[f32], n: usize, m: usize, i0: usize,
     }
 }
 
+/// [`gram_f32_fma`] of the features of `n` rows of `m` 8-bit values (`feature_of_u8` of
+/// each), packed from the bytes, with the same bits: where the 8-bit integer Gram is not to
+/// be had (no AVX-512 VNNI), the fit need not make the f32 features first (a pass writing four
+/// times the bytes, then reading them back to pack).
+pub fn gram_u8_fma(pixels: &[u8], n: usize, m: usize) -> Mat<f64> {
+    gram_u8_with(pixels, n, m, Level::detect(), chunks(n, m))
+}
+
+fn gram_u8_with(pixels: &[u8], n: usize, m: usize, level: Level, chunks: usize) -> Mat<f64> {
+    assert_eq!(pixels.len(), n * m, "8-bit rows size");
+    gram_with(n, m, level, chunks, |panel, k0, kc| {
+        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_u8(p, pixels, n, m, g * GROUP, k0, kc, level))
+    })
+}
+
+/// [`pack_group_f32`] of the features of 8-bit rows: each value k packed as the f64 of the
+/// f32 feature k * S8 (the same single f32 product as `feature_of_u8`, so the same bits).
+#[allow(clippy::too_many_arguments)]
+fn pack_group_u8(out: &mut [f64], px: &[u8], n: usize, m: usize, i0: usize, k0: usize, kc: usize, level: Level) {
+    assert!(out.len() == GROUP * kc && k0 + kc <= m && px.len() >= n * m, "packed group size");
+    let rows = n.saturating_sub(i0).min(GROUP);
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if level.avx2() {
+        // SAFETY: the level is a token of detection that found AVX2 (AVX-512 levels include
+        // it); the kernel reads rows i0..i0 + rows, steps k0..k0 + kc (inside px, asserted) and
+        // writes out[..8 * (kc - kc % 4)].
+        unsafe { x86::pack_group_u8_avx2(out, px, m, i0, rows, k0, kc) };
+        done = kc - kc % 4;
+    }
+    let _ = level;
+    for k in done..kc {
+        for l in 0..GROUP {
+            out[k * GROUP + l] = if l < rows { crate::image_io::feature_of_u8(px[(i0 + l) * m + k0 + k]) as f64 } else { 0.0 };
+        }
+    }
+}
+
 /// G = X X^T for the f64 rows `rows` (one image each, at least `m` values), by the f64 kernel.
 /// The same bits as [`gram_rows`] on the same values; the rows are packed 8 at a time by an
 /// AVX-512 transpose where the level has it ([`pack_group_f64`]).
@@ -371,19 +409,53 @@ mod x86 {
                     None => v,
                 };
             }
-            for (h, q) in r.chunks_exact(4).enumerate() {
-                let (t0, t1) = (_mm256_unpacklo_pd(q[0], q[1]), _mm256_unpackhi_pd(q[0], q[1]));
-                let (t2, t3) = (_mm256_unpacklo_pd(q[2], q[3]), _mm256_unpackhi_pd(q[2], q[3]));
-                let steps = [
-                    _mm256_permute2f128_pd::<0x20>(t0, t2),
-                    _mm256_permute2f128_pd::<0x20>(t1, t3),
-                    _mm256_permute2f128_pd::<0x31>(t0, t2),
-                    _mm256_permute2f128_pd::<0x31>(t1, t3),
-                ];
-                for (j, v) in steps.into_iter().enumerate() {
-                    _mm256_storeu_pd(o.add((k + j) * GROUP + 4 * h), v);
-                }
+            store_steps_avx2(&r, o.add(k * GROUP));
+        }
+    }
+
+    /// Stores 4 steps of 8 rows (`r[l]`: row l's 4 values) at `o` (step j's 8 rows at
+    /// `o[8 j..]`): rows 0-3 and 4-7 transposed 4 x 4 in registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; `o` must be valid for 32 values.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn store_steps_avx2(r: &[__m256d; 8], o: *mut f64) {
+        for (h, q) in r.chunks_exact(4).enumerate() {
+            let (t0, t1) = (_mm256_unpacklo_pd(q[0], q[1]), _mm256_unpackhi_pd(q[0], q[1]));
+            let (t2, t3) = (_mm256_unpacklo_pd(q[2], q[3]), _mm256_unpackhi_pd(q[2], q[3]));
+            let steps = [
+                _mm256_permute2f128_pd::<0x20>(t0, t2),
+                _mm256_permute2f128_pd::<0x20>(t1, t3),
+                _mm256_permute2f128_pd::<0x31>(t0, t2),
+                _mm256_permute2f128_pd::<0x31>(t1, t3),
+            ];
+            for (j, v) in steps.into_iter().enumerate() {
+                _mm256_storeu_pd(o.add(j * GROUP + 4 * h), v);
             }
+        }
+    }
+
+    /// Steps `0..kc - kc % 4` of [`super::pack_group_u8`] on AVX2: per 4 steps, each row's 4
+    /// bytes widened, converted and multiplied by S8 in f32 (the feature's one rounding), then
+    /// to f64 and transposed by [`store_steps_avx2`].
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; rows `i0..i0 + rows` of `px` (row length m) must hold steps
+    /// `k0..k0 + kc` and `out` 8 * kc values.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn pack_group_u8_avx2(out: &mut [f64], px: &[u8], m: usize, i0: usize, rows: usize, k0: usize, kc: usize) {
+        assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= px.len()));
+        let (xp, o) = (px.as_ptr(), out.as_mut_ptr());
+        let s8 = _mm_set1_ps(crate::kernels::levels::S8);
+        for k in (0..kc - kc % 4).step_by(4) {
+            let mut r = [_mm256_setzero_pd(); 8];
+            for (l, rl) in r.iter_mut().enumerate().take(rows) {
+                let b = _mm_cvtsi32_si128(std::ptr::read_unaligned(xp.add((i0 + l) * m + k0 + k) as *const i32));
+                *rl = _mm256_cvtps_pd(_mm_mul_ps(_mm_cvtepi32_ps(_mm_cvtepu8_epi32(b)), s8));
+            }
+            store_steps_avx2(&r, o.add(k * GROUP));
         }
     }
 
@@ -447,6 +519,27 @@ mod tests {
                     assert!(f.as_ref() == g.as_ref(), "{level:?} differs from the first path at n {n}");
                 } else {
                     first = Some(g);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bytes_give_the_bits_of_their_f32_features_on_every_level() {
+        for &(n, m) in &SIZES {
+            let px: Vec<u8> = (0..n * m).map(|i| ((i * 2654435761usize) % 256) as u8).collect();
+            let x: Vec<f32> = px.iter().map(|&v| crate::image_io::feature_of_u8(v)).collect();
+            for level in Level::supported() {
+                let want = gram_f32_with(&x, n, m, None, level, chunks(n, m));
+                assert!(gram_u8_with(&px, n, m, level, chunks(n, m)).as_ref() == want.as_ref(), "{level:?} n {n} m {m}");
+                // Every group and step split, the tails (kc % 4) included.
+                for (k0, kc) in [(0, m), (m / 3, m - m / 3), (m - 1, 1), (1, m.min(7) - 1)] {
+                    for g in 0..n.div_ceil(GROUP) + 1 {
+                        let (mut got, mut want) = (vec![1.0; GROUP * kc], vec![1.0; GROUP * kc]);
+                        pack_group_u8(&mut got, &px, n, m, g * GROUP, k0, kc, level);
+                        pack_group_f32(&mut want, &x, n, m, g * GROUP, k0, kc, None, level);
+                        assert!(got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "{level:?} group {g} k0 {k0} kc {kc}");
+                    }
                 }
             }
         }
