@@ -106,7 +106,7 @@ fn main() {
                     Accum::Add,
                     p.as_ref(),
                     BlockStructure::Rectangular,
-                    p.transpose(),
+                    p.as_ref().transpose(),
                     BlockStructure::Rectangular,
                     1.0,
                     par,

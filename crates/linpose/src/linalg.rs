@@ -11,14 +11,34 @@ pub fn par() -> Par {
     }
 }
 
+/// An M x N f64 matrix, column-major, on huge pages where it is large
+/// ([`crate::memory::huge`]): [`transpose_features`]'s X^T.
+pub struct Columns {
+    buf: crate::memory::huge::HugeBuf,
+    m: usize,
+    n: usize,
+}
+
+impl Columns {
+    /// The matrix.
+    pub fn as_ref(&self) -> MatRef<'_, f64> {
+        MatRef::from_column_major_slice(self.buf.as_slice(), self.m, self.n)
+    }
+
+    /// Column j (image j), to write.
+    pub fn col_mut(&mut self, j: usize) -> &mut [f64] {
+        &mut self.buf.as_mut_slice()[j * self.m..(j + 1) * self.m]
+    }
+}
+
 /// X^T as an M x N f64 matrix (one image per column, contiguous) from N row-major f32 feature
 /// rows, each optionally minus `mean`.
-pub fn transpose_features(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
+pub fn transpose_features(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Columns {
     debug_assert_eq!(features.len(), n * m);
-    let mut xt = Mat::<f64>::zeros(m, n);
+    let mut xt = Columns { buf: crate::memory::huge::HugeBuf::zeroed(m * n), m, n };
     for j in 0..n {
         let src = &features[j * m..(j + 1) * m];
-        let col = xt.col_mut(j).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
+        let col = xt.col_mut(j);
         match mean {
             Some(mu) => col.iter_mut().zip(src.iter().zip(mu)).for_each(|(d, (&s, &u))| *d = s as f64 - u),
             None => col.iter_mut().zip(src).for_each(|(d, &s)| *d = s as f64),

@@ -100,6 +100,7 @@
 //! ([`Limit::Unknown`]), the in-memory path is taken unchecked, as before planning existed.
 
 mod estimate;
+pub(crate) mod huge;
 mod remedy;
 mod system;
 pub mod tuning;

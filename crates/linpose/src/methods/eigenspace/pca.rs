@@ -112,7 +112,7 @@ fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pc
     let mut xt = transpose_features(train.features(), n, m, None);
     let mut mean = vec![0.0; m];
     for j in 0..n {
-        let col = xt.col_mut(j).try_as_col_major_mut().expect("fresh matrix is column-major").as_slice_mut();
+        let col = xt.col_mut(j);
         let norm = match &raw {
             Some(g) => g[(j, j)].max(0.0).sqrt(),
             None => col.iter().map(|v| v * v).sum::<f64>().sqrt(),
@@ -130,7 +130,7 @@ fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pc
     }
     mean.iter_mut().for_each(|u| *u /= n as f64);
     for j in 0..n {
-        let col = xt.col_mut(j).try_as_col_major_mut().expect("column-major").as_slice_mut();
+        let col = xt.col_mut(j);
         col.iter_mut().zip(&mean).for_each(|(v, &u)| *v -= u);
     }
     let g = match raw {
