@@ -14,9 +14,16 @@ impl Surface {
     /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
     pub fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect().avx512() {
-            // SAFETY: the CPU supports AVX-512F (detected).
-            return unsafe { simd::eval_avx512(self, t, f, jac) };
+        {
+            let level = crate::kernels::Level::detect();
+            if level.avx512() {
+                // SAFETY: the CPU supports AVX-512F (detected).
+                return unsafe { simd::eval_avx512(self, t, f, jac) };
+            }
+            if level.avx2() {
+                // SAFETY: the CPU supports AVX2 (detected).
+                return unsafe { simd::eval_avx2(self, t, f, jac) };
+            }
         }
         self.eval_body(t, f, jac, None)
     }
@@ -28,9 +35,16 @@ impl Surface {
     pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
         assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
         #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect().avx512() {
-            // SAFETY: the CPU supports AVX-512F (detected).
-            return unsafe { simd::eval_pair_avx512(self, other, t, f, jac, g, jac_g) };
+        {
+            let level = crate::kernels::Level::detect();
+            if level.avx512() {
+                // SAFETY: the CPU supports AVX-512F (detected).
+                return unsafe { simd::eval_pair_avx512(self, other, t, f, jac, g, jac_g) };
+            }
+            if level.avx2() {
+                // SAFETY: the CPU supports AVX2 (detected).
+                return unsafe { simd::eval_pair_avx2(self, other, t, f, jac, g, jac_g) };
+            }
         }
         self.eval_body(t, f, jac, Some((other, g, jac_g)))
     }
@@ -38,7 +52,7 @@ impl Surface {
     /// The body of [`Surface::eval`] (and with `other`, of [`Surface::eval_pair`]): every
     /// coordinate of the value and of the Jacobian rows summed over the 4^D corner terms in the
     /// same order on every build (multiplications and additions, no fused multiply-add), so the
-    /// AVX-512 build gives the same bits.
+    /// AVX-512 and AVX2 builds give the same bits.
     #[inline(always)]
     pub(crate) fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<Other<'_>>) {
         let d = self.params();

@@ -74,6 +74,12 @@ fn two_parameter_values_give_the_general_paths_bits() {
             assert_eq!((bits(&f), bits(&g)), (bits(&f2), bits(&g2)), "portable, {t:?}");
             s.eval_pair(&o, &t, &mut f2, None, &mut g2, None);
             assert_eq!((bits(&f), bits(&g)), (bits(&f2), bits(&g2)), "dispatched, {t:?}");
+            // With derivatives, dispatched (the CPU's best build) against the portable body.
+            let (mut f3, mut g3, mut jf3, mut jg3) = (vec![0.0; dim], vec![0.0; dim], vec![0.0; 2 * dim], vec![0.0; 2 * dim]);
+            s.eval_pair(&o, &t, &mut f3, Some(&mut jf3), &mut g3, Some(&mut jg3));
+            assert_eq!((bits(&f), bits(&jf), bits(&g), bits(&jg)), (bits(&f3), bits(&jf3), bits(&g3), bits(&jg3)), "dispatched pair, {t:?}");
+            s.eval(&t, &mut f3, Some(&mut jf3));
+            assert_eq!((bits(&f), bits(&jf)), (bits(&f3), bits(&jf3)), "dispatched, {t:?}");
         }
     }
 }
