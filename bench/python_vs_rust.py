@@ -24,9 +24,9 @@ warm, in blocks like the others (bench/peer_serve.py). The refined method has no
 ratios are to the peer's eigenspace of the same data.
 
 One image: 2000 single-image predicts a side, in turns of ONE_BLOCK, each timed view followed
-by an untimed one half the set away (in Python the core call takes the other view), so that no
-timed query finds its neighbour's part of the tables in the cache: the estimator's median minus
-the Rust process's, and minus the core call's.
+by an untimed one half the set away, so that no timed query finds its neighbour's part of the
+tables in the cache: the estimator's median minus the Rust process's, and minus the core
+call's.
 
   python_vs_rust.py [--coil DIR] [--turns 15] [--block 0.1] [--peer-python PY]
 """
@@ -154,19 +154,23 @@ for label, data, obj, step, peer_dir in sets:
         if "peer" in fit:
             warm[method] = (fit["peer"], pred["peer"])
 
+        half = len(X) // 2
+
         def singles(first, f):
+            """Median seconds of f on views first.., each followed by an untimed f on the view
+            half the set away (as the Rust process does)."""
             ts = []
             for i in range(first, first + ONE_BLOCK):
                 t = time.perf_counter()
-                f(i)
+                f(i % len(X))
                 ts.append(time.perf_counter() - t)
+                f((i + half) % len(X))
             return med(ts)
 
-        half = len(X) // 2
         sides = {
             "rust": lambda i: rust(f"one {i * ONE_BLOCK} {ONE_BLOCK}"),
-            "python": lambda i: singles(i * ONE_BLOCK, lambda j: est.predict(X[j % len(X)][None])),
-            "core": lambda i: singles(i * ONE_BLOCK, lambda j: est.model_.predict(X2[(j + half) % len(X)][None])),
+            "python": lambda i: singles(i * ONE_BLOCK, lambda j: est.predict(X[j][None])),
+            "core": lambda i: singles(i * ONE_BLOCK, lambda j: est.model_.predict(X2[j][None])),
         }
         one = turns(sides, 2000 // ONE_BLOCK)
         rust.close()
