@@ -1,0 +1,57 @@
+#!/usr/bin/env python3
+"""Two builds of `examples/fit_predict_timing` (say, a commit's and its parent's) side by side on
+one data set: both started in `--serve` mode, then asked in turn (the order alternating) for a
+block of fits or predicts of BLOCK seconds each, TURNS times; prints each build's median of its
+block medians, their ratio, and the blocks' range. Both builds see the same stretches of a
+shared machine's load, so the ratio holds where absolute times drift.
+
+    git checkout A && cargo build --release -p linpose --example fit_predict_timing && cp target/release/examples/fit_predict_timing /tmp/a
+    git checkout B && ... && cp ... /tmp/b
+    python3 bench/ab_timing.py /tmp/a /tmp/b DATA [--object O] --train-step S --method M --what fit|predict
+"""
+import argparse
+import statistics
+import subprocess
+import sys
+
+ap = argparse.ArgumentParser()
+ap.add_argument("a")
+ap.add_argument("b")
+ap.add_argument("data")
+ap.add_argument("--object")
+ap.add_argument("--train-step", required=True)
+ap.add_argument("--method", required=True)
+ap.add_argument("--what", choices=["fit", "predict"], required=True)
+ap.add_argument("--turns", type=int, default=21)
+ap.add_argument("--block", type=float, default=0.2)
+a = ap.parse_args()
+
+
+def server(binary):
+    args = [binary, a.data, "--train-step", a.train_step, "--method", a.method, "--serve"] + (["--object", a.object] if a.object else [])
+    p = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1)
+    if p.stdout.readline().strip() != "ready":
+        sys.exit(f"{binary} did not start (exit {p.wait()})")
+    return p
+
+
+def ask(p):
+    p.stdin.write(f"{a.what} {a.block}\n")
+    p.stdin.flush()
+    return float(p.stdout.readline())
+
+
+pa, pb = server(a.a), server(a.b)
+ta, tb = [], []
+for i in range(a.turns):
+    for p, t in ((pa, ta), (pb, tb)) if i % 2 == 0 else ((pb, tb), (pa, ta)):
+        t.append(ask(p))
+for p in (pa, pb):
+    p.stdin.close()
+    p.wait()
+ma, mb = statistics.median(ta), statistics.median(tb)
+load = open("/proc/loadavg").read().split()[:3]
+print(
+    f"{a.method} {a.what}: A {ma * 1e3:.3f} ms, B {mb * 1e3:.3f} ms ({mb / ma - 1:+.1%}); "
+    f"blocks {min(ta) * 1e3:.2f}-{max(ta) * 1e3:.2f} / {min(tb) * 1e3:.2f}-{max(tb) * 1e3:.2f} ms; load {' '.join(load)}"
+)
