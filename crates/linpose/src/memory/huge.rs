@@ -11,10 +11,11 @@
 //! comes before the first touch and the alignment slack is never touched. A smaller one may be
 //! carved from the heap, already touched, where the slack would be zeroed too and the advice
 //! would split pages when the heap shrinks: with the threshold at numpy's 4 MB, COIL-20 object
-//! 1's refined fit (4.7 MB copies) was 7-37% slower in three alternated runs.
+//! 1's refined fit (4.7 MB copies) was 7-37% slower in three alternated runs
+//! (`bench/ab_timing.py`).
 //!
-//! Measured on the AVX2 machine of BENCHMARKS.md, `examples/fit_predict_timing --serve`, 21
-//! alternated turns of 0.2 s: the rendered duck's eigenspace fit 153.5 -> 129.0 ms (-16%).
+//! Measured on the AVX2 machine of BENCHMARKS.md ("Hand-written kernels", `bench/ab_timing.py`,
+//! 21 alternated turns of 0.2 s): the rendered duck's eigenspace fit 161.3 -> 133.6 ms.
 //!
 //! Only the advice changes: the values, and so every result's bits, are the same.
 
@@ -32,11 +33,11 @@ pub struct HugeBuf {
 }
 
 impl HugeBuf {
-    /// `len` zeros. Above [`HUGE_MIN_BYTES`], the run starts on a huge page boundary inside an
+    /// `len` zeros. Above [`HUGE_MIN_BYTES`] (on Linux), the run starts on a huge page boundary inside an
     /// allocation up to one huge page larger (the slack is never touched, so it takes no memory)
     /// and its whole huge pages are advised as such before they are first touched.
     pub fn zeroed(len: usize) -> HugeBuf {
-        if len.saturating_mul(8) <= HUGE_MIN_BYTES {
+        if !cfg!(target_os = "linux") || len.saturating_mul(8) <= HUGE_MIN_BYTES {
             return HugeBuf { v: vec![0.0; len], off: 0, len };
         }
         // Zeroed allocation: fresh mappings (above the mmap threshold) are not written to.
@@ -82,7 +83,7 @@ mod tests {
             let mut b = HugeBuf::zeroed(len);
             assert_eq!(b.as_slice().len(), len);
             assert!(b.as_slice().iter().all(|&v| v == 0.0));
-            if len * 8 > HUGE_MIN_BYTES {
+            if cfg!(target_os = "linux") && len * 8 > HUGE_MIN_BYTES {
                 assert_eq!(b.as_slice().as_ptr() as usize % HUGE_PAGE, 0, "len {len}");
             }
             b.as_mut_slice().iter_mut().enumerate().for_each(|(i, v)| *v = i as f64);
