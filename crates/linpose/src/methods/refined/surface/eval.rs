@@ -3,29 +3,29 @@
 #[cfg(target_arch = "x86_64")]
 use super::simd;
 use super::Surface;
+use crate::kernels::dispatch;
 
 /// A second surface evaluated with the first ([`Surface::eval_pair`]): it, its values, and its
 /// Jacobian when wanted.
 type Other<'a> = (&'a Surface, &'a mut [f64], Option<&'a mut [f64]>);
+
+#[inline(always)]
+fn eval_any(s: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, other: Option<Other<'_>>) {
+    s.eval_body(t, f, jac, other)
+}
+
+dispatch! {
+    /// [`Surface::eval_body`] built for the CPU's level: on an AVX2 machine the baseline build
+    /// had been a third of the rendered duck's eigenspace query (the second look's climbs).
+    fn eval_built(s: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, other: Option<Other<'_>>) = eval_any;
+}
 
 impl Surface {
     /// The surface point at `t` into `f` (L values), and when `jac` is given its derivatives
     /// (D rows of L, row-major) too. `t` must lie in the domain ([`Surface::clamp`]).
     /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
     pub fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            let level = crate::kernels::Level::detect();
-            if level.avx512() {
-                // SAFETY: the CPU supports AVX-512F (detected).
-                return unsafe { simd::eval_avx512(self, t, f, jac) };
-            }
-            if level.avx2() {
-                // SAFETY: the CPU supports AVX2 (detected).
-                return unsafe { simd::eval_avx2(self, t, f, jac) };
-            }
-        }
-        self.eval_body(t, f, jac, None)
+        eval_built(crate::kernels::Level::detect(), self, t, f, jac, None)
     }
 
     /// [`Surface::eval`] of this surface (into `f`, `jac`) and of `other` (into `g`, `jac_g`) at
@@ -34,25 +34,13 @@ impl Surface {
     /// own [`Surface::eval`].
     pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
         assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
-        #[cfg(target_arch = "x86_64")]
-        {
-            let level = crate::kernels::Level::detect();
-            if level.avx512() {
-                // SAFETY: the CPU supports AVX-512F (detected).
-                return unsafe { simd::eval_pair_avx512(self, other, t, f, jac, g, jac_g) };
-            }
-            if level.avx2() {
-                // SAFETY: the CPU supports AVX2 (detected).
-                return unsafe { simd::eval_pair_avx2(self, other, t, f, jac, g, jac_g) };
-            }
-        }
-        self.eval_body(t, f, jac, Some((other, g, jac_g)))
+        eval_built(crate::kernels::Level::detect(), self, t, f, jac, Some((other, g, jac_g)))
     }
 
     /// The body of [`Surface::eval`] (and with `other`, of [`Surface::eval_pair`]): every
     /// coordinate of the value and of the Jacobian rows summed over the 4^D corner terms in the
     /// same order on every build (multiplications and additions, no fused multiply-add), so the
-    /// AVX-512 and AVX2 builds give the same bits.
+    /// AVX-512 and AVX2 builds of [`eval_built`] give the same bits.
     #[inline(always)]
     pub(crate) fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<Other<'_>>) {
         let d = self.params();

@@ -1,5 +1,5 @@
-//! The AVX-512 bodies of the surface's evaluation and climb (and AVX2 builds of the evaluation):
-//! the portable bodies' operations in the same order (no fused multiply-adds), so the same bits.
+//! The AVX-512 bodies of the surface's evaluation and climb: the portable bodies' operations in the
+//! same order (no fused multiply-adds), so the same bits.
 
 use super::{Surface, BLOCK_DIM};
 use std::arch::x86_64::*;
@@ -164,39 +164,4 @@ pub unsafe fn values2_avx512(s: &Surface, t: &[f64], f: &mut [f64], other: Optio
     if let Some((o, g)) = other {
         sum(g, &o.coef, o.dim);
     }
-}
-
-/// # Safety
-/// The CPU must support AVX-512F.
-#[target_feature(enable = "avx512f")]
-pub unsafe fn eval_pair_avx512(s: &Surface, o: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
-    s.eval_body(t, f, jac, Some((o, g, jac_g)))
-}
-
-/// # Safety
-/// The CPU must support AVX-512F.
-#[target_feature(enable = "avx512f")]
-pub unsafe fn eval_avx512(s: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
-    s.eval_body(t, f, jac, None)
-}
-
-/// [`Surface::eval_pair`]'s body built for AVX2 (four f64 lanes where the baseline build has
-/// two; AVX2 without FMA, so the same multiplications and additions and the same bits). On an
-/// AVX2 machine the second look's climbs spent a third of the rendered duck's eigenspace
-/// query in the baseline build.
-///
-/// # Safety
-/// The CPU must support AVX2.
-#[target_feature(enable = "avx2")]
-pub unsafe fn eval_pair_avx2(s: &Surface, o: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
-    s.eval_body(t, f, jac, Some((o, g, jac_g)))
-}
-
-/// [`Surface::eval`]'s body built for AVX2 (see [`eval_pair_avx2`]).
-///
-/// # Safety
-/// The CPU must support AVX2.
-#[target_feature(enable = "avx2")]
-pub unsafe fn eval_avx2(s: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
-    s.eval_body(t, f, jac, None)
 }
