@@ -20,12 +20,40 @@ use std::io::{BufRead, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// Seconds of each call of `f`, repeated for at least `reps` calls and `secs` seconds.
+fn repeat(reps: usize, secs: f64, mut f: impl FnMut() -> Res<()>) -> Res<Vec<f64>> {
+    let (mut times, start) = (vec![], Instant::now());
+    while times.len() < reps || start.elapsed().as_secs_f64() < secs {
+        let t = Instant::now();
+        f()?;
+        times.push(t.elapsed().as_secs_f64());
+    }
+    Ok(times)
+}
+
+/// Seconds of `predict` on each of views `first..first + count` (`view(i)`, of `n`), each
+/// followed by an untimed one on the view half the set away, so that no timed query follows its
+/// neighbour, whose part of the tables would still be in the cache (the order in which
+/// `bench/python_vs_rust.py` predicts them too).
+fn singles<'a>(first: usize, count: usize, n: usize, view: impl Fn(usize) -> &'a [u8], mut predict: impl FnMut(&[u8]) -> Res<()>) -> Res<Vec<f64>> {
+    let mut times = vec![];
+    for i in first..first + count {
+        let t = Instant::now();
+        predict(view(i))?;
+        times.push(t.elapsed().as_secs_f64());
+        predict(view(i + n / 2))?;
+    }
+    Ok(times)
+}
+
+fn main() -> Res<()> {
     let (mut dir, mut object, mut step, mut method, mut reps, mut serve) = (None, None, None, String::from("linear"), 5usize, false);
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
@@ -49,7 +77,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let train_pixels: Vec<u8> = train.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
     let (m, k) = (data.n_features(), data.space().len());
     let mut out = vec![0.0; data.len() * k];
-    let (mut fit, mut predict, mut one) = (vec![], vec![], vec![]);
     let fit_once = || Dataset::from_u8(train.spec(), &train_pixels, train.space().clone(), train.poses().to_vec()).and_then(|d| spec.fit(&d));
     let mut model = fit_once()?;
     let mut o1 = vec![0.0; k];
@@ -62,61 +89,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let line = line?;
             let words: Vec<&str> = line.split_whitespace().collect();
             let block = |secs: &str| secs.parse::<f64>().map_err(|e| format!("{line:?}: {e}"));
-            let mut times = vec![];
-            match words[..] {
-                ["fit", secs] => {
-                    let (secs, start) = (block(secs)?, Instant::now());
-                    while times.is_empty() || start.elapsed().as_secs_f64() < secs {
-                        let t = Instant::now();
-                        model = fit_once()?;
-                        times.push(t.elapsed().as_secs_f64());
-                    }
-                }
-                ["predict", secs] => {
-                    let (secs, start) = (block(secs)?, Instant::now());
-                    while times.is_empty() || start.elapsed().as_secs_f64() < secs {
-                        let t = Instant::now();
-                        model.predict_u8_into(&pixels, &mut out)?;
-                        times.push(t.elapsed().as_secs_f64());
-                    }
-                }
-                ["one", first, count] => {
-                    let (first, count): (usize, usize) = (first.parse()?, count.parse()?);
-                    for i in first..first + count.max(1) {
-                        let t = Instant::now();
-                        model.predict_u8_into(view(i), &mut o1)?;
-                        times.push(t.elapsed().as_secs_f64());
-                        model.predict_u8_into(view(i + data.len() / 2), &mut o1)?;
-                    }
-                }
+            let times = match words[..] {
+                ["fit", secs] => repeat(1, block(secs)?, || {
+                    model = fit_once()?;
+                    Ok(())
+                })?,
+                ["predict", secs] => repeat(1, block(secs)?, || Ok(model.predict_u8_into(&pixels, &mut out)?))?,
+                ["one", first, count] => singles(first.parse()?, count.parse::<usize>()?.max(1), data.len(), view, |v| Ok(model.predict_u8_into(v, &mut o1)?))?,
                 _ => return Err(format!("unknown request {line:?}: fit SECONDS, predict SECONDS or one FIRST COUNT").into()),
-            }
+            };
             writeln!(stdout, "{}", median(times))?;
             stdout.flush()?;
         }
         return Ok(());
     }
-    let start = Instant::now();
-    while fit.len() < reps || start.elapsed().as_secs_f64() < 0.3 {
-        let t = Instant::now();
+    let fit = repeat(reps, 0.3, || {
         model = fit_once()?;
-        fit.push(t.elapsed().as_secs_f64());
-    }
-    let start = Instant::now();
-    while predict.len() < reps || start.elapsed().as_secs_f64() < 0.3 {
-        let t = Instant::now();
-        model.predict_u8_into(&pixels, &mut out)?;
-        predict.push(t.elapsed().as_secs_f64());
-    }
-    // In the order `bench/python_vs_rust.py` predicts them: view i timed, then the view half the
-    // set away (there, the core call alternated with the estimator), so that no timed query
-    // follows its neighbour, whose part of the tables would still be in the cache.
-    for i in 0..2000 {
-        let t = Instant::now();
-        model.predict_u8_into(view(i), &mut o1)?;
-        one.push(t.elapsed().as_secs_f64());
-        model.predict_u8_into(view(i + data.len() / 2), &mut o1)?;
-    }
+        Ok(())
+    })?;
+    let predict = repeat(reps, 0.3, || Ok(model.predict_u8_into(&pixels, &mut out)?))?;
+    let one = singles(0, 2000, data.len(), view, |v| Ok(model.predict_u8_into(v, &mut o1)?))?;
     println!(
         "{{\"method\":\"{method}\",\"n_train\":{},\"n_eval\":{},\"fit_s\":{},\"predict_s\":{},\"predict_one_s\":{}}}",
         train.len(),
