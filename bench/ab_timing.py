@@ -11,8 +11,8 @@ shared machine's load, so the ratio holds where absolute times drift.
 """
 import argparse
 import statistics
-import subprocess
-import sys
+
+from block_server import Server
 
 ap = argparse.ArgumentParser()
 ap.add_argument("a")
@@ -28,27 +28,16 @@ a = ap.parse_args()
 
 
 def server(binary):
-    args = [binary, a.data, "--train-step", a.train_step, "--method", a.method, "--serve"] + (["--object", a.object] if a.object else [])
-    p = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1)
-    if p.stdout.readline().strip() != "ready":
-        sys.exit(f"{binary} did not start (exit {p.wait()})")
-    return p
-
-
-def ask(p):
-    p.stdin.write(f"{a.what} {a.block}\n")
-    p.stdin.flush()
-    return float(p.stdout.readline())
+    return Server([binary, a.data, "--train-step", a.train_step, "--method", a.method, "--serve"] + (["--object", a.object] if a.object else []))
 
 
 pa, pb = server(a.a), server(a.b)
 ta, tb = [], []
 for i in range(a.turns):
     for p, t in ((pa, ta), (pb, tb)) if i % 2 == 0 else ((pb, tb), (pa, ta)):
-        t.append(ask(p))
+        t.append(p(f"{a.what} {a.block}"))
 for p in (pa, pb):
-    p.stdin.close()
-    p.wait()
+    p.close()
 ma, mb = statistics.median(ta), statistics.median(tb)
 load = open("/proc/loadavg").read().split()[:3]
 print(

@@ -35,6 +35,7 @@ import argparse, json, os, statistics, subprocess, sys, tempfile, time
 import numpy as np
 
 import linpose
+from block_server import Server
 
 here = os.path.dirname(os.path.abspath(__file__))
 root = os.path.dirname(here)
@@ -66,28 +67,6 @@ if os.path.isdir(a.coil):
 
 cls = {"linear": linpose.LinearPose, "eigenspace": linpose.EigenspacePose, "refined": linpose.RefinedPose}
 med = statistics.median
-
-
-class Server:
-    """A process that answers each request line with one timed block's median seconds."""
-
-    def __init__(self, cmd):
-        self.p = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1)
-        # Loaded and fitted once: nothing of its start runs beside the others' blocks.
-        if self.p.stdout.readline().strip() != "ready":
-            sys.exit(f"{cmd[0]} did not start (exit {self.p.wait()})")
-
-    def __call__(self, request):
-        self.p.stdin.write(request + "\n")
-        self.p.stdin.flush()
-        line = self.p.stdout.readline()
-        if not line:
-            sys.exit(f"{self.p.args[0]} ended on {request!r} (exit {self.p.wait()})")
-        return float(line)
-
-    def close(self):
-        self.p.stdin.close()
-        self.p.wait()
 
 
 def block(f):
