@@ -200,8 +200,9 @@ pub fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
 }
 
 /// The squared Euclidean distance between two rows of f32 values: the squared differences summed
-/// in eight f32 lanes (which the compiler vectorises), then the lanes in f64.
-#[inline]
+/// in eight f32 lanes (which the compiler vectorises), then the lanes in f64. Always inlined, so
+/// that a caller built for the CPU's level (`kernels::dispatch!`) vectorises it for that level.
+#[inline(always)]
 pub(crate) fn squared_distance(a: &[f32], b: &[f32]) -> f64 {
     let mut acc = [0f32; 8];
     let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));

@@ -12,6 +12,7 @@
 use super::RecognizerParams;
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
+use crate::kernels::{dispatch, Level};
 use crate::linalg::squared_distance;
 use crate::methods::eigenspace::chunk_rows;
 use crate::methods::eigenspace::manifold::{Grid, Manifold};
@@ -425,12 +426,12 @@ impl Universal {
         let (k, start) = (self.segments[s].0 as usize, self.segments[s].1 as usize);
         let p = &self.points[k];
         let end = (start + SEGMENT).min(p.len() / l);
-        p[start * l..end * l].chunks_exact(l).map(|row| distance(y, row)).fold(f64::INFINITY, f64::min)
+        nearest_sq(Level::detect(), y, &p[start * l..end * l], l).sqrt()
     }
 
     /// The distance from coordinates `y` to object `k`'s nearest manifold point (every point).
     fn distance_to(&self, k: usize, y: &[f32]) -> f64 {
-        self.points[k].chunks_exact(self.components()).map(|row| distance(y, row)).fold(f64::INFINITY, f64::min)
+        nearest_sq(Level::detect(), y, &self.points[k], self.components()).sqrt()
     }
 
     /// Numbers stored: the eigenimages, the mean, every manifold point.
@@ -502,6 +503,19 @@ fn sphere(rows: &[f32], l: usize) -> (Vec<f32>, f64) {
     (c, r * (1.0 + 1e-5) + 1e-6)
 }
 
+#[inline(always)]
+fn nearest_sq_body(y: &[f32], rows: &[f32], l: usize) -> f64 {
+    rows.chunks_exact(l).map(|row| squared_distance(y, row)).fold(f64::INFINITY, f64::min)
+}
+
+dispatch! {
+    /// The least squared distance from `y` to the rows of `l` coordinates in `rows`
+    /// ([`squared_distance`], infinite for none), built for the CPU's level: the searches' inner
+    /// loop, which the baseline build ran in 4-lane SSE2. Its root is the least [`distance`]
+    /// (the root is monotone and correctly rounded), so the same bits as taking the roots first.
+    fn nearest_sq(y: &[f32], rows: &[f32], l: usize) -> f64 = nearest_sq_body;
+}
+
 /// The Euclidean distance between two rows of f32 coordinates ([`squared_distance`]'s root).
 /// Every distance the search compares is this function's, so its rounding (about 1e-7
 /// relative) never changes which point is nearest between two ways of searching.
@@ -569,4 +583,27 @@ fn held_out_distances(train: &Dataset, grid: &Grid, coords: &[f64], l: usize) ->
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every level's build of the searches' inner loop gives the portable body's bits, for row
+    /// lengths with and without a remainder of 8 lanes, and the root of the least is the least
+    /// of the roots.
+    #[test]
+    fn every_level_finds_the_same_least_distance() {
+        for l in [1, 7, 8, 13, 20, 33] {
+            let rows: Vec<f32> = (0..SEGMENT * l).map(|i| ((i * 2654435761usize) % 1000) as f32 / 997.0 - 0.4).collect();
+            let y: Vec<f32> = (0..l).map(|i| (i as f32 * 0.37).sin()).collect();
+            let want = nearest_sq_body(&y, &rows, l);
+            let roots = rows.chunks_exact(l).map(|r| distance(&y, r)).fold(f64::INFINITY, f64::min);
+            assert_eq!(want.sqrt().to_bits(), roots.to_bits(), "l {l}");
+            for level in Level::supported() {
+                assert_eq!(nearest_sq(level, &y, &rows, l).to_bits(), want.to_bits(), "{level:?}, l {l}");
+            }
+        }
+        assert_eq!(nearest_sq(Level::detect(), &[1.0], &[], 1), f64::INFINITY);
+    }
 }
