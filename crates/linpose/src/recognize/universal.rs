@@ -81,6 +81,8 @@ struct Scratch {
     group_lb: Vec<f64>,
     best: Vec<f64>,
     lowest: Vec<(f64, u32)>,
+    /// One group's segments' squared distances from the query's centre.
+    segment_sq: Vec<f64>,
 }
 
 /// What fitting measured: the eigenspace's dimension and energy, and each object's held-out
@@ -344,18 +346,19 @@ impl Universal {
     fn search(&self, y: &[f32], scratch: &mut Scratch) -> (usize, f64, f64) {
         let l = self.components();
         let k_objects = self.points.len();
-        let Scratch { bounds, group_lb, best, lowest } = scratch;
+        let Scratch { bounds, group_lb, best, lowest, segment_sq } = scratch;
+        let level = Level::detect();
         best.resize(k_objects, f64::INFINITY);
         lowest.resize(k_objects, (f64::INFINITY, 0));
         // Every group's bound, and each object's group of least bound.
         lowest.fill((f64::INFINITY, 0));
-        group_lb.clear();
-        for (g, (c, r)) in self.group_centres.chunks_exact(l).zip(&self.group_radii).enumerate() {
-            let lb = (distance(y, c) - r).max(0.0);
-            group_lb.push(lb);
+        group_lb.resize(self.group_radii.len(), 0.0);
+        sq_distances(level, y, &self.group_centres, l, group_lb);
+        for (g, (lb, r)) in group_lb.iter_mut().zip(&self.group_radii).enumerate() {
+            *lb = (lb.sqrt() - r).max(0.0);
             let k = self.groups[g].0 as usize;
-            if lb < lowest[k].0 {
-                lowest[k] = (lb, g as u32);
+            if *lb < lowest[k].0 {
+                lowest[k] = (*lb, g as u32);
             }
         }
         // An upper bound on the second nearest object's distance: the exact distances to the
@@ -374,9 +377,11 @@ impl Universal {
             if glb > reach {
                 continue;
             }
-            let (_, first, count) = self.groups[g];
-            for s in first as usize..(first + count) as usize {
-                let lb = (distance(y, &self.centres[s * l..(s + 1) * l]) - self.radii[s]).max(0.0);
+            let (first, count) = (self.groups[g].1 as usize, self.groups[g].2 as usize);
+            segment_sq.resize(count, 0.0);
+            sq_distances(level, y, &self.centres[first * l..(first + count) * l], l, segment_sq);
+            for (s, &d2) in (first..first + count).zip(segment_sq.iter()) {
+                let lb = (d2.sqrt() - self.radii[s]).max(0.0);
                 if lb <= reach {
                     bounds.push((lb, s as u32));
                 }
@@ -508,6 +513,17 @@ fn nearest_sq_body(y: &[f32], rows: &[f32], l: usize) -> f64 {
     rows.chunks_exact(l).map(|row| squared_distance(y, row)).fold(f64::INFINITY, f64::min)
 }
 
+#[inline(always)]
+fn sq_distances_body(y: &[f32], rows: &[f32], l: usize, out: &mut [f64]) {
+    out.iter_mut().zip(rows.chunks_exact(l)).for_each(|(o, row)| *o = squared_distance(y, row));
+}
+
+dispatch! {
+    /// The squared distances from `y` to the rows of `l` coordinates in `rows`, into `out` (one
+    /// per row), built for the CPU's level: the search's bounds (group and segment centres).
+    fn sq_distances(y: &[f32], rows: &[f32], l: usize, out: &mut [f64]) = sq_distances_body;
+}
+
 dispatch! {
     /// The least squared distance from `y` to the rows of `l` coordinates in `rows`
     /// ([`squared_distance`], infinite for none), built for the CPU's level: the searches' inner
@@ -589,7 +605,7 @@ fn held_out_distances(train: &Dataset, grid: &Grid, coords: &[f64], l: usize) ->
 mod tests {
     use super::*;
 
-    /// Every level's build of the searches' inner loop gives the portable body's bits, for row
+    /// Every level's build of the searches' inner loops gives the portable body's bits, for row
     /// lengths with and without a remainder of 8 lanes, and the root of the least is the least
     /// of the roots.
     #[test]
@@ -600,8 +616,12 @@ mod tests {
             let want = nearest_sq_body(&y, &rows, l);
             let roots = rows.chunks_exact(l).map(|r| distance(&y, r)).fold(f64::INFINITY, f64::min);
             assert_eq!(want.sqrt().to_bits(), roots.to_bits(), "l {l}");
+            let each: Vec<u64> = rows.chunks_exact(l).map(|r| squared_distance(&y, r).to_bits()).collect();
             for level in Level::supported() {
                 assert_eq!(nearest_sq(level, &y, &rows, l).to_bits(), want.to_bits(), "{level:?}, l {l}");
+                let mut out = vec![0.0; SEGMENT];
+                sq_distances(level, &y, &rows, l, &mut out);
+                assert_eq!(out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), each, "{level:?}, l {l}");
             }
         }
         assert_eq!(nearest_sq(Level::detect(), &[1.0], &[], 1), f64::INFINITY);
