@@ -91,3 +91,18 @@ def test_non_finite_poses_are_refused():
     bad[4] = np.nan
     with pytest.raises(ValueError, match="sample 4 is not finite"):
         linpose.LinearPose().fit(X, bad)
+
+
+def test_a_failed_refit_leaves_the_estimator_unfitted():
+    # The old model is let go before a new fit (its memory free for the new one), so a refit
+    # the core refuses leaves no model behind, rather than the old one passing for the new.
+    X, y, params = linpose.synth("cap", azimuth="0:350:10", elevation="32:32:1", size=(32, 24))
+    est = linpose.LinearPose().fit(X, y[:, 1])
+    bad = y[:, 1].copy()
+    bad[4] = np.nan
+    with pytest.raises(ValueError, match="sample 4 is not finite"):
+        est.fit(X, bad)
+    with pytest.raises(NotFittedError):
+        est.predict(X[:1])
+    # Fitted again, it reproduces its training poses (score: minus the mean error, degrees).
+    assert est.fit(X, y[:, 1]).score(X, y[:, 1]) > -1e-3

@@ -164,6 +164,7 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
         )
         y_1d = False
         params = None
+        self._release()
         if poses is None:
             model = _linpose.fit_objects(**common)
         else:
