@@ -66,7 +66,8 @@ def test_the_core_reads_images_as_rows(turntable):
 def test_predict_in_one_call_answers_as_the_checked_path(y_2d, turntable):
     """An array the core reads as it is goes to the core in one call (``_linpose.Serve``), with
     the estimator's checks and shapes; other inputs take scikit-learn's validation; the answers
-    are the same. Pickling and loading rebuild it; a model fitted on named features has none."""
+    are the same. The first predict after a fit, a pickling or a load makes it; a model fitted on
+    named features has none."""
     X, y, params = turntable
     yy = y[:, None] if y_2d else y
     est = linpose.EigenspacePose(params=params).fit(X[::3], yy[::3])
@@ -76,18 +77,21 @@ def test_predict_in_one_call_answers_as_the_checked_path(y_2d, turntable):
         got = est.predict(q)
         assert got.shape == want.shape
         np.testing.assert_allclose(got, want, atol=1e-9)
-    assert est._serve(list(X[:2])) is None and est._serve(X[:0]) is None
+    serve = est._serve[0]
+    assert serve(list(X[:2])) is None and serve(X[:0]) is None
     with pytest.raises(ValueError, match="X has 3071 features, but EigenspacePose is expecting 3072 features as input"):
         est.predict(X.reshape(len(X), -1)[:, 1:])
     for back in (pickle.loads(pickle.dumps(est)), linpose.from_bytes(est.to_bytes())):
-        assert back._serve is not None
         # (A model file keeps no record of y's shape: one parameter loads as 1-D.)
         full = est.model_.predict(X)
         np.testing.assert_array_equal(back.predict(X), full[:, 0] if back._y_1d else full)
+        # Made by the first predict.
+        assert back._serve[0]
     pd = pytest.importorskip("pandas")
     frame = pd.DataFrame(X[::3].reshape(40, -1), columns=[f"p{i}" for i in range(64 * 48)])
     named = linpose.EigenspacePose(params=params, image_shape=(48, 64)).fit(frame, yy[::3])
-    assert named._serve is None
+    named.predict(frame)
+    assert named._serve == [False]
 
 
 def test_coef_is_the_papers_figure(turntable):

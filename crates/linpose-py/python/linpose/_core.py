@@ -43,8 +43,8 @@ class CoreModel:
     def _release(self) -> None:
         """Lets go of the fitted model before a new fit: the old model's memory is free for the
         new fit's (one model's worth at a time, not two), and the allocator hands the fit memory
-        already mapped instead of fresh pages to fault in (COIL-20 object 1's linear fit, 1.2 ms,
-        was about 5% slower with the old model kept, `bench/python_vs_rust.py`). A fit that
+        already mapped instead of fresh pages to fault in (COIL-20 object 1's linear fit, 1.3 ms,
+        was 7-9% slower with the old model kept, ``bench/refit.py``). A fit that
         fails then leaves the estimator unfitted, as scikit-learn's own estimators that reset
         before fitting do."""
         self.__dict__.pop("model_", None)
