@@ -11,7 +11,7 @@ use crate::dataset::Dataset;
 use crate::linalg::{gram, par, transpose_features};
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
-use faer::{Accum, Mat, Side};
+use faer::{Accum, Mat, MatMut, Side};
 use serde::{Deserialize, Serialize};
 
 /// How many eigenimages to keep.
@@ -181,13 +181,10 @@ fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pc
             coords[r * l + c] = v * lam.sqrt();
         }
     }
-    // U = Xc^T V Lambda^{-1/2} (M x L, column-major = L x M row-major).
-    let mut u = Mat::<f64>::zeros(m, l);
-    matmul(u.as_mut(), Accum::Replace, xt.as_ref(), v_scaled.as_ref(), 1.0, par());
+    // U = Xc^T V Lambda^{-1/2}, M x L column-major: the L x M row-major basis itself, written
+    // in place (no M x L temporary to fault in and copy).
     let mut basis = vec![0.0; l * m];
-    for c in 0..l {
-        basis[c * m..(c + 1) * m].iter_mut().zip(u.col(c).iter()).for_each(|(d, &s)| *d = s);
-    }
+    matmul(MatMut::from_column_major_slice_mut(&mut basis, m, l), Accum::Replace, xt.as_ref(), v_scaled.as_ref(), 1.0, par());
     Ok(Pca { mean, basis, coords, eigenvalues })
 }
 
