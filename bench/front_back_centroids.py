@@ -3,8 +3,9 @@
 at the same elevation and azimuths 180 degrees apart, the distance between their centroids,
 weighted by each pixel's deviation from the (dark) background over the pixels at least one
 gray level above it, as the normalisation stage finds an object on a dark background
-(docs/normalization.md). Prints the pairs' median and largest distance, the largest pairs, and
-how far one centroid moves over a turn at each elevation.
+(docs/normalization.md). Prints the pairs' median and largest distance, the three largest
+pairs, and the least and the largest, over the elevations, of how far the centroid's column
+moves over a turn.
 
     python3 bench/front_back_centroids.py DIR      # e.g. a folder of `linpose synth --object twin`
 """
