@@ -111,6 +111,13 @@ pub enum Rejection {
     /// The image has a value that is not a finite number.
     #[error("the image has a value that is not a finite number")]
     NotFinite,
+    /// A placement asked of [`Normalizer::place`] that is not a finite position and a positive
+    /// radius.
+    #[error("cannot place the object at column {}, row {} with radius {}: a finite position and a positive radius are needed", at[0], at[1], at[2])]
+    Placement {
+        /// The placement asked.
+        at: [f64; 3],
+    },
     /// The image (or the output) has another number of values than the stage's images.
     #[error("{got} values where the stage's images have {expected}")]
     Size {
@@ -277,6 +284,31 @@ impl Normalizer {
     /// image minus its background level, resampled so that the object is centred at its fixed
     /// size, times the brightness gain.
     pub fn apply(&self, image: &[f32], out: &mut [f32]) -> std::result::Result<(), Rejection> {
+        let centre = [(self.width as f64 - 1.0) / 2.0, (self.height as f64 - 1.0) / 2.0];
+        self.resample(image, self.radius.map(|r| [centre[0], centre[1], r]), out)
+    }
+
+    /// The object's centroid (column, row, in pixels of the frame) and radius of gyration in
+    /// `image`, as the stage finds them.
+    pub fn placement(&self, image: &[f32]) -> std::result::Result<[f64; 3], Rejection> {
+        let p = self.locate(image)?;
+        Ok([p.origin.0 as f64 + p.cx, p.origin.1 as f64 + p.cy, p.radius])
+    }
+
+    /// As [`Normalizer::apply`], but the object's centroid goes to `at[0], at[1]` (column, row,
+    /// in pixels of the frame) and its radius of gyration becomes `at[2]`, whether or not the
+    /// stage normalises position and scale: [`Normalizer::placement`]'s numbers put an image
+    /// back where it was.
+    pub fn place(&self, image: &[f32], at: [f64; 3], out: &mut [f32]) -> std::result::Result<(), Rejection> {
+        if !(at.iter().all(|v| v.is_finite()) && at[2] > 0.0) {
+            return Err(Rejection::Placement { at });
+        }
+        self.resample(image, Some(at), out)
+    }
+
+    /// The image minus its background level, times the brightness gain, resampled so that the
+    /// object's centroid and radius become `at` (left in place when `None`).
+    fn resample(&self, image: &[f32], at: Option<[f64; 3]>, out: &mut [f32]) -> std::result::Result<(), Rejection> {
         if out.len() != self.features() {
             return Err(Rejection::Size { expected: self.features(), got: out.len() });
         }
@@ -284,11 +316,13 @@ impl Normalizer {
         let (w, h, c) = (self.width as usize, self.height as usize, self.channels);
         let shifted: Vec<f32> = image.chunks_exact(c).flat_map(|px| px.iter().zip(&p.level).map(|(v, b)| v - b)).collect();
         let gain = self.brightness.map_or(1.0, |b| (b / p.brightness()) as f32);
-        match self.radius {
-            Some(r) => {
+        match at {
+            Some([x, y, r]) => {
+                // Output position u samples the source at `origin + rel + (u - centre) * step`;
+                // the centroid, at `origin + cx`, lands on u = x.
                 let step = p.radius / r;
-                let tx = resample::taps(w, p.origin.0, p.cx, step);
-                let ty = resample::taps(h, p.origin.1, p.cy, step);
+                let tx = resample::taps(w, p.origin.0, p.cx + ((w as f64 - 1.0) / 2.0 - x) * step, step);
+                let ty = resample::taps(h, p.origin.1, p.cy + ((h as f64 - 1.0) / 2.0 - y) * step, step);
                 resample::resample(&shifted, (w, h, c), &tx, &ty, gain, out);
             }
             None => out.iter_mut().zip(&shifted).for_each(|(o, v)| *o = v * gain),

@@ -95,6 +95,35 @@ fn images_it_cannot_normalise_are_refused_with_the_reason() {
     assert!(apply(&stage(true, Background::Dark, false), &object(3.0, 15.0, 8.0, 5.0, 0.0)).is_ok());
 }
 
+#[test]
+fn an_image_placed_where_it_was_is_unchanged_and_placed_elsewhere_moves_there() {
+    for (background, level) in [(Background::Dark, 0.0), (Background::Border, 0.55)] {
+        let s = stage(false, background, false);
+        let img = object(17.3, 13.6, 8.0, 5.0, level);
+        let at = s.placement(&img).unwrap();
+        let mut out = vec![0.0; img.len()];
+        s.place(&img, at, &mut out).unwrap();
+        // Where it was, at its own size: the image minus its background, to rounding.
+        let worst = img.iter().zip(&out).map(|(a, b)| (a - level - b).abs()).fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "{background:?}: largest change {worst}");
+        // Elsewhere and larger: found there (the radius to 2%, as apply's).
+        let to = [21.4, 14.2, 1.1 * at[2]];
+        s.place(&img, to, &mut out).unwrap();
+        let back: Vec<f32> = out.iter().map(|v| v + level).collect();
+        let found = s.placement(&back).unwrap();
+        assert!((found[0] - to[0]).abs() < 0.05 && (found[1] - to[1]).abs() < 0.05, "{background:?}: centroid {found:?}, asked {to:?}");
+        assert!((found[2] / to[2] - 1.0).abs() < 0.02, "{background:?}: radius {}, asked {}", found[2], to[2]);
+        // And at the frame's centre with the stage's radius, exactly what apply gives.
+        let centre = [(W as f64 - 1.0) / 2.0, (H as f64 - 1.0) / 2.0, 6.0];
+        s.place(&img, centre, &mut out).unwrap();
+        assert_eq!(apply(&s, &img).unwrap(), out);
+        for bad in [[f64::NAN, 10.0, 5.0], [10.0, 10.0, 0.0], [10.0, f64::INFINITY, 5.0]] {
+            let refused = s.place(&img, bad, &mut out).unwrap_err();
+            assert!(matches!(refused, Rejection::Placement { .. }) && refused.to_string().contains("a finite position and a positive radius"), "{refused}");
+        }
+    }
+}
+
 fn dataset(images: Vec<Vec<f32>>) -> Dataset {
     let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
     let spec = ImageSpec { width: W as u32, height: H as u32, color: ColorMode::Gray };
