@@ -14,9 +14,15 @@
 //! from the training views alone (their held-out distance, the share of it a fresh view is
 //! expected at, and how many coordinates it spreads over), or from the query's own distance d_1
 //! when it is farther from the manifold than that (noise, an unseen appearance), so a query the
-//! model explains badly is not trusted to tell two near hypotheses apart. Each hypothesis's
-//! [`Hypothesis::score`] is that probability among the hypotheses found, and the estimate's is
-//! the [`Estimate::confidence`].
+//! model explains badly is not trusted to tell two near hypotheses apart. One more alternative
+//! is no pose at all: that the query is none of the manifold's views (another object, an image
+//! not registered like the training views), scored alike at the squared distance of a training
+//! view held out of the manifold (the surface through the others, twice as far apart). A query
+//! nearer the manifold than that, as fresh views and noisy ones are, gives it no weight; one
+//! farther than any pose of the manifold explains gets an estimate nobody should trust. Each
+//! hypothesis's [`Hypothesis::score`] is its probability among these alternatives (so the
+//! scores add up to less than 1 where the query is unexplained), and the estimate's is the
+//! [`Estimate::confidence`].
 //!
 //! **The linear model** considers one pose only; its confidence is the probability that its
 //! estimate is within [`GROSS_DEG`] of the truth if each (cos, sin) pair's error were isotropic
@@ -86,7 +92,9 @@ pub const MAX_HYPOTHESES: usize = 8;
 pub struct Hypothesis {
     /// The pose (degrees, circular values in [0, period)).
     pub pose: Vec<f64>,
-    /// Its probability of being the right one among the hypotheses found, in [0, 1].
+    /// Its probability of being the right one, in [0, 1], among the hypotheses found and (the
+    /// eigenspace and the refined method) the possibility that the query is none of the
+    /// model's views: the scores add up to at most 1.
     pub score: f64,
     /// Its squared distance from the query in the method's metric (the linear model: 0).
     pub distance: f64,
@@ -123,11 +131,19 @@ impl Estimate {
 /// Gaussian error of variance s^2 per coordinate over `dims` coordinates, exp(-d_k / 2 s^2)
 /// normalised, with s^2 = max(level, d_1) / dims (d_1 the least distance: a query farther from
 /// the manifold than fresh views are is not trusted to tell near candidates apart).
-pub(crate) fn posterior(d: &[f64], level: f64, dims: f64) -> Vec<f64> {
+///
+/// `unexplained`, when given, is one more alternative that is no pose: that the query is none of
+/// the manifold's views (another object, an image not registered like the training views), at
+/// the squared distance of a view the manifold does not hold (see
+/// [`crate::second_look::SecondLookSettings::held_out`]). It takes its share of the probability
+/// and is not returned, so the candidates' probabilities then add up to less than 1.
+pub(crate) fn posterior(d: &[f64], level: f64, dims: f64, unexplained: Option<f64>) -> Vec<f64> {
     let d1 = d.iter().copied().fold(f64::INFINITY, f64::min);
     let s2 = level.max(d1).max(f64::MIN_POSITIVE) / dims.max(1.0);
-    let w: Vec<f64> = d.iter().map(|&dk| if dk.is_finite() { (-(dk - d1) / (2.0 * s2)).exp() } else { 0.0 }).collect();
-    let total: f64 = w.iter().sum();
+    let least = unexplained.map_or(d1, |u| u.min(d1));
+    let weight = |dk: f64| if dk.is_finite() { (-(dk - least) / (2.0 * s2)).exp() } else { 0.0 };
+    let w: Vec<f64> = d.iter().map(|&dk| weight(dk)).collect();
+    let total: f64 = w.iter().sum::<f64>() + unexplained.map_or(0.0, weight);
     w.iter().map(|&x| x / total).collect()
 }
 
@@ -190,20 +206,34 @@ mod tests {
 
     #[test]
     fn two_equal_minima_split_the_confidence() {
-        let p = posterior(&[1.0, 1.0], 1.0, 4.0);
+        let p = posterior(&[1.0, 1.0], 1.0, 4.0, None);
         assert!((p[0] - 0.5).abs() < 1e-12 && (p[1] - 0.5).abs() < 1e-12);
     }
 
     #[test]
     fn a_far_alternative_leaves_the_estimate_confident() {
-        assert!(posterior(&[1.0, 40.0], 1.0, 4.0)[0] > 0.999);
-        let near = posterior(&[1.0, 1.2], 1.0, 4.0);
+        assert!(posterior(&[1.0, 40.0], 1.0, 4.0, None)[0] > 0.999);
+        let near = posterior(&[1.0, 1.2], 1.0, 4.0, None);
         assert!(near[0] < 0.6 && near[0] > 0.5, "{near:?}");
         // A query far from the manifold (d_1 beyond the level) trusts the gap less.
-        let far = posterior(&[8.0, 16.0], 1.0, 4.0);
-        let close = posterior(&[1.0, 9.0], 1.0, 4.0);
+        let far = posterior(&[8.0, 16.0], 1.0, 4.0, None);
+        let close = posterior(&[1.0, 9.0], 1.0, 4.0, None);
         assert!(far[0] < close[0]);
         assert!((far.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_query_farther_than_the_unexplained_level_is_not_trusted() {
+        // Near the manifold, far below the unexplained level: as without it.
+        let near = posterior(&[1.0, 40.0], 1.0, 20.0, Some(16.0));
+        assert!(near[0] > 0.999, "{near:?}");
+        assert_eq!(posterior(&[1.0, 1.2], 1.0, 20.0, Some(16.0)), posterior(&[1.0, 1.2], 1.0, 20.0, None));
+        // Beyond it: no candidate is likely, however far its rivals.
+        let far = posterior(&[80.0, 400.0], 1.0, 20.0, Some(16.0));
+        assert!(far[0] < 1e-3, "{far:?}");
+        // At it: even odds with the estimate.
+        let at = posterior(&[16.0], 1.0, 20.0, Some(16.0));
+        assert!((at[0] - 0.5).abs() < 1e-12, "{at:?}");
     }
 
     #[test]

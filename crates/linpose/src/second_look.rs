@@ -26,6 +26,10 @@
 //!    along each axis, then the others, the surface through the rest) times [`UNSEEN_SHARE`],
 //!    since a held-out view lies twice as far from its neighbours as a fresh one does; K_eff is
 //!    how many coordinates that distance spreads over ([`SecondLookSettings::effective_dims`]).
+//!    One more alternative, that the query is none of the manifold's views, is scored alike at
+//!    the held-out views' own distance D ([`SecondLookSettings::held_out`]): a query farther
+//!    from the manifold than a view the manifold does not hold (an image not registered like
+//!    the training views, another object) is not trusted, whatever its basins.
 //!
 //! `predict` and `estimate` take the same steps, so the estimate `predict` gives is the first
 //! hypothesis `estimate` gives. The method's own search still places the pose within its
@@ -93,7 +97,8 @@ pub struct SecondLookSettings {
     /// The knots' positions along each pose parameter.
     pub knot_axes: Vec<Vec<f64>>,
     /// The held-out training views' mean squared distance to the surface through the others (0
-    /// when no axis has enough knots to hold any out).
+    /// when no axis has enough knots to hold any out): also the distance at which the
+    /// alternative that the query is none of the manifold's views is scored.
     pub held_out: f64,
     /// D_h, the distance level of a fresh view: `held_out` times [`UNSEEN_SHARE`].
     pub floor: f64,
@@ -385,7 +390,8 @@ impl SecondLook {
             }
             let mut basins = self.basins(s, pose);
             let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
-            let score = posterior(&dist, self.settings.floor, self.settings.effective_dims);
+            let unexplained = (self.settings.held_out > 0.0).then_some(self.settings.held_out);
+            let score = posterior(&dist, self.settings.floor, self.settings.effective_dims, unexplained);
             // The most probable basin; the method's own on a tie.
             let w = (1..basins.len()).fold(0, |w, j| if score[j] > score[w] { j } else { w });
             if w != 0 {

@@ -104,6 +104,26 @@ fn the_second_look_tells_the_twins_front_from_its_back_and_trusts_the_duck() {
 }
 
 #[test]
+fn an_image_unlike_every_training_view_is_not_trusted() {
+    // The duck's unseen views moved 6 pixels to the right (what a camera that is not registered
+    // like the training views gives): farther from the manifold than a training view held out
+    // of it, so every estimate is flagged, right or not; the views as they are stay trusted.
+    let (train, unseen) = turntable("duck");
+    let (w, m) = (80, unseen.n_features());
+    let moved: Vec<f32> = unseen.features().chunks_exact(w).flat_map(|row| std::iter::repeat_n(0.0, 6).chain(row[..w - 6].iter().copied())).collect();
+    assert_eq!(moved.len(), unseen.len() * m);
+    for name in ["eigenspace", "refined"] {
+        let model = linpose::methods::find(name).unwrap().default_spec().fit(&train).unwrap();
+        for (e, i) in model.estimate(&moved, 3).unwrap().iter().zip(0..) {
+            assert!(e.confidence < 0.01, "{name}: moved view {i}: {e:?}");
+            // What is left is that none of the poses explains the image.
+            assert!(e.hypotheses.iter().map(|h| h.score).sum::<f64>() < 0.01, "{name}: moved view {i}: {e:?}");
+        }
+        assert!(estimates(&model, &unseen, 3).iter().all(|e| e.confidence > 0.99), "{name}");
+    }
+}
+
+#[test]
 fn the_linear_model_trusts_the_duck_more_than_the_twin() {
     let spec = linpose::methods::find("linear").unwrap().default_spec();
     let mean_confidence = |object: &str| {

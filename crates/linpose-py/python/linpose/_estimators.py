@@ -160,7 +160,10 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         Returns ``(pose, confidence, hypotheses, scores)``: ``pose`` as ``predict`` (but always
         (n, K)), ``confidence`` (n,) in [0, 1] (how likely the estimate is within 20 degrees
         of the truth, as judged from the training views), ``hypotheses`` (n, top, K) best first
-        and ``scores`` (n, top), padded with NaN where fewer distinct poses were found.
+        and ``scores`` (n, top), padded with NaN where fewer distinct poses were found. The
+        eigenspace's and the refined method's scores add up to less than 1 where the image may be
+        none of the views the model knows (farther from its manifold than a held-out training
+        view): then every score, the confidence too, is near 0.
         """
         return self._model().estimate(self._rows(X), int(top))
 
