@@ -125,6 +125,13 @@ def test_hypotheses_and_confidence(turntable):
     assert pose.shape == (4, 1) and conf.shape == (4,) and hyp.shape == (4, 3, 1) and scores.shape == (4, 3)
     np.testing.assert_array_equal(hyp[:, 0], pose)
     assert ((conf >= 0) & (conf <= 1)).all()
+    assert (np.nansum(scores, axis=1) <= 1 + 1e-9).all()
+    # Views moved 5 pixels sideways, unlike every training view: none of the poses explains them,
+    # so every score is near 0 (the rest is the chance that they are none of the model's views).
+    moved = np.zeros_like(X[:4])
+    moved[:, :, 5:] = X[:4, :, :-5]
+    _, conf, _, scores = est.predict_hypotheses(moved, top=3)
+    assert (conf < 0.01).all() and (np.nansum(scores, axis=1) < 0.01).all(), (conf, scores)
 
 
 def test_grid_search_over_a_parameter(turntable):

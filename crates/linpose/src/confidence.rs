@@ -18,8 +18,9 @@
 //! is no pose at all: that the query is none of the manifold's views (another object, an image
 //! not registered like the training views), scored alike at the squared distance of a training
 //! view held out of the manifold (the surface through the others, twice as far apart). A query
-//! nearer the manifold than that, as fresh views and noisy ones are, gives it no weight; one
-//! farther than any pose of the manifold explains gets an estimate nobody should trust. Each
+//! well nearer the manifold than that, as fresh views and noisy ones are, gives it almost no
+//! weight; one farther from the manifold than that gets a confidence near 0, whatever its
+//! basins. Each
 //! hypothesis's [`Hypothesis::score`] is its probability among these alternatives (so the
 //! scores add up to less than 1 where the query is unexplained), and the estimate's is the
 //! [`Estimate::confidence`].
