@@ -18,6 +18,8 @@
 //! error, degrees.
 //!
 //!     cargo run --release -p linpose --example anchored_normalization -- REGISTERED MOVED [STEP]
+use faer::linalg::solvers::Solve;
+use faer::Mat;
 use linpose::image_io::ColorMode;
 use linpose::normalize::{NormalizeParams, Normalizer};
 use linpose::{Dataset, Manifest, PoseModel, Settings, TrainSelection};
@@ -27,27 +29,6 @@ type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
 /// Training poses the place is interpolated from.
 const NEAREST: usize = 8;
-
-/// Solves the small system `a x = b` for three right-hand sides (Gauss-Jordan, partial pivoting).
-fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<[f64; 3]>) -> [f64; 3] {
-    let n = a.len();
-    for c in 0..n {
-        let piv = (c..n).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs())).unwrap_or(c);
-        a.swap(c, piv);
-        b.swap(c, piv);
-        let d = a[c][c];
-        if d.abs() < 1e-12 {
-            continue;
-        }
-        for r in (0..n).filter(|&r| r != c) {
-            let f = a[r][c] / d;
-            let (row_c, b_c) = (a[c].clone(), b[c]);
-            a[r].iter_mut().zip(&row_c).for_each(|(v, w)| *v -= f * w);
-            b[r].iter_mut().zip(&b_c).for_each(|(v, w)| *v -= f * w);
-        }
-    }
-    b[0].map(|v| v / a[0][0])
-}
 
 /// The place at `pose`: the constant term of a weighted local linear fit of the training views'
 /// places in the pose differences (a circular parameter's difference wrapped).
@@ -65,17 +46,17 @@ fn place_at(train: &Dataset, places: &[[f64; 3]], pose: &[f64]) -> [f64; 3] {
         std::iter::once(1.0).chain(diffs).collect()
     };
     let n = space.len() + 1;
-    let (mut a, mut b) = (vec![vec![0.0; n]; n], vec![[0.0; 3]; n]);
+    let (mut a, mut b) = (Mat::<f64>::identity(n, n) * faer::Scale(1e-9), Mat::<f64>::zeros(n, 3));
     for &(d, i) in &near {
         let w = (1.0 - (d / h).powi(3)).powi(3);
         let f = terms(train.pose(i));
         for r in 0..n {
-            (0..n).for_each(|c| a[r][c] += w * f[r] * f[c]);
-            (0..3).for_each(|j| b[r][j] += w * f[r] * places[i][j]);
+            (0..n).for_each(|c| a[(r, c)] += w * f[r] * f[c]);
+            (0..3).for_each(|j| b[(r, j)] += w * f[r] * places[i][j]);
         }
     }
-    (0..n).for_each(|r| a[r][r] += 1e-9);
-    solve(a, b)
+    let x = a.partial_piv_lu().solve(&b);
+    [x[(0, 0)], x[(0, 1)], x[(0, 2)]]
 }
 
 fn main() -> Res<()> {
@@ -100,7 +81,7 @@ fn main() -> Res<()> {
         let mut row = vec![];
         for (d, with_plain) in [(&registered, true), (&moved, false)] {
             let (mut sums, mut n) = ([0.0f64; 3], 0usize);
-            let (mut q, mut pose, mut again) = (vec![0.0f32; m], vec![0.0; k], vec![0.0; k]);
+            let (mut q, mut pose, mut again, mut as_given) = (vec![0.0f32; m], vec![0.0; k], vec![0.0; k], vec![0.0; k]);
             for i in (0..d.len()).filter(|&i| !mask[i]) {
                 if stage.apply(d.row(i), &mut q).is_err() {
                     continue;
@@ -109,8 +90,10 @@ fn main() -> Res<()> {
                 centred.predict_into(&q, &mut pose)?;
                 stage.place(d.row(i), place_at(&train, &places, &pose), &mut q)?;
                 plain.predict_into(&q, &mut again)?;
-                let mut as_given = vec![0.0; k];
-                plain.predict_into(d.row(i), &mut as_given)?;
+                // The images as given only on the registered set (the moved set's column is dropped).
+                if with_plain {
+                    plain.predict_into(d.row(i), &mut as_given)?;
+                }
                 for (s, p) in sums.iter_mut().zip([&as_given, &pose, &again]) {
                     *s += d.space().error_deg(truth, p);
                 }
