@@ -80,7 +80,8 @@ fn main() -> Res<()> {
         let centred = spec.fit(&stage.apply_dataset(&train)?)?;
         let mut row = vec![];
         for (d, with_plain) in [(&registered, true), (&moved, false)] {
-            let (mut sums, mut n) = ([0.0f64; 3], 0usize);
+            // The images as given only on the registered set (the moved set has no such column).
+            let (mut sums, mut n) = (vec![0.0f64; if with_plain { 3 } else { 2 }], 0usize);
             let (mut q, mut pose, mut again, mut as_given) = (vec![0.0f32; m], vec![0.0; k], vec![0.0; k], vec![0.0; k]);
             for i in (0..d.len()).filter(|&i| !mask[i]) {
                 if stage.apply(d.row(i), &mut q).is_err() {
@@ -90,17 +91,16 @@ fn main() -> Res<()> {
                 centred.predict_into(&q, &mut pose)?;
                 stage.place(d.row(i), place_at(&train, &places, &pose), &mut q)?;
                 plain.predict_into(&q, &mut again)?;
-                // The images as given only on the registered set (the moved set's column is dropped).
                 if with_plain {
                     plain.predict_into(d.row(i), &mut as_given)?;
                 }
-                for (s, p) in sums.iter_mut().zip([&as_given, &pose, &again]) {
+                let estimates = if with_plain { vec![&as_given, &pose, &again] } else { vec![&pose, &again] };
+                for (s, p) in sums.iter_mut().zip(estimates) {
                     *s += d.space().error_deg(truth, p);
                 }
                 n += 1;
             }
-            let mean = sums.map(|s| s / n as f64);
-            row.extend(if with_plain { mean.to_vec() } else { mean[1..].to_vec() });
+            row.extend(sums.iter().map(|s| s / n as f64));
         }
         println!("| {method} | {} |", row.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(" | "));
     }
