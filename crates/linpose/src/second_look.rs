@@ -56,12 +56,22 @@ use crate::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// The binning factor of the second look's images (smaller where the binned images would have
-/// fewer pixels than there are training views, or fewer than 3 x 3). What it trades: a coarser binning stores and projects b^2 times fewer numbers but blurs a
-/// small mark into its surroundings. Measured on the procedural zoo's development seeds 0-19 (a
-/// turntable every 10 degrees, 128 x 96), with all N - 1 components: gross errors (over 20
-/// degrees) among the 720 unseen views 13 unbinned, 11 binned by 2, 10 by 4, where the
-/// eigenspace's 20 components make 48.
+/// The binning factor of the second look's images (smaller where the binned images would have fewer
+/// pixels than there are training views, or fewer than 3 x 3). What it trades: a coarser binning
+/// stores and projects b^2 times fewer numbers but blurs a small mark into its surroundings.
+/// Measured on the procedural zoo's development seeds 0-19 (a turntable every 10 degrees, 128 x
+/// 96), with all N - 1 components: gross errors (over 20 degrees) among the 720 unseen views 13
+/// unbinned, 11 binned by 2, 10 by 4, where the eigenspace's 20 components make 48. Re-measured at
+/// 75b89f7 with the factor switched, on seeds 20-99 (`bench/zoo.py`, 2,880 unseen views; gross
+/// errors of the eigenspace / the refined method): 222 / 215 unbinned, 200 / 197 by 2, 177 / 177 by
+/// 4, and the best factor for each object would make 175 / 174, so a per-model choice has nothing
+/// to win there. A mark of a few pixels wants the finer look: on the rendered `twin` (the paper's
+/// grid every 9 degrees, 160 x 120) the gross errors among its 1538 unseen views are 30 / 26
+/// unbinned, 52 / 70 by 2 and 63 / 69 by 4, and its unseen mean error 1.28 / 0.97 degrees unbinned
+/// against 2.69 / 2.78 by 4, but unbinned the look stores and projects 16 times the numbers (its
+/// 221 components of 19,200 pixels). Kept at 4 for every model: a choice per model would need a
+/// held-out measure that tells such an object apart, and the one tried for the look's interpolant,
+/// the held-out flip count, was too noisy (docs/confidence.md).
 pub const SECOND_LOOK_BIN: usize = 4;
 
 /// The share of the held-out training views' mean squared distance to the surface that a fresh
