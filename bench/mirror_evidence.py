@@ -51,11 +51,9 @@ def main():
     m = np.array(list(mark.values()))
     print(f"{len(mark)} views with a partner half a turn away: mark median {np.median(m):.1f}, quartiles {np.percentile(m, 25):.1f} and {np.percentile(m, 75):.1f}, {np.sum(m < 10)} under 10")
     if len(sys.argv) == 4:
-        gross = []
-        for path in sys.argv[2:]:
-            r = json.load(open(path))
-            pose = {s["image"]: s["true"] for s in r["samples"]}
-            gross.append({s["image"] for s in r["samples"] if not s["seen"] and s["error_deg"] > GROSS})
+        runs = [json.load(open(path))["samples"] for path in sys.argv[2:]]
+        gross = [{s["image"] for s in run if not s["seen"] and s["error_deg"] > GROSS} for run in runs]
+        pose = {s["image"]: s["true"] for s in runs[1]}
         new, gone = gross[1] - gross[0], gross[0] - gross[1]
         nm = np.array([mark[k] for k in (key(*pose[n][:2]) for n in new) if k in mark])
         print(f"over {GROSS:g} degrees in the second only: {len(new)} ({len(nm)} with a partner), in the first only: {len(gone)}")

@@ -68,10 +68,10 @@ use serde::{Deserialize, Serialize};
 /// to win there. A mark of a few pixels wants the finer look: on the rendered `twin` (the paper's
 /// grid every 9 degrees, 160 x 120) the gross errors among its 1538 unseen views are 30 / 26
 /// unbinned, 52 / 70 by 2 and 63 / 69 by 4, and its unseen mean error 1.28 / 0.97 degrees unbinned
-/// against 2.69 / 2.78 by 4, but unbinned the look stores and projects 16 times the numbers (its
-/// 221 components of 19,200 pixels). Kept at 4 for every model: a choice per model would need a
-/// held-out measure that tells such an object apart, and the one tried for the look's interpolant,
-/// the held-out flip count, was too noisy (docs/confidence.md).
+/// against 2.69 / 2.78 by 4, but unbinned the look stores and projects 17 times the numbers (218
+/// components of 19,200 pixels, against 204 of 1,200). Kept at 4 for every model: a choice per
+/// model would need a held-out measure that tells such an object apart, and the one tried for the
+/// look's interpolant, the held-out flip count, was too noisy (docs/confidence.md).
 pub const SECOND_LOOK_BIN: usize = 4;
 
 /// The share of the held-out training views' mean squared distance to the surface that a fresh
