@@ -6,7 +6,7 @@
 use crate::arrays::{pixels, Pixels};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::normalize::{NormalizeParams, Normalized};
+use linpose::normalize::{NormalizeParams, StageRule};
 use linpose::{model_file, AnyModel, Dataset, Method, MethodSpec, Param, PoseModel, PoseSpace, Settings};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -139,16 +139,14 @@ pub(crate) fn method_of(method: &str, settings: Vec<(String, String)>) -> PyResu
     Ok((method, settings, spec))
 }
 
-/// The normalisation stage's parameters of `normalize` (`None`, `all`, `geometry`,
-/// `brightness`).
-pub(crate) fn stage(normalize: Option<&str>) -> PyResult<Option<NormalizeParams>> {
-    Ok(match normalize {
-        None => None,
-        Some("all") => Some(NormalizeParams { geometry: true, brightness: true }),
-        Some("geometry") => Some(NormalizeParams { geometry: true, brightness: false }),
-        Some("brightness") => Some(NormalizeParams { geometry: false, brightness: true }),
-        Some(v) => return Err(PyValueError::new_err(format!("normalize={v:?}: expected None, 'all', 'geometry' or 'brightness'"))),
-    })
+/// What `normalize` asks of the normalisation stage: `"auto"` (chosen on held-out training
+/// views), `None` or `"off"` (none), `"all"`, `"geometry"` or `"brightness"`.
+pub(crate) fn stage(normalize: Option<&str>) -> PyResult<StageRule> {
+    match normalize {
+        None => Ok(StageRule::Fixed(NormalizeParams::OFF)),
+        Some(v) => StageRule::from_name(v)
+            .map_err(|_| PyValueError::new_err(format!("normalize={v:?}: expected 'auto', None, 'off', 'all', 'geometry' or 'brightness'"))),
+    }
 }
 
 #[pymethods]
@@ -259,6 +257,13 @@ impl Model {
         self.meta().normalize.as_ref().map(|n| serde_json::to_string(n).expect("the stage serialises"))
     }
 
+    /// How the normalisation was decided (JSON: the rule, the choice and every candidate's
+    /// held-out score), or None for a model fitted without a rule.
+    #[getter]
+    fn stage_choice_json(&self) -> Option<String> {
+        self.meta().stage_choice.as_ref().map(|c| serde_json::to_string(c).expect("the choice serialises"))
+    }
+
     /// For a model linear in the pixels: its coefficients, one row of M per encoded parameter
     /// ((cos, sin) rows for a circular one); `None` for the others.
     #[getter]
@@ -306,8 +311,8 @@ impl Model {
 }
 
 /// Fits `method` with `settings` (name, value) on the images `x` (rows of `height` x `width`
-/// pixels) at the poses `y` ((n, K) degrees) of the parameters `params`; `normalize`: `None`,
-/// `all`, `geometry` or `brightness`.
+/// pixels) at the poses `y` ((n, K) degrees) of the parameters `params`; `normalize`: `"auto"`,
+/// `None` or `"off"`, `"all"`, `"geometry"` or `"brightness"`.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (method, settings, x, height, width, y, params, normalize=None))]
@@ -347,10 +352,7 @@ pub fn fit(
                 Ok(pixels) => Dataset::from_u8(image, pixels, space, poses)?,
                 Err(features) => Dataset::new(image, features, space, poses)?,
             };
-            match stage {
-                None => spec.fit(&data),
-                Some(p) => Normalized::fit(&spec, &data, p),
-            }
+            linpose::stage_choice::fit(&spec, &data, stage)
         })
         .map_err(py_err)?;
     Ok(Model { inner })

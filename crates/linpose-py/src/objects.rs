@@ -184,6 +184,12 @@ impl Objects {
         Ok(self.inner.pose_model(k).map(|m| linpose::PoseModel::meta(m).settings.to_string()))
     }
 
+    /// How the normalisation was decided (JSON), or None for a model fitted without a rule.
+    #[getter]
+    fn stage_choice_json(&self) -> Option<String> {
+        self.inner.settings().stage_choice.as_ref().map(|c| serde_json::to_string(c).expect("the choice serialises"))
+    }
+
     /// The normalisation stage as JSON, or `None` when images are used as they are.
     #[getter]
     fn normalize_json(&self) -> Option<String> {
@@ -306,11 +312,9 @@ pub fn fit_objects(
                 })
                 .collect::<linpose::Result<Vec<Dataset>>>()?;
             let objects = ObjectSet::new(names, sets)?;
-            match (&posed, normalize) {
-                (Some((_, _, spec)), None) => ObjectModel::fit(&objects, &rp, spec),
-                (Some((_, _, spec)), Some(p)) => ObjectModel::fit_normalized(&objects, &rp, spec, p, &|_| {}),
-                (None, None) => ObjectModel::fit_views(&objects, &rp),
-                (None, Some(p)) => ObjectModel::fit_views_normalized(&objects, &rp, p),
+            match &posed {
+                Some((_, _, spec)) => ObjectModel::fit_staged(&objects, &rp, spec, normalize, &|_| {}),
+                None => ObjectModel::fit_views_staged(&objects, &rp, normalize),
             }
         })
         .map_err(py_err)?;

@@ -159,6 +159,28 @@ def test_normalize_stage_is_kept(turntable, tmp_path):
     np.testing.assert_array_equal(back.predict(X[:7]), est.predict(X[:7]))
 
 
+def test_normalize_is_chosen_on_held_out_views_by_default(turntable, tmp_path):
+    X, y, params = turntable
+    est = linpose.RefinedPose(params=params).fit(X[::3], y[::3])
+    assert est.get_params()["normalize"] == "auto"
+    c = est.stage_choice_
+    assert c["rule"] == "auto" and c["chosen"] in ("off", "brightness", "geometry", "all")
+    assert [s["stage"] for s in c["scores"]] == ["off", "brightness", "geometry", "all"]
+    assert c["held_out_views"] > 0 and c["noise_levels"] == [0.05, 0.1]
+    # The chosen one is the simplest within three standard errors of the best (MARGIN).
+    best = min((s for s in c["scores"] if s.get("pooled_deg") is not None), key=lambda s: s["pooled_deg"])
+    bound = best["pooled_deg"] + 3 * best["standard_error"]
+    assert next(s["stage"] for s in c["scores"] if s.get("pooled_deg") is not None and s["pooled_deg"] <= bound) == c["chosen"]
+    # The model file keeps the rule, so a loaded estimator refits as it was fitted.
+    est.save(tmp_path / "a.safetensors")
+    back = linpose.load(tmp_path / "a.safetensors")
+    assert back.normalize == "auto" and back.stage_choice_ == c
+    # Off, as asked: no stage, and the record says so.
+    off = linpose.RefinedPose(params=params, normalize="off").fit(X[::3], y[::3])
+    assert off.stage_choice_["rule"] == "off" and off.model_.normalize_json is None
+    assert linpose.RefinedPose(params=params, normalize=None).fit(X[::3], y[::3]).stage_choice_["chosen"] == "off"
+
+
 def test_docstring_examples_run():
     import doctest
 

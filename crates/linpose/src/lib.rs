@@ -82,6 +82,7 @@ pub mod pose;
 pub mod recognize;
 pub mod render;
 pub mod second_look;
+pub mod stage_choice;
 
 pub use catalog::{Catalog, ObjectSet, Source};
 pub use confidence::{Estimate, Hypothesis};

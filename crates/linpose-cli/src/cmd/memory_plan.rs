@@ -8,6 +8,7 @@ use crate::cmd::method_args::as_flag;
 use crate::cmd::train::TrainArgs;
 use linpose::image_io::ImageSpec;
 use linpose::memory::{first_image_spec, format_bytes, Job, Limit, Path, Plan, Remedy, StreamChange};
+use linpose::normalize::StageRule;
 use linpose::recognize::RecognizerParams;
 use linpose::{Catalog, Manifest, Method};
 use serde::Serialize;
@@ -56,28 +57,35 @@ fn limit(a: &TrainArgs) -> Limit {
     a.memory_budget.map_or_else(Limit::detect, Limit::Budget)
 }
 
-/// Plans training on the images of `manifest` (one object) and says which path on stderr.
-pub fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, normalize: bool) -> anyhow::Result<Plan> {
+/// Plans training on the images of `manifest` (one object); [`say`] tells which path.
+pub fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, stage: StageRule) -> anyhow::Result<Plan> {
     let spec = first_image_spec(manifest, a.color.into())?;
-    let job = Job::for_manifest(manifest, spec, method, &a.settings.settings).map_err(as_flag)?.normalized(normalize);
+    let job = Job::for_manifest(manifest, spec, method, &a.settings.settings)
+        .map_err(as_flag)?
+        .normalized(stage.normalises())
+        .choosing_stage(stage == StageRule::Auto);
     let force = match (a.stream, a.in_memory) {
         (true, _) => Some(Path::Streamed),
         (_, true) => Some(Path::InMemory),
         _ => None,
     };
-    let plan = linpose::memory::plan(&job, &limit(a), force).map_err(|e| explain(e, spec, a))?;
-    eprintln!("{}", plan.describe());
-    Ok(plan)
+    linpose::memory::plan(&job, &limit(a), force).map_err(|e| explain(e, spec, a))
 }
 
-/// Plans training on a catalog of many objects (in memory) and says so on stderr.
-pub fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams, normalize: bool) -> anyhow::Result<Plan> {
+/// Says on stderr which path a plan takes.
+pub fn say(plan: &Plan) {
+    eprintln!("{}", plan.describe());
+}
+
+/// Plans training on a catalog of many objects (in memory); [`say`] tells which path.
+pub fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams, stage: StageRule) -> anyhow::Result<Plan> {
     let first = catalog.manifests().first().ok_or_else(|| anyhow::anyhow!("{}: no object to train on", a.data.data.display()))?;
     let spec = first_image_spec(first, a.color.into())?;
-    let job = Job::for_objects(catalog.manifests(), spec, method, &a.settings.settings, params).map_err(as_flag)?.normalized(normalize);
-    let plan = linpose::memory::plan(&job, &limit(a), None).map_err(|e| explain(e, spec, a))?;
-    eprintln!("{}", plan.describe());
-    Ok(plan)
+    let job = Job::for_objects(catalog.manifests(), spec, method, &a.settings.settings, params)
+        .map_err(as_flag)?
+        .normalized(stage.normalises())
+        .choosing_stage(stage == StageRule::Auto);
+    linpose::memory::plan(&job, &limit(a), None).map_err(|e| explain(e, spec, a))
 }
 
 /// A plan's error in the command line's words: the remedies with the flags that give them.

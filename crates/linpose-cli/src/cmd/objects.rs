@@ -7,7 +7,7 @@ use crate::cmd::predict::{eight_bit_as_features, read_one, PredictArgs};
 use crate::cmd::train::TrainArgs;
 use crate::common::{progress, write_json};
 use anyhow::Context;
-use linpose::normalize::NormalizeParams;
+use linpose::normalize::{NormalizeParams, StageChoice, StageRule};
 use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
 use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source};
 use serde::Serialize;
@@ -83,28 +83,33 @@ struct TrainSummary<'a> {
 }
 
 /// `train` on a many-object data set.
-pub fn train(
-    a: &TrainArgs,
-    params: &RecognizerParams,
-    method: &'static linpose::Method,
-    spec: &linpose::MethodSpec,
-    normalize: Option<NormalizeParams>,
-) -> anyhow::Result<()> {
+pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose::Method, spec: &linpose::MethodSpec, rule: StageRule) -> anyhow::Result<()> {
     let out = a.out.as_deref().context("--out MODEL is required")?;
     let t0 = Instant::now();
     let c = catalog(&a.data.data, &a.leave_out)?;
     let c = c.subset(&c.training_masks(&a.selection()?)?)?;
     // In memory only: checked before any image is decoded.
-    let plan = crate::cmd::memory_plan::plan_objects(a, &c, method, params, normalize.is_some())?;
+    let mut fell_back = false;
+    let (plan, rule) = match rule {
+        // A stage is chosen only where its held-out folds fit in memory too.
+        StageRule::Auto => match crate::cmd::memory_plan::plan_objects(a, &c, method, params, rule) {
+            Ok(plan) => (plan, rule),
+            Err(_) => {
+                fell_back = true;
+                (crate::cmd::memory_plan::plan_objects(a, &c, method, params, StageRule::Fixed(NormalizeParams::OFF))?, StageRule::Fixed(NormalizeParams::OFF))
+            }
+        },
+        StageRule::Fixed(_) => (crate::cmd::memory_plan::plan_objects(a, &c, method, params, rule)?, rule),
+    };
+    crate::cmd::memory_plan::say(&plan);
     let train = load(&c, a.color.into())?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let bar = progress(train.len() as u64 + 1, "fitting");
-    let model = match normalize {
-        None => ObjectModel::fit_with(&train, params, spec, &|k| bar.inc(k)),
-        Some(n) => ObjectModel::fit_normalized(&train, params, spec, n, &|k| bar.inc(k)),
+    let mut model = ObjectModel::fit_staged(&train, params, spec, rule, &|k| bar.inc(k)).map_err(as_flag)?;
+    if fell_back {
+        model = model.with_stage_choice(StageChoice::off("the training set is too large to choose its normalisation in memory"));
     }
-    .map_err(as_flag)?;
     bar.finish_and_clear();
     let fit_s = t1.elapsed().as_secs_f64();
     let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
@@ -136,8 +141,11 @@ pub fn train(
         summary.recognizer_bytes,
         out.display()
     );
+    if let Some(c) = &model.settings().stage_choice {
+        eprintln!("  {}", c.describe());
+    }
     if let Some(n) = &summary.normalize {
-        eprintln!("{n}");
+        eprintln!("  {n}");
     }
     if let Some(j) = &a.json {
         write_json(j, &summary)?;

@@ -54,7 +54,7 @@ pub fn train_shard(a: &TrainArgs, shard: ShardArg, out: &std::path::Path) -> any
     if let Some(j) = &a.json {
         check_output_file(j, "JSON")?;
     }
-    if a.stream || a.normalize.is_some() {
+    if a.stream || a.forces_stage() {
         anyhow::bail!("--shard: statistics are read shard by shard already (no --stream), and without --normalize (fitted in memory only)");
     }
     let method = method_args::method(&a.method);

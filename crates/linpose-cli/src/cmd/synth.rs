@@ -38,6 +38,10 @@ pub struct SynthArgs {
     /// Weight of the specular highlight (0 for a matte object).
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     pub specular: f64,
+    /// Brightness of the background, from 0 (black, the default) to 1 (white): a studio
+    /// backdrop of gray paper or cloth, e.g. 0.5.
+    #[arg(long, value_name = "LEVEL", default_value_t = 0.0)]
+    pub background: f64,
     /// Jitter every view as a camera in a cell would see it: a shift of up to SHIFT pixels along
     /// each image axis, a scale within 1 +- SCALE and an exposure within 1 +- EXPOSURE, uniform,
     /// each view its own draw (written to jitter.csv), e.g. 8,0.1,0.2.
@@ -83,7 +87,7 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
     }
     let (width, height) = parse_size(&args.size)?;
     let camera = if args.perspective { Camera::perspective() } else { Camera::default() };
-    let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular));
+    let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular)).background(args.background);
     params.validate()?;
 
     let bar = if std::io::stderr().is_terminal() {

@@ -5,7 +5,7 @@ use crate::cmd::method_args::{self, as_flag, MethodArgs};
 use crate::common::{check_output_file, load_dataset, write_json, ColorArg, DataArgs};
 use anyhow::Context;
 use linpose::memory::{Path, Plan};
-use linpose::normalize::{NormalizeParams, Normalized};
+use linpose::normalize::{NormalizeParams, Normalized, StageChoice, StageRule};
 use linpose::{AnyModel, PoseModel, TrainSelection};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -48,13 +48,16 @@ pub struct TrainArgs {
     /// How colour images become features.
     #[arg(long, value_enum, default_value = "gray")]
     pub color: ColorArg,
-    /// Find the object in every image and centre it, scale it to a fixed size and bring it to a
-    /// fixed brightness before the method sees it (stored in the model, applied to queries too),
-    /// so query images need not be registered like the training views: `all` (the default when
-    /// the flag is given alone), `geometry` (position and scale only) or `brightness` (only).
-    /// An image it cannot normalise is an error naming it.
-    #[arg(long, value_enum, value_name = "WHAT", num_args = 0..=1, default_missing_value = "all")]
+    /// The normalisation stage: find the object in every image, centre it, scale it to a fixed
+    /// size and bring it to a fixed brightness before the method sees it (stored in the model,
+    /// applied to queries too). Without this flag train chooses it on held-out training views
+    /// among off, brightness, geometry and all, and says what it chose; `--normalize WHAT`
+    /// forces one (`all` when the flag is given alone; `auto`: the choice).
+    #[arg(long, value_enum, value_name = "WHAT", num_args = 0..=1, default_missing_value = "all", conflicts_with = "no_normalize")]
     pub normalize: Option<NormalizeArg>,
+    /// Use the images as they are: no normalisation stage (as `--normalize off`).
+    #[arg(long)]
+    pub no_normalize: bool,
     /// With a data set of many objects: how a query's object is told, `universal` (Murase &
     /// Nayar's universal eigenspace, the nearest object manifold) or `linear` (the paper's
     /// linear model with one-hot object targets). Default: universal.
@@ -105,18 +108,34 @@ impl TrainArgs {
 /// What `--normalize` normalises.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NormalizeArg {
+    /// Chosen on held-out training views (what train does without the flag).
+    Auto,
     /// Position, scale and brightness.
     All,
     /// Position and scale.
     Geometry,
     /// Brightness.
     Brightness,
+    /// Nothing: the images as they are.
+    Off,
 }
 
-impl NormalizeArg {
-    /// The library's parameters.
-    pub fn params(self) -> NormalizeParams {
-        NormalizeParams { geometry: self != NormalizeArg::Brightness, brightness: self != NormalizeArg::Geometry }
+impl TrainArgs {
+    /// What the normalisation flags ask for: chosen on held-out views unless fixed.
+    pub fn stage_rule(&self) -> StageRule {
+        let fixed = |geometry, brightness| StageRule::Fixed(NormalizeParams { geometry, brightness });
+        match (self.no_normalize, self.normalize) {
+            (true, _) | (_, Some(NormalizeArg::Off)) => StageRule::Fixed(NormalizeParams::OFF),
+            (_, None | Some(NormalizeArg::Auto)) => StageRule::Auto,
+            (_, Some(NormalizeArg::All)) => fixed(true, true),
+            (_, Some(NormalizeArg::Geometry)) => fixed(true, false),
+            (_, Some(NormalizeArg::Brightness)) => fixed(false, true),
+        }
+    }
+
+    /// Whether the flags force a stage (not off, not chosen).
+    pub fn forces_stage(&self) -> bool {
+        matches!(self.stage_rule(), StageRule::Fixed(p) if p.is_on())
     }
 }
 
@@ -133,9 +152,15 @@ struct TrainSummary {
     settings: serde_json::Value,
     #[serde(skip_serializing_if = "Option::is_none")]
     normalize: Option<linpose::normalize::Normalizer>,
+    /// How the normalisation was decided.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    stage_choice: Option<StageChoice>,
     /// The memory plan: the path taken and what it needed.
     memory: MemorySummary,
 }
+
+/// No normalisation stage.
+const OFF: StageRule = StageRule::Fixed(NormalizeParams::OFF);
 
 /// Runs `linpose train`.
 pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
@@ -156,8 +181,8 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         let can: Vec<&str> = linpose::METHODS.iter().filter(|m| m.streams()).map(|m| m.name).collect();
         anyhow::bail!("--stream: the {} method fits in memory only (streamed: {})", method.name, can.join(", "));
     }
-    let normalize = a.normalize.map(NormalizeArg::params);
-    if a.stream && normalize.is_some() {
+    let rule = a.stage_rule();
+    if a.stream && a.forces_stage() {
         anyhow::bail!("--stream with --normalize: the normalisation is fitted in memory only");
     }
     let many_only = a.recognizer.is_some() || a.recognizer_components.is_some() || a.unknown.is_some() || !a.leave_out.is_empty();
@@ -166,7 +191,7 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
             anyhow::bail!("{}: a data set of many objects is fitted in memory (not yet: --stream)", a.data.data.display());
         }
         let params = crate::cmd::objects::recognizer_params(a)?;
-        return crate::cmd::objects::train(a, &params, method, &spec, normalize);
+        return crate::cmd::objects::train(a, &params, method, &spec, rule);
     }
     if many_only {
         anyhow::bail!(
@@ -177,20 +202,37 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
     let t0 = Instant::now();
     let manifest = a.data.manifest()?;
     let manifest = manifest.subset(&manifest.training_mask(&a.selection()?)?)?;
-    // The path, from the sizes alone, before any image is decoded.
-    let plan = memory_plan::plan_one(a, &manifest, method, normalize.is_some())?;
+    // The path, from the sizes alone, before any image is decoded. A stage is chosen only for
+    // a set that fits in memory normalised; a larger one is used as it is.
+    let (plan, off) = match rule {
+        // A stage is chosen only for a set fitted in memory, and where its held-out folds fit
+        // there too; a set streamed from disk is used as it is.
+        StageRule::Auto => match memory_plan::plan_one(a, &manifest, method, OFF)? {
+            p if p.path == Path::Streamed => (p, Some("streamed from disk: the stage is fitted in memory only")),
+            p => match memory_plan::plan_one(a, &manifest, method, rule) {
+                Ok(q) if q.path != Path::Streamed => (q, None),
+                _ => (p, Some("the training set is too large to choose its normalisation in memory")),
+            },
+        },
+        StageRule::Fixed(_) => (memory_plan::plan_one(a, &manifest, method, rule)?, None),
+    };
+    memory_plan::say(&plan);
     let (model, load_s, fit_s, how) = if plan.path == Path::Streamed {
         let bar = crate::common::progress(manifest.len() as u64, "reading");
         let (model, how) = method.fit_streamed(&manifest, a.color.into(), settings, &|k| bar.inc(k)).map_err(as_flag)?;
         bar.finish_and_clear();
-        (model, 0.0, t0.elapsed().as_secs_f64(), Some(how))
+        let choice = match rule {
+            StageRule::Auto => StageChoice::off(off.unwrap_or("streamed from disk")),
+            StageRule::Fixed(p) => StageChoice::fixed(p),
+        };
+        (AnyModel::new(Normalized::recorded(None, model, Some(choice))), 0.0, t0.elapsed().as_secs_f64(), Some(how))
     } else {
         let train = load_dataset(manifest, a.color.into())?;
         let load_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
-        let model = match normalize {
-            None => spec.fit(&train)?,
-            Some(n) => Normalized::fit(&spec, &train, n)?,
+        let model = match off {
+            Some(why) => linpose::stage_choice::fit_chosen(&spec, &train, StageChoice::off(why))?,
+            None => linpose::stage_choice::fit(&spec, &train, rule)?,
         };
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
@@ -222,6 +264,7 @@ fn report(
         file_bytes,
         settings: meta.settings.clone(),
         normalize: meta.normalize.clone(),
+        stage_choice: meta.stage_choice.clone(),
         memory: MemorySummary::of(plan),
     };
     let timing = match how {
@@ -239,6 +282,9 @@ fn report(
     );
     if let Some(how) = how {
         eprintln!("  {how}");
+    }
+    if let Some(c) = &meta.stage_choice {
+        eprintln!("  {}", c.describe());
     }
     if let Some(n) = &meta.normalize {
         eprintln!("  {}", n.describe());

@@ -115,6 +115,16 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         self._y_1d = y_1d
         self._serve = [None]
 
+    @property
+    def stage_choice_(self) -> dict:
+        """How the normalisation was decided: the rule (``"auto"`` or the choice given), the
+        choice, and with ``"auto"`` every candidate's score on the held-out training views."""
+        model = self.__dict__.get("model_")
+        if model is None:
+            raise AttributeError("stage_choice_: the estimator is not fitted")
+        c = model.stage_choice_json
+        return json.loads(c) if c is not None else {"rule": _stage(model), "chosen": _stage(model), "scores": []}
+
     def _serving(self) -> Any:
         """The core's one-call predict for arrays it reads as they are (``_linpose.Serve``), or
         ``False`` where scikit-learn must see every input (a model fitted on named features).
@@ -208,9 +218,12 @@ class LinearPose(PoseEstimator):
         column, ``elevation, azimuth`` for two.
     image_shape : (h, w), default=None
         The image size when ``X`` is given as rows; (n, h, w) arrays carry it.
-    normalize : {None, "all", "geometry", "brightness"}, default=None
-        Find the object in every image and centre it, scale it to a fixed size and/or bring it
-        to a fixed brightness before the model sees it (stored in the model; queries too).
+    normalize : {"auto", "off", None, "all", "geometry", "brightness"}, default="auto"
+        The normalisation stage: find the object in every image and centre it, scale it to a
+        fixed size and/or bring it to a fixed brightness before the model sees it (stored in the
+        model; queries too). ``"auto"`` chooses among off, brightness, geometry and all on
+        held-out training views, as ``linpose train`` does (``stage_choice_`` says what it
+        chose); ``"off"`` or ``None`` uses the images as they are; the others force it.
 
     Attributes
     ----------
@@ -227,6 +240,9 @@ class LinearPose(PoseEstimator):
         The image size.
     n_features_in_ : int
         Features per image (h * w).
+    stage_choice_ : dict
+        How the normalisation was decided (``normalize``): the rule, the choice, and each
+        candidate's held-out score.
 
     Examples
     --------
@@ -239,7 +255,7 @@ class LinearPose(PoseEstimator):
 
     _method = "linear"
 
-    def __init__(self, *, ridge=0.0, noise_level=None, center=False, params=None, image_shape=None, normalize=None):
+    def __init__(self, *, ridge=0.0, noise_level=None, center=False, params=None, image_shape=None, normalize="auto"):
         self.ridge = ridge
         self.noise_level = noise_level
         self.center = center
@@ -315,7 +331,7 @@ class EigenspacePose(PoseEstimator):
 
     _method = "eigenspace"
 
-    def __init__(self, *, components=20, energy=None, manifold_step=0.5, params=None, image_shape=None, normalize=None):
+    def __init__(self, *, components=20, energy=None, manifold_step=0.5, params=None, image_shape=None, normalize="auto"):
         self.components = components
         self.energy = energy
         self.manifold_step = manifold_step
@@ -372,7 +388,7 @@ class RefinedPose(PoseEstimator):
 
     _method = "refined"
 
-    def __init__(self, *, components="auto", resolution=0.5, bin="auto", interpolant="auto", params=None, image_shape=None, normalize=None):
+    def __init__(self, *, components="auto", resolution=0.5, bin="auto", interpolant="auto", params=None, image_shape=None, normalize="auto"):
         self.components = components
         self.resolution = resolution
         self.bin = bin
@@ -441,10 +457,13 @@ def from_model(model) -> PoseEstimator:
 
 
 def _stage(model) -> Optional[str]:
-    """The ``normalize`` value of a model's stage: what it normalises (radius: position and
+    """The ``normalize`` value that fits a model like it: the rule it records (``"auto"`` or the
+    choice given), or for a model without one, what its stage normalises (radius: position and
     scale; brightness)."""
+    if model.stage_choice_json is not None:
+        return json.loads(model.stage_choice_json)["rule"]
     if model.normalize_json is None:
-        return None
+        return "off"
     p = json.loads(model.normalize_json)
     g, b = p.get("radius") is not None, p.get("brightness") is not None
     return "all" if g and b else "geometry" if g else "brightness"

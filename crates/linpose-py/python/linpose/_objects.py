@@ -61,14 +61,18 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
     pose : LinearPose, EigenspacePose or RefinedPose, default=None
         The pose method for each object and its parameters (an unfitted estimator; ``None``:
         ``LinearPose()``, the command line's default). Only used when ``fit`` gets poses; its
-        own ``params``, ``image_shape`` and ``normalize`` must be left unset (set them here).
+        own ``params``, ``image_shape`` and ``normalize`` must be left at their defaults (set them
+        here).
     params : list, default=None
         The pose parameters, as for :class:`LinearPose`.
     image_shape : (h, w), default=None
         As for :class:`LinearPose`.
-    normalize : {None, "all", "geometry", "brightness"}, default=None
+    normalize : {"auto", "off", None, "all", "geometry", "brightness"}, default="auto"
         One normalisation stage fitted on every object's training views together, every query
-        going through it first (images as a camera takes them).
+        going through it first (images as a camera takes them). ``"auto"`` chooses it on the
+        objects' held-out training views by their pose error, as ``linpose train`` does (without
+        poses there is none to choose on, and the images are used as they are); ``"off"`` or
+        ``None``: none; the others force it.
 
     Attributes
     ----------
@@ -93,7 +97,7 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
         pose=None,
         params=None,
         image_shape=None,
-        normalize=None,
+        normalize="auto",
     ):
         self.recognizer = recognizer
         self.components = components
@@ -177,8 +181,8 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
             method = LinearPose() if self.pose is None else self.pose
             if not isinstance(method, PoseEstimator):
                 raise TypeError(f"pose must be a LinearPose, EigenspacePose or RefinedPose, got {method!r}")
-            for name in ("params", "image_shape", "normalize"):
-                if getattr(method, name) is not None:
+            for name, default in (("params", None), ("image_shape", None), ("normalize", "auto")):
+                if getattr(method, name) != default:
                     raise ValueError(f"pose={method!r}: set {name} on the ObjectRecognizer, not on its pose estimator")
             model = _linpose.fit_objects(
                 **common, y=np.ascontiguousarray(p2), params=params, method=method._method, settings=method._settings()

@@ -67,8 +67,9 @@ fn system(n: f64, per: f64) -> f64 {
 fn images(job: &Job) -> Parts {
     let (n, m) = (f(job.n), f(job.m));
     let p = Parts::default().add(4.0 * n * m, format!("{} images of {} features as f32", job.n, job.m));
-    if job.normalize {
-        p.add(4.0 * n * m, "the normalised images")
+    let p = if job.normalize { p.add(4.0 * n * m, "the normalised images") } else { p };
+    if job.choose_stage {
+        p.add(4.0 * n * m, "the held-out folds' normalised views (choosing the normalisation)")
     } else {
         p
     }

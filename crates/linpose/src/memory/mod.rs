@@ -29,7 +29,8 @@
 //! N x N matrix when that is under glibc's largest mmap threshold
 //! ([`tuning::HEAP_MATRIX_BYTES`]: freed, it may stay on the heap).
 //!
-//! - Images: 4 N M (f32), twice with normalisation (the normalised copy).
+//! - Images: 4 N M (f32), twice with normalisation (the normalised copy), three times when the
+//!   normalisation is chosen on held-out views (each fold's views, normalised).
 //! - Linear, in memory: 24 N^2 (G, G + lambda I, its Cholesky factor; f64) + 2 KiB N. With
 //!   `ridge auto`: 38 N^2 (G and its eigendecomposition). With a noise level A > 0 the fit also
 //!   holds each view's expected noisy version, 2N rows: 4 (2N) M + 24 (2N)^2. With `noise-level
@@ -164,6 +165,7 @@ pub struct Job {
     method: &'static Method,
     params: Params,
     normalize: bool,
+    choose_stage: bool,
     /// Points of the pose lattice the method resamples or searches (eigenspace, refined).
     lattice: usize,
     objects: Option<Objects>,
@@ -181,7 +183,19 @@ impl Job {
             "refined" => Params::Refined(RefinedParams::from_settings(settings)?),
             other => return Err(Error::invalid("method", other, "has no memory estimate")),
         };
-        Ok(Job { n, m, k, channels: 1, method, params, normalize: false, lattice: 0, objects: None, threads: rayon::current_num_threads() })
+        Ok(Job {
+            n,
+            m,
+            k,
+            channels: 1,
+            method,
+            params,
+            normalize: false,
+            choose_stage: false,
+            lattice: 0,
+            objects: None,
+            threads: rayon::current_num_threads(),
+        })
     }
 
     /// The images of `manifest`, of size `spec` ([`first_image_spec`]): N, M, K and the pose
@@ -217,6 +231,14 @@ impl Job {
     /// Whether the images are normalised first ([`crate::normalize`]): in memory only, a copy.
     pub fn normalized(mut self, yes: bool) -> Self {
         self.normalize = yes;
+        self
+    }
+
+    /// Whether the normalisation is chosen on held-out training views first
+    /// ([`crate::stage_choice`]): a normalised copy of each fold's views besides the images'.
+    pub fn choosing_stage(mut self, yes: bool) -> Self {
+        self.choose_stage = yes;
+        self.normalize |= yes;
         self
     }
 

@@ -165,6 +165,11 @@ pub struct ModelMeta {
     /// ([`crate::normalize`]); `None`: images are used as they are.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normalize: Option<crate::normalize::Normalizer>,
+    /// How the normalisation was decided, when training decided it ([`crate::stage_choice`]):
+    /// chosen on held-out training views, or as the caller fixed it. `None` for a model fitted
+    /// without a rule (a method's own `fit`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage_choice: Option<crate::normalize::StageChoice>,
 }
 
 impl ModelMeta {

@@ -17,8 +17,10 @@
 //! 2. **Object.** Foreground is where a pixel deviates from the level by more than a threshold:
 //!    the one chosen from the training images' borders (their noise, at least half a gray
 //!    level), raised to the query's own border noise when the border is background. Its
-//!    8-connected regions are found; the largest (by summed deviation) is the object, regions of
-//!    less than 5% (`BLOB_SHARE`, normalize/tuning.rs) of its weight are specks and are left out.
+//!    8-connected regions are found; the heaviest (by summed deviation) and every region near
+//!    it (within its size, `JOIN_GAP`) are the object, so a handle, a stem or a part that a dark
+//!    band cuts off counts with it; regions lighter than 0.5% of the heaviest (`PART_SHARE`) are
+//!    specks and are left out (normalize/tuning.rs).
 //! 3. **Position and size.** The centroid and the radius of gyration (root-mean-square distance
 //!    from the centroid) of the object's deviations.
 //! 4. **Resampling.** The image is resampled (separable cubic, anti-aliased when shrinking) so
@@ -28,18 +30,27 @@
 //!    squared radius equals the training views' median: a change of exposure or of the light's
 //!    strength is undone (clipped pixels stay clipped).
 //!
-//! Where this cannot work the image is refused with a [`Rejection`] that says why: no object
-//! (nothing differs from the background), several blobs (a second region of at least
-//! 5% (`BLOB_SHARE`, normalize/tuning.rs) of the object's weight: two objects, or one in pieces), or the object
-//! touches the frame edge (part of it may be outside, so its position and size are unknown).
-//! Touching the edge is refused only when the training views keep the object inside the frame;
-//! data sets framed to the edge by their makers (COIL's) touch it in most views, and then the
-//! edge is the data's convention. `eval` counts refused images apart.
+//! A noisy query (its pixel noise, `find::noise`, more than twice the training views') is found
+//! on a copy smoothed by a 5 x 5 box, its threshold from the smoothed noise, its weights freed of
+//! clipped noise's lift, and its radius corrected by what the training views show at that noise
+//! ([`Normalizer::noisy_radius`]): the noise would otherwise cut the object's faint parts away
+//! and move its centre and size.
+//!
+//! An image is refused, with a [`Rejection`] that says why, only where this cannot work: no
+//! object (nothing differs from the background), a value that is not a number, or, in a query,
+//! an object that touches the frame edge where no training view does (part of it may be
+//! outside, so its position and size are unknown). A training view with a second object apart
+//! from the first (farther than its size, and heavy enough not to be a speck) stops training,
+//! naming it; in a query such a region is left out. `eval` counts refused images apart.
+//!
+//! Whether to normalise at all, and what, is chosen on held-out training views by
+//! [`crate::stage_choice`]; [`StageChoice`] is the record of it.
 //!
 //! The stage is exact for a move by whole pixels: the moments are taken from the object's
 //! bounding box corner and the resampling's weights depend only on the position within a pixel,
 //! so the output is bit for bit the same.
 
+mod choice;
 mod find;
 mod model;
 mod resample;
@@ -47,6 +58,7 @@ mod resample;
 mod tests;
 pub(crate) mod tuning;
 
+pub use choice::{CandidateScore, NoisyScore, StageChoice, StageRule};
 pub use model::Normalized;
 
 use crate::dataset::Dataset;
@@ -55,7 +67,7 @@ use crate::{Error, Result};
 use find::{median, Placement};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use tuning::{DARK_LEVEL, HALF_LEVEL, NOISE_FACTOR};
+use tuning::{CALIBRATION_NOISE, CALIBRATION_SEED, CALIBRATION_VIEWS, DARK_LEVEL, HALF_LEVEL, NOISE_FACTOR, NOISY};
 
 /// What the stage normalises.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -67,9 +79,45 @@ pub struct NormalizeParams {
 }
 
 impl NormalizeParams {
-    /// Position and scale, not brightness: what `--normalize` asks for.
+    /// Nothing: images are used as they are.
+    pub const OFF: NormalizeParams = NormalizeParams { geometry: false, brightness: false };
+
+    /// Every choice, the simplest first: off, brightness, geometry, all.
+    pub const CHOICES: [NormalizeParams; 4] = [
+        NormalizeParams::OFF,
+        NormalizeParams { geometry: false, brightness: true },
+        NormalizeParams { geometry: true, brightness: false },
+        NormalizeParams { geometry: true, brightness: true },
+    ];
+
+    /// Position and scale, not brightness.
     pub fn geometry() -> Self {
         NormalizeParams { geometry: true, brightness: false }
+    }
+
+    /// Position, scale and brightness.
+    pub fn all() -> Self {
+        NormalizeParams { geometry: true, brightness: true }
+    }
+
+    /// Whether it normalises anything.
+    pub fn is_on(&self) -> bool {
+        self.geometry || self.brightness
+    }
+
+    /// Its name: `off`, `geometry`, `brightness` or `all`.
+    pub fn name(&self) -> &'static str {
+        match (self.geometry, self.brightness) {
+            (false, false) => "off",
+            (true, false) => "geometry",
+            (false, true) => "brightness",
+            (true, true) => "all",
+        }
+    }
+
+    /// The choice called `name` ([`NormalizeParams::name`]).
+    pub fn from_name(name: &str) -> Result<Self> {
+        Self::CHOICES.into_iter().find(|c| c.name() == name).ok_or_else(|| Error::invalid("normalisation", name, "expected off, geometry, brightness or all"))
     }
 }
 
@@ -94,13 +142,16 @@ pub enum Rejection {
         /// The background level (first channel).
         level: f32,
     },
-    /// A second region as heavy as a share of the object's.
-    #[error("several blobs: {count} separate regions, the second with {:.0}% of the largest one's weight (two objects, or one in pieces); crop the image to one object", share * 100.0)]
-    SeveralBlobs {
-        /// Regions of at least 5% (`BLOB_SHARE`, normalize/tuning.rs) of the largest.
-        count: usize,
-        /// The second region's weight over the largest's.
+    /// A training view that holds a second object apart from the first: a region of the
+    /// foreground farther from the object than its size and heavy enough not to be a speck.
+    #[error("two objects: a second one {gap:.0} pixels from the first with {:.0}% of its weight, where the parts of one object lie within {limit:.0} pixels of its largest part; crop the training images to one object", share * 100.0)]
+    SecondObject {
+        /// The second object's weight (summed deviation from the background) over the first's.
         share: f64,
+        /// The distance between their bounding boxes (pixels).
+        gap: f64,
+        /// The farthest a part of one object may lie from its largest part (pixels).
+        limit: f64,
     },
     /// The object reaches the frame edge while the training views keep it inside.
     #[error("the object touches the frame edge ({}), so part of it may be outside the image and its position and size are unknown; the training views keep it inside the frame", sides_text(sides))]
@@ -146,8 +197,21 @@ pub struct Normalizer {
     /// The smallest deviation from the background that is foreground (a fraction of full
     /// brightness).
     pub threshold: f32,
-    /// Whether the object may touch the frame edge (the training views do, most of them).
+    /// Whether the object may touch the frame edge: some training views do.
     pub edges: bool,
+    /// Whether most training views touch the frame edge (the data is framed to its objects, as
+    /// COIL's makers framed theirs), so that the border is not background and the noise is not
+    /// measured on it.
+    pub framed: bool,
+    /// The largest pixel noise the training views show (Immerkaer's estimate of its standard
+    /// deviation, a fraction of full brightness; clean images' edges and texture give a floor).
+    /// A query with more than twice this (`NOISY`, normalize/tuning.rs) is found on a smoothed copy.
+    pub noise: f32,
+    /// The object's radius on noisy images against clean ones, calibrated on the training views:
+    /// (pixel noise, log of the radius's ratio) points, sorted by the noise. Empty when the
+    /// stage does not scale.
+    #[serde(default)]
+    pub noisy_radius: Vec<[f32; 2]>,
     /// The radius of gyration the object is scaled to (pixels): the training views' median.
     /// `None`: position and scale are left alone.
     pub radius: Option<f64>,
@@ -166,7 +230,8 @@ impl Normalizer {
 
     /// As [`Normalizer::fit`], on the images of several data sets of one image size together
     /// (the training views of several objects: one stage for all of them).
-    pub fn fit_sets(sets: &[Dataset], params: NormalizeParams) -> Result<Normalizer> {
+    pub fn fit_sets<D: std::borrow::Borrow<Dataset> + Sync>(sets: &[D], params: NormalizeParams) -> Result<Normalizer> {
+        let sets: Vec<&Dataset> = sets.iter().map(|d| d.borrow()).collect();
         if !params.geometry && !params.brightness {
             return Err(Error::invalid("normalisation", "none", "ask for position and scale, brightness, or both"));
         }
@@ -175,7 +240,7 @@ impl Normalizer {
             return Err(Error::invalid("normalisation", d.manifest().root().display(), "images of another size or colour than the first set's"));
         }
         // Every image as (set, index within it), in order.
-        let rows: Vec<(&Dataset, usize)> = sets.iter().flat_map(|d| (0..d.len()).map(move |i| (d, i))).collect();
+        let rows: Vec<(&Dataset, usize)> = sets.iter().flat_map(|&d| (0..d.len()).map(move |i| (d, i))).collect();
         let row = |i: usize| rows[i].0.row(rows[i].1);
         let spec = first.spec();
         let (w, h, c) = (spec.width as usize, spec.height as usize, spec.color.channels());
@@ -195,28 +260,87 @@ impl Normalizer {
         let found: Vec<Placement> = (0..rows.len())
             .into_par_iter()
             .map(|i| {
-                find::locate(row(i), w, h, c, background, threshold, true).map_err(|r| Error::Normalize { image: name(i).display().to_string(), reason: r })
+                let p = find::locate(row(i), w, h, c, background, threshold, true, true, None)
+                    .map_err(|r| Error::Normalize { image: name(i).display().to_string(), reason: r })?;
+                match p.apart {
+                    Some(a) => Err(Error::Normalize {
+                        image: name(i).display().to_string(),
+                        reason: Rejection::SecondObject { share: a.share, gap: a.gap, limit: a.limit },
+                    }),
+                    None => Ok(p),
+                }
             })
             .collect::<Result<_>>()?;
-        let touching: Vec<usize> = (0..found.len()).filter(|&i| found[i].touches.iter().any(|&t| t)).collect();
-        let edges = 2 * touching.len() >= found.len();
-        if !edges {
-            if let Some(&i) = touching.first() {
-                return Err(Error::Normalize { image: name(i).display().to_string(), reason: Rejection::TouchesEdge { sides: found[i].touches } });
-            }
-        }
+        // Queries may touch the frame edge when a training view does; when most do, the
+        // border is the data's framing, not background.
+        let touching = found.iter().filter(|p| p.touches.iter().any(|&t| t)).count();
+        let (edges, framed) = (touching > 0, 2 * touching >= found.len());
+        let noise = (0..rows.len()).into_par_iter().map(|i| find::noise(row(i), w, h, c)).reduce(|| 0.0, f32::max);
         let mut radii: Vec<f64> = found.iter().map(|p| p.radius).collect();
         let mut bright: Vec<f64> = found.iter().map(Placement::brightness).collect();
-        Ok(Normalizer {
+        let mut stage = Normalizer {
             width: spec.width,
             height: spec.height,
             channels: c,
             background,
             threshold,
             edges,
+            framed,
+            noise,
+            noisy_radius: Vec::new(),
             radius: params.geometry.then(|| median64(&mut radii)),
             brightness: params.brightness.then(|| median64(&mut bright)),
-        })
+        };
+        if params.geometry {
+            stage.noisy_radius = stage.calibrate_noisy_radius(&|i| row(i), &found);
+        }
+        Ok(stage)
+    }
+
+    /// How much larger than on the clean image the radius comes out on a noisy one, as a
+    /// function of the noise: for each of [`CALIBRATION_NOISE`], the training views (up to
+    /// [`CALIBRATION_VIEWS`] of them, evenly spread) with that noise added, their median pixel
+    /// noise and the median log ratio of their radius to the clean view's. Sorted by the noise.
+    fn calibrate_noisy_radius<'a>(&self, row: &(dyn Fn(usize) -> &'a [f32] + Sync), found: &[Placement]) -> Vec<[f32; 2]> {
+        let step = found.len().div_ceil(CALIBRATION_VIEWS).max(1);
+        let views: Vec<usize> = (0..found.len()).step_by(step).collect();
+        let mut points = Vec::new();
+        for (l, &amplitude) in CALIBRATION_NOISE.iter().enumerate() {
+            let mut measured: Vec<(f32, f64)> = views
+                .par_iter()
+                .filter_map(|&i| {
+                    let mut noisy = row(i).to_vec();
+                    let m = noisy.len();
+                    crate::eval::add_uniform_noise(&mut noisy, m, amplitude, CALIBRATION_SEED + (l * found.len() + i) as u64).ok()?;
+                    let (p, sigma) = self.find(&noisy).ok()?;
+                    sigma.map(|s| (s, (p.radius / found[i].radius).ln()))
+                })
+                .collect();
+            if measured.len() * 2 < views.len() {
+                continue;
+            }
+            let mid = measured.len() / 2;
+            let sigma = *measured.select_nth_unstable_by(mid, |a, b| a.0.total_cmp(&b.0)).1;
+            let bias = *measured.select_nth_unstable_by(mid, |a, b| a.1.total_cmp(&b.1)).1;
+            points.push([sigma.0, bias.1 as f32]);
+        }
+        points.sort_by(|a, b| a[0].total_cmp(&b[0]));
+        points
+    }
+
+    /// The calibrated log ratio of a noisy image's radius to its clean one's at pixel noise
+    /// `sigma`: 0 at the training views' noise, linear between the calibrated points, the last
+    /// point's beyond it.
+    fn radius_bias(&self, sigma: f32) -> f64 {
+        let mut prev = [NOISY * self.noise, 0.0];
+        for &p in &self.noisy_radius {
+            if sigma <= p[0] {
+                let t = if p[0] > prev[0] { ((sigma - prev[0]) / (p[0] - prev[0])).clamp(0.0, 1.0) } else { 1.0 };
+                return (prev[1] + t * (p[1] - prev[1])) as f64;
+            }
+            prev = p;
+        }
+        prev[1] as f64
     }
 
     /// One line saying what the stage does, for the record.
@@ -232,7 +356,11 @@ impl Normalizer {
         if let Some(b) = self.brightness {
             what.push(format!("brought to brightness {b:.4}"));
         }
-        let edges = if self.edges { "; the training views touch the frame edge, so queries may" } else { "" };
+        let edges = match (self.framed, self.edges) {
+            (true, _) => "; the training views are framed to the object, so queries may touch the frame edge",
+            (false, true) => "; some training views touch the frame edge, so queries may",
+            _ => "",
+        };
         format!("normalised: {}; {background}, threshold {:.4}{edges}", what.join(", "), self.threshold)
     }
 
@@ -260,7 +388,8 @@ impl Normalizer {
             ));
         }
         let finite = |v: Option<f64>| v.is_none_or(|v| v.is_finite() && v > 0.0);
-        let usable = self.threshold.is_finite() && self.threshold > 0.0 && finite(self.radius) && finite(self.brightness);
+        let usable =
+            self.threshold.is_finite() && self.threshold > 0.0 && self.noise.is_finite() && self.noise >= 0.0 && finite(self.radius) && finite(self.brightness);
         if !usable || self.params() == NormalizeParams::default() {
             return Err("damaged normalisation settings".into());
         }
@@ -277,7 +406,23 @@ impl Normalizer {
         if image.len() != self.features() {
             return Err(Rejection::Size { expected: self.features(), got: image.len() });
         }
-        find::locate(image, self.width as usize, self.height as usize, self.channels, self.background, self.threshold, self.edges)
+        let (mut p, sigma) = self.find(image)?;
+        // A noisy image's radius comes out larger by what the training views showed at that
+        // noise.
+        if let Some(s) = sigma {
+            p.radius /= self.radius_bias(s).exp();
+        }
+        Ok(p)
+    }
+
+    /// The object in `image` as found, and the image's pixel noise when it is noisy (found on a
+    /// smoothed copy), before any correction.
+    fn find(&self, image: &[f32]) -> std::result::Result<(Placement, Option<f32>), Rejection> {
+        let (w, h, c) = (self.width as usize, self.height as usize, self.channels);
+        // A noisy query is found on a smoothed copy.
+        let sigma = find::noise(image, w, h, c);
+        let noisy = (sigma > NOISY * self.noise).then_some(sigma);
+        find::locate(image, w, h, c, self.background, self.threshold, self.framed, self.edges, noisy).map(|p| (p, noisy))
     }
 
     /// Normalises `image` into `out` (both one row of [`Normalizer::features`] values): the
@@ -293,6 +438,12 @@ impl Normalizer {
     pub fn placement(&self, image: &[f32]) -> std::result::Result<[f64; 3], Rejection> {
         let p = self.locate(image)?;
         Ok([p.origin.0 as f64 + p.cx, p.origin.1 as f64 + p.cy, p.radius])
+    }
+
+    /// How many regions of the foreground the stage takes as the object in `image`: 1 for an
+    /// object seen in one piece, more where a dark part or a gap cuts it (a handle, a saucer).
+    pub fn parts(&self, image: &[f32]) -> std::result::Result<usize, Rejection> {
+        self.locate(image).map(|p| p.parts)
     }
 
     /// As [`Normalizer::apply`], but the object's centroid goes to `at[0], at[1]` (column, row,

@@ -1,8 +1,9 @@
 //! A model of any method behind the normalisation stage: [`Normalized`] normalises each query
 //! as its training images were, then asks the method's own model. Its metadata carries the stage
-//! (`normalize`), so the model file keeps it and [`crate::model_file::load`] puts it back.
+//! (`normalize`) and how it was decided (`stage_choice`), so the model file keeps both and
+//! [`crate::model_file::load`] puts the stage back.
 
-use super::{NormalizeParams, Normalizer};
+use super::{NormalizeParams, Normalizer, StageChoice};
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::model::{AnyModel, Method, MethodSpec, ModelMeta, PoseModel, Storage, Tensor};
@@ -29,7 +30,8 @@ use crate::Result;
 /// ```
 #[derive(Debug)]
 pub struct Normalized {
-    stage: Normalizer,
+    /// `None`: the queries go to the method's model as they are (training chose no stage).
+    stage: Option<Normalizer>,
     inner: AnyModel,
     meta: ModelMeta,
 }
@@ -45,14 +47,21 @@ impl Normalized {
 
     /// `inner` (fitted on images normalised by `stage`) behind `stage`.
     pub fn new(stage: Normalizer, inner: AnyModel) -> Self {
+        Self::recorded(Some(stage), inner, None)
+    }
+
+    /// `inner` behind `stage` (none: the images as they are), with the record of how the stage
+    /// was decided in its metadata.
+    pub fn recorded(stage: Option<Normalizer>, inner: AnyModel, choice: Option<StageChoice>) -> Self {
         let mut meta = inner.meta().clone();
-        meta.normalize = Some(stage.clone());
+        meta.normalize = stage.clone();
+        meta.stage_choice = choice;
         Normalized { stage, inner, meta }
     }
 
-    /// The stage.
-    pub fn stage(&self) -> &Normalizer {
-        &self.stage
+    /// The stage (`None` when the images go to the method as they are).
+    pub fn stage(&self) -> Option<&Normalizer> {
+        self.stage.as_ref()
     }
 
     /// The method's own model (which expects normalised images).
@@ -61,9 +70,14 @@ impl Normalized {
     }
 
     /// Normalises a batch of queries; a refused one is an error naming its place in the batch.
-    fn normalise(&self, queries: &[f32]) -> Result<Vec<f32>> {
-        crate::model::check_queries(self.stage.features(), queries.len(), "query batch")?;
-        self.stage.apply_queries(queries)
+    fn normalise<'q>(&self, queries: &'q [f32]) -> Result<std::borrow::Cow<'q, [f32]>> {
+        match &self.stage {
+            Some(stage) => {
+                crate::model::check_queries(stage.features(), queries.len(), "query batch")?;
+                Ok(stage.apply_queries(queries)?.into())
+            }
+            None => Ok(queries.into()),
+        }
     }
 }
 
@@ -78,13 +92,23 @@ impl PoseModel for Normalized {
         let q = self.normalise(queries)?;
         self.inner.predict_into(&q, out)
     }
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        match &self.stage {
+            // The method's own 8-bit path, where nothing is normalised.
+            None => self.inner.predict_u8_into(queries, out),
+            Some(_) => {
+                let f: Vec<f32> = queries.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
+                self.predict_into(&f, out)
+            }
+        }
+    }
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
         let q = self.normalise(queries)?;
         self.inner.estimate(&q, top)
     }
     fn model_bytes(&self) -> usize {
         // The stage's numbers: threshold, radius, brightness.
-        self.inner.model_bytes() + 3 * std::mem::size_of::<f64>()
+        self.inner.model_bytes() + self.stage.as_ref().map_or(0, |_| 3 * std::mem::size_of::<f64>())
     }
     fn storage(&self) -> Storage {
         self.inner.storage()
@@ -96,6 +120,6 @@ impl PoseModel for Normalized {
         self.inner.coefficients()
     }
     fn behind_stage(&self) -> Option<(&Normalizer, &dyn PoseModel)> {
-        Some((&self.stage, &self.inner))
+        self.stage.as_ref().map(|s| (s, &self.inner as &dyn PoseModel))
     }
 }

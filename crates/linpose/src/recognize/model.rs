@@ -57,6 +57,9 @@ pub struct ObjectSettings {
     /// are no pose models.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub views_only: bool,
+    /// How the normalisation was decided, when training decided it ([`ObjectModel::fit_staged`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage_choice: Option<crate::normalize::StageChoice>,
 }
 
 /// What an [`ObjectModel`] records about its second stage, each object's own eigenspace
@@ -234,6 +237,52 @@ impl ObjectModel {
         Ok(model)
     }
 
+    /// As [`ObjectModel::fit_with`], behind the normalisation `rule` decides: fixed, or chosen
+    /// on the objects' held-out training views ([`crate::stage_choice`]: every object's pose
+    /// model fitted without its held-out views, their errors pooled over the objects, for each of
+    /// off, brightness, geometry and all behind one stage fitted on every object's views). The
+    /// settings record the decision ([`ObjectSettings::stage_choice`]).
+    pub fn fit_staged(
+        objects: &ObjectSet,
+        params: &RecognizerParams,
+        method: &MethodSpec,
+        rule: crate::normalize::StageRule,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<Self> {
+        params.validate()?;
+        let choice = match rule {
+            crate::normalize::StageRule::Fixed(p) => crate::normalize::StageChoice::fixed(p),
+            crate::normalize::StageRule::Auto => crate::stage_choice::choose_objects(objects, method)?,
+        };
+        let mut model = match choice.params() {
+            p if p.is_on() => Self::fit_normalized(objects, params, method, p, progress)?,
+            _ => Self::fit_with(objects, params, method, progress)?,
+        };
+        model.settings.stage_choice = Some(choice);
+        Ok(model)
+    }
+
+    /// As [`ObjectModel::fit_views`], behind the normalisation `rule` asks for. Without poses
+    /// there is no pose error to choose on, so `auto` means none (the settings say so).
+    pub fn fit_views_staged(objects: &ObjectSet, params: &RecognizerParams, rule: crate::normalize::StageRule) -> Result<Self> {
+        let (choice, mut model) = match rule {
+            crate::normalize::StageRule::Fixed(p) if p.is_on() => (crate::normalize::StageChoice::fixed(p), Self::fit_views_normalized(objects, params, p)?),
+            crate::normalize::StageRule::Fixed(p) => (crate::normalize::StageChoice::fixed(p), Self::fit_views(objects, params)?),
+            crate::normalize::StageRule::Auto => (
+                crate::normalize::StageChoice::off("fitted without poses: no pose error to choose the stage on, so the images are used as they are"),
+                Self::fit_views(objects, params)?,
+            ),
+        };
+        model.settings.stage_choice = Some(choice);
+        Ok(model)
+    }
+
+    /// The same model with `choice` recorded as how its normalisation was decided.
+    pub fn with_stage_choice(mut self, choice: crate::normalize::StageChoice) -> Self {
+        self.settings.stage_choice = Some(choice);
+        self
+    }
+
     /// The normalisation stage queries go through first, if the model has one.
     pub fn stage(&self) -> Option<&Normalizer> {
         self.stage.as_ref()
@@ -300,6 +349,7 @@ impl ObjectModel {
             thresholds: Vec::new(),
             own: Some(own_settings),
             views_only,
+            stage_choice: None,
         };
         set_thresholds(&mut settings, params.unknown);
         Ok((recognizer, own.model, settings))

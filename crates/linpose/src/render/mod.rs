@@ -146,6 +146,7 @@ impl Renderer {
             diffuse: light.get_diffuse(),
             specular: light.get_specular(),
             shininess: light.get_shininess(),
+            background: p.get_background(),
         };
         self.samples.reset(sw, sh);
         self.samples.draw(&self.xyd, mesh.triangles());

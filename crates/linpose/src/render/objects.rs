@@ -4,8 +4,11 @@
 //!
 //! `duck`, `pot` and `cap` stand in for the paper's three objects; `twin` and `column` are the two
 //! cases its conclusion leaves open: an object whose front and back differ only by a small mark,
-//! and one whose appearance changes much more with azimuth than with elevation. Every object faces
-//! +x (the camera at azimuth 0) with z up.
+//! and one whose appearance changes much more with azimuth than with elevation. `mug` and `ring`
+//! are what real turntable sets hold and a segmentation must not take for two objects: a handle
+//! that parts from the body in the image, and an object of two bright parts around a hole,
+//! separated by parts as dark as a black background. Every object faces +x (the camera at
+//! azimuth 0) with z up.
 //!
 //! [`random`] generates any number of further objects from a seed (see [`super::random`]).
 
@@ -21,6 +24,8 @@ pub const OBJECTS: &[(&str, &str)] = &[
     ("cap", "a baseball cap: six-panel crown with seams, button, front logo, and a brim (the paper's CAP)"),
     ("twin", "a rounded block whose front and back look the same but for a small mark"),
     ("column", "a tall striped cylinder with dark ends: its appearance changes much more with azimuth than with elevation"),
+    ("mug", "a mug with a logo and a handle whose ends are black, so that the handle parts from the body in the image"),
+    ("ring", "an upright ring with two black sectors: two bright arcs around a hole, a part as dark as the background"),
 ];
 
 /// The built-in object `name` (see [`OBJECTS`]).
@@ -32,6 +37,8 @@ pub fn builtin(name: &str) -> Result<Mesh> {
         "cap" => cap(&mut b),
         "twin" => twin(&mut b),
         "column" => column(&mut b),
+        "mug" => mug(&mut b),
+        "ring" => ring(&mut b),
         _ => {
             let names: Vec<&str> = OBJECTS.iter().map(|o| o.0).collect();
             return Err(Error::invalid("object", name, format!("unknown built-in object; known: {}", names.join(", "))));
@@ -317,4 +324,67 @@ fn column(b: &mut Builder) {
             ([r * d[0], r * d[1], z], 0.1)
         });
     }
+}
+
+fn mug(b: &mut Builder) {
+    const R: f64 = 0.32;
+    const H: f64 = 0.75;
+    // Base disk, then the wall: pale, with a dark band near the rim and a logo on the +y side
+    // (a dark disk with a bright bar) so that the turn shows away from the handle too.
+    b.surface(72, 4, true, |u, v| {
+        let d = sphere_dir(u, 0.5);
+        ([R * v * d[0], R * v * d[1], 0.0], 0.6)
+    });
+    b.surface(96, 30, true, |u, v| {
+        let d = sphere_dir(u, 0.5);
+        let z = H * v;
+        let phi = longitude(d[0], d[1]);
+        let mut a = mix(0.85, 0.3, spot((z - 0.64).abs(), 0.025, 0.01));
+        let logo = spot(hypot((phi - 70.0) / 180.0, z - 0.36), 0.11, 0.015);
+        a = mix(a, 0.25, logo);
+        a = mix(a, 0.95, logo * spot((z - 0.36).abs(), 0.025, 0.01));
+        a = mix(a, 0.4, spot(hypot((phi + 100.0) / 180.0, z - 0.25), 0.05, 0.015));
+        ([R * d[0], R * d[1], z], a)
+    });
+    // Coffee: a dark disk just below the rim.
+    b.surface(72, 4, true, |u, v| {
+        let d = sphere_dir(u, 0.5);
+        ([R * v * d[0], R * v * d[1], H - 0.06], 0.12)
+    });
+    // Handle: a C on the -x side whose ends, where it meets the wall, are black.
+    b.tube(
+        16,
+        32,
+        |t| {
+            let th = PI * (t - 0.5);
+            [-R + 0.02 - 0.24 * libm::cos(th), 0.0, 0.4 + 0.24 * libm::sin(th)]
+        },
+        |_| 0.05,
+        |_, t| 0.8 * smooth(0.12, 0.2, t) * smooth(0.12, 0.2, 1.0 - t),
+    );
+}
+
+fn ring(b: &mut Builder) {
+    // A torus standing in the xz-plane, its hole facing the y axis. Two black sectors of
+    // different widths cut it into two bright arcs; a dark dot on one arc's +y face and a band
+    // on the other tell its sides and ends apart.
+    const MAJOR: f64 = 0.6;
+    b.tube(
+        24,
+        144,
+        |t| {
+            let th = 2.0 * PI * t;
+            [MAJOR * libm::cos(th), 0.0, MAJOR * libm::sin(th)]
+        },
+        |_| 0.13,
+        |u, t| {
+            let deg = 360.0 * t;
+            let black = spot((deg - 100.0).abs(), 9.0, 2.0).max(spot((deg - 250.0).abs(), 15.0, 2.0));
+            let mut a = mix(0.8, 0.0, black);
+            // u = 1/4 is the tube's +y side.
+            a = mix(a, 0.3, spot(hypot((deg - 20.0) / 40.0, u - 0.25), 0.12, 0.03));
+            a = mix(a, 0.45, spot((deg - 175.0).abs(), 4.0, 1.5));
+            a
+        },
+    );
 }

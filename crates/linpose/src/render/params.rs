@@ -170,12 +170,13 @@ pub struct RenderParams {
     camera: Camera,
     light: Light,
     exposure: f64,
+    background: f64,
 }
 
 impl Default for RenderParams {
     /// The paper's 160 x 120 images, 2 x 2 supersampling, orthographic, default light.
     fn default() -> Self {
-        RenderParams { width: 160, height: 120, supersample: 2, camera: Camera::default(), light: Light::default(), exposure: 1.0 }
+        RenderParams { width: 160, height: 120, supersample: 2, camera: Camera::default(), light: Light::default(), exposure: 1.0, background: 0.0 }
     }
 }
 
@@ -205,6 +206,17 @@ impl RenderParams {
         /// clipped to white, as a camera's gain or shutter changes it.
         exposure: f64
     );
+
+    setter!(
+        /// Sets the brightness of the background, where no surface is seen (default 0, black;
+        /// in [0, 1]): a studio backdrop of gray paper or cloth. The exposure scales it too.
+        background: f64
+    );
+
+    /// The background's brightness.
+    pub fn get_background(&self) -> f64 {
+        self.background
+    }
 
     /// The exposure.
     pub fn get_exposure(&self) -> f64 {
@@ -249,6 +261,9 @@ impl RenderParams {
         }
         if !(self.exposure.is_finite() && self.exposure > 0.0 && self.exposure <= 16.0) {
             return Err(Error::invalid("exposure", self.exposure, "must be in (0, 16]"));
+        }
+        if !(0.0..=1.0).contains(&self.background) {
+            return Err(Error::invalid("background", self.background, "must be a brightness in [0, 1]"));
         }
         if let Projection::Perspective { distance } = c.projection {
             if !(distance.is_finite() && distance >= 1.5) {

@@ -29,6 +29,8 @@ pub(crate) struct Shading {
     pub diffuse: f64,
     pub specular: f64,
     pub shininess: u32,
+    /// The brightness of a sample no surface covers.
+    pub background: f64,
 }
 
 const EMPTY: u32 = u32::MAX;
@@ -126,9 +128,10 @@ impl Samples {
                     for sx in 0..ss {
                         let k = row + sx;
                         let t = self.tri[k];
-                        if t != EMPTY {
-                            sum += shade(verts, triangles[t as usize], self.b1[k], self.b2[k], shading);
-                        }
+                        sum += match t {
+                            EMPTY => shading.background,
+                            t => shade(verts, triangles[t as usize], self.b1[k], self.b2[k], shading),
+                        };
                     }
                 }
                 out[py * pw + px] = quantise(sum / norm);
@@ -205,7 +208,7 @@ mod tests {
     use super::*;
 
     const V: Projected = Projected { normal: [0.0, 0.0, 1.0], albedo: 1.0, facing: 1.0 };
-    const FLAT: Shading = Shading { light: [0.0, 0.0, 1.0], half: [0.0, 0.0, 1.0], ambient: 0.0, diffuse: 1.0, specular: 0.0, shininess: 1 };
+    const FLAT: Shading = Shading { light: [0.0, 0.0, 1.0], half: [0.0, 0.0, 1.0], ambient: 0.0, diffuse: 1.0, specular: 0.0, shininess: 1, background: 0.0 };
 
     #[test]
     fn a_square_of_two_triangles_covers_its_samples_once() {

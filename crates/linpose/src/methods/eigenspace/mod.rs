@@ -267,6 +267,7 @@ impl EigenspaceParams {
             train_poses: train.poses().to_vec(),
             settings: serde_json::Value::Null,
             normalize: None,
+            stage_choice: None,
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), to32(&dense.points), dense.axes, Some(look))

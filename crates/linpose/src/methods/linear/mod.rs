@@ -492,6 +492,7 @@ impl LinearParams {
             train_poses: train.poses().to_vec(),
             settings: serde_json::json!({ "params": self, "lambda": lambda, "loo_mean_deg": loo }),
             normalize: None,
+            stage_choice: None,
         };
         Ok(LinearModel::new(meta, w, bias, spread))
     }

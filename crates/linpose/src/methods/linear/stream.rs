@@ -332,6 +332,7 @@ pub(crate) fn solve_model(ne: NormalEquations, space: &PoseSpace, train_poses: &
             "dark_pixels": solved.dark,
         }),
         normalize: None,
+        stage_choice: None,
     };
     Ok(LinearModel::new(meta, solved.w, vec![0.0; k], solved.spread))
 }

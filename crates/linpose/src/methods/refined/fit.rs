@@ -140,6 +140,7 @@ impl Estimator for RefinedParams {
             train_poses: train.poses().to_vec(),
             settings: serde_json::Value::Null,
             normalize: None,
+            stage_choice: None,
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         let look = SecondLook::fit(full, &grid, interpolant)?;

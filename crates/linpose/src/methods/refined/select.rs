@@ -191,7 +191,7 @@ pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) 
                     residual_energy: pca.eigenvalues[l..].iter().map(|&v| v.max(0.0)).sum::<f64>() / fit.len() as f64,
                     ..fold_settings(&params, l, sub_grid.shape())
                 };
-                let meta = ModelMeta { method: METHOD.name.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null, normalize: None };
+                let meta = ModelMeta { method: METHOD.name.into(), spec: fit.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null, normalize: None, stage_choice: None };
                 let mean = pca.mean.iter().map(|&v| v as f32).collect();
                 let background = vec![0.0; knots.len()];
                 let model = RefinedModel::new(meta, settings, basis, mean, knots, background, sub_grid.axes.clone())?;
@@ -360,7 +360,7 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
             bin: views.binning.factor(),
             ..fold_settings(params, l, sub_grid.shape())
         };
-        let meta = ModelMeta { method: METHOD.name.into(), spec: views.full.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null, normalize: None };
+        let meta = ModelMeta { method: METHOD.name.into(), spec: views.full.spec(), space: space.clone(), train_poses: vec![], settings: serde_json::Value::Null, normalize: None, stage_choice: None };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         let mut model = RefinedModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), knots, background, sub_grid.axes.clone())?;
         let mut cands: Vec<(usize, bool)> = CANDIDATES.iter().filter(|&&c| c <= l).map(|&c| (c, false)).collect();
