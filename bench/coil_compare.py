@@ -3,8 +3,9 @@
 
   coil_compare.py [--method linear|eigenspace] [--noise A] [--coil DIR] [--linpose BIN] [--python PY]
 
-For each object: the peer (`peer.py --only METHOD`) and `linpose train` + `linpose eval` on the
-same images, train step 10. Prints per-object unseen mean errors, their difference, and the
+For each object: the peer (`peer.py --only METHOD`) and `linpose train --no-normalize` +
+`linpose eval` on the same images, train step 10 (the same maths on the images as given: the
+peer has no normalisation stage). Prints per-object unseen mean errors, their difference, and the
 whole-process times; exits non-zero when an object differs by more than --tol degrees.
 """
 import argparse, json, os, subprocess, sys, tempfile, time
@@ -37,7 +38,7 @@ for o in range(int(lo), int(hi or lo) + 1):
     peer = json.load(open(pj))[a.method]
     model, lj, ej = (os.path.join(tmp, f"{x}{o}") for x in ("m", "t", "e"))
     t0 = time.perf_counter()
-    subprocess.run([a.linpose, "train", "--data", a.coil, "--object", str(o), "--train-step", "10", "--method", a.method, "--out", model, "--json", lj] + a.extra.split(), check=True, capture_output=True)
+    subprocess.run([a.linpose, "train", "--data", a.coil, "--object", str(o), "--train-step", "10", "--method", a.method, "--no-normalize", "--out", model, "--json", lj] + a.extra.split(), check=True, capture_output=True)
     subprocess.run([a.linpose, "eval", "--model", model, "--data", a.coil, "--object", str(o), "--noise", str(a.noise), "--json", ej], check=True, capture_output=True)
     t_ours = time.perf_counter() - t0
     ours = json.load(open(ej))

@@ -15,7 +15,7 @@
    to the peer's run.
 
     python3 bench/recognize.py DATA [--linpose target/release/linpose] [--method refined]
-        [--normalize] [--peer ../.peer-venv/bin/python] [--repeats 3] [--json OUT]
+        [--normalize WHAT] [--peer ../.peer-venv/bin/python] [--repeats 3] [--json OUT]
 """
 
 import argparse
@@ -69,7 +69,7 @@ def main():
     ap.add_argument("--peer", help="python with numpy, scipy, scikit-learn, pillow")
     ap.add_argument("--peer-script", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "shared", "peer", "recognize.py"))
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--normalize", action="store_true", help="train behind the normalisation stage (train --normalize)")
+    ap.add_argument("--normalize", default=None, help="train --normalize WHAT (default: what train chooses)")
     ap.add_argument("--json")
     a = ap.parse_args()
     out = {"data": a.data, "method": a.method, "normalize": a.normalize, "rows": []}
@@ -81,8 +81,9 @@ def main():
         for rec in a.recognizers.split(","):
             base = [a.linpose, "train", "--data", a.data, "--train-step", a.train_step, "--method", a.method, "--recognizer", rec, "--out", model]
             if a.normalize:
-                base.append("--normalize")
-            t_train = run(base)
+                base += ["--normalize", a.normalize]
+            t_train = run(base + ["--json", os.path.join(tmp, "train.json")])
+            chosen = json.load(open(os.path.join(tmp, "train.json")))["settings"].get("stage_choice", {}).get("chosen")
             t_eval = run([a.linpose, "eval", "--model", model, "--data", a.data, "--json", ev])
             r = json.load(open(ev))
             objects = r["objects"]
@@ -96,6 +97,7 @@ def main():
                 "eval_s": t_eval,
                 "model_bytes": r["model_bytes"],
                 "refused": len(r.get("rejected", [])),
+                "stage": chosen,
             }
             row.update(left_out_rates(a.linpose, base, model, a.data, objects, a.folds, ev))
             out["rows"].append(row)

@@ -12,7 +12,7 @@
 //! silhouette's moments (every object pixel weighing 1) were measured against these: they serve
 //! the twin better and the duck, the pot, the cap and COIL-20 worse (docs/normalization.md).
 
-use super::tuning::{BLOB_SHARE, JOIN_GAP, NOISE_FACTOR, NOISE_SIGMAS, PART_SHARE, SMOOTH};
+use super::tuning::{BLOB_SHARE, JOIN_GAP, NOISE_FACTOR, NOISE_ROW_STEP, NOISE_SIGMAS, PART_SHARE, SMOOTH};
 use super::{Background, Rejection};
 
 /// Where the object is and how large: what [`super::Normalizer::apply`] needs to resample it.
@@ -109,7 +109,6 @@ pub(crate) fn locate(
     edges: bool,
     noisy: Option<f32>,
 ) -> Result<Placement, Rejection> {
-    let n = w * h;
     if img.iter().any(|v| !v.is_finite()) {
         return Err(Rejection::NotFinite);
     }
@@ -167,32 +166,53 @@ pub(crate) fn locate(
             dev.iter().map(|d| d - floor).collect::<Vec<f32>>().into()
         }
     };
-    // 8-connected regions of the foreground by flood fill; label 0 is background.
-    let mut label = vec![0u32; n];
-    let mut regions: Vec<Region> = Vec::new();
-    let mut stack = Vec::new();
-    for start in 0..n {
-        if label[start] != 0 || dev[start] <= t {
-            continue;
-        }
-        let id = regions.len() as u32 + 1;
-        let mut r = Region::new(start % w, start / w);
-        label[start] = id;
-        stack.push(start);
-        while let Some(i) = stack.pop() {
-            let (x, y) = (i % w, i / w);
-            r.add(x, y, dev[i] as f64, w, h);
-            for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
-                for nx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
-                    let j = ny * w + nx;
-                    if label[j] == 0 && dev[j] > t {
-                        label[j] = id;
-                        stack.push(j);
+    // 8-connected regions of the foreground: the runs of each row, joined to the runs of the row
+    // above that touch them (overlapping or diagonally adjacent) through a union-find.
+    let mut runs: Vec<Run> = Vec::new();
+    let mut parent: Vec<usize> = Vec::new();
+    let mut above = 0..0;
+    for y in 0..h {
+        let row = &dev[y * w..(y + 1) * w];
+        let first = runs.len();
+        let mut x = 0;
+        while x < w {
+            if row[x] <= t {
+                x += 1;
+                continue;
+            }
+            let start = x;
+            let mut weight = 0.0f64;
+            while x < w && row[x] > t {
+                weight += row[x] as f64;
+                x += 1;
+            }
+            let id = runs.len();
+            parent.push(id);
+            for k in above.clone() {
+                let r: &Run = &runs[k];
+                if r.x0 <= x && start <= r.x1 {
+                    let (a, b) = (root(&mut parent, k), root(&mut parent, id));
+                    if a != b {
+                        parent[a.max(b)] = a.min(b);
                     }
                 }
             }
+            runs.push(Run { y, x0: start, x1: x, weight });
         }
-        regions.push(r);
+        above = first..runs.len();
+    }
+    // Each region's totals, at its root's place, in the order of the roots.
+    let mut of_root = vec![usize::MAX; runs.len()];
+    let mut regions: Vec<Region> = Vec::new();
+    let mut region_of = vec![0usize; runs.len()];
+    for (k, r) in runs.iter().enumerate() {
+        let top = root(&mut parent, k);
+        if of_root[top] == usize::MAX {
+            of_root[top] = regions.len();
+            regions.push(Region::new(r.x0, r.y));
+        }
+        region_of[k] = of_root[top];
+        regions[of_root[top]].add_run(r, w, h);
     }
     let Some(main) = (0..regions.len()).max_by(|&a, &b| regions[a].weight.total_cmp(&regions[b].weight)) else {
         return Err(Rejection::Empty { threshold: t, level: level[0] });
@@ -219,43 +239,37 @@ pub(crate) fn locate(
         return Err(Rejection::TouchesEdge { sides: object.touches });
     }
     // Moments from the bounding box corner, row by row: two passes, the centroid then the spread.
-    // A noisy image's object is widened by a ring of RING pixels: whether a pixel at its edge
-    // passes the threshold depends on its own noise, so the edge pixels that pass carry positive
-    // noise, and moments over them alone would put weight outwards (the radius 0.1-0.3% too
-    // large at +-2-10%); with the ring, the edge is decided by the object, and the ring's
-    // background weighs nothing on average.
-    let ring = 0;
-    let (x0, y0) = (object.x0.saturating_sub(ring), object.y0.saturating_sub(ring));
-    let (x1, y1) = ((object.x1 + ring).min(w - 1), (object.y1 + ring).min(h - 1));
-    let in_part = |x: usize, y: usize| {
-        let l = label[y * w + x];
-        l != 0 && part[l as usize - 1]
-    };
-    let mask: Vec<bool> = match ring {
-        0 => Vec::new(),
-        r => (y0..=y1)
-            .flat_map(|y| (x0..=x1).map(move |x| (x, y)))
-            .map(|(x, y)| (y.saturating_sub(r)..=(y + r).min(h - 1)).any(|yy| (x.saturating_sub(r)..=(x + r).min(w - 1)).any(|xx| in_part(xx, yy))))
-            .collect(),
-    };
-    let in_object = |x: usize, y: usize| match ring {
-        0 => in_part(x, y),
-        _ => mask[(y - y0) * (x1 - x0 + 1) + (x - x0)],
-    };
-    let pixels = || {
-        (y0..=y1)
-            .flat_map(move |y| (x0..=x1).map(move |x| (x, y)))
-            .filter(|&(x, y)| in_object(x, y))
-            .map(|(x, y)| ((x - x0) as f64, (y - y0) as f64, weights[y * w + x] as f64))
-    };
+    let (x0, y0) = (object.x0, object.y0);
+    // Row by row (the runs are in row order, each row's from the left): the row's weight and
+    // its first moment along x, then the row's place.
+    let parts_runs: Vec<&Run> = runs.iter().zip(&region_of).filter(|(_, &g)| part[g]).map(|(r, _)| r).collect();
     let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
-    for (x, y, d) in pixels() {
-        sw += d;
-        sx += d * x;
-        sy += d * y;
+    let mut k = 0;
+    while k < parts_runs.len() {
+        let y = parts_runs[k].y;
+        let (mut rw, mut rx) = (0.0f64, 0.0f64);
+        while k < parts_runs.len() && parts_runs[k].y == y {
+            let r = parts_runs[k];
+            for x in r.x0..r.x1 {
+                let d = weights[y * w + x] as f64;
+                rw += d;
+                rx += d * (x - x0) as f64;
+            }
+            k += 1;
+        }
+        sw += rw;
+        sx += rx;
+        sy += rw * (y - y0) as f64;
     }
     let (cx, cy) = (sx / sw, sy / sw);
-    let s2: f64 = pixels().map(|(x, y, d)| d * ((x - cx) * (x - cx) + (y - cy) * (y - cy))).sum();
+    let mut s2 = 0.0;
+    for r in &parts_runs {
+        let dy = (r.y - y0) as f64 - cy;
+        for x in r.x0..r.x1 {
+            let dx = (x - x0) as f64 - cx;
+            s2 += weights[r.y * w + x] as f64 * (dx * dx + dy * dy);
+        }
+    }
     // A box of 2k + 1 pixels adds its variance, ((2k + 1)^2 - 1) / 12, along each axis.
     let spread = 2.0 * (((2 * smooth + 1) * (2 * smooth + 1)) as f64 - 1.0) / 12.0;
     let radius = (s2 / sw - spread).max(s2 / sw / 4.0).sqrt();
@@ -285,14 +299,23 @@ pub(crate) fn noise(img: &[f32], w: usize, h: usize, c: usize) -> f32 {
     if w < 3 || h < 3 {
         return 0.0;
     }
-    let px = |x: usize, y: usize| img[(y * w + x) * c..(y * w + x + 1) * c].iter().sum::<f32>() / c as f32;
-    let mut r: Vec<f32> = (1..h - 1)
-        .flat_map(|y| (1..w - 1).map(move |x| (x, y)))
-        .map(|(x, y)| {
-            let p = |dx: usize, dy: usize| px(x + dx - 1, y + dy - 1);
-            (p(0, 0) - 2.0 * p(1, 0) + p(2, 0) - 2.0 * p(0, 1) + 4.0 * p(1, 1) - 2.0 * p(2, 1) + p(0, 2) - 2.0 * p(1, 2) + p(2, 2)).abs()
-        })
-        .collect();
+    // Every NOISE_ROW_STEP-th interior row: the median of a few thousand responses is as good,
+    // and the estimate stays a small part of a query's normalisation.
+    let gray = |y: usize| -> std::borrow::Cow<[f32]> {
+        let row = &img[y * w * c..(y + 1) * w * c];
+        match c {
+            1 => row.into(),
+            _ => row.chunks_exact(c).map(|px| px.iter().sum::<f32>() / c as f32).collect::<Vec<f32>>().into(),
+        }
+    };
+    let mut r = Vec::with_capacity((h / NOISE_ROW_STEP + 1) * (w - 2));
+    for y in (1..h - 1).step_by(NOISE_ROW_STEP) {
+        let (a, b, d) = (gray(y - 1), gray(y), gray(y + 1));
+        for x in 1..w - 1 {
+            let v = (a[x - 1] + a[x + 1] + d[x - 1] + d[x + 1]) - 2.0 * (a[x] + b[x - 1] + b[x + 1] + d[x]) + 4.0 * b[x];
+            r.push(v.abs());
+        }
+    }
     // For Gaussian noise the median absolute response is 0.6745 of its deviation, 6 sigma.
     median(&mut r) / (0.6745 * 6.0)
 }
@@ -328,6 +351,23 @@ pub(crate) struct Apart {
     /// The farthest a part of the object may lie from that region (pixels): [`JOIN_GAP`] times
     /// its size.
     pub limit: f64,
+}
+
+/// A run of foreground pixels in one row: columns `x0` to `x1` (exclusive), its summed deviation.
+struct Run {
+    y: usize,
+    x0: usize,
+    x1: usize,
+    weight: f64,
+}
+
+/// The root of `k` in the union-find `parent`, halving the path on the way.
+fn root(parent: &mut [usize], mut k: usize) -> usize {
+    while parent[k] != k {
+        parent[k] = parent[parent[k]];
+        k = parent[k];
+    }
+    k
 }
 
 /// A region's running totals while it is filled.
@@ -371,15 +411,15 @@ impl Region {
         self
     }
 
-    fn add(&mut self, x: usize, y: usize, d: f64, w: usize, h: usize) {
-        self.weight += d;
-        self.x0 = self.x0.min(x);
-        self.y0 = self.y0.min(y);
-        self.x1 = self.x1.max(x);
-        self.y1 = self.y1.max(y);
-        self.touches[0] |= x == 0;
-        self.touches[1] |= x + 1 == w;
-        self.touches[2] |= y == 0;
-        self.touches[3] |= y + 1 == h;
+    fn add_run(&mut self, r: &Run, w: usize, h: usize) {
+        self.weight += r.weight;
+        self.x0 = self.x0.min(r.x0);
+        self.y0 = self.y0.min(r.y);
+        self.x1 = self.x1.max(r.x1 - 1);
+        self.y1 = self.y1.max(r.y);
+        self.touches[0] |= r.x0 == 0;
+        self.touches[1] |= r.x1 == w;
+        self.touches[2] |= r.y == 0;
+        self.touches[3] |= r.y + 1 == h;
     }
 }

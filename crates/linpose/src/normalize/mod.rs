@@ -465,7 +465,10 @@ impl Normalizer {
         }
         let p = self.locate(image)?;
         let (w, h, c) = (self.width as usize, self.height as usize, self.channels);
-        let shifted: Vec<f32> = image.chunks_exact(c).flat_map(|px| px.iter().zip(&p.level).map(|(v, b)| v - b)).collect();
+        let shifted: Vec<f32> = match c {
+            1 => image.iter().map(|v| v - p.level[0]).collect(),
+            _ => image.chunks_exact(c).flat_map(|px| px.iter().zip(&p.level).map(|(v, b)| v - b)).collect(),
+        };
         let gain = self.brightness.map_or(1.0, |b| (b / p.brightness()) as f32);
         match at {
             Some([x, y, r]) => {
