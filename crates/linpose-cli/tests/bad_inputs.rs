@@ -146,8 +146,8 @@ const CASES: &[Case] = &[
     model!("other_program", &["bad.safetensors", "safetensors file of another program"]),
     model!("no_metadata", &["bad.safetensors", "without linpose metadata"]),
     model!("no_format_version", &["bad.safetensors", "no format_version"]),
-    model!("format_version_1", &["bad.safetensors", "format version 1", "earlier linpose", "reads version 6", "retrain"]),
-    model!("format_version_7", &["bad.safetensors", "format version 7", "newer linpose", "reads version 6", "retrain"]),
+    model!("format_version_1", &["bad.safetensors", "format version 1", "earlier linpose", "reads version 7", "retrain"]),
+    model!("format_version_8", &["bad.safetensors", "format version 8", "newer linpose", "reads version 7", "retrain"]),
     model!("shape_disagrees", &["bad.safetensors", "'weights'", "[2, 100]", "[2, 192]"]),
     model!("wrong_dtype", &["bad.safetensors", "'weights'", "dtype"]),
     model!("missing_tensor", &["bad.safetensors", "no tensor 'bias'"]),
@@ -663,7 +663,7 @@ mod gen {
         let settings = r#"{"center":false,"ridge":0.0,"pair_spread":[0.1]}"#;
         let m = meta("linear", 16, settings);
         let w: Vec<f32> = (0..2 * 192).map(|i| (i % 5) as f32 * 1e-3).collect();
-        let good = st(&header("linpose", Some("6"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w));
+        let good = st(&header("linpose", Some("7"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w));
         let mut nan_w = w.clone();
         nan_w[7] = f32::NAN;
         let mut past_end = good.clone();
@@ -676,36 +676,36 @@ mod gen {
             ("models/no_metadata.safetensors", st(r#"{"w":{"dtype":"F32","shape":[2],"data_offsets":[0,8]}}"#, &[0; 8])),
             ("models/no_format_version.safetensors", st(&header("linpose", None, &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
             ("models/format_version_1.safetensors", st(&header("linpose", Some("1"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
-            ("models/format_version_7.safetensors", st(&header("linpose", Some("7"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
-            ("models/shape_disagrees.safetensors", st(&header("linpose", Some("6"), &m, &linear_tensors("F32", "[2,100]", 4 * 200)), &linear_data(&w[..200]))),
-            ("models/wrong_dtype.safetensors", st(&header("linpose", Some("6"), &m, &linear_tensors("I32", "[2,192]", 4 * 384)), &linear_data(&w))),
+            ("models/format_version_8.safetensors", st(&header("linpose", Some("8"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w))),
+            ("models/shape_disagrees.safetensors", st(&header("linpose", Some("7"), &m, &linear_tensors("F32", "[2,100]", 4 * 200)), &linear_data(&w[..200]))),
+            ("models/wrong_dtype.safetensors", st(&header("linpose", Some("7"), &m, &linear_tensors("I32", "[2,192]", 4 * 384)), &linear_data(&w))),
             (
                 "models/missing_tensor.safetensors",
-                st(&header("linpose", Some("6"), &m, r#","weights":{"dtype":"F32","shape":[2,192],"data_offsets":[0,1536]}"#), &linear_data(&w)[16..]),
+                st(&header("linpose", Some("7"), &m, r#","weights":{"dtype":"F32","shape":[2,192],"data_offsets":[0,1536]}"#), &linear_data(&w)[16..]),
             ),
             (
                 "models/unknown_method.safetensors",
-                st(&header("linpose", Some("6"), &meta("quadratic", 16, settings), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
+                st(&header("linpose", Some("7"), &meta("quadratic", 16, settings), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
             ),
             (
                 "models/damaged_metadata.safetensors",
-                st(&header("linpose", Some("6"), r##""{\"method\":\"linear\",\"spec\":""##, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
+                st(&header("linpose", Some("7"), r##""{\"method\":\"linear\",\"spec\":""##, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
             ),
             (
                 "models/zero_image_size.safetensors",
-                st(&header("linpose", Some("6"), &meta("linear", 0, settings), &linear_tensors("F32", "[2,0]", 0)), &linear_data(&[])),
+                st(&header("linpose", Some("7"), &meta("linear", 0, settings), &linear_tensors("F32", "[2,0]", 0)), &linear_data(&[])),
             ),
-            ("models/nan_weights.safetensors", st(&header("linpose", Some("6"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&nan_w))),
+            ("models/nan_weights.safetensors", st(&header("linpose", Some("7"), &m, &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&nan_w))),
             (
                 "models/linear_without_pair_spread.safetensors",
                 st(
-                    &header("linpose", Some("6"), &meta("linear", 16, r#"{"center":false,"ridge":0.0}"#), &linear_tensors("F32", "[2,192]", 4 * 384)),
+                    &header("linpose", Some("7"), &meta("linear", 16, r#"{"center":false,"ridge":0.0}"#), &linear_tensors("F32", "[2,192]", 4 * 384)),
                     &linear_data(&w),
                 ),
             ),
             (
                 "models/eigenspace_without_settings.safetensors",
-                st(&header("linpose", Some("6"), &meta("eigenspace", 16, "null"), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
+                st(&header("linpose", Some("7"), &meta("eigenspace", 16, "null"), &linear_tensors("F32", "[2,192]", 4 * 384)), &linear_data(&w)),
             ),
             ("models/data_past_the_end.safetensors", past_end),
         ]

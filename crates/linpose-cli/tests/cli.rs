@@ -229,7 +229,9 @@ mod bad_input {
         let text = bytes.clone();
         let current = format!("\"format_version\":\"{}", linpose::model_file::FORMAT_VERSION);
         let pos = text.windows(current.len()).position(|w| w == current.as_bytes()).expect("version in header");
-        for (v, whose) in [(b'7', "newer"), (b'1', "earlier")] {
+        // One more than the current version (a single digit here), and version 1.
+        let newer = b'0' + linpose::model_file::FORMAT_VERSION as u8 + 1;
+        for (v, whose) in [(newer, "newer"), (b'1', "earlier")] {
             let mut other = bytes.clone();
             other[pos + 18] = v;
             std::fs::write(d.path("other.safetensors"), &other).unwrap();

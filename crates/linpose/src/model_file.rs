@@ -37,7 +37,7 @@ use std::path::Path;
 
 /// The model file format version this linpose writes and reads. Files of another version are
 /// refused with a message that says to retrain: the format has no compatibility layer.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 
 /// Serialises a model to safetensors bytes.
 ///
