@@ -142,8 +142,8 @@ pub(crate) fn locate(
         _ => img.chunks_exact(c).map(|px| deviation(px, &level)).collect(),
     };
     // A noisy image's moments are weighted by the smoothed pixels' deviations less what the
-    // noise alone gives the background, so that background pixels weigh nothing on average
-    // (see `ring` below). On a dark background, clipped noise lifts a pixel of value v by its
+    // noise alone gives the background, so that the background pixels the smoothed threshold
+    // lets in weigh little. On a dark background, clipped noise lifts a pixel of value v by its
     // mean: for uniform noise of amplitude a, (a - v)^2 / 4a below a. The border's lift (v = 0)
     // gives a = 4 x lift, and the lift is undone: v = 2 sqrt(a s) - a for a smoothed value s
     // below a (negative for the background's own noise, as often as it is positive above).

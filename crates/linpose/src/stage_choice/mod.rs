@@ -20,22 +20,23 @@
 //!    views together: a stage that serves clean views and costs noisy ones is scored on both,
 //!    and a view turned around (more than [`GROSS_DEG`] off) weighs in with its whole error.
 //! 4. The simplest candidate (in the order off, brightness, geometry, all) whose score is within
-//!    three (`MARGIN`, stage_choice/tuning.rs) standard errors of the best's (the standard deviation of the
-//!    best's errors over the square root of their number) wins. A stage is taken only when the
-//!    held-out views show that it pays by clearly more than chance.
+//!    three standard errors (`MARGIN`, stage_choice/tuning.rs) of the best's (the standard
+//!    deviation of the best's errors over the square root of their number) wins. A stage is
+//!    taken only when the held-out views show that it pays by clearly more than chance.
 //!
 //! The folds are the refined method's, and the noise levels the ones it simulates for its noisy
 //! match. The margin is the one constant developed on data (`tuning.rs` says how): held-out
 //! views lie twice as far from the training views as a fresh view does, where registration
-//! helps more than it does at the training spacing, so a gain there must be clear to last.
-//! What it cannot see: a stage that serves the held-out views by more than the margin and costs
-//! the fresh ones a little (docs/normalization.md has the cases measured). The stage is fitted once on all
-//! the training views (a median radius and brightness, which one view hardly moves); only the
-//! method is refitted without the held-out views. A candidate the stage cannot apply (a training
-//! view with a second object apart from the first) is recorded with the reason and left out.
-//! What it costs: the method is fitted once per fold and candidate (16 fits for a grid of two
-//! pose axes), on about half the training views each, and estimates the held-out views three
-//! times.
+//! helps more than it does at the training spacing, so a gain there must be clear to last. What
+//! it cannot see: a stage that serves the held-out views by more than the margin and costs the
+//! fresh ones a little (docs/normalization.md has the cases measured).
+//!
+//! The stage is fitted once on all the training views (a median radius and brightness, which one
+//! view hardly moves); only the method is refitted without the held-out views. A candidate the
+//! stage cannot apply (a training view with a second object apart from the first) is recorded
+//! with the reason and left out. What it costs: the method is fitted once per fold and candidate
+//! (16 fits for a grid of two pose axes), on about half the training views each, and estimates
+//! the held-out views three times.
 
 mod tuning;
 
