@@ -3,8 +3,11 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod args;
 mod cmd;
 mod common;
+mod plan;
+mod queries;
 mod report;
 
 /// Pose estimation from appearance: Okatani & Deguchi's linear model and Murase & Nayar's
@@ -19,13 +22,13 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Train a model on a data set and write it to a model file.
-    Train(cmd::train::TrainArgs),
+    Train(args::TrainArgs),
     /// Add up partial training statistics (train --shard I/N --partial FILE) into the model.
     Merge(cmd::shard::MergeArgs),
     /// Estimate the pose of images with a trained model.
-    Predict(cmd::predict::PredictArgs),
+    Predict(args::PredictArgs),
     /// Estimate every sample of a data set and report the errors.
-    Eval(cmd::eval::EvalArgs),
+    Eval(args::EvalArgs),
     /// Render a turntable data set of a built-in object or a mesh.
     Synth(cmd::synth::SynthArgs),
     /// Run the paper's experiments and write a report (the main job).

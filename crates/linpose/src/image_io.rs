@@ -136,7 +136,7 @@ pub fn read_image(path: &Path, color: ColorMode) -> Result<(u32, u32, QueryImage
 /// of an 8-bit pixel (so features made from pixels in memory match those read from files).
 #[inline]
 pub fn feature_of_u8(v: u8) -> f32 {
-    v as f32 * crate::kernels::levels::S8
+    crate::kernels::levels::feature_of_u8(v)
 }
 
 /// The feature of a 16-bit value `v`: v / 65535 as an f32, as the image reader makes it.

@@ -41,7 +41,7 @@
 //!   ([`confidence`]).
 //! - **Normalisation**: [`normalize`] finds the object in each image and centres and scales it
 //!   (optionally its brightness too) before a method sees it, so a camera's images need not be
-//!   registered like the training views ([`normalize::Normalized`] puts any method's model
+//!   registered like the training views ([`model::Normalized`] puts any method's model
 //!   behind the stage; the model file keeps it).
 //! - **Model files**: [`model_file`] saves and loads models as safetensors.
 //! - **Memory**: [`memory`] plans a training run before it allocates: what fitting in memory and
@@ -60,6 +60,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
+#[doc(hidden)]
+pub mod bench;
 pub(crate) mod binning;
 pub mod catalog;
 pub mod confidence;
@@ -67,10 +69,12 @@ pub mod dataset;
 pub mod error;
 pub mod eval;
 pub mod experiment;
+pub(crate) mod huge;
 pub mod image_io;
 pub(crate) mod kernels;
 pub(crate) mod linalg;
 pub mod manifest;
+pub(crate) mod manifold;
 pub mod memory;
 pub mod methods;
 pub mod model;
@@ -89,8 +93,6 @@ pub use confidence::{Estimate, Hypothesis};
 pub use dataset::Dataset;
 pub use error::{Error, Result};
 pub use eval::{evaluate, evaluate_with, EvalOptions, EvalReport};
-#[doc(hidden)]
-pub use kernels::bench;
 pub use manifest::{Manifest, TrainSelection};
 pub use methods::eigenspace::{EigenspaceModel, EigenspaceParams};
 pub use methods::linear::ridge::RidgeRule;

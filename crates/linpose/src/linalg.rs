@@ -12,9 +12,9 @@ pub fn par() -> Par {
 }
 
 /// An M x N f64 matrix, column-major, on huge pages where it is large
-/// ([`crate::memory::huge`]): [`transpose_features`]'s X^T.
+/// ([`crate::huge`]): [`transpose_features`]'s X^T.
 pub struct Columns {
-    buf: crate::memory::huge::HugeBuf,
+    buf: crate::huge::HugeBuf,
     m: usize,
     n: usize,
 }
@@ -35,7 +35,7 @@ impl Columns {
 /// rows, each optionally minus `mean`.
 pub fn transpose_features(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Columns {
     debug_assert_eq!(features.len(), n * m);
-    let mut xt = Columns { buf: crate::memory::huge::HugeBuf::zeroed(m * n), m, n };
+    let mut xt = Columns { buf: crate::huge::HugeBuf::zeroed(m * n), m, n };
     for j in 0..n {
         let src = &features[j * m..(j + 1) * m];
         let col = xt.col_mut(j);

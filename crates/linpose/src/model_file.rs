@@ -79,6 +79,10 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
 /// The `kind` metadata of a many-object model file (a file without it holds one pose model).
 const OBJECTS_KIND: &str = "objects";
 
+/// The `kind` metadata of a file of partial training statistics (`crate::partial`), which
+/// [`load`] refuses with a message that says how to make a model of it.
+pub const PARTIAL_KIND: &str = "partial";
+
 /// The `method` of a many-object model fitted without poses (no pose models), in its file's
 /// metadata and in what the command line reports.
 pub const NO_POSES: &str = "none";
@@ -218,7 +222,7 @@ pub fn load(path: &Path) -> Result<AnyModel> {
 pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     let (meta, tensors) = read_parts(path, bytes)?;
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
-    if meta.get("kind").map(String::as_str) == Some(crate::partial::PARTIAL_KIND) {
+    if meta.get("kind").map(String::as_str) == Some(PARTIAL_KIND) {
         return Err(err(
             "this is a file of partial training statistics (train --shard), not a model: merge the shards' files into a model with `linpose merge`".into(),
         ));
@@ -244,7 +248,7 @@ fn pose_model(mut meta: ModelMeta, tensors: &TensorSet) -> Result<AnyModel> {
         .ok_or_else(|| tensors.error(format!("unknown method '{}' (this linpose knows: {})", meta.method, crate::methods::names())))?;
     let model = method.load(meta, tensors)?;
     Ok(match stage {
-        Some(stage) => AnyModel::new(crate::normalize::Normalized::new(stage, model)),
+        Some(stage) => AnyModel::new(crate::model::Normalized::new(stage, model)),
         None => model,
     })
 }

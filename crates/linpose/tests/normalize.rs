@@ -2,7 +2,8 @@
 //! moved, scaled and exposed differently back to the training frame; the model file keeps it;
 //! an image it cannot normalise is a clear error.
 
-use linpose::normalize::{NormalizeParams, Normalized, Normalizer};
+use linpose::model::Normalized;
+use linpose::normalize::{NormalizeParams, Normalizer};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, Jitter, RenderParams};
 use linpose::{model_file, Dataset, EigenspaceParams, Error, MethodSpec, PoseModel, TrainSelection};

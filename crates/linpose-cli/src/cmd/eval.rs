@@ -1,60 +1,12 @@
 //! `linpose eval`: estimate every sample of a data set and report the errors.
 
-use crate::common::{check_output_file, load_dataset, write_json, DataArgs};
+use crate::args::EvalArgs;
+use crate::common::{check_output_file, load_dataset, write_json};
+use crate::queries::print_refused;
 use linpose::render::ViewJitter;
 use linpose::{ErrorSummary, PoseModel};
 use serde::Serialize;
 use std::collections::{HashMap, HashSet};
-use std::path::PathBuf;
-
-/// Arguments of `linpose eval`.
-#[derive(clap::Args, Debug)]
-pub struct EvalArgs {
-    /// The model file.
-    #[arg(long, value_name = "MODEL")]
-    pub model: PathBuf,
-    #[command(flatten)]
-    pub data: DataArgs,
-    /// Add uniform noise of +-A of full brightness to every query pixel (0.05 = +-5%).
-    #[arg(long, value_name = "A", default_value_t = 0.0, allow_negative_numbers = true)]
-    pub noise: f64,
-    /// Seed of the noise.
-    #[arg(long, value_name = "S", default_value_t = 0)]
-    pub seed: u64,
-    /// Write the full report (summary and every sample) as JSON.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Hypotheses kept per sample (in the JSON), and counted for "truth among the top K".
-    #[arg(long, value_name = "K", default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=8))]
-    pub top: u64,
-    /// The confidence under which an estimate is flagged.
-    #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW)]
-    pub flag_below: f64,
-    /// With a many-object model: when a query is none of its objects, replacing the model's
-    /// rule: `calibrated` (beyond the largest distance of the nearest object's held-out
-    /// training views, in the recogniser's space and then in the object's own eigenspace), `off`
-    /// (never), or a distance (the recogniser's, without the second stage).
-    #[arg(long, value_name = "RULE")]
-    pub unknown: Option<String>,
-}
-
-/// Refused images listed by name on the terminal; the JSON has them all.
-const REFUSED_SHOWN: usize = 5;
-
-/// Prints how many of the evaluated images the model's normalisation refused (`count`, none:
-/// nothing) and the first [`REFUSED_SHOWN`] of `lines` (one per image, its name and why).
-pub(crate) fn print_refused(count: usize, lines: impl Iterator<Item = String>) {
-    if count == 0 {
-        return;
-    }
-    println!("{count} images refused by the model's normalisation (not in the figures below):");
-    for l in lines.take(REFUSED_SHOWN) {
-        println!("  {l}");
-    }
-    if count > REFUSED_SHOWN {
-        println!("  ... and {} more (all in the JSON's \"rejected\")", count - REFUSED_SHOWN);
-    }
-}
 
 /// Runs `linpose eval`.
 pub fn run(a: &EvalArgs) -> anyhow::Result<()> {

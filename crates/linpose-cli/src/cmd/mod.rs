@@ -2,8 +2,6 @@
 
 pub mod eval;
 pub mod experiment;
-pub mod memory_plan;
-pub mod method_args;
 pub mod objects;
 pub mod predict;
 pub mod shard;

@@ -1,11 +1,12 @@
 //! `train`, `eval` and `predict` on data sets of many objects: which object, then its pose, and
 //! "none of these" ([`linpose::recognize`]).
 
-use crate::cmd::eval::EvalArgs;
-use crate::cmd::method_args::as_flag;
-use crate::cmd::predict::{eight_bit_as_features, read_one, PredictArgs};
-use crate::cmd::train::TrainArgs;
+use crate::args::method::as_flag;
+use crate::args::EvalArgs;
+use crate::args::PredictArgs;
+use crate::args::TrainArgs;
 use crate::common::{progress, write_json};
+use crate::queries::{eight_bit_as_features, read_one};
 use anyhow::Context;
 use linpose::normalize::{NormalizeParams, StageChoice, StageRule};
 use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
@@ -79,7 +80,7 @@ struct TrainSummary<'a> {
     /// The normalisation stage, in words (absent: none).
     #[serde(skip_serializing_if = "Option::is_none")]
     normalize: Option<String>,
-    memory: crate::cmd::memory_plan::MemorySummary,
+    memory: crate::plan::MemorySummary,
 }
 
 /// `train` on a many-object data set.
@@ -92,16 +93,16 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose:
     let mut fell_back = false;
     let (plan, rule) = match rule {
         // A stage is chosen only where its held-out folds fit in memory too.
-        StageRule::Auto => match crate::cmd::memory_plan::plan_objects(a, &c, method, params, rule) {
+        StageRule::Auto => match crate::plan::plan_objects(a, &c, method, params, rule) {
             Ok(plan) => (plan, rule),
             Err(_) => {
                 fell_back = true;
-                (crate::cmd::memory_plan::plan_objects(a, &c, method, params, StageRule::Fixed(NormalizeParams::OFF))?, StageRule::Fixed(NormalizeParams::OFF))
+                (crate::plan::plan_objects(a, &c, method, params, StageRule::Fixed(NormalizeParams::OFF))?, StageRule::Fixed(NormalizeParams::OFF))
             }
         },
-        StageRule::Fixed(_) => (crate::cmd::memory_plan::plan_objects(a, &c, method, params, rule)?, rule),
+        StageRule::Fixed(_) => (crate::plan::plan_objects(a, &c, method, params, rule)?, rule),
     };
-    crate::cmd::memory_plan::say(&plan);
+    crate::plan::say(&plan);
     let train = load(&c, a.color.into())?;
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -127,7 +128,7 @@ pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose:
         file_bytes,
         settings: model.settings(),
         normalize: model.stage().map(|s| s.describe()),
-        memory: crate::cmd::memory_plan::MemorySummary::of(&plan),
+        memory: crate::plan::MemorySummary::of(&plan),
     };
     eprintln!(
         "trained the {} recogniser and {} pose models on {} objects ({} images of {}x{}) in {fit_s:.3} s (decoding {load_s:.3} s); model {} bytes ({} the recogniser) -> {}",
@@ -364,7 +365,7 @@ fn print_report(r: &Report) {
     let posed = r.method != linpose::model_file::NO_POSES;
     let method = if posed { r.method.as_str() } else { "no" };
     println!("{} recogniser, {method} pose models of {} objects; {} images evaluated", r.recognizer, r.objects.len(), r.n_eval);
-    crate::cmd::eval::print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{} ({}): {}", x.image, x.object, x.reason)));
+    crate::queries::print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{} ({}): {}", x.image, x.object, x.reason)));
     println!(
         "recognised: {} of the known objects' {} views, {} of their {} unseen views",
         pct(Some(r.recognition.all)),
@@ -430,7 +431,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let mut refused = 0usize;
-    for chunk in files.chunks(crate::cmd::predict::BATCH) {
+    for chunk in files.chunks(crate::queries::BATCH) {
         // Decoded in parallel as `predict` decodes one object's queries, then all as features.
         let (mut feats, mut pix) = (vec![0f32; chunk.len() * m], vec![0u8; chunk.len() * m]);
         {
@@ -450,7 +451,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
             let e = match e {
                 Ok(e) => e,
                 Err(r) => {
-                    crate::cmd::predict::cannot_normalise(&bar, path, r);
+                    crate::queries::cannot_normalise(&bar, path, r);
                     refused += 1;
                     continue;
                 }
@@ -499,7 +500,7 @@ pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<
     }
     bar.finish_and_clear();
     out.flush()?;
-    crate::cmd::predict::refusals(refused, files.len())
+    crate::queries::refusals(refused, files.len())
 }
 
 /// A pose space's parameter names, for a message.

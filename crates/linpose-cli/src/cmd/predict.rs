@@ -1,44 +1,16 @@
 //! `linpose predict`: estimate the pose of images with a trained model.
 
+use crate::args::PredictArgs;
 use crate::common::progress;
+use crate::queries::{cannot_normalise, eight_bit_as_features, read_one, refusals, BATCH};
 use anyhow::Context;
-use linpose::image_io::{has_image_extension, read_query, QueryImage};
+use linpose::image_io::has_image_extension;
 use linpose::PoseModel;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::Write;
-use std::path::{Path, PathBuf};
-
-/// Images decoded and estimated per batch: bounds memory whatever the number of images.
-pub(crate) const BATCH: usize = 512;
-
-/// Arguments of `linpose predict`.
-#[derive(clap::Args, Debug)]
-pub struct PredictArgs {
-    /// The model file.
-    #[arg(long, value_name = "MODEL")]
-    pub model: PathBuf,
-    /// Images (PNG, PGM, PPM, JPEG, TIFF), or folders whose images are all estimated (their
-    /// .png, .pgm, .ppm, .pnm, .jpg, .jpeg, .tif and .tiff files, sorted by name).
-    #[arg(value_name = "IMAGE", required_unless_present = "list")]
-    pub images: Vec<PathBuf>,
-    /// Also estimate the images listed in FILE, one path per line (for more paths than a
-    /// command line holds).
-    #[arg(long, value_name = "FILE")]
-    pub list: Option<PathBuf>,
-    /// Print one JSON object per image instead of text.
-    #[arg(long)]
-    pub json: bool,
-    /// Also give the K best distinct poses the model considered, with their scores (each one's
-    /// probability of being right, as the model judges it) and the estimate's confidence; an
-    /// estimate whose confidence is under --flag-below is marked FLAGGED.
-    #[arg(long, value_name = "K", value_parser = clap::value_parser!(u64).range(1..=8))]
-    pub top: Option<u64>,
-    /// The confidence under which an estimate is flagged (with --top).
-    #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW, requires = "top")]
-    pub flag_below: f64,
-}
+use std::path::PathBuf;
 
 #[derive(Serialize)]
 struct Estimate<'a> {
@@ -215,44 +187,4 @@ pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     out.flush()?;
     refusals(refused, files.len())
-}
-
-/// Names an image the model's normalisation stage refused, with the reason, on stderr.
-pub(crate) fn cannot_normalise(bar: &indicatif::ProgressBar, path: &std::path::Path, reason: &linpose::normalize::Rejection) {
-    bar.suspend(|| eprintln!("linpose: {}: cannot normalise: {reason}", path.display()));
-}
-
-/// The end of a `predict` of `total` images of which `refused` were refused by the stage (each
-/// named by [`cannot_normalise`]): an error when any was, so the exit status says so.
-pub(crate) fn refusals(refused: usize, total: usize) -> anyhow::Result<()> {
-    if refused > 0 {
-        anyhow::bail!("{refused} of {total} images could not be normalised (each named above) and have no estimate");
-    }
-    Ok(())
-}
-
-/// The rows of `features` that [`read_one`] left 8-bit (NaN first value) made features from
-/// their `pixels` (value / 255), so a batch of mixed images can be estimated on features.
-pub(crate) fn eight_bit_as_features(features: &mut [f32], pixels: &[u8], m: usize) {
-    for (f, p) in features.chunks_exact_mut(m).zip(pixels.chunks_exact(m)) {
-        if f[0].is_nan() {
-            f.iter_mut().zip(p).for_each(|(f, &v)| *f = v as f32 * (1.0 / 255.0));
-        }
-    }
-}
-
-/// Decodes one image into `pixels` (8-bit gray, returning true) or else `features` (returning
-/// false; `features[0]` is NaN after an 8-bit image, marking the row to convert if needed).
-pub(crate) fn read_one(path: &Path, spec: linpose::image_io::ImageSpec, context: &str, features: &mut [f32], pixels: &mut [u8]) -> linpose::Result<bool> {
-    match read_query(path, spec, context)? {
-        QueryImage::Gray8(v) => {
-            pixels.copy_from_slice(&v);
-            features[0] = f32::NAN;
-            Ok(true)
-        }
-        QueryImage::Features(f) => {
-            features.copy_from_slice(&f);
-            Ok(false)
-        }
-    }
 }

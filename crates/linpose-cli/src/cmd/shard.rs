@@ -4,8 +4,9 @@
 //! into a partial statistics file; `merge` adds the files and fits the model, which is the
 //! single-process model up to the rounding of the sums' order.
 
-use crate::cmd::method_args::{self, as_flag};
-use crate::cmd::train::TrainArgs;
+use crate::args::method::{self, as_flag};
+use crate::args::ShardArg;
+use crate::args::TrainArgs;
 use crate::common::{check_output_file, write_json};
 use anyhow::Context;
 use linpose::partial::Partial;
@@ -13,27 +14,6 @@ use linpose::PoseModel;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
-
-/// Which shard of how many: `I/N`, 1 <= I <= N.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ShardArg {
-    /// 0-based.
-    pub index: usize,
-    pub count: usize,
-}
-
-impl std::str::FromStr for ShardArg {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("'{s}': expected I/N, shard I of N, with 1 <= I <= N (e.g. 2/4)");
-        let (i, n) = s.split_once('/').ok_or_else(bad)?;
-        let (i, n): (usize, usize) = (i.trim().parse().map_err(|_| bad())?, n.trim().parse().map_err(|_| bad())?);
-        if i == 0 || i > n {
-            return Err(bad());
-        }
-        Ok(ShardArg { index: i - 1, count: n })
-    }
-}
 
 #[derive(Serialize)]
 struct ShardSummary {
@@ -57,7 +37,7 @@ pub fn train_shard(a: &TrainArgs, shard: ShardArg, out: &std::path::Path) -> any
     if a.stream || a.forces_stage() {
         anyhow::bail!("--shard: statistics are read shard by shard already (no --stream), and without --normalize (fitted in memory only)");
     }
-    let method = method_args::method(&a.method);
+    let method = method::method(&a.method);
     let settings = &a.settings.settings;
     method.spec(settings).map_err(as_flag)?;
     if let linpose::Source::Many(_) = linpose::Source::open(&a.data.data, a.data.object)? {

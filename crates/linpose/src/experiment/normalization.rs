@@ -8,8 +8,8 @@
 use crate::dataset::Dataset;
 use crate::eval::{evaluate_with, EvalOptions};
 use crate::manifest::TrainSelection;
-use crate::model::{AnyModel, PoseModel};
-use crate::normalize::{NormalizeParams, Normalized};
+use crate::model::{AnyModel, Normalized, PoseModel};
+use crate::normalize::NormalizeParams;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 

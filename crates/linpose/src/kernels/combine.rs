@@ -4,8 +4,8 @@
 //! in the same order (no fused multiply-add), so its bits do not depend on the CPU.
 
 use super::dispatch;
-use crate::dataset::Rows;
-use crate::image_io::feature_of_u8;
+use crate::kernels::levels::feature_of_u8;
+use crate::kernels::Rows;
 
 dispatch! {
     /// For pixels `p0..p0 + row.len()` of the `n = d.len() / k` rows of `m` values of `x`:

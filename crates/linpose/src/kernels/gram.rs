@@ -269,7 +269,7 @@ fn pack_group_u8(out: &mut [f64], px: &[u8], n: usize, m: usize, i0: usize, k0: 
     let _ = level;
     for k in done..kc {
         for l in 0..GROUP {
-            out[k * GROUP + l] = if l < rows { crate::image_io::feature_of_u8(px[(i0 + l) * m + k0 + k]) as f64 } else { 0.0 };
+            out[k * GROUP + l] = if l < rows { crate::kernels::levels::feature_of_u8(px[(i0 + l) * m + k0 + k]) as f64 } else { 0.0 };
         }
     }
 }
@@ -528,7 +528,7 @@ mod tests {
     fn bytes_give_the_bits_of_their_f32_features_on_every_level() {
         for &(n, m) in &SIZES {
             let px: Vec<u8> = (0..n * m).map(|i| ((i * 2654435761usize) % 256) as u8).collect();
-            let x: Vec<f32> = px.iter().map(|&v| crate::image_io::feature_of_u8(v)).collect();
+            let x: Vec<f32> = px.iter().map(|&v| crate::kernels::levels::feature_of_u8(v)).collect();
             for level in Level::supported() {
                 let want = gram_f32_with(&x, n, m, None, level, chunks(n, m));
                 assert!(gram_u8_with(&px, n, m, level, chunks(n, m)).as_ref() == want.as_ref(), "{level:?} n {n} m {m}");

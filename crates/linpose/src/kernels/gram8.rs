@@ -27,7 +27,7 @@
 use super::levels::{residuals, S8, SCALE_CROSS, SCALE_PAIRS};
 use super::syrk::{padded, SyrkAcc, GROUP16, KCP_MAX, KCQ_MAX};
 use super::Level;
-use crate::dataset::Rows as Rows8;
+use crate::kernels::Rows as Rows8;
 use faer::Mat;
 use rayon::prelude::*;
 
@@ -226,7 +226,7 @@ fn convert_u8(src: &[u8], [lv, rv, w0, w1]: [&mut [u8]; 4], r: &[i8; 256], level
         return true;
     }
     let mut buf = [0f32; CHUNK];
-    buf.iter_mut().zip(src).for_each(|(f, &v)| *f = crate::image_io::feature_of_u8(v));
+    buf.iter_mut().zip(src).for_each(|(f, &v)| *f = crate::kernels::levels::feature_of_u8(v));
     convert(&buf[..src.len()], [lv, rv, w0, w1], r, level)
 }
 

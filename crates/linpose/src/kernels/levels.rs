@@ -11,6 +11,13 @@
 /// 1/255 as `image_io` computes 8-bit features (`k as f32 * S8`).
 pub const S8: f32 = 1.0 / 255.0;
 
+/// The feature of an 8-bit value `v`: v / 255 as an f32, the same bits the image reader makes
+/// of an 8-bit pixel (`crate::image_io::feature_of_u8` is this).
+#[inline]
+pub fn feature_of_u8(v: u8) -> f32 {
+    v as f32 * S8
+}
+
 /// Weight of the integer sums of k_p k_q: S8^2 = 2^-62 m^2, exact in f64.
 pub const SCALE_PAIRS: f64 = (S8 as f64) * (S8 as f64);
 

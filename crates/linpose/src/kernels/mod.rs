@@ -16,7 +16,6 @@
 //! [`bench`], whose functions detect the level themselves, and [`peak`] measures the machine's
 //! peaks for them to report against.
 
-pub mod bench;
 pub(crate) mod combine;
 pub(crate) mod dot_q;
 pub(crate) mod dot_u8;
@@ -26,10 +25,12 @@ pub(crate) mod gram8;
 mod isa;
 pub(crate) mod levels;
 pub(crate) mod peak;
+mod rows;
 pub(crate) mod scan;
 pub(crate) mod syrk;
 
 pub(crate) use isa::{dispatch, Isa, Level};
+pub use rows::Rows;
 
 /// The sum of the 16 u32 lanes of `v` (the binning kernels' and the noise estimate's squares
 /// and responses, summed in u32 lanes between flushes).

@@ -101,18 +101,18 @@
 //! ([`Limit::Unknown`]), the in-memory path is taken unchecked, as before planning existed.
 
 mod estimate;
-pub(crate) mod huge;
 mod remedy;
 mod system;
 pub mod tuning;
 
+pub use crate::error::format_bytes;
+pub use crate::error::{remedies_text, Remedy, StreamChange};
 pub use estimate::Estimate;
-pub use remedy::{remedies_text, Remedy, StreamChange};
-pub use system::{available, format_bytes, parse_size, Available};
+pub use system::{available, parse_size, Available};
 
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::manifest::Manifest;
-use crate::methods::eigenspace::manifold;
+use crate::manifold::grid as manifold;
 use crate::methods::linear::ridge::RidgeRule;
 use crate::model::{Method, Settings};
 use crate::recognize::{RecognizerKind, RecognizerParams};

@@ -36,13 +36,8 @@ pub const GRAM_SYSTEM_BYTES: f64 = 24.0;
 /// linear fits at N = 5,760 and 11,160 sit 1.2 KiB per row above 24 N^2.
 pub const ROW_BYTES: f64 = 2048.0;
 
-/// glibc's largest mmap threshold (`DEFAULT_MMAP_THRESHOLD_MAX`, 64-bit): an N x N f64 matrix
-/// smaller than this is carved from the heap once the threshold has grown past it, and one freed
-/// there may stay resident, so the estimates of N x N systems add one such matrix (none for
-/// larger ones, which are mapped and unmapped whole). Measured: the eigendecompositions at
-/// N = 1,440 (16.6 MB matrices) peak about 20 MB above those at N = 2,880 and 5,760 scaled by
-/// N^2.
-pub const HEAP_MATRIX_BYTES: u64 = 32 << 20;
+/// glibc's largest mmap threshold (see [`crate::huge::HEAP_MATRIX_BYTES`]).
+pub use crate::huge::HEAP_MATRIX_BYTES;
 
 /// Bytes per N^2 of the linear model with `ridge auto` (leave-one-out): G, its
 /// eigendecomposition (the eigenvectors and faer's workspace) and the eigenvectors squared.

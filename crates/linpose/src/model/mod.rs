@@ -8,10 +8,12 @@
 //! itself: see [`Method`] and the registry [`crate::methods::METHODS`].
 
 mod method;
+mod normalized;
 pub(crate) mod split;
 mod tensor;
 
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
+pub use normalized::Normalized;
 pub use tensor::{Tensor, TensorData, TensorSet};
 
 use crate::confidence::Estimate;
@@ -94,7 +96,7 @@ pub trait PoseModel: Any + Send + Sync + std::fmt::Debug {
         None
     }
 
-    /// For a model behind a normalisation stage ([`crate::normalize::Normalized`]): the stage and
+    /// For a model behind a normalisation stage ([`crate::model::Normalized`]): the stage and
     /// the method's own model, which takes normalised images, so a caller that normalises the
     /// queries itself (to count the refused ones apart) does it once. `None` for other models.
     fn behind_stage(&self) -> Option<(&crate::normalize::Normalizer, &dyn PoseModel)> {

@@ -7,7 +7,7 @@
 //!
 //! A [`Normalizer`] is fitted on the training images and stored in the model file
 //! ([`crate::model::ModelMeta::normalize`]); training and query images go through the same
-//! stage ([`Normalized`], a model wrapper any method's model fits in; for many objects, one stage
+//! stage ([`Normalized`](crate::model::Normalized), a model wrapper any method's model fits in; for many objects, one stage
 //! fitted on all their training views, [`crate::recognize::ObjectModel::fit_normalized`]). For
 //! each image:
 //!
@@ -52,14 +52,13 @@
 
 mod choice;
 mod find;
-mod model;
 mod resample;
 #[cfg(test)]
 mod tests;
 pub(crate) mod tuning;
 
+pub use crate::error::Rejection;
 pub use choice::{CandidateScore, NoisyScore, StageChoice, StageRule};
-pub use model::Normalized;
 
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
@@ -129,58 +128,6 @@ pub enum Background {
     Dark,
     /// Measured in each image: the median of its border.
     Border,
-}
-
-/// Why an image cannot be normalised.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum Rejection {
-    /// Nothing differs from the background by more than the threshold.
-    #[error("no object found: no pixel differs from the background (level {level:.4}) by more than {threshold:.4}")]
-    Empty {
-        /// The threshold used.
-        threshold: f32,
-        /// The background level (first channel).
-        level: f32,
-    },
-    /// A training view that holds a second object apart from the first: a region of the
-    /// foreground farther from the object than its size and heavy enough not to be a speck.
-    #[error("two objects: a second one {gap:.0} pixels from the first with {:.0}% of its weight, where the parts of one object lie within {limit:.0} pixels of its largest part; crop the training images to one object", share * 100.0)]
-    SecondObject {
-        /// The second object's weight (summed deviation from the background) over the first's.
-        share: f64,
-        /// The distance between their bounding boxes (pixels).
-        gap: f64,
-        /// The farthest a part of one object may lie from its largest part (pixels).
-        limit: f64,
-    },
-    /// The object reaches the frame edge while the training views keep it inside.
-    #[error("the object touches the frame edge ({}), so part of it may be outside the image and its position and size are unknown; the training views keep it inside the frame", sides_text(sides))]
-    TouchesEdge {
-        /// Left, right, top, bottom.
-        sides: [bool; 4],
-    },
-    /// The image has a value that is not a finite number.
-    #[error("the image has a value that is not a finite number")]
-    NotFinite,
-    /// A placement asked of [`Normalizer::place`] that is not a finite position and a positive
-    /// radius.
-    #[error("cannot place the object at column {}, row {} with radius {}: a finite position and a positive radius are needed", at[0], at[1], at[2])]
-    Placement {
-        /// The placement asked.
-        at: [f64; 3],
-    },
-    /// The image (or the output) has another number of values than the stage's images.
-    #[error("{got} values where the stage's images have {expected}")]
-    Size {
-        /// Values per image of the stage.
-        expected: usize,
-        /// Values given.
-        got: usize,
-    },
-}
-
-fn sides_text(s: &[bool; 4]) -> String {
-    ["left", "right", "top", "bottom"].iter().zip(s).filter(|(_, &t)| t).map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
 }
 
 /// The fitted stage: what it found on the training images, stored in the model file.
@@ -311,7 +258,7 @@ impl Normalizer {
                 .filter_map(|&i| {
                     let mut noisy = row(i).to_vec();
                     let m = noisy.len();
-                    crate::eval::add_uniform_noise(&mut noisy, m, amplitude, CALIBRATION_SEED + (l * found.len() + i) as u64).ok()?;
+                    crate::pixel_noise::add_uniform_noise(&mut noisy, m, amplitude, CALIBRATION_SEED + (l * found.len() + i) as u64).ok()?;
                     let (p, sigma) = self.find(&noisy).ok()?;
                     sigma.map(|s| (s, (p.radius / found[i].radius).ln()))
                 })

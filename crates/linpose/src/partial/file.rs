@@ -22,8 +22,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// The `kind` metadata of a partial statistics file.
-pub const PARTIAL_KIND: &str = "partial";
+pub use crate::model_file::PARTIAL_KIND;
 
 /// What `linpose.partial` holds.
 #[derive(Serialize, Deserialize)]

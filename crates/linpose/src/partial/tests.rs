@@ -2,7 +2,7 @@
 //! on images that are not 8-bit; and the refusals.
 
 use super::*;
-use crate::methods::eigenspace::pca::{self, Dimension};
+use crate::manifold::pca::{self, Dimension};
 use crate::methods::eigenspace::EigenspaceModel;
 use crate::methods::linear::LinearModel;
 use crate::model::{Estimator, PoseModel};

@@ -1,3 +1,4 @@
+//! Pixel noise, measured and simulated (`uniform.rs`: [`add_uniform_noise`]). Measured:
 //! Immerkaer's estimate of an image's white-noise variance (Fast noise variance estimation,
 //! CVIU 64:300-302, 1996): the mean absolute response to the difference of two Laplacians,
 //! [1 -2 1; -2 4 -2; 1 -2 1], times sqrt(pi / 2) / 6, squared. The mask cancels planes and
@@ -18,6 +19,9 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
+mod uniform;
+
+pub use uniform::add_uniform_noise;
 #[cfg(test)]
 mod tests;
 

@@ -18,9 +18,9 @@ use super::universal::NEIGHBOUR;
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::linalg::mat_from_rows;
-use crate::methods::eigenspace::chunk_rows;
-use crate::methods::eigenspace::manifold::Grid;
-use crate::methods::eigenspace::projector::Projector;
+use crate::manifold::chunk_rows;
+use crate::manifold::grid::Grid;
+use crate::manifold::projector::Projector;
 use crate::methods::linear::GramSystem;
 use crate::model::{Tensor, TensorSet};
 use crate::Result;
@@ -94,7 +94,7 @@ impl LinearRecognizer {
                     .collect()
             } else {
                 let grid = Grid::new(all.space(), d_obj.poses(), d_obj.manifest().images(), d_obj.manifest().root())?;
-                let mut folds = crate::methods::refined::select::both_folds(d_obj, &grid);
+                let mut folds = crate::manifold::folds::both_folds(d_obj, &grid);
                 if folds.is_empty() {
                     // Too few knots to hold every other one out: each view alone.
                     folds = (0..d_obj.len()).map(|i| (0..d_obj.len()).map(|j| j != i).collect()).collect();

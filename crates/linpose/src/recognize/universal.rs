@@ -14,12 +14,12 @@ use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::kernels::{dispatch, Level};
 use crate::linalg::squared_distance;
-use crate::methods::eigenspace::chunk_rows;
-use crate::methods::eigenspace::manifold::{Grid, Manifold};
-use crate::methods::eigenspace::pca::{self, Dimension};
-use crate::methods::eigenspace::projector::{unit_coords, Projector};
-use crate::methods::refined::surface::Surface;
-use crate::methods::refined::Interpolant;
+use crate::manifold::chunk_rows;
+use crate::manifold::grid::{Grid, Manifold};
+use crate::manifold::pca::{self, Dimension};
+use crate::manifold::projector::{unit_coords, Projector};
+use crate::manifold::surface::Surface;
+use crate::manifold::Interpolant;
 use crate::model::{Tensor, TensorSet};
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -584,7 +584,7 @@ fn held_out_distances(train: &Dataset, grid: &Grid, coords: &[f64], l: usize) ->
     let space = train.space();
     let mut out = Vec::new();
     let mut f = vec![0.0; l];
-    for keep in crate::methods::refined::select::both_folds(train, grid) {
+    for keep in crate::manifold::folds::both_folds(train, grid) {
         let kept: Vec<usize> = (0..train.len()).filter(|&i| keep[i]).collect();
         let poses: Vec<f64> = kept.iter().flat_map(|&i| train.pose(i).iter().copied()).collect();
         let names: Vec<String> = kept.iter().map(|&i| train.manifest().images()[i].clone()).collect();

@@ -42,9 +42,10 @@ mod tuning;
 
 use crate::confidence::GROSS_DEG;
 use crate::dataset::Dataset;
-use crate::methods::eigenspace::manifold::Grid;
+use crate::manifold::grid::Grid;
+use crate::model::Normalized;
 use crate::model::{AnyModel, MethodSpec};
-use crate::normalize::{CandidateScore, NoisyScore, NormalizeParams, Normalized, Normalizer, StageChoice, StageRule};
+use crate::normalize::{CandidateScore, NoisyScore, NormalizeParams, Normalizer, StageChoice, StageRule};
 use crate::Result;
 use rayon::prelude::*;
 use tuning::{MARGIN, NOISE_LEVELS, NOISE_SEED, REFUSED_DEG};
@@ -181,7 +182,7 @@ fn standard_error(e: &[f64]) -> f64 {
 /// others; none for fewer than 4 views.
 pub(crate) fn folds(train: &Dataset) -> Vec<Vec<bool>> {
     let grid = Grid::new(train.space(), train.poses(), train.manifest().images(), train.manifest().root());
-    let on_grid = grid.map(|g| crate::methods::refined::select::both_folds(train, &g)).unwrap_or_default();
+    let on_grid = grid.map(|g| crate::manifold::folds::both_folds(train, &g)).unwrap_or_default();
     if !on_grid.is_empty() || train.len() < 4 {
         return on_grid;
     }
@@ -212,7 +213,7 @@ pub(crate) fn held_out_errors(spec: &MethodSpec, data: &Dataset, stage: Option<&
                 .enumerate()
                 .map(|(l, amplitude)| {
                     let mut q = test.features().to_vec();
-                    crate::eval::add_uniform_noise(&mut q, m, amplitude, NOISE_SEED + (f * 16 + l) as u64).map_err(fail)?;
+                    crate::pixel_noise::add_uniform_noise(&mut q, m, amplitude, NOISE_SEED + (f * 16 + l) as u64).map_err(fail)?;
                     let (q, verdicts) = match stage {
                         Some(s) => s.apply_batch(&q),
                         None => (q, vec![None; test.len()]),

@@ -46,23 +46,21 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-pub(crate) mod kdtree;
-pub(crate) mod manifold;
-pub mod pca;
-pub(crate) mod projector;
 pub(crate) mod search;
-pub(crate) mod spline;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};
-use crate::methods::refined::Interpolant;
+use crate::manifold::Interpolant;
 use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
 use crate::model::split;
 use crate::second_look::{Queries, SecondLook, SecondLookSettings};
 use crate::{Error, Result};
-use manifold::{pose_of, Grid, Manifold};
-use projector::{unit_coords, Projector, BATCH_FROM};
-pub use pca::Dimension;
+use crate::manifold::grid::{pose_of, Grid, Manifold};
+use crate::manifold::projector::{u8_tasks, unit_coords, Projector, BATCH_FROM, U8_BATCH};
+use crate::manifold::chunk_rows;
+// The principal components, public for the shard check (to go with it).
+pub use crate::manifold::pca;
+pub use crate::manifold::pca::Dimension;
 use rayon::prelude::*;
 use search::NearestIndex;
 pub use search::SearchKind;
@@ -83,37 +81,6 @@ pub static METHOD: Method = Method {
     load: |meta, t| Ok(AnyModel::new(EigenspaceModel::from_parts(meta, t)?)),
     stream: None,
 };
-
-/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
-/// in [`dot_u8::dots_batch`], 16 in [`dot_q::dots_batch`]).
-const U8_BATCH: usize = 192;
-
-/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
-/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
-fn u8_task_rows(n: usize, block: usize) -> usize {
-    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
-}
-
-/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
-/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
-/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
-/// of at least [`split::min_task_queries`] (in whole blocks).
-pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
-    let most = U8_BATCH / block * block;
-    if !split::splits(n, m) {
-        return ((n.div_ceil(block) * block).min(most), false);
-    }
-    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
-}
-
-const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
-
-/// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
-/// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
-/// every thread a few tasks.
-pub(crate) fn chunk_rows(n: usize) -> usize {
-    n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
-}
 
 /// Parameters of the parametric eigenspace. The default: 20 components (Murase & Nayar used 8 to
 /// 20), a manifold resampled every 0.5 degrees, the search picked by size.
@@ -243,8 +210,8 @@ impl EigenspaceParams {
         let root = train.manifest().root();
         // The grid first: a training set that cannot make a manifold fails before any arithmetic.
         let grid = Grid::new(space, train.poses(), train.manifest().images(), root)?;
-        let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| manifold::sample_count(g, p.period, self.manifold_step)).collect();
-        manifold::check_size(&counts, 1, self.manifold_step)?;
+        let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| crate::manifold::grid::sample_count(g, p.period, self.manifold_step)).collect();
+        crate::manifold::grid::check_size(&counts, 1, self.manifold_step)?;
         let pca = match gram {
             Some(g) => pca::fit_with_gram(train, self.dimension, g)?,
             None => pca::fit(train, self.dimension)?,
@@ -454,7 +421,7 @@ impl EigenspaceModel {
             return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
         }
         let counts: Vec<f64> = settings.manifold_shape.iter().map(|&c| c as f64).collect();
-        manifold::check_size(&counts, l, settings.params.step()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
+        crate::manifold::grid::check_size(&counts, l, settings.params.step()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let n_dense: usize = settings.manifold_shape.iter().product();
         let basis = t.f32("basis", &[l, m])?;
         let mean = t.f32("mean", &[m])?;

@@ -1,4 +1,4 @@
-//! Nearest manifold point: a k-d tree ([`super::kdtree`]) or brute force.
+//! Nearest manifold point: a k-d tree ([`crate::manifold::kdtree`]) or brute force.
 //!
 //! Brute force pads the L coordinates with zeros to the next of a few sizes (4, 8, ..., 24, 32),
 //! whose fixed width lets the distance loop unroll and vectorise; a zero added to both the query
@@ -6,12 +6,12 @@
 //! differences coordinate by coordinate in order, so the tree returns brute force's point, ties
 //! included. Beyond 32 coordinates only brute force is available.
 
-use super::kdtree::KdTree;
+use crate::manifold::kdtree::KdTree;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// Largest eigenspace dimension a k-d tree is built for.
-pub const MAX_TREE_DIM: usize = super::kdtree::MAX_DIM;
+pub const MAX_TREE_DIM: usize = crate::manifold::kdtree::MAX_DIM;
 
 /// How the nearest manifold point is found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -233,14 +233,14 @@ mod tests {
     }
 
     /// The search with its near points is brute force under its own distance
-    /// ([`crate::methods::eigenspace::kdtree::near_distance`]): the nearest point (ties to the lower
+    /// ([`crate::manifold::kdtree::near_distance`]): the nearest point (ties to the lower
     /// index) with its distance, which is the plain search's within f32 rounding, and exactly the
     /// points within the reach times that distance (each once, with its distance); the nearest
     /// of those outside a window of indices around the first (as the refined search picks a
     /// second basin) is brute force's over the points outside it within the reach.
     #[test]
     fn the_tree_s_near_points_are_brute_force_s() {
-        use crate::methods::eigenspace::kdtree::near_distance;
+        use crate::manifold::kdtree::near_distance;
         let mut rng = ChaCha8Rng::seed_from_u64(13);
         let mut near = Vec::new();
         for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::image_io::{ColorMode, ImageSpec};
+use crate::manifold::projector::U8_BATCH;
 use crate::{Manifest, Param, PoseSpace, TrainSelection};
 
 pub(crate) const W: usize = 32;

@@ -9,8 +9,8 @@ use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, WEIGH
 use super::METHOD;
 use crate::binning::Binning;
 use crate::dataset::Dataset;
-use crate::methods::eigenspace::manifold::Grid;
-use crate::methods::eigenspace::pca::{self, Dimension};
+use crate::manifold::grid::Grid;
+use crate::manifold::pca::{self, Dimension};
 use crate::model::{Estimator, Method, ModelMeta};
 use crate::second_look::SecondLook;
 use crate::Result;
@@ -96,7 +96,7 @@ impl Estimator for RefinedParams {
         let l = pca.dim();
         // Each coordinate weighted by the inverse of its interpolation error (see the module
         // doc): basis and knots scaled by sqrt(w), so the search is Euclidean.
-        let coord_variance = select::interpolation_variance(train, &grid, &pca.coords, l, interpolant)?;
+        let coord_variance = crate::manifold::folds::interpolation_variance(train, &grid, &pca.coords, l, interpolant)?;
         let sigma2 = if weighted { coord_variance.as_ref().map(|s| s[..l_search].to_vec()) } else { None };
         let scale = search_scale(sigma2.as_deref(), l_search, l);
         // The route measures a query's noise on the image as given: so is the threshold.

@@ -88,6 +88,7 @@
 //! `scratch.rs` (per-thread buffers), `basin.rs` (the search in another basin), `tuning.rs`, `method.rs` (the registry entry), `tests/`.
 
 mod fit;
+mod lm;
 mod basin;
 mod method;
 mod model;
@@ -99,12 +100,11 @@ mod scratch;
 mod search;
 mod tuning;
 pub(crate) mod select;
-pub(crate) mod surface;
 
 pub use method::METHOD;
 pub use model::RefinedModel;
 pub use params::{RefinedParams, RefinedSettings};
-pub use surface::{Interpolant, INTERPOLANTS};
+pub use crate::manifold::{Interpolant, INTERPOLANTS};
 
 pub(crate) use fit::Views;
 

@@ -1,7 +1,7 @@
 //! The parameters of the refined eigenspace as given, and what a fitted model records of them and of
 //! what it chose.
 
-use super::surface::Interpolant;
+use crate::manifold::surface::Interpolant;
 use super::tuning::{DEFAULT_PER_CELL, DEFAULT_RESOLUTION, DEFAULT_STARTS, MAX_PER_CELL, MAX_STARTS};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};

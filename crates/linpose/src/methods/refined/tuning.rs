@@ -64,9 +64,6 @@ pub(crate) const MAX_AUTO_COMPONENTS: usize = 40;
 /// used 8 to 20). Not tuned.
 pub(crate) const FALLBACK_COMPONENTS: usize = 20;
 
-/// The fewest knots along an axis for it to give held-out folds: holding out every other knot of
-/// fewer would leave a curve of one or two knots. Not tuned.
-pub(crate) const MIN_FOLD_KNOTS: usize = 4;
 
 /// The most eigenimages the noisy match and the plain (unweighted) metric use: the eigenspace's
 /// L, so that no automatic choice projects a query on more rows than the eigenspace does. Not

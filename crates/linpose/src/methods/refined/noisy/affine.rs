@@ -1,7 +1,7 @@
 //! The affine fit of the noisy match: a query's coordinates against a surface point under a free
 //! gain and a free offset along a second surface, solved in closed form.
 
-use crate::methods::refined::surface::BLOCK_DIM;
+use crate::manifold::surface::BLOCK_DIM;
 use crate::methods::refined::tuning::DEGENERATE;
 
 /// Where a query's coordinates `z` meet the surface `alpha (f(t) + c) + beta g(t)` with the gain
@@ -50,7 +50,7 @@ impl AffineQuery {
     }
 
     /// The residual at the surface point `f` with offset `g`: the query's coordinates rounded up
-    /// to a multiple of 8 values (as [`Surface::climb_pair`](crate::methods::refined::surface::Surface::climb_pair) gives them), zero beyond.
+    /// to a multiple of 8 values (as [`Surface::climb_pair`](crate::manifold::surface::Surface::climb_pair) gives them), zero beyond.
     pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
         #[cfg(target_arch = "x86_64")]
         if crate::kernels::Level::detect().avx512() {
@@ -97,7 +97,7 @@ fn affine_solve(zz: f64, [a, b, cc, u, v]: [f64; 5]) -> (f64, [f64; 2]) {
 #[cfg(target_arch = "x86_64")]
 mod simd {
     use super::BLOCK_DIM;
-    use crate::methods::refined::surface::simd::lanes_sum;
+    use crate::manifold::surface::simd::lanes_sum;
     use std::arch::x86_64::*;
 
     /// [`super::AffineQuery::residual`] compiled for AVX-512.

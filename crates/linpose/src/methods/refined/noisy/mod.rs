@@ -30,7 +30,7 @@ use super::query::NoiseWant;
 use super::scratch::{QueryScratch, SEARCH_SCRATCH};
 use super::search::smallest;
 use super::tuning::{BIAS_AMPLITUDE, WEIGHT_FLOOR};
-use crate::methods::eigenspace::chunk_rows;
+use crate::manifold::chunk_rows;
 use crate::Result;
 use rayon::prelude::*;
 

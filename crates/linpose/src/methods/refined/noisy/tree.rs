@@ -1,7 +1,7 @@
 //! The noisy tree: the starts of a noisy query's search on a manifold of two or more parameters.
 
 use crate::methods::refined::scratch::SEARCH_SCRATCH;
-use crate::methods::refined::surface::Surface;
+use crate::manifold::surface::Surface;
 use crate::methods::refined::tuning::{SECOND_BASIN_APART, SECOND_BASIN_RATIO};
 
 /// The start of a noisy query's search on a manifold of two or more parameters reported on a
@@ -15,7 +15,7 @@ use crate::methods::refined::tuning::{SECOND_BASIN_APART, SECOND_BASIN_RATIO};
 /// lattice on the affine match itself, with the query's own weights.
 #[derive(Debug, Clone)]
 pub(crate) struct NoisyTree {
-    tree: crate::methods::eigenspace::kdtree::KdTree,
+    tree: crate::manifold::kdtree::KdTree,
     /// The square roots of the weights the points were scaled by.
     pub(crate) scale: Vec<f64>,
     /// The unit offset direction removed (in the scaled coordinates).
@@ -32,7 +32,7 @@ impl NoisyTree {
     /// count: the coordinates used); None when a point has no length left off `dir`.
     pub(crate) fn new(f: &Surface, g: &Surface, space: &crate::PoseSpace, axes: &[Vec<f64>], poses: &[f64], c: &[f64], w0: &[f64]) -> Option<NoisyTree> {
         let (d, ln) = (f.params(), w0.len());
-        if !(1..=crate::methods::eigenspace::kdtree::MAX_DIM).contains(&ln) {
+        if !(1..=crate::manifold::kdtree::MAX_DIM).contains(&ln) {
             return None;
         }
         let scale: Vec<f64> = w0.iter().map(|w| w.sqrt()).collect();
@@ -60,7 +60,7 @@ impl NoisyTree {
         }
         let periods = space.params().iter().map(|p| p.period).collect();
         let apart = axes.iter().map(|a| SECOND_BASIN_APART * a.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)).collect();
-        Some(NoisyTree { tree: crate::methods::eigenspace::kdtree::KdTree::new(&points, ln), scale, dir, periods, apart })
+        Some(NoisyTree { tree: crate::manifold::kdtree::KdTree::new(&points, ln), scale, dir, periods, apart })
     }
 
     /// `v` (scaled coordinates) less its part along `dir`, to unit length, into `out`; false
@@ -80,11 +80,11 @@ impl NoisyTree {
     /// its squared distance, the nearest one apart from it by more than `apart[j]` degrees
     /// along some axis j (circularly on a circular axis): a second basin, as on a nearly
     /// symmetric object, whose views a half turn apart differ little (both from one search,
-    /// [`crate::methods::eigenspace::kdtree::KdTree::nearest_and_near`], under its distance). None when
+    /// [`crate::manifold::kdtree::KdTree::nearest_and_near`], under its distance). None when
     /// `z` has no length off the offset direction.
     pub(crate) fn starts(&self, z: &[f64], poses: &[f64]) -> Option<(usize, Option<usize>)> {
         let (ln, d, periods, apart) = (self.scale.len(), self.periods.len(), &self.periods, &self.apart);
-        let (mut v, mut q) = ([0f64; crate::methods::eigenspace::kdtree::MAX_DIM], [0f32; crate::methods::eigenspace::kdtree::MAX_DIM]);
+        let (mut v, mut q) = ([0f64; crate::manifold::kdtree::MAX_DIM], [0f32; crate::manifold::kdtree::MAX_DIM]);
         v[..ln].iter_mut().zip(z.iter().zip(&self.scale)).for_each(|(o, (a, s))| *o = a * s);
         if !Self::unit_off(&v[..ln], &self.dir, &mut q[..ln]) {
             return None;

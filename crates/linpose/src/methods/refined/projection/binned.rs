@@ -124,7 +124,7 @@ impl RefinedModel {
 
     /// The products of binned 8-bit queries given as digit planes (`planes`: per query its low
     /// then its high plane, of M each; those at `sel` when given, else all) with the rows `rr`
-    /// into `s.raw` as [`Self::pass_f32`] ([`Projector::planes_products`](crate::methods::eigenspace::projector::Projector::planes_products); `raw` and `energy`
+    /// into `s.raw` as [`Self::pass_f32`] ([`Projector::planes_products`](crate::manifold::projector::Projector::planes_products); `raw` and `energy`
     /// hold the planes' products and sums of squares).
     #[allow(clippy::too_many_arguments)]
     fn planes_pass(

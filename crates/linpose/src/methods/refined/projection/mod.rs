@@ -8,7 +8,7 @@ use super::query::NoiseWant;
 use super::scratch::QueryScratch;
 use super::tuning::{NOISE_SUB_F32, NOISE_SUB_F32_BYTES, NOISE_SUB_U8};
 use crate::kernels::Level;
-use crate::methods::eigenspace::projector::unit_coords;
+use crate::manifold::projector::unit_coords;
 use crate::pixel_noise::{pixel_variance_in, pixel_variance_u8_in, RowsF32, RowsU8};
 
 /// The items of `xs` (runs of `m`) at `sel` (all when None) and their count: `xs` itself when
@@ -50,7 +50,7 @@ impl RefinedModel {
         scatter(&s.xout, k, sel, i0, kr, rr.start, &mut s.raw);
     }
 
-    /// As [`Self::pass_f32`] for 8-bit images of M pixel values ([`Projector::u8_products`](crate::methods::eigenspace::projector::Projector::u8_products));
+    /// As [`Self::pass_f32`] for 8-bit images of M pixel values ([`Projector::u8_products`](crate::manifold::projector::Projector::u8_products));
     /// their sums of squares into `s.xenergy` (by selected query).
     fn pass_u8(&self, level: Level, xq: &[u8], i0: usize, sel: Option<&[usize]>, rr: std::ops::Range<usize>, s: &mut QueryScratch) {
         let (m, kr, k) = (self.m, 1 + self.components(), rr.len());
@@ -66,7 +66,7 @@ impl RefinedModel {
 
     /// The eigenspace coordinates, residual and noise of f32 queries (rows of M) into `s.y`
     /// (rows of L), `s.resid` and `s.noise`. In sub-chunks whose queries stay in cache from the
-    /// products to the energy and noise (rayon splits the batch, see [`chunk_rows`](crate::methods::eigenspace::chunk_rows)). Without
+    /// products to the energy and noise (rayon splits the batch, see [`chunk_rows`](crate::manifold::chunk_rows)). Without
     /// `routed`: the products of every query with [`Self::clean_rows`] (the mean's, when used,
     /// summed with the query's energy in one pass, [`crate::linalg::energy_and_dot`]: a row
     /// fewer in the product, whose kernel takes 4 at a time), then each query's energy and,

@@ -1,6 +1,6 @@
 //! The coarse tree: the start of a clean query's search on a manifold of two or more parameters.
 
-use crate::methods::refined::surface::Surface;
+use crate::manifold::surface::Surface;
 use crate::methods::refined::tuning::MAX_TREE_POSES;
 
 /// The start of a clean query's search on a manifold of two or more parameters reported on a
@@ -10,7 +10,7 @@ use crate::methods::refined::tuning::MAX_TREE_POSES;
 /// [`Surface::climb`] walks the reporting lattice with the query's own weights.
 #[derive(Debug, Clone)]
 pub(crate) struct CoarseTree {
-    pub(crate) tree: crate::methods::eigenspace::kdtree::KdTree,
+    pub(crate) tree: crate::manifold::kdtree::KdTree,
     /// The lattice's poses (n x D).
     pub(crate) poses: Vec<f64>,
 }
@@ -18,18 +18,18 @@ pub(crate) struct CoarseTree {
 impl CoarseTree {
     /// The tree over `surface` on the lattice of `step` degrees anchored at each axis's first
     /// knot, in the first `ls` coordinates; None for one parameter, more than
-    /// [`crate::methods::eigenspace::kdtree::MAX_DIM`] coordinates or more than [`MAX_TREE_POSES`] poses.
+    /// [`crate::manifold::kdtree::MAX_DIM`] coordinates or more than [`MAX_TREE_POSES`] poses.
     pub(crate) fn new(surface: &Surface, space: &crate::PoseSpace, axes: &[Vec<f64>], ls: usize, step: f64) -> Option<CoarseTree> {
         let d = axes.len();
-        if !(2..=8).contains(&d) || !(1..=crate::methods::eigenspace::kdtree::MAX_DIM).contains(&ls) || step <= 0.0 {
+        if !(2..=8).contains(&d) || !(1..=crate::manifold::kdtree::MAX_DIM).contains(&ls) || step <= 0.0 {
             return None;
         }
-        let counts: Vec<f64> = axes.iter().zip(space.params()).map(|(a, p)| crate::methods::eigenspace::manifold::sample_count(a, p.period, step)).collect();
+        let counts: Vec<f64> = axes.iter().zip(space.params()).map(|(a, p)| crate::manifold::grid::sample_count(a, p.period, step)).collect();
         if counts.iter().product::<f64>() > MAX_TREE_POSES as f64 {
             return None;
         }
         let at: Vec<Vec<f64>> =
-            axes.iter().zip(space.params()).map(|(a, p)| crate::methods::eigenspace::manifold::sample_positions(a, p.period, step)).collect();
+            axes.iter().zip(space.params()).map(|(a, p)| crate::manifold::grid::sample_positions(a, p.period, step)).collect();
         let n: usize = at.iter().map(Vec::len).product();
         let (mut poses, mut points) = (Vec::with_capacity(n * d), Vec::with_capacity(n * ls));
         let mut f = vec![0.0; ls];
@@ -37,12 +37,12 @@ impl CoarseTree {
         for k in 0..n {
             // The eigenspace manifold's order (the last axis fastest), its circular values
             // wrapped into [0, period) and brought back into the surface's domain.
-            crate::methods::eigenspace::manifold::pose_of(&at, space, k, &mut t);
+            crate::manifold::grid::pose_of(&at, space, k, &mut t);
             surface.clamp(&mut t);
             surface.eval(&t, &mut f, None);
             poses.extend_from_slice(&t);
             points.extend(f.iter().map(|&v| v as f32));
         }
-        Some(CoarseTree { tree: crate::methods::eigenspace::kdtree::KdTree::new(&points, ls), poses })
+        Some(CoarseTree { tree: crate::manifold::kdtree::KdTree::new(&points, ls), poses })
     }
 }

@@ -45,9 +45,9 @@ fn every_knot_is_held_out_once() {
     let d = train_set();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
     let shape = g.shape();
-    let folds = select::both_folds(&d, &g);
+    let folds = both_folds(&d, &g);
     // The first half are the odd knots' folds (one per usable axis), then the even ones'.
-    assert_eq!(folds[..folds.len() / 2], select::folds(&d, &g)[..]);
+    assert_eq!(folds[..folds.len() / 2], folds::folds(&d, &g)[..]);
     for (j, pair) in folds[..folds.len() / 2].iter().zip(&folds[folds.len() / 2..]).enumerate() {
         let axis = (0..shape.len()).filter(|&a| shape[a] >= 4).nth(j).unwrap();
         let circular = d.space().params()[axis].period.is_some();
@@ -120,7 +120,7 @@ fn the_noise_threshold_separates_clean_and_noisy_training_views() {
     // Other noise draws at the smallest level land above it too.
     for seed in [1, 2, 3] {
         let mut q = d.features().to_vec();
-        crate::eval::add_uniform_noise(&mut q, m, NOISE_LEVELS[0], seed).unwrap();
+        crate::pixel_noise::add_uniform_noise(&mut q, m, NOISE_LEVELS[0], seed).unwrap();
         for x in q.chunks_exact(m) {
             assert!(crate::pixel_noise::pixel_noise(x, w, h, 1) > t.threshold);
         }

@@ -62,7 +62,7 @@ fn the_model_keeps_only_the_eigenimages_its_queries_use() {
     let tensors = model.tensors();
     assert_eq!(tensors[0].shape, vec![s.components, m], "basis");
     // The residual energy is the eigenvalues past the L kept.
-    let pca = crate::methods::eigenspace::pca::fit(&d, Dimension::Fixed(s.components)).unwrap();
+    let pca = crate::manifold::pca::fit(&d, Dimension::Fixed(s.components)).unwrap();
     let want = pca.eigenvalues[s.components..].iter().map(|v| v.max(0.0)).sum::<f64>() / d.len() as f64;
     assert!((s.residual_energy - want).abs() <= 1e-12 * want.max(1e-300), "{} vs {want}", s.residual_energy);
 }

@@ -7,11 +7,11 @@ use super::*;
 fn surface_resamples_to_the_eigenspace_manifold() {
     // The surface at the eigenspace's dense positions gives its manifold points (same spline).
     let d = train_set();
-    let pca = crate::methods::eigenspace::pca::fit(&d, Dimension::Fixed(6)).unwrap();
+    let pca = crate::manifold::pca::fit(&d, Dimension::Fixed(6)).unwrap();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
-    let dense = crate::methods::eigenspace::manifold::Manifold::build(d.space(), &g, &pca.coords, 6, 5.0).unwrap();
+    let dense = crate::manifold::grid::Manifold::build(d.space(), &g, &pca.coords, 6, 5.0).unwrap();
     let knots: Vec<f64> = g.sample_at.iter().flat_map(|&i| pca.coords[i * 6..(i + 1) * 6].iter().copied()).collect();
-    let s = surface::Surface::new(d.space(), &g.axes, &knots, 6, surface::Interpolant::Spline).unwrap();
+    let s = crate::manifold::surface::Surface::new(d.space(), &g.axes, &knots, 6, crate::manifold::surface::Interpolant::Spline).unwrap();
     let (mut pose, mut f) = ([0.0; 2], [0.0; 6]);
     let scale = knots.iter().fold(0f64, |a, v| a.max(v.abs()));
     for k in (0..dense.len()).step_by(7) {
@@ -28,7 +28,7 @@ fn surface_resamples_to_the_eigenspace_manifold() {
 /// through that line's knots, for either interpolant: the tensor product is wired per axis.
 #[test]
 fn the_surface_is_each_axis_curve_along_the_knot_lines() {
-    use crate::methods::eigenspace::spline::Boundary;
+    use crate::manifold::spline::Boundary;
     let d = train_set();
     let g = Grid::new(d.space(), d.poses(), d.manifest().images(), d.manifest().root()).unwrap();
     let shape = g.shape();
@@ -36,7 +36,7 @@ fn the_surface_is_each_axis_curve_along_the_knot_lines() {
     let v: Vec<f64> = (0..n).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
     let boundary = |j: usize| d.space().params()[j].period.map_or(Boundary::NotAKnot, Boundary::Periodic);
     for interpolant in INTERPOLANTS.iter().copied() {
-        let s = surface::Surface::new(d.space(), &g.axes, &v, 1, interpolant).unwrap();
+        let s = crate::manifold::surface::Surface::new(d.space(), &g.axes, &v, 1, interpolant).unwrap();
         let line = |j: usize| interpolant.along(&g.axes[j], boundary(j)).unwrap();
         let (l0, l1) = (line(0), line(1));
         let mut f = [0.0];
@@ -77,8 +77,8 @@ fn a_pair_of_surfaces_evaluates_as_each_alone() {
     let a: Vec<f64> = (0..n * 5).map(|i| ((i * 7919) % 1013) as f64 / 500.0 - 1.0).collect();
     let b: Vec<f64> = (0..n * 5).map(|i| ((i * 104729) % 997) as f64 / 300.0 - 1.5).collect();
     let (sa, sb) = (
-        surface::Surface::new(d.space(), &g.axes, &a, 5, surface::Interpolant::Spline).unwrap(),
-        surface::Surface::new(d.space(), &g.axes, &b, 5, surface::Interpolant::Spline).unwrap(),
+        crate::manifold::surface::Surface::new(d.space(), &g.axes, &a, 5, crate::manifold::surface::Interpolant::Spline).unwrap(),
+        crate::manifold::surface::Surface::new(d.space(), &g.axes, &b, 5, crate::manifold::surface::Interpolant::Spline).unwrap(),
     );
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     for (k, lo) in [(0usize, 5usize), (1, 3), (2, 5), (3, 1)] {

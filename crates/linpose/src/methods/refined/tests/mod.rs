@@ -7,19 +7,22 @@ mod fitting;
 mod manifold;
 mod noisy_match;
 mod queries;
+mod surface_bits;
 
 use super::*;
 use super::noisy::{clip_bias_shape, NoiseScan};
 use super::query::NoiseWant;
 use super::scratch::QueryScratch;
 use super::search::smallest;
-use super::surface::Surface;
+use crate::manifold::folds::{self, both_folds};
+use crate::manifold::surface::Surface;
+use crate::manifold::Interpolant;
 use super::tuning::{BIAS_AMPLITUDE, BIN_CANDIDATES, MAX_LATTICE, NOISE_LEVELS};
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::kernels::Level;
-use crate::methods::eigenspace::manifold::Grid;
-use crate::methods::eigenspace::pca::Dimension;
+use crate::manifold::grid::Grid;
+use crate::manifold::pca::Dimension;
 use crate::model::{Estimator, PoseModel};
 use crate::{Manifest, Param, PoseSpace};
 

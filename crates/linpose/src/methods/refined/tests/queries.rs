@@ -59,7 +59,7 @@ fn the_staged_noise_estimate_routes_queries_as_the_whole_one() {
     let mut stopped = 0;
     for a in [0.0, 0.05, 0.1] {
         let mut q = test.features().to_vec();
-        crate::eval::add_uniform_noise(&mut q, m, a, 3).unwrap();
+        crate::pixel_noise::add_uniform_noise(&mut q, m, a, 3).unwrap();
         let q8: Vec<u8> = q.iter().map(|&v| (v * 255.0).round() as u8).collect();
         let p = test.space().len();
         let (mut route, mut whole) = (vec![0.0; test.len() * p], vec![0.0; test.len() * p]);

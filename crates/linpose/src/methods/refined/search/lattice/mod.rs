@@ -32,7 +32,7 @@
 //! Either way the result is the least over the whole lattice, without the lattice's points (the
 //! eigenspace's k-d tree searches them) and without a local search's starts, steps and snap. The
 //! distance at a lattice pose is the one
-//! [`Surface::snap`](crate::methods::refined::surface::Surface::snap) measures there, up to
+//! [`Surface::snap`](crate::manifold::surface::Surface::snap) measures there, up to
 //! rounding; ties go to the lowest lattice pose.
 
 #[cfg(target_arch = "x86_64")]

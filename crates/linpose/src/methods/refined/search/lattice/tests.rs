@@ -1,5 +1,5 @@
 use super::*;
-use crate::methods::refined::surface::{Interpolant, Surface, INTERPOLANTS};
+use crate::manifold::surface::{Interpolant, Surface, INTERPOLANTS};
 use crate::pose::{Param, PoseSpace};
 
 struct Rng(u64);

@@ -2,7 +2,7 @@
 //!
 //! A fit's largest temporaries (the eigenspace's M x N f64 copy of the training images: 34 MB
 //! for the paper's 222 views of 160 x 120) are above glibc's largest mmap threshold
-//! ([`super::tuning::HEAP_MATRIX_BYTES`], 32 MiB), so every fit maps them afresh and touches them
+//! ([`HEAP_MATRIX_BYTES`], 32 MiB), so every fit maps them afresh and touches them
 //! page by page: on 4 kB pages the kernel takes a fault and zeroes a page 8,300 times for that
 //! one copy. Linux backs a range with 2 MB pages only where the process asks
 //! (`madvise(MADV_HUGEPAGE)`, the kernel's default `madvise` mode), as numpy does for its arrays.
@@ -19,8 +19,16 @@
 //!
 //! Only the advice changes: the values, and so every result's bits, are the same.
 
+/// glibc's largest mmap threshold (`DEFAULT_MMAP_THRESHOLD_MAX`, 64-bit): an N x N f64 matrix
+/// smaller than this is carved from the heap once the threshold has grown past it, and one freed
+/// there may stay resident, so the estimates of N x N systems add one such matrix (none for
+/// larger ones, which are mapped and unmapped whole). Measured: the eigendecompositions at
+/// N = 1,440 (16.6 MB matrices) peak about 20 MB above those at N = 2,880 and 5,760 scaled by
+/// N^2.
+pub const HEAP_MATRIX_BYTES: u64 = 32 << 20;
+
 /// Buffers of at most this many bytes stay on ordinary pages (see the module doc).
-pub const HUGE_MIN_BYTES: usize = super::tuning::HEAP_MATRIX_BYTES as usize;
+pub const HUGE_MIN_BYTES: usize = HEAP_MATRIX_BYTES as usize;
 
 /// The huge page size the buffer aligns to (x86-64's 2 MiB).
 const HUGE_PAGE: usize = 2 << 20;

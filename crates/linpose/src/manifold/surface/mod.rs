@@ -21,17 +21,14 @@
 //! reporting lattice ([`lm`]), and the climb on that lattice ([`climb`]) are each in a file of
 //! their own; [`simd`] holds their AVX-512 bodies.
 
-mod climb;
+pub(crate) mod climb;
 mod eval;
-mod lm;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod simd;
-#[cfg(test)]
-mod tests;
 
 pub(crate) use climb::BLOCK_DIM;
 
-use crate::methods::eigenspace::spline::{Boundary, Spline};
+use crate::manifold::spline::{Boundary, Spline};
 use crate::pose::{wrap_positive, PoseSpace};
 use crate::Result;
 use serde::{Deserialize, Serialize};
@@ -94,16 +91,16 @@ impl std::str::FromStr for Interpolant {
 /// The continuous manifold of one fitted model.
 #[derive(Debug, Clone)]
 pub struct Surface {
-    splines: Vec<Spline>,
-    periods: Vec<Option<f64>>,
+    pub(crate) splines: Vec<Spline>,
+    pub(crate) periods: Vec<Option<f64>>,
     /// Knots per axis.
-    shape: Vec<usize>,
+    pub(crate) shape: Vec<usize>,
     /// Flat-index stride of each axis (row-major, the last fastest).
-    stride: Vec<usize>,
+    pub(crate) stride: Vec<usize>,
     /// Coordinates per point, L.
-    dim: usize,
+    pub(crate) dim: usize,
     /// For each derivative mask (2^D), each knot's L values: `[mask][knot][L]`.
-    coef: Vec<f32>,
+    pub(crate) coef: Vec<f32>,
 }
 
 impl Surface {

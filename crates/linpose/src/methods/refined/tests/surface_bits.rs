@@ -1,7 +1,8 @@
 //! The SIMD kernels of this module against their portable bodies, bit for bit (the portable
 //! bodies are what a machine without AVX-512 runs).
-use super::*;
-use super::climb::{lane_distance, lane_distance_body};
+use crate::manifold::surface::climb::{lane_distance, lane_distance_body};
+use crate::manifold::surface::*;
+use crate::pose::{wrap_positive, PoseSpace};
 use crate::methods::refined::noisy::AffineQuery;
 use crate::Param;
 

@@ -3,16 +3,17 @@
 //! (`normalize`) and how it was decided (`stage_choice`), so the model file keeps both and
 //! [`crate::model_file::load`] puts the stage back.
 
-use super::{NormalizeParams, Normalizer, StageChoice};
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::model::{AnyModel, Method, MethodSpec, ModelMeta, PoseModel, Storage, Tensor};
+use crate::normalize::{NormalizeParams, Normalizer, StageChoice};
 use crate::Result;
 
 /// A fitted model whose queries go through a [`Normalizer`] first.
 ///
 /// ```
-/// use linpose::normalize::{Normalized, NormalizeParams};
+/// use linpose::normalize::NormalizeParams;
+/// use linpose::model::Normalized;
 /// use linpose::render::synth::{dataset, PoseGrid};
 /// use linpose::render::{objects, Grid, RenderParams};
 /// use linpose::{EigenspaceParams, MethodSpec, PoseModel};

@@ -19,6 +19,7 @@
 //! the same rows with the same batch shapes.
 
 use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
+use crate::model::split;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use std::ops::Range;
@@ -307,3 +308,27 @@ mod tests {
         }
     }
 }
+
+/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
+/// in `dot_u8::dots_batch`, 16 in `dot_q::dots_batch`).
+pub(crate) const U8_BATCH: usize = 192;
+
+/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
+/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
+fn u8_task_rows(n: usize, block: usize) -> usize {
+    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
+}
+
+/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
+/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
+/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
+/// of at least [`split::min_task_queries`] (in whole blocks).
+pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
+    let most = U8_BATCH / block * block;
+    if !split::splits(n, m) {
+        return ((n.div_ceil(block) * block).min(most), false);
+    }
+    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
+}
+
+const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));

@@ -2,11 +2,11 @@
 //! documentation, with no stability promised. Every function here is safe and runs at the SIMD
 //! level detected on this CPU (capped by `LINPOSE_SIMD`, to time the other paths).
 
-pub use super::dot_q::DIGITS;
-pub use super::gram::gram_f32_fma;
-pub use super::gram8::gram_levels;
-pub use super::peak::{fma_flops_f64, read_seconds, vnni_gram_flops};
-pub use super::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
+pub use crate::kernels::dot_q::DIGITS;
+pub use crate::kernels::gram::gram_f32_fma;
+pub use crate::kernels::gram8::gram_levels;
+pub use crate::kernels::peak::{fma_flops_f64, read_seconds, vnni_gram_flops};
+pub use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 pub use crate::linalg::{gram, gram_f32, par, transpose_features};
 pub use crate::methods::eigenspace::search::NearestIndex;
 

@@ -4,19 +4,14 @@
 //! which path and why; the summary's record of it; and a plan that cannot fit said in the
 //! command line's words (its flags), so the user knows what to change.
 
-use crate::cmd::method_args::as_flag;
-use crate::cmd::train::TrainArgs;
+use crate::args::method::as_flag;
+use crate::args::TrainArgs;
 use linpose::image_io::ImageSpec;
 use linpose::memory::{first_image_spec, format_bytes, Job, Limit, Path, Plan, Remedy, StreamChange};
 use linpose::normalize::StageRule;
 use linpose::recognize::RecognizerParams;
 use linpose::{Catalog, Manifest, Method};
 use serde::Serialize;
-
-/// `--memory-budget SIZE` as bytes, or clap's error naming the value.
-pub fn parse_budget(text: &str) -> Result<u64, String> {
-    linpose::memory::parse_size(text).map_err(|e| e.to_string())
-}
 
 /// The plan in the JSON summary.
 #[derive(Serialize)]

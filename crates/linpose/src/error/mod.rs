@@ -3,6 +3,11 @@
 //! Every error a user can cause - a file, an image, a label, a model, a parameter - names the thing
 //! at fault (path, line, value) so the message alone tells what to fix.
 
+mod rejection;
+mod remedy;
+
+pub use rejection::Rejection;
+pub use remedy::{format_bytes, remedies_text, Remedy, StreamChange};
 use std::path::PathBuf;
 
 /// Result alias used throughout linpose.
@@ -148,19 +153,19 @@ pub enum Error {
         /// The image (a file, or a query's place in its batch).
         image: String,
         /// Why.
-        reason: crate::normalize::Rejection,
+        reason: Rejection,
     },
     /// A numerical routine failed to converge or met a non-finite value.
     #[error("numerical failure: {0}")]
     Numerical(String),
     /// No way of training fits the memory there is ([`crate::memory`]): said before any large
     /// allocation, with what each way needs and what would help.
-    #[error("not enough memory to train: {needs}; what would help: {}", crate::memory::remedies_text(remedies))]
+    #[error("not enough memory to train: {needs}; what would help: {}", remedies_text(remedies))]
     NotEnoughMemory {
         /// What each way of training needs against the memory there is, in words.
         needs: String,
         /// What would make it fit, with the numbers.
-        remedies: Vec<crate::memory::Remedy>,
+        remedies: Vec<Remedy>,
     },
 }
 

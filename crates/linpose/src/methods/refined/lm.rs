@@ -1,9 +1,11 @@
 //! Levenberg-Marquardt in the pose on the distance to the surface (or on the noisy match's affine
-//! fit), and the snap of its end to the reporting lattice.
+//! fit), and the snap of its end to the reporting lattice: the refined method's searches on the
+//! shared surface.
 
-use super::Surface;
-use crate::methods::refined::noisy::affine_fit;
-use crate::methods::refined::tuning::{AFFINE_STEP_TOL, DAMPING_DOWN, DAMPING_MIN, DAMPING_START, DAMPING_TRIES, DAMPING_UP, MAX_ITER, STEP_TOL};
+use crate::manifold::surface::Surface;
+
+use super::noisy::affine_fit;
+use super::tuning::{AFFINE_STEP_TOL, DAMPING_DOWN, DAMPING_MIN, DAMPING_START, DAMPING_TRIES, DAMPING_UP, MAX_ITER, STEP_TOL};
 
 impl Surface {
     /// Levenberg-Marquardt from `t` (in the domain) on sum_l wt_l (y_l - f_l(t))^2; returns the squared

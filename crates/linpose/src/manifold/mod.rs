@@ -1,0 +1,26 @@
+//! What the manifold methods share: the principal components of the training views (`pca`),
+//! the projector that takes a query's coordinates on them (`projector`), the training views'
+//! grid of poses and its dense resampling (`grid`), the splines and surfaces through the views'
+//! coordinates (`spline`, `surface`, [`Interpolant`]), the k-d tree over manifold points
+//! (`kdtree`), and the held-out folds every automatic choice is scored on (`folds`).
+//!
+//! The eigenspace, the refined method, the second look and the recognisers build on this module;
+//! it depends on none of them, so each of those can change without the others.
+
+pub(crate) mod folds;
+pub(crate) mod grid;
+pub(crate) mod kdtree;
+pub mod pca;
+pub(crate) mod projector;
+pub(crate) mod spline;
+pub(crate) mod surface;
+mod tuning;
+
+pub use surface::{Interpolant, INTERPOLANTS};
+
+/// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
+/// of queries against the basis stays in cache), at least 8, and small enough that a batch gives
+/// every thread a few tasks.
+pub(crate) fn chunk_rows(n: usize) -> usize {
+    n.div_ceil(4 * rayon::current_num_threads().max(1)).clamp(8, 128)
+}
