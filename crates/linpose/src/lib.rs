@@ -49,8 +49,9 @@
 //! - **Evaluation**: [`evaluate`] estimates every view of a data set, optionally under pixel
 //!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views, and
 //!   how well the confidence flags the gross errors ([`evaluate_with`], [`EvalOptions`]).
-//! - **The renderer**: [`render`] makes turntable data sets of built-in objects, meshes or
-//!   procedural objects (`render::objects::random`, a zoo to measure robustness on).
+//! - **The renderer** (cargo feature `render`, off by default): `render` makes turntable data sets
+//!   of built-in objects, meshes or procedural objects (`render::objects::random`, a zoo to
+//!   measure robustness on).
 //! - **The experiment**: [`experiment`] runs the paper's study on one object.
 //!
 //! Errors are one [`Error`] type that names the file, line or value at fault.
@@ -60,6 +61,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod atomic;
+#[cfg(feature = "bench")]
 #[doc(hidden)]
 pub mod bench;
 pub(crate) mod binning;
@@ -84,6 +86,7 @@ pub mod partial;
 pub(crate) mod pixel_noise;
 pub mod pose;
 pub mod recognize;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod second_look;
 pub mod stage_choice;

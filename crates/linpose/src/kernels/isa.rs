@@ -85,6 +85,7 @@ impl Level {
     }
 
     /// This level without AVX-512 VNNI (for tests of the kernels that stand in for it).
+    #[cfg(any(test, feature = "bench"))]
     pub(crate) fn without_vnni(self) -> Level {
         Level { vnni: false, ..self }
     }

@@ -24,6 +24,8 @@ pub(crate) mod gram;
 pub(crate) mod gram8;
 mod isa;
 pub(crate) mod levels;
+// Peak-rate measurements: for the benches and the tests only.
+#[cfg(any(test, feature = "bench"))]
 pub(crate) mod peak;
 mod rows;
 pub(crate) mod scan;

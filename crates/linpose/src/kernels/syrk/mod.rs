@@ -140,6 +140,7 @@ impl SyrkAcc {
     }
 
     /// Uses the portable 8-bit kernel even where VNNI is available (for tests).
+    #[cfg(any(test, feature = "bench"))]
     pub fn without_vnni(mut self) -> Self {
         self.level = self.level.without_vnni();
         self
@@ -271,7 +272,8 @@ impl SyrkAcc {
         }
     }
 
-    /// Multiplies every element of C by `s`.
+    /// Multiplies every element of C by `s` (the benches).
+    #[cfg(any(test, feature = "bench"))]
     pub fn scale(&mut self, s: f64) {
         self.bands.par_iter_mut().for_each(|band| band.buf.iter_mut().for_each(|v| *v *= s));
     }
