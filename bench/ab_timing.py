@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""Two builds of `examples/fit_predict_timing` (say, a commit's and its parent's) side by side on
+"""Two builds of `benches/fit_predict_timing` (say, a commit's and its parent's) side by side on
 one data set: both started in `--serve` mode, then asked in turn (the order alternating) for a
 block of fits or predicts of BLOCK seconds each, TURNS times; prints each build's median of its
 block medians, their ratio, and the blocks' range. Both builds see the same stretches of a
 shared machine's load, so the ratio holds where absolute times drift.
 
-    git checkout A && cargo build --release -p linpose --example fit_predict_timing && cp target/release/examples/fit_predict_timing /tmp/a
+    git checkout A && cp "$(python3 -c 'import sys; sys.path.insert(0, "bench"); from bench_bin import bench_binary; print(bench_binary("fit_predict_timing"))')" /tmp/a
     git checkout B && ... && cp ... /tmp/b
     python3 bench/ab_timing.py /tmp/a /tmp/b DATA [--object O] --train-step S --method M --what fit|predict
 """

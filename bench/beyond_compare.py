@@ -10,13 +10,14 @@ folder once; training subset every 9 degrees. COIL-20: every object, train step 
 peer (`peer.py --only eigenspace`) runs once per data set and noise level and its JSON is cached.
 For each method: `linpose train` then `linpose eval --noise A`; per-query time = predict_s /
 n_eval (same machine, same run), or with `--timing-reps R` the median of R batched predicts of
-every view by the `predict_timing` example, the methods' models alternated in one process so
-that they see the same load (build it first: `cargo build --release --example predict_timing`). Prints one row per data set and noise: unseen mean errors,
+every view by the `predict_timing` bench target, the methods' models alternated in one process so
+that they see the same load (`crates/linpose/benches/predict_timing.rs`, built by `cargo bench --no-run` when --predict-timing is not given). Prints one row per data set and noise: unseen mean errors,
 model bytes and per-query microseconds, and whether the candidate meets the issue's bar
 (error <= peer eigenspace, bytes <= linpose eigenspace, time <= linpose eigenspace). Exits 1 when
 any row fails.
 """
 import argparse, json, os, subprocess, sys
+from bench_bin import bench_binary
 
 here = os.path.dirname(os.path.abspath(__file__))
 root = os.path.dirname(here)
@@ -34,10 +35,12 @@ ap.add_argument("--python", default=os.path.join(root, "..", ".peer-venv", "bin"
 ap.add_argument("--linpose", default=os.path.join(root, "target", "release", "linpose"))
 ap.add_argument("--extra", default="", help="extra arguments for `linpose train` of the candidate")
 ap.add_argument("--json", help="write every row here")
-ap.add_argument("--timing-reps", type=int, default=0, help="time the queries with the predict_timing example, alternating the methods, median of this many")
+ap.add_argument("--timing-reps", type=int, default=0, help="time the queries with the predict_timing bench target, alternating the methods, median of this many")
 ap.add_argument("--timing-u8", action="store_true", help="with --timing-reps, also time 8-bit queries (predict_timing --u8, what `linpose predict` runs on image files); the bar then holds for both")
-ap.add_argument("--predict-timing", default=os.path.join(root, "target", "release", "examples", "predict_timing"))
+ap.add_argument("--predict-timing", default=None, help="the predict_timing bench binary (default: built by cargo bench --no-run)")
 a = ap.parse_args()
+if a.timing_reps > 0 and a.predict_timing is None:
+    a.predict_timing = bench_binary("predict_timing")
 os.makedirs(a.cache, exist_ok=True)
 run = lambda cmd: subprocess.run(cmd, check=True, capture_output=True, text=True)
 methods = [a.method] + [m for m in a.baselines.split(",") if m and m != a.method]

@@ -1,4 +1,4 @@
-"""A timing process driven through a pipe (`examples/fit_predict_timing.rs --serve`,
+"""A timing process driven through a pipe (`benches/fit_predict_timing.rs --serve`,
 `bench/peer_serve.py`): it says `ready` once loaded, then answers each request line with one
 timed block's median seconds. `bench/python_vs_rust.py` and `bench/ab_timing.py` alternate such
 blocks between processes, so that all see the same stretches of a shared machine's load."""

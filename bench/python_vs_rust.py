@@ -3,7 +3,7 @@
 
 For each data set and method: the fit on the training views' 8-bit pixels in memory and the
 predict of every view (8-bit images, one batch), from Python (the installed `linpose` package, in
-this process), from Rust (crates/linpose/examples/fit_predict_timing.rs in `--serve` mode: the
+this process), from Rust (crates/linpose/benches/fit_predict_timing.rs in `--serve` mode: the
 same work through the library, in its own process) and from the peer (bench/peer_serve.py: the
 expressions `peer.py` times, in its own process and virtual environment). Decoding is not timed
 anywhere.
@@ -35,6 +35,7 @@ import argparse, json, os, statistics, subprocess, sys, tempfile, time
 import numpy as np
 
 import linpose
+from bench_bin import bench_binary
 from block_server import Server
 
 here = os.path.dirname(os.path.abspath(__file__))
@@ -46,8 +47,8 @@ ap.add_argument("--block", type=float, default=0.1, help="least seconds of a blo
 ap.add_argument("--peer-python", default=os.path.join(root, "..", ".peer-venv", "bin", "python"))
 ap.add_argument("--peer", default=os.path.join(root, "..", "shared", "peer", "peer.py"))
 a = ap.parse_args()
-subprocess.run(["cargo", "build", "--release", "-q", "-p", "linpose", "-p", "linpose-cli", "--example", "fit_predict_timing", "--bin", "linpose"], check=True, cwd=root)
-timing = os.path.join(root, "target", "release", "examples", "fit_predict_timing")
+subprocess.run(["cargo", "build", "--release", "-q", "-p", "linpose-cli", "--bin", "linpose"], check=True, cwd=root)
+timing = bench_binary("fit_predict_timing")
 cli = os.path.join(root, "target", "release", "linpose")
 tmp = tempfile.mkdtemp(prefix="pyvr-")
 has_peer = os.path.exists(a.peer) and os.path.exists(a.peer_python)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """From how many query pixels a batch of 8-bit images is worth splitting across threads.
 
-Alternates, in ROUNDS rounds, three runs of crates/linpose/examples/split_timing.rs on one data
+Alternates, in ROUNDS rounds, three runs of crates/linpose/benches/split_timing.rs on one data
 set: every batch split across rayon's threads (LINPOSE_SPLIT_FROM_PIXELS=0, the behaviour before
 the threshold), every batch whole on the calling thread (--whole), and the library as built (the
 threshold of crates/linpose/src/model/split.rs). Prints, per method and batch size, the median
@@ -12,6 +12,7 @@ fall asleep in between).
   python3 bench/split_timing.py [DIR] [--object 1] [--train-step 10] [--rounds 5] [--sizes 8,16,36,72,144,288] [--gap MS]
 """
 import argparse, json, os, statistics, subprocess
+from bench_bin import bench_binary
 
 here = os.path.dirname(os.path.abspath(__file__))
 root = os.path.dirname(here)
@@ -23,8 +24,7 @@ ap.add_argument("--rounds", type=int, default=5)
 ap.add_argument("--sizes", default="8,16,36,72,144,288")
 ap.add_argument("--gap", default="0", help="milliseconds the caller sleeps before each timed predict")
 a = ap.parse_args()
-subprocess.run(["cargo", "build", "--release", "-q", "-p", "linpose", "--example", "split_timing"], check=True, cwd=root)
-exe = os.path.join(root, "target", "release", "examples", "split_timing")
+exe = bench_binary("split_timing")
 base = [exe, a.data, "--train-step", a.train_step, "--sizes", a.sizes, "--gap", a.gap] + (["--object", a.object] if a.object else [])
 runs = {"split": (base, {"LINPOSE_SPLIT_FROM_PIXELS": "0"}), "whole": (base + ["--whole"], {}), "library": (base, {})}
 got = {k: [] for k in runs}

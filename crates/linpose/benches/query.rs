@@ -10,7 +10,7 @@
 //! user's views on a background that is not black lie on the manifold of their training views).
 //! The refined eigenspace (the default: its binning factor chosen from the duck's training
 //! views, 4) runs on the same views, 8-bit (block sums through the 16-bit products) and f32.
-//! `examples/query_timing.rs` prints the same figures as fractions of their bounds (the copy, one
+//! `benches/query_timing.rs` prints the same figures as fractions of their bounds (the copy, one
 //! thread reading the same bytes, the FMA peak).
 //!
 //! cargo bench -p linpose --bench query

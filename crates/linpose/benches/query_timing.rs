@@ -15,7 +15,7 @@
 //! compute bound is DIGITS / 4 of the FMA bound; the larger of that and the copy is printed
 //! beside the rest.
 //!
-//! cargo run --release --example query_timing [-- REPS]
+//! cargo bench -p linpose --bench query_timing [-- REPS]
 use linpose::bench::{fma_flops_f64, read_seconds};
 use linpose::{EigenspaceParams, Estimator, LinearParams, PoseModel};
 use rayon::prelude::*;
@@ -49,7 +49,7 @@ fn copy(src: &[u8], dst: &mut [u8]) {
 }
 
 fn main() {
-    let reps: usize = std::env::args().nth(1).map_or(7, |s| s.parse().expect("REPS"));
+    let reps: usize = std::env::args().skip(1).find(|a| a != "--bench").map_or(7, |s| s.parse().expect("REPS"));
     let train = training_set();
     let lin = LinearParams::default().ridge(1e-6).fit(&train).unwrap();
     let batch = 4096;

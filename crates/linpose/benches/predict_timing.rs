@@ -3,7 +3,7 @@
 //! images (the features times 255, rounded: what `linpose predict` decodes from image files)
 //! and go through `predict_u8_into`.
 //!
-//!     cargo run --release -p linpose --example predict_timing -- DIR [--object O] [--noise A]
+//!     cargo bench -p linpose --bench predict_timing -- DIR [--object O] [--noise A]
 //!         [--reps R] [--u8] MODEL...
 use linpose::image_io::ColorMode;
 use linpose::{Dataset, Manifest, PoseModel};
@@ -12,7 +12,7 @@ use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut dir, mut object, mut noise, mut reps, mut models, mut u8) = (None, None, 0.0, 5usize, vec![], false);
-    let mut args = std::env::args().skip(1);
+    let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     while let Some(a) = args.next() {
         match a.as_str() {
             "--object" => object = Some(args.next().ok_or("--object O")?.parse()?),

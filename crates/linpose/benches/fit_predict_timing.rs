@@ -12,7 +12,7 @@
 //! half the set away), is answered by a line with the block's median seconds. It says `ready`
 //! once loaded and fitted; end of input ends it.
 //!
-//!     cargo run --release -p linpose --example fit_predict_timing -- DIR [--object O]
+//!     cargo bench -p linpose --bench fit_predict_timing -- DIR [--object O]
 //!         --train-step S --method NAME [--reps R] [--serve]
 use linpose::image_io::ColorMode;
 use linpose::{Dataset, Manifest, PoseModel, Settings, TrainSelection};
@@ -55,7 +55,7 @@ fn singles<'a>(first: usize, count: usize, n: usize, view: impl Fn(usize) -> &'a
 
 fn main() -> Res<()> {
     let (mut dir, mut object, mut step, mut method, mut reps, mut serve) = (None, None, None, String::from("linear"), 5usize, false);
-    let mut args = std::env::args().skip(1);
+    let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     while let Some(a) = args.next() {
         match a.as_str() {
             "--object" => object = Some(args.next().ok_or("--object O")?.parse()?),

@@ -1,7 +1,7 @@
 //! Where the k-d tree overtakes brute force for the eigenspace's nearest-manifold-point search,
 //! the measurement behind `SearchKind::Auto`.
 //!
-//!     cargo run --release -p linpose --example eigen_search
+//!     cargo bench -p linpose --bench eigen_search
 //!
 //! Points lie on a smooth closed curve (a one-parameter manifold) or a smooth sheet (two
 //! parameters) in L dimensions, as appearance manifolds do; queries are points between them plus

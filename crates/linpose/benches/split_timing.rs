@@ -13,7 +13,7 @@
 //! waiting for its next camera frame does: rayon's workers go to sleep in between, and a split
 //! batch pays for waking them.
 //!
-//!     cargo run --release -p linpose --example split_timing -- DIR [--object O] --train-step S
+//!     cargo bench -p linpose --bench split_timing -- DIR [--object O] --train-step S
 //!         [--sizes 8,16,36,72,144,288] [--reps R] [--whole] [--gap MS]
 use linpose::image_io::ColorMode;
 use linpose::{Dataset, Manifest, PoseModel, Settings, TrainSelection};
@@ -23,7 +23,7 @@ use std::time::Instant;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut dir, mut object, mut step, mut reps, mut whole, mut gap) = (None, None, None, 300usize, false, 0.0f64);
     let mut sizes = vec![8usize, 16, 36, 72, 144, 288];
-    let mut args = std::env::args().skip(1);
+    let mut args = std::env::args().skip(1).filter(|a| a != "--bench");
     while let Some(a) = args.next() {
         match a.as_str() {
             "--object" => object = Some(args.next().ok_or("--object O")?.parse()?),

@@ -6,7 +6,7 @@
 //! `gram_f32` takes the 8-bit integer path where the CPU has AVX-512 VNNI; the f64 kernel
 //! (`gram_f32_fma`) is timed on the same data beside it.
 //!
-//! cargo run --release --example gram_timing [-- REPS]
+//! cargo bench -p linpose --bench gram_timing [-- REPS]
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat};
 use linpose::bench::{fma_flops_f64, gram_f32_fma, vnni_gram_flops};
@@ -19,7 +19,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let reps: usize = std::env::args().nth(1).map_or(7, |s| s.parse().expect("REPS"));
+    let reps: usize = std::env::args().skip(1).find(|a| a != "--bench").map_or(7, |s| s.parse().expect("REPS"));
     let m = 19_200;
     let sq = 2048;
     let a = Mat::<f64>::from_fn(sq, sq, |i, j| ((i * 31 + j * 17) % 101) as f64 / 101.0);
