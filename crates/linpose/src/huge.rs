@@ -14,8 +14,8 @@
 //! 1's refined fit (4.7 MB copies) was 7-37% slower in three alternated runs
 //! (`bench/ab_timing.py`).
 //!
-//! Measured on the AVX2 machine of BENCHMARKS.md ("Hand-written kernels", `bench/ab_timing.py`,
-//! 21 alternated turns of 0.2 s): the rendered duck's eigenspace fit 161.3 -> 133.6 ms.
+//! Measured on an AVX2 machine (`bench/ab_timing.py`, 21 alternated turns of 0.2 s): the
+//! rendered duck's eigenspace fit 161.3 -> 133.6 ms.
 //!
 //! Only the advice changes: the values, and so every result's bits, are the same.
 

@@ -44,8 +44,7 @@ class CoreModel:
         """Lets go of the fitted model before a new fit, so that the old model's memory is free
         for the new fit's (one model's worth at a time, not two). It is faster too: COIL-20
         object 1's 1.3 ms linear fit was 7.5-9.7% slower with the old model kept in five of six
-        runs of ``bench/refit.py`` (level in the sixth), with the same page faults either way; why
-        is not known. A fit that fails then leaves the estimator unfitted, as scikit-learn's own
+        timed runs (level in the sixth), with the same page faults either way; why is not known. A fit that fails then leaves the estimator unfitted, as scikit-learn's own
         estimators that reset before fitting do."""
         self.__dict__.pop("model_", None)
         self.__dict__.pop("_serve", None)

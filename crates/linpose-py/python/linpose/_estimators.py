@@ -132,8 +132,7 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         The first ``predict`` after a fit (or an unpickling) makes it, into the cell
         ``_serve`` that ``fit`` leaves empty, so that ``predict`` changes no attribute: just
         after a fit the interpreter's own data is out of the cache, and making it there cost
-        about 22 us of COIL-20 object 1's 1.3 ms linear fit (timed inside ``fit``; the whole
-        refit by ``bench/refit.py``)."""
+        about 22 us of COIL-20 object 1's 1.3 ms linear fit (timed inside ``fit``)."""
         if "feature_names_in_" in self.__dict__:
             return False
         return _linpose.Serve(self.model_, self.n_features_in_, self._y_1d, type(self).__name__)

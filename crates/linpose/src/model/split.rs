@@ -14,7 +14,7 @@
 //! What it trades: below the threshold a batch never uses the second core, which costs up to
 //! half its time when both cores are idle and the workers awake; above it, the round trip is
 //! small beside the work. The value is measured, not derived: BENCHMARKS.md ("Small batches")
-//! has the batch sizes, times and the command (`examples/split_timing.rs`, which compares both
+//! has the batch sizes, times and the command (`benches/split_timing.rs`, which compares both
 //! sides at every size with the environment variable `LINPOSE_SPLIT_FROM_PIXELS=0`: every
 //! batch split, as before this threshold). It is measured for a caller that predicts back to
 //! back. After a millisecond idle the workers are asleep, waking them costs that machine

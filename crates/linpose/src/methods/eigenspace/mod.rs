@@ -57,9 +57,7 @@ use crate::second_look::{Queries, SecondLook, SecondLookSettings};
 use crate::{Error, Result};
 use crate::manifold::grid::{pose_of, Grid, Manifold};
 use crate::manifold::projector::{u8_tasks, unit_coords, Projector, BATCH_FROM, U8_BATCH};
-use crate::manifold::chunk_rows;
-// The principal components, public for the shard check (to go with it).
-pub use crate::manifold::pca;
+use crate::manifold::{chunk_rows, pca};
 pub use crate::manifold::pca::Dimension;
 use rayon::prelude::*;
 use search::NearestIndex;

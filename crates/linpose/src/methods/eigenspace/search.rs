@@ -38,7 +38,7 @@ impl std::fmt::Display for SearchKind {
 
 /// What [`SearchKind::Auto`] picks for `points` manifold points of `dim` coordinates: the k-d
 /// tree from 64 points on, brute force below that and whenever L exceeds [`MAX_TREE_DIM`].
-/// Measured with examples/eigen_search.rs (one thread, points on a smooth curve or sheet, queries
+/// Measured with benches/eigen_search.rs (one thread, points on a smooth curve or sheet, queries
 /// near it, as appearance manifolds and their queries are; 2026-11-22 on this tree): brute force
 /// costs about 0.0095 us x points x L / 20 and wins at 32 points on the 8-D sheet only (0.09
 /// against 0.13 us); from 64 points on the tree wins everywhere (0.12-0.18 against 0.18-0.99 us)
