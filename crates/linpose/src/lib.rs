@@ -88,7 +88,7 @@ pub mod pose;
 pub mod recognize;
 #[cfg(feature = "render")]
 pub mod render;
-pub mod second_look;
+pub(crate) mod second_look;
 pub mod stage_choice;
 
 pub use catalog::{Catalog, ObjectSet, Source};

@@ -114,7 +114,7 @@ fn recognised_views_get_their_objects_pose_and_the_model_file_keeps_everything()
     assert_eq!(back.estimate(&queries, 2).unwrap(), est);
     // The second stage's thresholds come back as calibrated (the largest held-out distance), and
     // every recognised view was measured against them.
-    let own = back.settings().own.as_ref().expect("a second stage");
+    let own = &back.settings().own;
     assert_eq!(own.thresholds, own.held_out_max);
     assert!(own.thresholds.iter().zip(&own.held_out_median).all(|(t, m)| t.is_finite() && m <= t), "{own:?}");
     assert!(est.iter().all(|e| e.recognition.own_distance.is_some_and(|d| d <= e.recognition.own_threshold)));
@@ -168,30 +168,16 @@ fn the_model_file_keeps_the_callers_labels_and_writes_none_without_them() {
 }
 
 #[test]
-fn a_model_file_written_before_the_second_stage_recognises_with_the_first_alone() {
-    let (all, train) = builtins();
+fn a_model_file_without_the_second_stage_is_damaged() {
+    let (_, train) = builtins();
     let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
-    // The file as an older linpose wrote it: no `own` in the settings (its arrays, unread, may
-    // stay).
+    // Every file of this format records the second stage: one without `own` is refused, named.
     let bytes = model_file::objects_to_bytes(&model).unwrap();
-    let old = with_objects_header(&bytes, |o| {
+    let cut = with_objects_header(&bytes, |o| {
         assert!(o["settings"].as_object_mut().unwrap().remove("own").is_some());
     });
-    let back = model_file::objects_from_bytes(Path::new("old.safetensors"), &old).unwrap();
-    assert!(back.settings().own.is_none());
-    assert!(back.model_bytes() < model.model_bytes());
-    let first_only = model.clone().with_unknown(Unknown::Threshold(f64::MAX)).unwrap();
-    for d in all.objects() {
-        let (a, b) = (back.recognize(d.features()).unwrap(), model.recognize(d.features()).unwrap());
-        let f = first_only.recognize(d.features()).unwrap();
-        for ((a, b), f) in a.iter().zip(&b).zip(&f) {
-            // The same first stage, no second.
-            assert_eq!((a.nearest, a.distance, a.threshold), (b.nearest, b.distance, b.threshold));
-            assert_eq!(a.own_distance, None);
-            assert_eq!(a.object, if a.distance <= a.threshold { Some(a.nearest) } else { None });
-            assert_eq!(f.own_distance, None);
-        }
-    }
+    let e = model_file::objects_from_bytes(Path::new("cut.safetensors"), &cut).unwrap_err().to_string();
+    assert!(e.contains("cut.safetensors") && e.contains("own"), "{e}");
 }
 
 /// Each built-in object left out in turn, the others fitted by `fit`: the views of the object
@@ -281,7 +267,7 @@ fn an_object_of_a_single_training_view_is_recognised_without_a_second_stage() {
     let linear: MethodSpec = LinearParams::default().into();
     for kind in RecognizerKind::ALL {
         let model = ObjectModel::fit(&train, &RecognizerParams::new(kind), &linear).unwrap();
-        let own = model.settings().own.as_ref().unwrap();
+        let own = &model.settings().own;
         assert_eq!(own.components[0], 0, "{kind:?}");
         assert_eq!(own.thresholds[0], f64::INFINITY, "{kind:?}");
         assert!(own.thresholds[1..].iter().all(|t| t.is_finite()), "{kind:?}: {own:?}");

@@ -1,7 +1,7 @@
 //! A data set's rows as the kernels read them: f32 features or 8-bit values.
 
 /// A data set's rows as held (row-major, M values a row): f32 features, or the 8-bit values
-/// whose features are [`feature_of_u8`](super::levels::feature_of_u8) of each.
+/// whose features are v / 255 of each (`image_io::feature_of_u8`).
 #[derive(Debug, Clone, Copy)]
 pub enum Rows<'a> {
     /// Features.

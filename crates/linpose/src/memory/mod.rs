@@ -103,7 +103,7 @@
 mod estimate;
 mod remedy;
 mod system;
-pub mod tuning;
+pub(crate) mod tuning;
 
 pub use crate::error::format_bytes;
 pub use crate::error::{remedies_text, Remedy, StreamChange};

@@ -48,10 +48,8 @@ pub struct ObjectSettings {
     /// Per object, the distance beyond which a query nearest to it is unknown (infinite: never).
     #[serde(with = "infinite_as_null")]
     pub thresholds: Vec<f64>,
-    /// The second stage, each object's own eigenspace: its calibration and thresholds. `None` in
-    /// model files written before it (they recognise as they did, with the first stage alone).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub own: Option<OwnSettings>,
+    /// The second stage, each object's own eigenspace: its calibration and thresholds.
+    pub own: OwnSettings,
     /// Fitted without poses ([`ObjectModel::fit_views`]): each object's manifold is its training
     /// views' points, each view was held out together with its nearest other view, and there
     /// are no pose models.
@@ -103,7 +101,7 @@ pub struct ObjectModel {
     space: Option<PoseSpace>,
     recognizer: Recognizer,
     /// The second stage (`None` for a model file written before it).
-    own: Option<OwnSpaces>,
+    own: OwnSpaces,
     settings: ObjectSettings,
     /// One per object; none for a model fitted without poses.
     poses: Vec<AnyModel>,
@@ -209,7 +207,7 @@ impl ObjectModel {
             spec: objects.spec(),
             space: Some(objects.space().clone()),
             recognizer,
-            own: Some(own),
+            own,
             settings,
             poses,
             stage: None,
@@ -347,7 +345,7 @@ impl ObjectModel {
             held_out_max,
             held_out_median,
             thresholds: Vec::new(),
-            own: Some(own_settings),
+            own: own_settings,
             views_only,
             stage_choice: None,
         };
@@ -471,7 +469,7 @@ impl ObjectModel {
     /// one of them lies nearer (the recogniser's answer is not the object the query looks most
     /// like).
     fn check_own(&self, queries: &[f32], rec: &mut [Recognition]) {
-        let (Some(own), Some(s)) = (&self.own, &self.settings.own) else { return };
+        let (own, s) = (&self.own, &self.settings.own);
         let m = self.spec.features();
         let measured = |r: &Recognition| r.object.filter(|&k| s.thresholds[k] != f64::INFINITY && own.has(k));
         let idx: Vec<usize> = (0..rec.len()).filter(|&i| measured(&rec[i]).is_some()).collect();
@@ -567,15 +565,15 @@ impl ObjectModel {
         } + self.own_numbers())
     }
 
-    /// Numbers the second stage stores (0 for a model file written before it).
+    /// Numbers the second stage stores.
     fn own_numbers(&self) -> usize {
-        self.own.as_ref().map_or(0, OwnSpaces::numbers)
+        self.own.numbers()
     }
 
     /// The recogniser's storage in the paper's Table 1 terms ([`RecognizerKind::storage`]).
     pub fn recognizer_storage(&self) -> Storage {
         let (m, k) = (self.spec.features(), self.names.len());
-        let (n_own, l_own) = self.own.as_ref().map_or((0, 0), |o| (o.manifold_len(), o.max_components()));
+        let (n_own, l_own) = (self.own.manifold_len(), self.own.max_components());
         match &self.recognizer {
             Recognizer::Universal(u) => {
                 let (n, l) = (u.manifold_len(), u.components());
@@ -591,7 +589,7 @@ impl ObjectModel {
             Recognizer::Universal(u) => u.tensors("recognizer."),
             Recognizer::Linear(l) => l.tensors(),
         };
-        t.extend(self.own.iter().flat_map(OwnSpaces::tensors));
+        t.extend(self.own.tensors());
         t
     }
 
@@ -648,20 +646,16 @@ impl ObjectModel {
             }
             RecognizerKind::Linear => Recognizer::Linear(LinearRecognizer::from_parts(t, k, spec.features())?),
         };
-        let own = match &settings.own {
-            None => None,
-            Some(o) => {
-                for v in [&o.held_out_max, &o.held_out_median, &o.thresholds] {
-                    if v.len() != k || v.iter().any(|x| x.is_nan() || *x < 0.0) {
-                        return Err(damaged(format!("{} per-object values of the own eigenspaces for {k} objects", v.len())));
-                    }
-                }
-                if o.components.len() != k {
-                    return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
-                }
-                Some(OwnSpaces::from_parts(t, spec, o.bin, &o.components)?)
+        let o = &settings.own;
+        for v in [&o.held_out_max, &o.held_out_median, &o.thresholds] {
+            if v.len() != k || v.iter().any(|x| x.is_nan() || *x < 0.0) {
+                return Err(damaged(format!("{} per-object values of the own eigenspaces for {k} objects", v.len())));
             }
-        };
+        }
+        if o.components.len() != k {
+            return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
+        }
+        let own = OwnSpaces::from_parts(t, spec, o.bin, &o.components)?;
         Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses, stage, labels })
     }
 }
@@ -687,12 +681,10 @@ fn set_thresholds(s: &mut ObjectSettings, unknown: Unknown) {
         Unknown::Threshold(t) => vec![t; k],
         Unknown::Off => vec![f64::INFINITY; k],
     };
-    if let Some(o) = &mut s.own {
-        o.thresholds = match unknown {
-            Unknown::Calibrated => o.held_out_max.clone(),
-            Unknown::Threshold(_) | Unknown::Off => vec![f64::INFINITY; k],
-        };
-    }
+    s.own.thresholds = match unknown {
+        Unknown::Calibrated => s.own.held_out_max.clone(),
+        Unknown::Threshold(_) | Unknown::Off => vec![f64::INFINITY; k],
+    };
 }
 
 /// Every object's training views in one data set, object after object.
