@@ -56,7 +56,7 @@ pub struct TrainArgs {
     /// With a data set of many objects: how a query's object is told, `universal` (Murase &
     /// Nayar's universal eigenspace, the nearest object manifold) or `linear` (the paper's
     /// linear model with one-hot object targets). Default: universal.
-    #[arg(long, value_name = "NAME", value_parser = ["universal", "linear"])]
+    #[arg(long, value_name = "NAME", value_parser = recognizer_names())]
     pub recognizer: Option<String>,
     /// With many objects: dimensions of the universal eigenspace (default 20), and at most those
     /// of each object's own eigenspace (the second stage of `--unknown calibrated`).
@@ -158,4 +158,9 @@ impl std::str::FromStr for ShardArg {
 /// `--memory-budget SIZE` as bytes, or clap's error naming the value.
 pub fn parse_budget(text: &str) -> Result<u64, String> {
     linpose::memory::parse_size(text).map_err(|e| e.to_string())
+}
+
+/// The recognisers' names, from the library's list, for `--recognizer`.
+fn recognizer_names() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(linpose::recognize::RecognizerKind::ALL.map(|k| k.name()))
 }
