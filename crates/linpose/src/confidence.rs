@@ -7,7 +7,7 @@
 //! would be a gross error. A nearly symmetric object (front resembling back) has two such minima
 //! at almost the same distance; an asymmetric one has one far below the rest.
 //!
-//! **The eigenspace and the refined method** take a second look ([`crate::second_look`]): the
+//! **The eigenspace and the refined method** take a second look (`second_look`): the
 //! basins of the query's distance to the manifold in every principal component of the training
 //! views decide which is the estimate, and each is scored by its squared distance d_k as the
 //! posterior of a Gaussian error: proportional to exp(-d_k / 2 s^2), with s^2
@@ -136,7 +136,7 @@ impl Estimate {
 /// `unexplained`, when given, is one more alternative that is no pose: that the query is none of
 /// the manifold's views (another object, an image not registered like the training views), at
 /// the squared distance of a view the manifold does not hold (see
-/// [`crate::second_look::SecondLookSettings::held_out`]). It takes its share of the probability
+/// `second_look::SecondLookSettings::held_out`). It takes its share of the probability
 /// and is not returned, so the candidates' probabilities then add up to less than 1.
 pub(crate) fn posterior(d: &[f64], level: f64, dims: f64, unexplained: Option<f64>) -> Vec<f64> {
     let d1 = d.iter().copied().fold(f64::INFINITY, f64::min);

@@ -14,7 +14,7 @@ use crate::recognize::RecognizerKind;
 /// What a path needs: bytes, and its largest part in words.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Estimate {
-    /// Peak resident bytes, an upper bound by design (see [`super::tuning`]).
+    /// Peak resident bytes, an upper bound by design (see the memory module's tuning constants).
     pub bytes: u64,
     /// The largest part, e.g. "N x N Gram of 100800 images".
     pub what: String,

@@ -24,10 +24,10 @@
 //! # The estimates (bytes; N images, M features, K encoded pose values, L eigenimages)
 //!
 //! Read from what the code allocates, the coefficients that the code alone does not settle
-//! measured ([`tuning`] says which, and how); every estimate adds [`tuning::OVERHEAD_BYTES`] and
-//! [`tuning::THREAD_FEATURE_BYTES`] per thread and feature, and every N x N system one more
+//! measured (`tuning` says which, and how); every estimate adds `tuning::OVERHEAD_BYTES` and
+//! `tuning::THREAD_FEATURE_BYTES` per thread and feature, and every N x N system one more
 //! N x N matrix when that is under glibc's largest mmap threshold
-//! ([`tuning::HEAP_MATRIX_BYTES`]: freed, it may stay on the heap).
+//! (`tuning::HEAP_MATRIX_BYTES`: freed, it may stay on the heap).
 //!
 //! - Images: 4 N M (f32), twice with normalisation (the normalised copy), three times when the
 //!   normalisation is chosen on held-out views (each fold's views, normalised).
@@ -96,7 +96,7 @@
 //! # Available memory
 //!
 //! [`available`]: the smallest of `/proc/meminfo`'s `MemAvailable` and the control groups'
-//! limits less their usage; a plan uses [`tuning::USABLE_FRACTION`] of it. A budget
+//! limits less their usage; a plan uses `tuning::USABLE_FRACTION` of it. A budget
 //! ([`Limit::Budget`], `--memory-budget`) replaces it. Where nothing can be read
 //! ([`Limit::Unknown`]), the in-memory path is taken unchecked, as before planning existed.
 
@@ -401,7 +401,7 @@ impl Blocker {
 pub enum Limit {
     /// A budget in bytes, given by the user: used whole.
     Budget(u64),
-    /// What the machine has available ([`available`]): [`USABLE_FRACTION`] of it is used.
+    /// What the machine has available ([`available`]): `USABLE_FRACTION` of it is used.
     Available(Available),
     /// Nothing could be read (not Linux): no path is refused.
     Unknown,

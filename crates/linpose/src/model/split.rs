@@ -39,7 +39,7 @@ pub(crate) fn splits(n: usize, m: usize) -> bool {
     n.saturating_mul(m) >= split_from()
 }
 
-/// Queries from which a batch's second look ([`crate::second_look`]) is split across threads.
+/// Queries from which a batch's second look (`second_look`) is split across threads.
 /// A second look costs 12-90 us a query (COIL-20 to the paper's grid, BENCHMARKS.md), so 8 of
 /// them are more work than the 72 COIL-20 images (about 0.08 ms of the linear model's products)
 /// at which [`SPLIT_FROM_PIXELS`] starts splitting: the same amount of work, not the same pixels.

@@ -30,7 +30,7 @@
 //! answer can be trusted. No constant is involved: the rule asks only which distance is least.
 //!
 //! The eigenspaces are of the images binned as the pose models' second look bins them
-//! ([`crate::second_look::SECOND_LOOK_BIN`], coarser only while the binned images keep as many
+//! (`second_look::SECOND_LOOK_BIN`, coarser only while the binned images keep as many
 //! pixels as an object has training views): what tells a car from a car survives 4 x 4 blocks,
 //! and the stage stores and multiplies b^2 times fewer numbers.
 //!

@@ -11,7 +11,7 @@
 //! 4. a query is scaled to unit energy, projected (L dot products of length M) and given the pose
 //!    of the nearest manifold point (`search.rs`, a k-d tree or brute force).
 //!
-//! Beyond Murase & Nayar, linpose then takes the second look ([`crate::second_look`]): where every
+//! Beyond Murase & Nayar, linpose then takes the second look (`second_look`): where every
 //! principal component of the training views (binned) puts the query nearer another basin of the
 //! pose space (a nearly symmetric object's other side), the estimate is the nearest manifold point
 //! in that basin; the same look gives the ranked hypotheses and the confidence.
@@ -183,7 +183,7 @@ pub struct EigenspaceSettings {
     /// The search in use.
     pub search: SearchKind,
     /// The second look that decides between the estimate and its rivals and scores them
-    /// ([`crate::second_look`]); absent only in models fitted inside another method's choices.
+    /// (`second_look`); absent only in models fitted inside another method's choices.
     pub second_look: Option<SecondLookSettings>,
 }
 
@@ -258,7 +258,7 @@ pub struct EigenspaceModel {
     /// Sample positions per pose parameter.
     axes: Vec<Vec<f64>>,
     index: NearestIndex,
-    /// The second look ([`crate::second_look`]).
+    /// The second look (`second_look`).
     look: Option<SecondLook>,
 }
 
@@ -504,7 +504,7 @@ impl PoseModel for EigenspaceModel {
 }
 
 impl EigenspaceModel {
-    /// The second look over a batch whose own estimates are `out` (see [`crate::second_look`]).
+    /// The second look over a batch whose own estimates are `out` (see `second_look`).
     fn look_again(&self, queries: Queries<'_>, out: &mut [f64], top: Option<usize>) -> Vec<crate::Estimate> {
         match &self.look {
             Some(look) => look.apply(queries, self.mean.len(), out, top, |q, start, o| self.refine_in_basin(q, start, o)),

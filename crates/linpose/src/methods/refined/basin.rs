@@ -1,5 +1,5 @@
 //! A query's pose searched again in another basin: the refined model's part of the second look
-//! ([`crate::second_look`]), which says which basin of the pose space a query belongs to when it is
+//! (`second_look`), which says which basin of the pose space a query belongs to when it is
 //! not the one the model's own search ended in. The search is the query's own route's (the clean
 //! search's weighted distance, or the noisy match's affine residual), climbed on the reporting
 //! lattice from the basin's pose.

@@ -61,7 +61,7 @@ impl RefinedParams {
 
 impl RefinedModel {
     /// Table 1's terms: D pose parameters, N knots, S coarse points, L eigenimages, M pixels, and
-    /// the second look's K components of images binned by b ([`crate::second_look`]).
+    /// the second look's K components of images binned by b (`second_look`).
     pub(crate) fn table1_storage(&self) -> Storage {
         let (n, l, s, d, m) = (self.knots_len(), self.components(), self.start_len(), self.meta().space.len(), self.meta().spec.features());
         let (k, b) = self.look.as_ref().map_or((0, 1), |s| (s.settings().components, s.settings().bin));

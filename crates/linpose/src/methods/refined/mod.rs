@@ -58,7 +58,7 @@
 //!    per pose in closed form.
 //! 5. **Report.** The pose on the lattice of `resolution` degrees (by default the eigenspace's
 //!    0.5, anchored at each parameter's first training value), or the continuous estimate.
-//! 6. **Second look** ([`crate::second_look`], the query's pose in another basin in `basin.rs`).
+//! 6. **Second look** (`second_look`, the query's pose in another basin in `basin.rs`).
 //!    Where every principal component of the training views puts the query nearer another basin
 //!    of the pose space (a nearly symmetric object's other side), the route's search runs again
 //!    there; the same look gives the ranked hypotheses and the confidence.

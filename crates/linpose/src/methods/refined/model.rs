@@ -71,7 +71,7 @@ pub struct RefinedModel {
     /// The noisy query's search beside `tree` (on its poses): it replaces the noisy match's
     /// coarse scan and local search there.
     pub(crate) noisy_tree: Option<NoisyTree>,
-    /// The second look ([`crate::second_look`]).
+    /// The second look (`second_look`).
     pub(crate) look: Option<SecondLook>,
 }
 
@@ -370,7 +370,7 @@ impl PoseModel for RefinedModel {
 }
 
 impl RefinedModel {
-    /// The second look over a batch whose own estimates are `out` (see [`crate::second_look`]).
+    /// The second look over a batch whose own estimates are `out` (see `second_look`).
     fn look_again(&self, queries: Queries<'_>, out: &mut [f64], top: Option<usize>) -> Vec<crate::Estimate> {
         match &self.look {
             Some(look) => look.apply(queries, self.meta.spec.features(), out, top, |q, start, o| self.refine_in_basin(q, start, o)),

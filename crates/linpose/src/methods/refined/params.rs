@@ -194,7 +194,7 @@ pub struct RefinedSettings {
     /// error (degrees) of the held-out training views under simulated +-5% and +-10% noise.
     pub noise_selection: Vec<(usize, bool, f64)>,
     /// The second look that decides between the estimate and its rivals and scores them
-    /// ([`crate::second_look`]); absent only in the models fitted for the choices themselves.
+    /// (`second_look`); absent only in the models fitted for the choices themselves.
     pub second_look: Option<crate::second_look::SecondLookSettings>,
 }
 

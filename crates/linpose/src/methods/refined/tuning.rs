@@ -258,6 +258,6 @@ const _: () = assert!(NOISE_SUB_U8.is_multiple_of(crate::kernels::dot_q::GROUP *
 // The second look's search in another basin
 // ---------------------------------------------------------------------------------------------
 
-/// The lattice (degrees) a query's pose climbs on in another basin ([`crate::second_look`]) when
+/// The lattice (degrees) a query's pose climbs on in another basin (`second_look`) when
 /// the model reports continuous poses (`resolution` 0): the default reporting lattice. Not tuned.
 pub(crate) const HYPOTHESIS_STEP: f64 = DEFAULT_RESOLUTION;
