@@ -86,7 +86,7 @@ pub const FLAG_BELOW: f64 = 0.6;
 /// Most hypotheses a model considers for one query (the best first): the confidence is the
 /// estimate's share of the probability among these. More would cost a climb each (the refined method)
 /// and shift little probability: alternatives beyond the best few score near 0. Not tuned.
-pub const MAX_HYPOTHESES: usize = 8;
+pub(crate) const MAX_HYPOTHESES: usize = 8;
 
 /// One pose a model considered for a query.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

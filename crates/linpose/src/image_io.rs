@@ -31,7 +31,7 @@ use std::io::Cursor;
 use std::path::Path;
 
 /// Largest image accepted, in pixels (refused before its pixels are allocated).
-pub const MAX_PIXELS: u64 = 1 << 26;
+pub(crate) const MAX_PIXELS: u64 = 1 << 26;
 
 /// How colour images become features.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -119,7 +119,7 @@ pub fn read_query(path: &Path, spec: ImageSpec, context: &str) -> Result<QueryIm
 
 /// Reads the image file at `path`, whatever its size: its width, height and values as
 /// [`read_query`] gives them (8-bit gray values when it has them, else features).
-pub fn read_image(path: &Path, color: ColorMode) -> Result<(u32, u32, QueryImage)> {
+pub(crate) fn read_image(path: &Path, color: ColorMode) -> Result<(u32, u32, QueryImage)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let (w, h) = dimensions(path, &bytes)?;
     let img = decode(path, &bytes)?;
@@ -191,7 +191,7 @@ pub(crate) fn decode_features(
 
 /// File name extensions (lower case) of the images linpose reads: what `linpose predict` takes
 /// from a folder. The format itself is told by the file's first bytes, not by its name.
-pub const IMAGE_EXTENSIONS: &[&str] = &["png", "pgm", "ppm", "pnm", "jpg", "jpeg", "tif", "tiff"];
+pub(crate) const IMAGE_EXTENSIONS: &[&str] = &["png", "pgm", "ppm", "pnm", "jpg", "jpeg", "tif", "tiff"];
 
 /// Whether `path` ends in one of [`IMAGE_EXTENSIONS`], in any case.
 pub fn has_image_extension(path: &Path) -> bool {

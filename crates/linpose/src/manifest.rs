@@ -18,7 +18,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Component, Path, PathBuf};
 
 /// Largest manifest accepted, in rows.
-pub const MAX_ROWS: usize = 10_000_000;
+pub(crate) const MAX_ROWS: usize = 10_000_000;
 
 /// The images of a data set and their poses.
 #[derive(Debug, Clone)]
@@ -253,7 +253,7 @@ fn check_relative(csv: &Path, img: &str) -> Result<()> {
 }
 
 /// The header of the column that names each image's object.
-pub const OBJECT_COLUMN: &str = "object";
+pub(crate) const OBJECT_COLUMN: &str = "object";
 
 /// A poses.csv as read: its pose parameters, images and poses, and each image's object when it
 /// has an [`OBJECT_COLUMN`]. Public for the fuzz target only.

@@ -5,7 +5,7 @@ use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// Most pose parameters a data set or model may have.
-pub const MAX_PARAMS: usize = 8;
+pub(crate) const MAX_PARAMS: usize = 8;
 
 /// One pose parameter, in degrees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -7,7 +7,8 @@ mod rejection;
 mod remedy;
 
 pub use rejection::Rejection;
-pub use remedy::{format_bytes, remedies_text, Remedy, StreamChange};
+pub use remedy::{format_bytes, Remedy, StreamChange};
+pub(crate) use remedy::remedies_text;
 use std::path::PathBuf;
 
 /// Result alias used throughout linpose.

@@ -72,7 +72,7 @@ impl std::fmt::Display for Remedy {
 }
 
 /// Remedies in one phrase, "; " between them ([`Error::NotEnoughMemory`](crate::Error::NotEnoughMemory)'s text).
-pub fn remedies_text(remedies: &[Remedy]) -> String {
+pub(crate) fn remedies_text(remedies: &[Remedy]) -> String {
     if remedies.is_empty() {
         return "nothing short of more memory".into();
     }

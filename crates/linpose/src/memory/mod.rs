@@ -106,7 +106,7 @@ mod system;
 pub(crate) mod tuning;
 
 pub use crate::error::format_bytes;
-pub use crate::error::{remedies_text, Remedy, StreamChange};
+pub use crate::error::{Remedy, StreamChange};
 pub use estimate::Estimate;
 pub use system::{available, parse_size, Available};
 

@@ -79,7 +79,7 @@ pub fn choose(spec: &MethodSpec, train: &Dataset) -> Result<StageChoice> {
 
 /// Chooses the normalisation of a many-object model fitting `spec` for each object's pose: the
 /// objects' held-out errors pooled, behind one stage fitted on all their views.
-pub fn choose_objects(objects: &crate::ObjectSet, spec: &MethodSpec) -> Result<StageChoice> {
+pub(crate) fn choose_objects(objects: &crate::ObjectSet, spec: &MethodSpec) -> Result<StageChoice> {
     let sets: Vec<&Dataset> = objects.objects().iter().collect();
     choose_over(spec, &sets)
 }

@@ -32,7 +32,7 @@
 
 pub mod normal;
 pub mod ridge;
-pub mod stream;
+pub(crate) mod stream;
 
 use crate::dataset::Dataset;
 use crate::kernels::{combine::combine_rows, dot_u8::dots, AlignedF32, Level};

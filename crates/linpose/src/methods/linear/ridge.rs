@@ -38,7 +38,7 @@ pub enum RidgeRule {
 
 /// What a leave-one-out selection found.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LooCurve {
+pub(crate) struct LooCurve {
     /// Candidate lambdas with their mean leave-one-out pose error (degrees).
     pub curve: Vec<(f64, f64)>,
     /// The chosen lambda.
