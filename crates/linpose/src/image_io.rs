@@ -17,7 +17,7 @@
 //! - TIFF (uncompressed or compressed; the first image of the file): 1-, 8- and 16-bit gray,
 //!   gray+alpha, RGB and RGBA. Floating-point samples, CMYK, palette and YCbCr TIFFs are refused.
 //!
-//! Every check of the header - format, size against [`MAX_PIXELS`], colour type - comes before
+//! Every check of the header - format, size against `MAX_PIXELS` (2^26 pixels), colour type - comes before
 //! any pixel is allocated.
 
 #[cfg(test)]
@@ -193,7 +193,7 @@ pub(crate) fn decode_features(
 /// from a folder. The format itself is told by the file's first bytes, not by its name.
 pub(crate) const IMAGE_EXTENSIONS: &[&str] = &["png", "pgm", "ppm", "pnm", "jpg", "jpeg", "tif", "tiff"];
 
-/// Whether `path` ends in one of [`IMAGE_EXTENSIONS`], in any case.
+/// Whether `path` ends in one of the extensions linpose reads (png, pgm, ppm, pnm, jpg, jpeg, tif, tiff), in any case.
 pub fn has_image_extension(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()).is_some_and(|e| IMAGE_EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
 }
@@ -246,7 +246,7 @@ fn decode_error(path: &Path, format: ImageFormat, e: ImageError) -> Error {
 }
 
 /// The width and height an image file declares, read from its header; refuses a file that is
-/// not a PNG, PNM, JPEG or TIFF image, a size of no pixels or over [`MAX_PIXELS`], and the kinds
+/// not a PNG, PNM, JPEG or TIFF image, a size of no pixels or over 2^26, and the kinds
 /// of image the [module](self) lists as refused - all before any pixel is allocated.
 pub(crate) fn dimensions(path: &Path, bytes: &[u8]) -> Result<(u32, u32)> {
     if bytes.is_empty() {

@@ -14,7 +14,7 @@
 //! # The paths
 //!
 //! - [`Path::InMemory`]: every image decoded into one f32 array (N x M), then the method's fit.
-//! - [`Path::Streamed`]: the linear model's [`crate::methods::linear::stream`]: for N <= M it
+//! - [`Path::Streamed`]: the linear model's streamed fit (`methods::linear::stream`): for N <= M it
 //!   loads the set and fits through the N x N Gram matrix (what the in-memory path needs); for
 //!   N > M it accumulates X^T X (M x M) block by block, whatever N. It takes a fixed ridge,
 //!   uncentred, one object, no normalisation: the leave-one-out and noise-level rules (the

@@ -7,7 +7,7 @@
 //! ([`Split`]):
 //! - [`Split::Images`]: shards of images, for the linear model with more images than pixels
 //!   (N > M). A shard gives X^T X (M x M), X^T P (M x K) and P^T P over its images
-//!   ([`crate::methods::linear::stream`]'s least-squares path, which takes a fixed ridge and no
+//!   (streamed fit (`methods::linear::stream`)'s least-squares path, which takes a fixed ridge and no
 //!   centring); the merged model is W = (X^T X + lambda I)^{-1} X^T P. A partial holds about
 //!   4 M^2 bytes (X^T X's lower triangle in f64), whatever its number of images.
 //! - [`Split::Pixels`]: shards of pixels (feature columns) of every image, for the linear model

@@ -1,7 +1,7 @@
 //! The normal equations of the linear model, summed image by image: X^T X (M x M, its lower
 //! triangle), X^T P (M x K) and each encoded column's P^T P, over any set of images. They are
 //! sums, so sets of images summed apart (blocks read in turn, shards on other machines) add up
-//! to those of the union: the streamed fit ([`super::stream`]) and the merged statistics of
+//! to those of the union: the streamed fit (`stream.rs`) and the merged statistics of
 //! [`crate::partial`] both solve what this accumulates.
 //!
 //! Blocks whose values are all 8-bit levels (what every 8-bit image gives: the feature of level k
