@@ -1,12 +1,20 @@
 //! Model files: any bytes give a model or an error, never a panic; a model that loads answers a
 //! query (or refuses it) without panicking.
-#![no_main]
+#![cfg_attr(fuzzing, no_main)]
 
-use libfuzzer_sys::fuzz_target;
 use linpose::PoseModel;
 use std::path::Path;
 
-fuzz_target!(|bytes: &[u8]| {
+#[cfg(fuzzing)]
+libfuzzer_sys::fuzz_target!(|bytes: &[u8]| body(bytes));
+
+/// Without cargo-fuzz: the body run on every file given (the corpus replayed, as CI does).
+#[cfg(not(fuzzing))]
+fn main() {
+    linpose_fuzz::replay(body);
+}
+
+fn body(bytes: &[u8]) {
     if let Ok(model) = linpose::model_file::from_bytes(Path::new("fuzz.safetensors"), bytes) {
         let m = model.meta().spec.features();
         if m <= 1 << 16 {
@@ -14,4 +22,4 @@ fuzz_target!(|bytes: &[u8]| {
             let _ = model.predict(&q);
         }
     }
-});
+}
