@@ -260,6 +260,49 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32]
     }
 }
 
+/// The `k` smallest of `dist` at most `cut`, with their indices, in increasing order (ties: the
+/// lower index); built for AVX-512 F and BW where `level` has them (comparisons only: the same
+/// result). `k` is at least 1.
+pub(crate) fn smallest_under_cut(level: Level, dist: &[f32], k: usize, cut: f32) -> Vec<(f32, usize)> {
+    #[cfg(target_arch = "x86_64")]
+    if level.avx512() {
+        // SAFETY: the level is a token of detection that found AVX-512 F and BW.
+        return unsafe { smallest_avx512(dist, k, cut) };
+    }
+    smallest_body(dist, k, cut)
+}
+
+/// [`smallest_body`] compiled for AVX-512 F and BW.
+///
+/// # Safety
+/// The CPU must support AVX-512 F and BW.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw")]
+unsafe fn smallest_avx512(dist: &[f32], k: usize, cut: f32) -> Vec<(f32, usize)> {
+    smallest_body(dist, k, cut)
+}
+
+/// The body of [`smallest_under_cut`]: two passes, blocks of 16 tested without branches first (few
+/// hold a point under the cut), then the points of those.
+#[inline(always)]
+fn smallest_body(dist: &[f32], k: usize, cut: f32) -> Vec<(f32, usize)> {
+    let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
+    // Blocks of 16 tested without branches first: few hold a point under the cut.
+    for (b, c) in dist.chunks(16).enumerate() {
+        if !c.iter().fold(false, |hit, &v| hit | (v <= cut)) {
+            continue;
+        }
+        for (i, &v) in c.iter().enumerate() {
+            if v <= cut && (best.len() < k || v < best[best.len() - 1].0) {
+                let at = best.partition_point(|b| b.0 <= v);
+                best.insert(at, (v, 16 * b + i));
+                best.truncate(k);
+            }
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
