@@ -26,6 +26,9 @@ pub(crate) struct LatticeView<'a> {
     pub slope_max: [f32; 2],
 }
 
+/// Lattice poses as (interval, offset).
+pub(crate) type Hits = Vec<(usize, usize)>;
+
 /// A query of the even scan: ||y||^2 in f32, and the slack of the f32 rounding.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct EvenQuery {
@@ -96,7 +99,7 @@ pub(crate) fn even_scan<const P: usize>(
     q: EvenQuery,
     cut_of: &dyn Fn(f32) -> f32,
     buf: &mut [f32],
-    hits: &mut Vec<(usize, usize)>,
+    hits: &mut Hits,
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
     if level.avx512() {
@@ -129,7 +132,7 @@ pub(crate) fn even_scans<const P: usize>(
     q: EvenQuery,
     cut_of: &dyn Fn(f32) -> f32,
     buf: &mut [f32],
-    hits: (&mut Vec<(usize, usize)>, &mut Vec<(usize, usize)>),
+    hits: (&mut Hits, &mut Hits),
 ) -> Option<bool> {
     let (pruned, full) = hits;
     #[cfg(target_arch = "x86_64")]
