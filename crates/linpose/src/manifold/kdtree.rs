@@ -35,6 +35,13 @@ struct Node {
 
 const IS_LEAF: u32 = u32::MAX;
 
+/// A node of the search with a lower bound of its cell's squared distance from the query.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    node: u32,
+    bound: f32,
+}
+
 /// The tree over `n` points of `dim` coordinates.
 #[derive(Debug, Clone)]
 pub struct KdTree {
@@ -121,7 +128,7 @@ impl KdTree {
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
         let level = Level::detect();
-        self.visit(0, 0.0, 1.0, &mut off, q, &mut best, &mut |rows, items, best| kdtree::scan(level, rows, items, q, best));
+        self.visit(Cell { node: 0, bound: 0.0 }, 1.0, &mut off, q, &mut best, &mut |rows, items, best| kdtree::scan(level, rows, items, q, best));
         if best.1 == u32::MAX {
             (0, f32::INFINITY)
         } else {
@@ -149,7 +156,9 @@ impl KdTree {
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
         let level = Level::detect();
-        self.visit(0, 0.0, reach, &mut off, q, &mut best, &mut |rows, items, best| kdtree::scan_near(level, rows, items, q, best, reach, near));
+        self.visit(Cell { node: 0, bound: 0.0 }, reach, &mut off, q, &mut best, &mut |rows, items, best| {
+            kdtree::scan_near(level, rows, items, q, best, reach, near)
+        });
         let bound = reach * best.0;
         near.retain(|&(a, _)| a <= bound);
         if best.1 == u32::MAX {
@@ -159,19 +168,18 @@ impl KdTree {
         }
     }
 
-    /// The branch and bound from `node`: `leaf` scores a leaf's rows and items into `best`; a
+    /// The branch and bound from `cell`: `leaf` scores a leaf's rows and items into `best`; a
     /// cell is visited while its squared distance from `q` is at most `reach` times the best.
-    #[allow(clippy::too_many_arguments)]
     fn visit(
         &self,
-        node: u32,
-        bound: f32,
+        cell: Cell,
         reach: f32,
         off: &mut [f32; MAX_DIM],
         q: &[f32],
         best: &mut (f32, u32),
         leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32)),
     ) {
+        let Cell { node, bound } = cell;
         let nd = self.nodes[node as usize];
         if nd.dim == IS_LEAF {
             let at = nd.a as usize;
@@ -180,14 +188,14 @@ impl KdTree {
         let l = nd.dim as usize;
         let d = q[l] - nd.split;
         let (near, far) = if d <= 0.0 { (nd.a, nd.b) } else { (nd.b, nd.a) };
-        self.visit(near, bound, reach, off, q, best, leaf);
+        self.visit(Cell { node: near, bound }, reach, off, q, best, leaf);
         // The far cell lies beyond the split in coordinate l: its squared distance from q is at
         // least the bound with that coordinate's offset replaced by d.
         let old = off[l];
         let far_bound = bound - old * old + d * d;
         if far_bound <= reach * best.0 {
             off[l] = d;
-            self.visit(far, far_bound, reach, off, q, best, leaf);
+            self.visit(Cell { node: far, bound: far_bound }, reach, off, q, best, leaf);
             off[l] = old;
         }
     }

@@ -104,7 +104,8 @@ impl RefinedModel {
             // Every coarse point's distance, then the k closest.
             dist.resize(self.start_len(), 0.0);
             let split = box_split(self.components());
-            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, &self.start_boxes, split, y, w32, dist, lb);
+            let boxes = crate::kernels::scan::Boxes { boxes: &self.start_boxes, split };
+            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, boxes, y, w32, dist, lb);
             let best = smallest_under(dist, k, lo);
             buf.resize((d + 2) * l, 0.0);
             let mut best_cost = f64::INFINITY;
