@@ -203,6 +203,30 @@ pub(crate) fn unit_coords(energy: f64, mean_proj: &[f32], y: &mut [f32]) -> Opti
     Some(norm)
 }
 
+/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
+/// in `dot_u8::dots_batch`, 16 in `dot_q::dots_batch`).
+pub(crate) const U8_BATCH: usize = 192;
+
+/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
+/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
+fn u8_task_rows(n: usize, block: usize) -> usize {
+    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
+}
+
+/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
+/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
+/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
+/// of at least [`split::min_task_queries`] (in whole blocks).
+pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
+    let most = U8_BATCH / block * block;
+    if !split::splits(n, m) {
+        return ((n.div_ceil(block) * block).min(most), false);
+    }
+    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
+}
+
+const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
+
 #[cfg(test)]
 mod tests {
     //! Every product path against the rows' products summed plainly in f64, within the
@@ -311,27 +335,3 @@ mod tests {
         }
     }
 }
-
-/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
-/// in `dot_u8::dots_batch`, 16 in `dot_q::dots_batch`).
-pub(crate) const U8_BATCH: usize = 192;
-
-/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
-/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
-fn u8_task_rows(n: usize, block: usize) -> usize {
-    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
-}
-
-/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
-/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
-/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
-/// of at least [`split::min_task_queries`] (in whole blocks).
-pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
-    let most = U8_BATCH / block * block;
-    if !split::splits(n, m) {
-        return ((n.div_ceil(block) * block).min(most), false);
-    }
-    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
-}
-
-const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
