@@ -40,7 +40,7 @@ fn stream(c: &mut Criterion) {
                 pack_pairs_u8(&mut a, &mut b, &q, n, M);
                 acc.update_u8(&a, &b, KCP, 1.0);
                 let [ak, ar, bk, br] = &mut quads;
-                pack_quads_u8(ak, ar, bk, br, &q, n, M, &r);
+                pack_quads_u8([ak, ar, bk, br], &q, n, M, &r);
                 acc.update_u8_cross(ak, ar, bk, br, KCQ, 1.0);
             })
         });

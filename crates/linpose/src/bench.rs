@@ -23,9 +23,8 @@ pub mod scan {
     }
 
     /// [`sq_dist`] for the points within twice the least distance (+inf elsewhere), by boxes.
-    #[allow(clippy::too_many_arguments)]
     pub fn sq_dist_boxed(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
-        scan::sq_dist_boxed(Level::detect(), cols, boxes, split, y, wt, dist, lb)
+        scan::sq_dist_boxed(Level::detect(), cols, scan::Boxes { boxes, split }, y, wt, dist, lb)
     }
 
     /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]`.
@@ -34,9 +33,8 @@ pub mod scan {
     }
 
     /// The affine match's residual at every point, in place of `u`.
-    #[allow(clippy::too_many_arguments)]
     pub fn affine_residuals(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
-        scan::affine_residuals(Level::detect(), u, v, b_over_a, inv_a, inv_s, ac, zz)
+        scan::affine_residuals(Level::detect(), u, v, b_over_a, inv_a, inv_s, scan::AffineTerms { ac, zz })
     }
 
     /// The least of `v`.

@@ -7,17 +7,25 @@ use super::dispatch;
 use crate::kernels::levels::feature_of_u8;
 use crate::kernels::Rows;
 
+/// The rows a combination reads: `x`, rows of `m` values, each less `mean` (of M values) when
+/// given.
+#[derive(Debug, Clone, Copy)]
+pub struct Centred<'a> {
+    pub x: Rows<'a>,
+    pub mean: Option<&'a [f64]>,
+    pub m: usize,
+}
+
 dispatch! {
-    /// For pixels `p0..p0 + row.len()` of the `n = d.len() / k` rows of `m` values of `x`:
-    /// `w[j * len + p] = sum_i d[i k + j] (x_i[p0 + p] - mean[p0 + p])`, the rows taken in
-    /// order (`w` zeroed first; `row` is scratch of the chunk's length; `mean` of M values).
-    #[allow(clippy::too_many_arguments)]
-    pub fn combine_rows(x: Rows, mean: Option<&[f64]>, m: usize, p0: usize, d: &[f64], k: usize, w: &mut [f64], row: &mut [f64]) = combine_portable;
+    /// For pixels `p0..p0 + row.len()` of the `n = d.len() / k` rows of `m` values of `x`
+    /// (`src`): `w[j * len + p] = sum_i d[i k + j] (x_i[p0 + p] - mean[p0 + p])`, the rows taken
+    /// in order (`w` zeroed first; `row` is scratch of the chunk's length).
+    pub fn combine_rows(src: Centred, p0: usize, d: &[f64], k: usize, w: &mut [f64], row: &mut [f64]) = combine_portable;
 }
 
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn combine_portable(x: Rows, mean: Option<&[f64]>, m: usize, p0: usize, d: &[f64], k: usize, w: &mut [f64], row: &mut [f64]) {
+fn combine_portable(src: Centred, p0: usize, d: &[f64], k: usize, w: &mut [f64], row: &mut [f64]) {
+    let Centred { x, mean, m } = src;
     let len = row.len();
     assert!(k > 0 && d.len().is_multiple_of(k) && w.len() == k * len && p0 + len <= m && x.len() >= d.len() / k * m, "chunk inside the rows");
     w.fill(0.0);
@@ -61,7 +69,7 @@ mod tests {
             for level in Level::supported() {
                 for x in [Rows::F32(&f), Rows::U8(&px)] {
                     let (mut w, mut row) = (vec![9.0; k * len], vec![0.0; len]);
-                    combine_rows(level, x, mean, m, p0, &d, k, &mut w, &mut row);
+                    combine_rows(level, Centred { x, mean, m }, p0, &d, k, &mut w, &mut row);
                     assert!(w.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "{level:?} {x:?}");
                 }
             }

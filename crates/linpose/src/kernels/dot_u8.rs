@@ -413,25 +413,34 @@ mod x86 {
             for h in [0, LANES / 2] {
                 for r0 in (0..rows).step_by(AVX2_ROWS) {
                     match (rows - r0).min(AVX2_ROWS) {
-                        1 => regs_avx2::<1>(xf, wf, stride, rows, b0, r0, h, mask, acc),
-                        2 => regs_avx2::<2>(xf, wf, stride, rows, b0, r0, h, mask, acc),
-                        3 => regs_avx2::<3>(xf, wf, stride, rows, b0, r0, h, mask, acc),
-                        _ => regs_avx2::<AVX2_ROWS>(xf, wf, stride, rows, b0, r0, h, mask, acc),
+                        1 => regs_avx2::<1>(xf, wf, stride, rows, Regs { b0, r0, h }, mask, acc),
+                        2 => regs_avx2::<2>(xf, wf, stride, rows, Regs { b0, r0, h }, mask, acc),
+                        3 => regs_avx2::<3>(xf, wf, stride, rows, Regs { b0, r0, h }, mask, acc),
+                        _ => regs_avx2::<AVX2_ROWS>(xf, wf, stride, rows, Regs { b0, r0, h }, mask, acc),
                     }
                 }
             }
         }
     }
 
-    /// Images b0..b0 + AVX2_IMAGES, rows r0..r0 + R, lanes h..h + 8 of one cache block, the
-    /// steps in `mask`, in registers.
+    /// Where a register block of [`block_avx2`] lies: images b0..b0 + AVX2_IMAGES, rows
+    /// r0..r0 + R, lanes h..h + 8.
+    #[derive(Clone, Copy)]
+    struct Regs {
+        b0: usize,
+        r0: usize,
+        h: usize,
+    }
+
+    /// The register block `at` (images b0..b0 + AVX2_IMAGES, rows r0..r0 + R, lanes h..h + 8)
+    /// of one cache block, the steps in `mask`, in registers.
     ///
     /// # Safety
     /// The CPU must support AVX2 and FMA; the slices must have the lengths [`block_avx2`]
     /// asserts, b0 + AVX2_IMAGES <= BATCH_IMAGES, r0 + R <= rows and h + 8 <= 16.
     #[target_feature(enable = "avx2,fma")]
-    #[allow(clippy::too_many_arguments)]
-    unsafe fn regs_avx2<const R: usize>(xf: &[f32], wf: &[f32], stride: usize, rows: usize, b0: usize, r0: usize, h: usize, mask: u32, acc: &mut [f32]) {
+    unsafe fn regs_avx2<const R: usize>(xf: &[f32], wf: &[f32], stride: usize, rows: usize, at: Regs, mask: u32, acc: &mut [f32]) {
+        let Regs { b0, r0, h } = at;
         let (xp, wp, ap) = (xf.as_ptr().add(b0 * PIXEL_CHUNK + h), wf.as_ptr().add(r0 * stride + h), acc.as_mut_ptr().add(h));
         let at = |b: usize, r: usize| ((b0 + b) * rows + r0 + r) * LANES;
         let mut a = [[_mm256_setzero_ps(); R]; AVX2_IMAGES];

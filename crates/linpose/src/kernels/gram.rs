@@ -199,28 +199,47 @@ fn gram_f32_with(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>, level: Lev
     assert_eq!(x.len(), n * m, "feature rows size");
     assert!(mean.is_none_or(|u| u.len() == m), "mean row size");
     gram_with(n, m, level, chunks, |panel, k0, kc| {
-        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_f32(p, x, n, m, g * GROUP, k0, kc, mean, level))
+        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_f32(p, x, Group { n, m, i0: g * GROUP, k0, kc }, mean, level))
     })
 }
 
-/// Packs rows `i0..i0 + 8` of the row-major `n x m` f32 matrix `x` (rows past n zero), steps
-/// `k0..k0 + kc`, each value minus `mean` when given, into `out` (`8 * kc`: step k's 8 rows at
+/// Where a packed group lies: rows `i0..i0 + 8` of a row-major matrix of `n` rows of `m` values
+/// (rows past `n` packed as zeros), steps `k0..k0 + kc`.
+#[derive(Debug, Clone, Copy)]
+pub struct Group {
+    pub n: usize,
+    pub m: usize,
+    pub i0: usize,
+    pub k0: usize,
+    pub kc: usize,
+}
+
+impl Group {
+    /// The group's rows inside the matrix (at most 8).
+    #[inline]
+    fn rows(self) -> usize {
+        self.n.saturating_sub(self.i0).min(GROUP)
+    }
+}
+
+/// Packs the group `at` of the f32 matrix `x` (rows `i0..i0 + 8`, rows past n zero, steps
+/// `k0..k0 + kc`), each value minus `mean` when given, into `out` (`8 * kc`: step k's 8 rows at
 /// `out[8 k..]`).
-#[allow(clippy::too_many_arguments)]
-pub fn pack_group_f32(out: &mut [f64], x: &[f32], n: usize, m: usize, i0: usize, k0: usize, kc: usize, mean: Option<&[f64]>, level: Level) {
+pub fn pack_group_f32(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>, level: Level) {
+    let Group { n, m, i0, k0, kc } = at;
     assert!(out.len() == GROUP * kc && k0 + kc <= m && x.len() >= n * m, "packed group size");
-    let rows = n.saturating_sub(i0).min(GROUP);
+    let rows = at.rows();
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if level.avx512() {
         // SAFETY: the level is a token of detection that found AVX-512F; the kernel reads rows
         // i0..i0 + rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 8)].
-        unsafe { x86::pack_group_f32_avx512(out, x, m, i0, rows, k0, kc, mean) };
+        unsafe { x86::pack_group_f32_avx512(out, x, at, mean) };
         done = kc - kc % GROUP;
     } else if level.avx2() {
         // SAFETY: the level is a token of detection that found AVX2; the kernel reads rows
         // i0..i0 + rows, steps k0..k0 + kc (inside x, asserted) and writes out[..8 * (kc - kc % 4)].
-        unsafe { x86::pack_group_f32_avx2(out, x, m, i0, rows, k0, kc, mean) };
+        unsafe { x86::pack_group_f32_avx2(out, x, at, mean) };
         done = kc - kc % 4;
     }
     let _ = level;
@@ -247,23 +266,23 @@ pub fn gram_u8_fma(pixels: &[u8], n: usize, m: usize) -> Mat<f64> {
 fn gram_u8_with(pixels: &[u8], n: usize, m: usize, level: Level, chunks: usize) -> Mat<f64> {
     assert_eq!(pixels.len(), n * m, "8-bit rows size");
     gram_with(n, m, level, chunks, |panel, k0, kc| {
-        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_u8(p, pixels, n, m, g * GROUP, k0, kc, level))
+        panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| pack_group_u8(p, pixels, Group { n, m, i0: g * GROUP, k0, kc }, level))
     })
 }
 
 /// [`pack_group_f32`] of the features of 8-bit rows: each value k packed as the f64 of the
 /// f32 feature k * S8 (the same single f32 product as `feature_of_u8`, so the same bits).
-#[allow(clippy::too_many_arguments)]
-fn pack_group_u8(out: &mut [f64], px: &[u8], n: usize, m: usize, i0: usize, k0: usize, kc: usize, level: Level) {
+fn pack_group_u8(out: &mut [f64], px: &[u8], at: Group, level: Level) {
+    let Group { n, m, i0, k0, kc } = at;
     assert!(out.len() == GROUP * kc && k0 + kc <= m && px.len() >= n * m, "packed group size");
-    let rows = n.saturating_sub(i0).min(GROUP);
+    let rows = at.rows();
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
     if level.avx2() {
         // SAFETY: the level is a token of detection that found AVX2 (AVX-512 levels include
         // it); the kernel reads rows i0..i0 + rows, steps k0..k0 + kc (inside px, asserted) and
         // writes out[..8 * (kc - kc % 4)].
-        unsafe { x86::pack_group_u8_avx2(out, px, m, i0, rows, k0, kc) };
+        unsafe { x86::pack_group_u8_avx2(out, px, at) };
         done = kc - kc % 4;
     }
     let _ = level;
@@ -307,7 +326,7 @@ pub fn pack_group_f64(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize, le
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::GROUP;
+    use super::{Group, GROUP};
     use std::arch::x86_64::*;
 
     /// Stores the 8 x 8 transpose of `r` (row l's 8 steps in `r[l]`) at `o`: step j's 8 rows at
@@ -358,9 +377,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F; rows `i0..i0 + rows` of `x` (row length m) must hold steps
     /// `k0..k0 + kc`, `out` 8 * kc values and `mean` (when given) m.
-    #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn pack_group_f32_avx512(out: &mut [f64], x: &[f32], m: usize, i0: usize, rows: usize, k0: usize, kc: usize, mean: Option<&[f64]>) {
+    pub unsafe fn pack_group_f32_avx512(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>) {
+        let (Group { m, i0, k0, kc, .. }, rows) = (at, at.rows());
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
         assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
         let (xp, o) = (x.as_ptr(), out.as_mut_ptr());
@@ -393,9 +412,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2; rows `i0..i0 + rows` of `x` (row length m) must hold steps
     /// `k0..k0 + kc`, `out` 8 * kc values and `mean` (when given) m.
-    #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx2")]
-    pub unsafe fn pack_group_f32_avx2(out: &mut [f64], x: &[f32], m: usize, i0: usize, rows: usize, k0: usize, kc: usize, mean: Option<&[f64]>) {
+    pub unsafe fn pack_group_f32_avx2(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>) {
+        let (Group { m, i0, k0, kc, .. }, rows) = (at, at.rows());
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
         assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
         let (xp, o) = (x.as_ptr(), out.as_mut_ptr());
@@ -443,9 +462,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2; rows `i0..i0 + rows` of `px` (row length m) must hold steps
     /// `k0..k0 + kc` and `out` 8 * kc values.
-    #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx2")]
-    pub unsafe fn pack_group_u8_avx2(out: &mut [f64], px: &[u8], m: usize, i0: usize, rows: usize, k0: usize, kc: usize) {
+    pub unsafe fn pack_group_u8_avx2(out: &mut [f64], px: &[u8], at: Group) {
+        let (Group { m, i0, k0, kc, .. }, rows) = (at, at.rows());
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= px.len()));
         let (xp, o) = (px.as_ptr(), out.as_mut_ptr());
         let s8 = _mm_set1_ps(crate::kernels::levels::S8);
@@ -536,8 +555,8 @@ mod tests {
                 for (k0, kc) in [(0, m), (m / 3, m - m / 3), (m - 1, 1), (1, m.min(7) - 1)] {
                     for g in 0..n.div_ceil(GROUP) + 1 {
                         let (mut got, mut want) = (vec![1.0; GROUP * kc], vec![1.0; GROUP * kc]);
-                        pack_group_u8(&mut got, &px, n, m, g * GROUP, k0, kc, level);
-                        pack_group_f32(&mut want, &x, n, m, g * GROUP, k0, kc, None, level);
+                        pack_group_u8(&mut got, &px, Group { n, m, i0: g * GROUP, k0, kc }, level);
+                        pack_group_f32(&mut want, &x, Group { n, m, i0: g * GROUP, k0, kc }, None, level);
                         assert!(got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()), "{level:?} group {g} k0 {k0} kc {kc}");
                     }
                 }
@@ -575,7 +594,7 @@ mod tests {
             for (k0, kc) in [(0, 75), (3, 64), (10, 13), (70, 5)] {
                 for g in 0..n.div_ceil(GROUP) + 1 {
                     let (mut got, mut want) = (vec![1.0; GROUP * kc], vec![1.0; GROUP * kc]);
-                    pack_group_f32(&mut got, &x, n, m, g * GROUP, k0, kc, Some(&mu), level);
+                    pack_group_f32(&mut got, &x, Group { n, m, i0: g * GROUP, k0, kc }, Some(&mu), level);
                     super::super::syrk::pack_rows(&mut want, n.saturating_sub(g * GROUP).min(GROUP), kc, k0, |i, k0, out| {
                         let row = &x[(g * GROUP + i) * m + k0..];
                         out.iter_mut().zip(row.iter().zip(&mu[k0..])).for_each(|(o, (&v, &u))| *o = v as f64 - u)

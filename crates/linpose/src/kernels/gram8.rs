@@ -110,7 +110,7 @@ fn partial(x: Rows8, n: usize, m: usize, panels: std::ops::Range<usize>, mut acc
         let kc = kc8.min(m - k0);
         let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
         let (a, ak, ar) = (&mut pa[..np * kcp], &mut pk[..np * kcq], &mut pr[..np * kcq]);
-        if !pack_panel(x, n, m, k0, kc, a, ak, ar, level) {
+        if !pack_panel(x, Panel { n, m, k0, kc }, [a, ak, ar], level) {
             return None;
         }
         acc.update_u8_in_place(a, kcp, SCALE_PAIRS);
@@ -119,12 +119,21 @@ fn partial(x: Rows8, n: usize, m: usize, panels: std::ops::Range<usize>, mut acc
     Some(acc)
 }
 
-/// Packs pixels `k0..k0 + kc` of the `n` rows (padded with zero rows to [`padded`]`(n)`) in
+/// Pixels `k0..k0 + kc` of `n` rows of `m`: a panel of the rows.
+#[derive(Debug, Clone, Copy)]
+struct Panel {
+    n: usize,
+    m: usize,
+    k0: usize,
+    kc: usize,
+}
+
+/// Packs the panel `at` (pixels `k0..k0 + kc` of the `n` rows, padded with zero rows to [`padded`]`(n)`) in
 /// groups of 16 rows, for [`SyrkAcc::update_u8_in_place`] (`a`: pixel pairs of levels) and
 /// [`SyrkAcc::update_u8_cross_in_place`] (`ak`, `ar`: pixel quads of levels and residuals), in
 /// parallel over the groups. False when a value is not an 8-bit feature.
-#[allow(clippy::too_many_arguments)]
-fn pack_panel(x: Rows8, n: usize, m: usize, k0: usize, kc: usize, a: &mut [i32], ak: &mut [i32], ar: &mut [i32], level: Level) -> bool {
+fn pack_panel(x: Rows8, at: Panel, [a, ak, ar]: [&mut [i32]; 3], level: Level) -> bool {
+    let Panel { n, m, k0, kc } = at;
     let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
     let np = padded(n);
     let r = residuals();
@@ -133,16 +142,16 @@ fn pack_panel(x: Rows8, n: usize, m: usize, k0: usize, kc: usize, a: &mut [i32],
     a.par_chunks_mut(GROUP16 * kcp)
         .zip(ak.par_chunks_mut(GROUP16 * kcq).zip(ar.par_chunks_mut(GROUP16 * kcq)))
         .enumerate()
-        .map(|(g, (a, (ak, ar)))| pack_group(x, n, m, g * GROUP16, k0, kc, [a, ak, ar], &r, level))
+        .map(|(g, (a, (ak, ar)))| pack_group(x, at, g * GROUP16, [a, ak, ar], &r, level))
         .reduce(|| true, |p, q| p & q)
 }
 
-/// Rows `i0..i0 + 16` (past n zero), pixels `k0..k0 + kc`: `a[16 j + l]` holds row l's levels
+/// Rows `i0..i0 + 16` (past n zero) of the panel `at` (pixels `k0..k0 + kc`): `a[16 j + l]` holds row l's levels
 /// of pixels 2j (low 16 bits) and 2j + 1, `ak[16 j + l]` / `ar[16 j + l]` its levels /
 /// residuals (as bytes) of pixels 4j..4j + 4; pixels past kc are zero. False when a value is not
 /// an 8-bit feature.
-#[allow(clippy::too_many_arguments)]
-fn pack_group(x: Rows8, n: usize, m: usize, i0: usize, k0: usize, kc: usize, [a, ak, ar]: [&mut [i32]; 3], r: &[i8; 256], level: Level) -> bool {
+fn pack_group(x: Rows8, at: Panel, i0: usize, [a, ak, ar]: [&mut [i32]; 3], r: &[i8; 256], level: Level) -> bool {
+    let Panel { n, m, k0, kc } = at;
     let rows = n.saturating_sub(i0).min(GROUP16);
     // One chunk of 64 pixels of the 16 rows: levels, residuals, 16-bit levels.
     let mut l8 = Words::default();
@@ -416,7 +425,7 @@ mod tests {
             let (kcp, kcq) = (kc.div_ceil(2), kc.div_ceil(4));
             let pack = |x: &[f32], level| {
                 let (mut a, mut ak, mut ar) = (vec![7; np * kcp], vec![7; np * kcq], vec![7; np * kcq]);
-                let ok = pack_panel(Rows8::F32(x), n, m, k0, kc, &mut a, &mut ak, &mut ar, level);
+                let ok = pack_panel(Rows8::F32(x), Panel { n, m, k0, kc }, [&mut a[..], &mut ak[..], &mut ar[..]], level);
                 (ok, a, ak, ar)
             };
             let want = pack(&x, Level::supported()[0]);
@@ -444,7 +453,10 @@ mod tests {
             x[20 * m + 150] = bad;
             for level in Level::supported() {
                 let (mut a, mut ak, mut ar) = (vec![0; np * 100], vec![0; np * 50], vec![0; np * 50]);
-                assert!(!pack_panel(Rows8::F32(&x), n, m, 0, m, &mut a, &mut ak, &mut ar, level), "{bad} accepted by {level:?}");
+                assert!(
+                    !pack_panel(Rows8::F32(&x), Panel { n, m, k0: 0, kc: m }, [&mut a[..], &mut ak[..], &mut ar[..]], level),
+                    "{bad} accepted by {level:?}"
+                );
             }
             assert!(gram_levels_with(Rows8::F32(&x), n, m, || SyrkAcc::new(n), Level::detect()).is_none());
         }

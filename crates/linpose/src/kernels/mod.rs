@@ -16,6 +16,8 @@
 //! [`bench`], whose functions detect the level themselves, and [`peak`] measures the machine's
 //! peaks for them to report against.
 
+pub(crate) mod affine;
+pub(crate) mod binning;
 pub(crate) mod combine;
 pub(crate) mod dot_q;
 pub(crate) mod dot_u8;
@@ -23,12 +25,16 @@ pub(crate) mod dot_w;
 pub(crate) mod gram;
 pub(crate) mod gram8;
 mod isa;
+pub(crate) mod kdtree;
+pub(crate) mod lattice;
 pub(crate) mod levels;
+pub(crate) mod noise;
 // Peak-rate measurements: for the benches and the tests only.
 #[cfg(any(test, feature = "bench"))]
 pub(crate) mod peak;
 mod rows;
 pub(crate) mod scan;
+pub(crate) mod surface;
 pub(crate) mod syrk;
 
 pub(crate) use isa::{dispatch, Isa, Level};

@@ -14,36 +14,48 @@ dispatch! {
     pub fn sq_dist(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) = sq_dist_portable;
 }
 
+/// Two coordinate-major tables of the same points (a surface's and its offset's).
+#[derive(Debug, Clone, Copy)]
+pub struct Tables<'a> {
+    pub cols: &'a [f32],
+    pub gcols: &'a [f32],
+}
+
 /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]` (rows of `u.len()` values).
 pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
-    dots2_at(level, cols, gcols, u.len(), 0, a, u, v)
+    dots2_at(level, Tables { cols, gcols }, u.len(), 0, a, u, v)
 }
 
 /// [`dots2`] for the points `i0..i0 + u.len()` of rows of `n` values: the same bits as the whole
 /// scan's at those points.
-#[allow(clippy::too_many_arguments)]
-pub fn dots2_at(level: Level, cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+pub fn dots2_at(level: Level, t: Tables, n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
     assert!(i0 + u.len() <= n && u.len() == v.len(), "points inside the rows");
-    dots2_built(level, cols, gcols, n, i0, a, u, v)
+    dots2_built(level, t, n, i0, a, u, v)
 }
 
 dispatch! {
     /// [`dots2_at`] at `level`.
-    #[allow(clippy::too_many_arguments)]
-    fn dots2_built(cols: &[f32], gcols: &[f32], n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) = dots2_portable;
+    fn dots2_built(t: Tables, n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) = dots2_portable;
 }
 
 dispatch! {
     /// The affine match's residual at every point, in place of `u`:
     /// `u[i] = max(zz - uu^2 inv_a[i] - e^2 inv_s[i], 0)` with `uu = u[i] + ac` and
     /// `e = v[i] - b_over_a[i] uu`, in f64 (the refined eigenspace's noisy scan; the per-point
-    /// sums `u`, `v` from [`dots2`]).
-    #[allow(clippy::too_many_arguments)]
-    pub fn affine_residuals(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) = affine_residuals_portable;
+    /// sums `u`, `v` from [`dots2`]; `q` the query's terms).
+    pub fn affine_residuals(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], q: AffineTerms) = affine_residuals_portable;
+}
+
+/// The query's terms of [`affine_residuals`]: `ac` added to each point's `u`, and `zz`.
+#[derive(Debug, Clone, Copy)]
+pub struct AffineTerms {
+    pub ac: f64,
+    pub zz: f64,
 }
 
 #[inline(always)]
-fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], ac: f64, zz: f64) {
+fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], q: AffineTerms) {
+    let AffineTerms { ac, zz } = q;
     // Over zipped slices (no index checks: the loop vectorises).
     for ((((d, &vi), &ba), &ia), &is) in u.iter_mut().zip(v).zip(b_over_a).zip(inv_a).zip(inv_s) {
         let uu = *d as f64 + ac;
@@ -79,12 +91,19 @@ dispatch! {
     /// sums. The points of the box of least bound are scored in full; twice their least distance
     /// bounds the cut, and only boxes whose bound is within it are scored. Every distance given has
     /// the bits of [`sq_dist`]'s. `lb` is scratch.
-    #[allow(clippy::too_many_arguments)]
-    pub fn sq_dist_boxed(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 = sq_dist_boxed_portable;
+    pub fn sq_dist_boxed(cols: &[f32], b: Boxes, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 = sq_dist_boxed_portable;
+}
+
+/// The points' bounding boxes ([`boxes`]) over their first `split` coordinates.
+#[derive(Debug, Clone, Copy)]
+pub struct Boxes<'a> {
+    pub boxes: &'a [f32],
+    pub split: usize,
 }
 
 #[inline(always)]
-fn sq_dist_boxed_portable(cols: &[f32], boxes: &[f32], split: usize, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
+fn sq_dist_boxed_portable(cols: &[f32], b: Boxes, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 {
+    let Boxes { boxes, split } = b;
     let n = dist.len();
     let nb = n.div_ceil(BOX);
     let split = split.min(y.len());
@@ -232,7 +251,8 @@ fn reduce_min(lanes: &[f32; 17]) -> f32 {
 }
 
 #[inline(always)]
-fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+fn dots2_portable(t: Tables, n: usize, first: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+    let Tables { cols, gcols } = t;
     for (b, (uo, vo)) in u.chunks_mut(BLOCK).zip(v.chunks_mut(BLOCK)).enumerate() {
         let (i0, len) = (first + b * BLOCK, uo.len());
         let (mut su, mut sv) = ([0f32; BLOCK], [0f32; BLOCK]);
@@ -260,6 +280,49 @@ fn dots2_portable(cols: &[f32], gcols: &[f32], n: usize, first: usize, a: &[f32]
     }
 }
 
+/// The `k` smallest of `dist` at most `cut`, with their indices, in increasing order (ties: the
+/// lower index); built for AVX-512 F and BW where `level` has them (comparisons only: the same
+/// result). `k` is at least 1.
+pub(crate) fn smallest_under_cut(level: Level, dist: &[f32], k: usize, cut: f32) -> Vec<(f32, usize)> {
+    #[cfg(target_arch = "x86_64")]
+    if level.avx512() {
+        // SAFETY: the level is a token of detection that found AVX-512 F and BW.
+        return unsafe { smallest_avx512(dist, k, cut) };
+    }
+    smallest_body(dist, k, cut)
+}
+
+/// [`smallest_body`] compiled for AVX-512 F and BW.
+///
+/// # Safety
+/// The CPU must support AVX-512 F and BW.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw")]
+unsafe fn smallest_avx512(dist: &[f32], k: usize, cut: f32) -> Vec<(f32, usize)> {
+    smallest_body(dist, k, cut)
+}
+
+/// The body of [`smallest_under_cut`]: two passes, blocks of 16 tested without branches first (few
+/// hold a point under the cut), then the points of those.
+#[inline(always)]
+fn smallest_body(dist: &[f32], k: usize, cut: f32) -> Vec<(f32, usize)> {
+    let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
+    // Blocks of 16 tested without branches first: few hold a point under the cut.
+    for (b, c) in dist.chunks(16).enumerate() {
+        if !c.iter().fold(false, |hit, &v| hit | (v <= cut)) {
+            continue;
+        }
+        for (i, &v) in c.iter().enumerate() {
+            if v <= cut && (best.len() < k || v < best[best.len() - 1].0) {
+                let at = best.partition_point(|b| b.0 <= v);
+                best.insert(at, (v, 16 * b + i));
+                best.truncate(k);
+            }
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -284,7 +347,7 @@ mod tests {
             assert_eq!((&u, &v), (&want_u, &want_v), "{level:?}");
             // A range of points (not on a block boundary) gives the same bits.
             let (mut ur, mut vr) = (vec![f32::NAN; 70], vec![f32::NAN; 70]);
-            dots2_at(level, &cols, &gcols, n, 37, &y, &mut ur, &mut vr);
+            dots2_at(level, Tables { cols: &cols, gcols: &gcols }, n, 37, &y, &mut ur, &mut vr);
             assert_eq!((&ur[..], &vr[..]), (&want_u[37..107], &want_v[37..107]), "{level:?}");
         }
     }
@@ -324,7 +387,7 @@ mod tests {
             .collect();
         for level in Level::supported() {
             let mut u = u0.clone();
-            affine_residuals(level, &mut u, &v, &ba, &ia, &is, ac, zz);
+            affine_residuals(level, &mut u, &v, &ba, &ia, &is, AffineTerms { ac, zz });
             assert_eq!(u, want, "{level:?}");
         }
     }
@@ -349,7 +412,7 @@ mod tests {
                 for split in [0, 1, 3, l, l + 2] {
                     let bx = boxes(&cols, n, split.min(l));
                     let mut d = vec![f32::NAN; n];
-                    let least = sq_dist_boxed(level, &cols, &bx, split, &y, &wt, &mut d, &mut Vec::new());
+                    let least = sq_dist_boxed(level, &cols, Boxes { boxes: &bx, split }, &y, &wt, &mut d, &mut Vec::new());
                     assert_eq!(least.to_bits(), lo.to_bits(), "boxed: query {qi}, split {split}");
                     let mut boxed_out = 0;
                     for i in 0..n {

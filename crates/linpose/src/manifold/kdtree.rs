@@ -14,12 +14,14 @@
 //! the tree returns brute force's point: the least distance, ties to the lower index (the
 //! pruning keeps cells whose bound equals the best distance).
 
+use crate::kernels::{kdtree, Level};
+
 /// Points per leaf (one AVX-512 vector of f32).
-pub const LEAF: usize = 16;
+pub const LEAF: usize = kdtree::LEAF;
 
 /// Largest dimension the tree is built for (the incremental distance keeps one offset per
 /// coordinate on the stack).
-pub const MAX_DIM: usize = 32;
+pub const MAX_DIM: usize = kdtree::MAX_DIM;
 
 /// A node: `dim < u32::MAX` splits coordinate `dim` at `split`, child `a` holding the points
 /// with that coordinate <= `split` and `b` those >= `split`; `dim == u32::MAX` is leaf `a`.
@@ -32,6 +34,13 @@ struct Node {
 }
 
 const IS_LEAF: u32 = u32::MAX;
+
+/// A node of the search with a lower bound of its cell's squared distance from the query.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    node: u32,
+    bound: f32,
+}
 
 /// The tree over `n` points of `dim` coordinates.
 #[derive(Debug, Clone)]
@@ -118,17 +127,8 @@ impl KdTree {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
-        let simd = crate::kernels::Level::detect().avx512();
-        self.visit(0, 0.0, 1.0, &mut off, q, &mut best, &mut |rows, items, best| {
-            #[cfg(target_arch = "x86_64")]
-            if simd {
-                // SAFETY: `simd` is the detected level's avx512(), true only where detection
-                // found AVX-512F; `rows` holds q.len() rows of LEAF values (asserted by the kernel).
-                return unsafe { x86::scan_avx512(rows, items, q, best) };
-            }
-            let _ = simd;
-            scan(rows, items, q, best)
-        });
+        let level = Level::detect();
+        self.visit(Cell { node: 0, bound: 0.0 }, 1.0, &mut off, q, &mut best, &mut |rows, items, best| kdtree::scan(level, rows, items, q, best));
         if best.1 == u32::MAX {
             (0, f32::INFINITY)
         } else {
@@ -145,7 +145,7 @@ impl KdTree {
     /// point of some kind within that reach, started after the first, scans again the cells
     /// around the first point.)
     ///
-    /// The distances are [`near_distance`]'s (four chains of fused multiply-adds, a quarter of
+    /// The distances are [`kdtree::near_distance`]'s (four chains of fused multiply-adds, a quarter of
     /// the dependent adds of [`KdTree::nearest`]'s sums), so the point is brute force's under
     /// them, ties to the lower index, and may differ from [`KdTree::nearest`]'s where two
     /// points' distances agree to the last bits.
@@ -155,16 +155,9 @@ impl KdTree {
         near.clear();
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
-        let simd = crate::kernels::Level::detect().avx512();
-        self.visit(0, 0.0, reach, &mut off, q, &mut best, &mut |rows, items, best| {
-            #[cfg(target_arch = "x86_64")]
-            if simd {
-                // SAFETY: `simd` is true only where detection found AVX-512F (as in
-                // nearest_with_distance); the kernel asserts the lengths it reads.
-                return unsafe { x86::scan_near_avx512(rows, items, q, best, reach, near) };
-            }
-            let _ = simd;
-            scan_near(rows, items, q, best, reach, near)
+        let level = Level::detect();
+        self.visit(Cell { node: 0, bound: 0.0 }, reach, &mut off, q, &mut best, &mut |rows, items, best| {
+            kdtree::scan_near(level, rows, items, q, best, reach, near)
         });
         let bound = reach * best.0;
         near.retain(|&(a, _)| a <= bound);
@@ -175,19 +168,18 @@ impl KdTree {
         }
     }
 
-    /// The branch and bound from `node`: `leaf` scores a leaf's rows and items into `best`; a
+    /// The branch and bound from `cell`: `leaf` scores a leaf's rows and items into `best`; a
     /// cell is visited while its squared distance from `q` is at most `reach` times the best.
-    #[allow(clippy::too_many_arguments)]
     fn visit(
         &self,
-        node: u32,
-        bound: f32,
+        cell: Cell,
         reach: f32,
         off: &mut [f32; MAX_DIM],
         q: &[f32],
         best: &mut (f32, u32),
         leaf: &mut impl FnMut(&[f32], &[u32], &mut (f32, u32)),
     ) {
+        let Cell { node, bound } = cell;
         let nd = self.nodes[node as usize];
         if nd.dim == IS_LEAF {
             let at = nd.a as usize;
@@ -196,178 +188,15 @@ impl KdTree {
         let l = nd.dim as usize;
         let d = q[l] - nd.split;
         let (near, far) = if d <= 0.0 { (nd.a, nd.b) } else { (nd.b, nd.a) };
-        self.visit(near, bound, reach, off, q, best, leaf);
+        self.visit(Cell { node: near, bound }, reach, off, q, best, leaf);
         // The far cell lies beyond the split in coordinate l: its squared distance from q is at
         // least the bound with that coordinate's offset replaced by d.
         let old = off[l];
         let far_bound = bound - old * old + d * d;
         if far_bound <= reach * best.0 {
             off[l] = d;
-            self.visit(far, far_bound, reach, off, q, best, leaf);
+            self.visit(Cell { node: far, bound: far_bound }, reach, off, q, best, leaf);
             off[l] = old;
-        }
-    }
-}
-
-/// One leaf's squared distances, each summed over the coordinates in order, into `best` (least
-/// distance, ties to the lower index).
-#[inline(always)]
-fn scan(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
-    let mut acc = [0f32; LEAF];
-    for (row, &ql) in rows.chunks_exact(LEAF).zip(q) {
-        for (a, &v) in acc.iter_mut().zip(row) {
-            let d = v - ql;
-            *a += d * d;
-        }
-    }
-    take_lanes(&acc, items, best);
-}
-
-/// A leaf's distances `acc` into `best` (least distance, ties to the lower index).
-#[inline(always)]
-fn take_lanes(acc: &[f32; LEAF], items: &[u32], best: &mut (f32, u32)) {
-    for (&a, &i) in acc.iter().zip(items) {
-        if better(a, i, *best) {
-            *best = (a, i);
-        }
-    }
-}
-
-/// The squared distance from `p` to `q` that [`KdTree::nearest_and_near`] measures: four
-/// chains, chain k summing the coordinates k, k + 4, ... in order by fused multiply-adds of the
-/// differences, then (c0 + c1) + (c2 + c3).
-pub fn near_distance(p: &[f32], q: &[f32]) -> f32 {
-    let mut c = [0f32; 4];
-    for (l, (&a, &b)) in p.iter().zip(q).enumerate() {
-        let d = a - b;
-        c[l % 4] = d.mul_add(d, c[l % 4]);
-    }
-    (c[0] + c[1]) + (c[2] + c[3])
-}
-
-/// One leaf's [`near_distance`]s into `best` (least distance, ties to the lower index), then the
-/// leaf's points within `reach` times the best distance (after the leaf) pushed onto `near`
-/// with their distances.
-#[inline(always)]
-fn scan_near(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
-    let mut acc = [0f32; LEAF];
-    let mut p = [0f32; MAX_DIM];
-    for (j, a) in acc.iter_mut().enumerate() {
-        for (l, v) in p[..q.len()].iter_mut().enumerate() {
-            *v = rows[l * LEAF + j];
-        }
-        *a = near_distance(&p[..q.len()], q);
-    }
-    take_lanes(&acc, items, best);
-    let bound = reach * best.0;
-    near.extend(acc.iter().zip(items).filter(|&(&a, &i)| a <= bound && i != u32::MAX).map(|(&a, &i)| (a, i)));
-}
-
-/// Whether point `i` at squared distance `a` replaces `best`: a lesser distance, or the same
-/// distance and a lower index; an infinite distance never does (brute force starts from an
-/// infinite best and keeps the first strictly lesser one).
-#[inline(always)]
-fn better(a: f32, i: u32, best: (f32, u32)) -> bool {
-    a < best.0 || (a == best.0 && i < best.1 && a != f32::INFINITY)
-}
-
-#[cfg(target_arch = "x86_64")]
-mod x86 {
-    use super::LEAF;
-    use std::arch::x86_64::*;
-
-    /// A leaf's squared distances in one AVX-512 vector, summed a coordinate at a time: the
-    /// subtractions, products and sums of [`super::scan`] in the same order (no fused
-    /// multiply-add), so the same bits.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn leaf_distances(rows: &[f32], q: &[f32]) -> __m512 {
-        assert!(rows.len() >= q.len() * LEAF);
-        let mut acc = _mm512_setzero_ps();
-        for (l, &ql) in q.iter().enumerate() {
-            let d = _mm512_sub_ps(_mm512_loadu_ps(rows.as_ptr().add(l * LEAF)), _mm512_set1_ps(ql));
-            acc = _mm512_add_ps(acc, _mm512_mul_ps(d, d));
-        }
-        acc
-    }
-
-    /// The lanes `hits` of the distances `a` into `best` (least distance, ties to the lower
-    /// index).
-    #[inline(always)]
-    fn take_best(mut hits: u16, a: &[f32; LEAF], items: &[u32], best: &mut (f32, u32)) {
-        while hits != 0 {
-            let j = hits.trailing_zeros() as usize;
-            hits &= hits - 1;
-            if super::better(a[j], items[j], *best) {
-                *best = (a[j], items[j]);
-            }
-        }
-    }
-
-    /// [`super::scan`] in one AVX-512 vector per coordinate ([`leaf_distances`]).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn scan_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
-        assert!(items.len() == LEAF);
-        let acc = leaf_distances(rows, q);
-        // Only lanes at most the best distance can change it.
-        let hits = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(acc, _mm512_set1_ps(best.0));
-        if hits == 0 {
-            return;
-        }
-        let mut a = [0f32; LEAF];
-        _mm512_storeu_ps(a.as_mut_ptr(), acc);
-        take_best(hits, &a, items, best);
-    }
-
-    /// [`super::scan_near`] in one AVX-512 vector per chain of [`super::near_distance`] (the same
-    /// fused multiply-adds and sums, so the same bits).
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn scan_near_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
-        assert!(items.len() == LEAF && rows.len() >= q.len() * LEAF);
-        let diff = |l: usize| _mm512_sub_ps(_mm512_loadu_ps(rows.as_ptr().add(l * LEAF)), _mm512_set1_ps(q[l]));
-        // The four chains in registers: whole groups of four coordinates, then the rest.
-        let (mut c0, mut c1, mut c2, mut c3) = (_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps());
-        let whole = q.len() / 4 * 4;
-        for l in (0..whole).step_by(4) {
-            let (d0, d1, d2, d3) = (diff(l), diff(l + 1), diff(l + 2), diff(l + 3));
-            c0 = _mm512_fmadd_ps(d0, d0, c0);
-            c1 = _mm512_fmadd_ps(d1, d1, c1);
-            c2 = _mm512_fmadd_ps(d2, d2, c2);
-            c3 = _mm512_fmadd_ps(d3, d3, c3);
-        }
-        let rest = q.len() - whole;
-        if rest > 0 {
-            let d = diff(whole);
-            c0 = _mm512_fmadd_ps(d, d, c0);
-        }
-        if rest > 1 {
-            let d = diff(whole + 1);
-            c1 = _mm512_fmadd_ps(d, d, c1);
-        }
-        if rest > 2 {
-            let d = diff(whole + 2);
-            c2 = _mm512_fmadd_ps(d, d, c2);
-        }
-        let acc = _mm512_add_ps(_mm512_add_ps(c0, c1), _mm512_add_ps(c2, c3));
-        let mut a = [0f32; LEAF];
-        _mm512_storeu_ps(a.as_mut_ptr(), acc);
-        take_best(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(acc, _mm512_set1_ps(best.0)), &a, items, best);
-        // Unused lanes (index u32::MAX) are never near.
-        let valid = _mm512_cmpneq_epi32_mask(_mm512_loadu_si512(items.as_ptr().cast()), _mm512_set1_epi32(-1));
-        let mut hits = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(valid, acc, _mm512_set1_ps(reach * best.0));
-        while hits != 0 {
-            let j = hits.trailing_zeros() as usize;
-            hits &= hits - 1;
-            near.push((a[j], items[j]));
         }
     }
 }

@@ -27,6 +27,12 @@ use std::ops::Range;
 /// From this many 8-bit images on, a product takes the batch kernel.
 pub(crate) const BATCH_FROM: usize = 8;
 
+/// The buffers of [`Projector::planes_products`]: each plane's products and its sum of squares.
+pub(crate) struct PlaneBuffers<'a> {
+    pub raw: &'a mut Vec<f32>,
+    pub energy: &'a mut Vec<u64>,
+}
+
 /// Rows of M values with the forms of some of their ranges that 8-bit queries take (see the
 /// module doc).
 #[derive(Debug, Clone)]
@@ -132,13 +138,11 @@ impl Projector {
 
     /// The products of the 8-bit `queries` with rows `r` into `out` (as [`Self::f32_products`])
     /// by the batch kernel, and each image's exact sum of squares into `energy`.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn u8_batch(&self, level: Level, r: &Range<usize>, queries: &[u8], out: &mut [f32], energy: &mut [u64], scratch: &mut dot_q::Scratch) {
-        self.fast(r).dots_batch(level, queries, self.m, self.range(r), out, energy, scratch);
+        self.fast(r).dots_batch(level, queries, self.m, self.range(r), dot_q::Batch { out, energy }, scratch);
     }
 
     /// [`Self::u8_batch`] from [`BATCH_FROM`] images on, else image by image.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn u8_products(&self, level: Level, r: &Range<usize>, queries: &[u8], out: &mut [f32], energy: &mut [u64], scratch: &mut dot_q::Scratch) {
         let (m, k) = (self.m, r.len());
         if queries.len() / m >= BATCH_FROM {
@@ -154,19 +158,18 @@ impl Projector {
     /// The products of binned 8-bit images given as digit planes (`planes`: per image its low
     /// then its high byte plane, of M each) with rows `r` into `out` (a row of `r.len()` per
     /// image): each plane as an 8-bit image ([`BATCH_FROM`] planes or more in the batch kernel,
-    /// else one at a time; `raw` and `energy` hold the planes' products and sums of squares),
-    /// then low + 256 high.
-    #[allow(clippy::too_many_arguments)]
+    /// else one at a time; `buffers` hold the planes' products and sums of squares), then low +
+    /// 256 high.
     pub(crate) fn planes_products(
         &self,
         level: Level,
         r: &Range<usize>,
         planes: &[u8],
         out: &mut [f32],
-        raw: &mut Vec<f32>,
-        energy: &mut Vec<u64>,
+        buffers: PlaneBuffers<'_>,
         scratch: &mut dot_q::Scratch,
     ) {
+        let PlaneBuffers { raw, energy } = buffers;
         let (m, k) = (self.m, r.len());
         let n = planes.len() / (2 * m);
         raw.resize(2 * n * k, 0.0);
@@ -199,6 +202,30 @@ pub(crate) fn unit_coords(energy: f64, mean_proj: &[f32], y: &mut [f32]) -> Opti
     y.iter_mut().zip(mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
     Some(norm)
 }
+
+/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
+/// in `dot_u8::dots_batch`, 16 in `dot_q::dots_batch`).
+pub(crate) const U8_BATCH: usize = 192;
+
+/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
+/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
+fn u8_task_rows(n: usize, block: usize) -> usize {
+    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
+}
+
+/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
+/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
+/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
+/// of at least [`split::min_task_queries`] (in whole blocks).
+pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
+    let most = U8_BATCH / block * block;
+    if !split::splits(n, m) {
+        return ((n.div_ceil(block) * block).min(most), false);
+    }
+    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
+}
+
+const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));
 
 #[cfg(test)]
 mod tests {
@@ -280,7 +307,7 @@ mod tests {
                 }
             }
             let (mut out, mut raw, mut energy) = (vec![0f32; n * r.len()], Vec::new(), Vec::new());
-            p.planes_products(level, &r, &planes, &mut out, &mut raw, &mut energy, &mut scratch);
+            p.planes_products(level, &r, &planes, &mut out, PlaneBuffers { raw: &mut raw, energy: &mut energy }, &mut scratch);
             close(&out, &want, tol, "digit planes");
             let wr = p.words(&r).expect("sums of at most 1,020 take 16-bit rows");
             let mut lines = Vec::new();
@@ -308,27 +335,3 @@ mod tests {
         }
     }
 }
-
-/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
-/// in `dot_u8::dots_batch`, 16 in `dot_q::dots_batch`).
-pub(crate) const U8_BATCH: usize = 192;
-
-/// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
-/// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.
-fn u8_task_rows(n: usize, block: usize) -> usize {
-    n.div_ceil(2 * rayon::current_num_threads().max(1)).div_ceil(block).clamp(1, U8_BATCH / block) * block
-}
-
-/// The tasks of a batch of `n` 8-bit queries (8 or more) of `m` pixels: queries per task and
-/// whether the tasks run in parallel. A batch too small to split ([`split::splits`]) runs on the
-/// calling thread in tasks of at most [`U8_BATCH`]; a larger one in [`u8_task_rows`]'s tasks, each
-/// of at least [`split::min_task_queries`] (in whole blocks).
-pub(crate) fn u8_tasks(n: usize, m: usize, block: usize) -> (usize, bool) {
-    let most = U8_BATCH / block * block;
-    if !split::splits(n, m) {
-        return ((n.div_ceil(block) * block).min(most), false);
-    }
-    (u8_task_rows(n, block).max(split::min_task_queries(m).div_ceil(block) * block).min(most), true)
-}
-
-const _: () = assert!(U8_BATCH.is_multiple_of(dot_q::GROUP * dot_q::BLOCK) && U8_BATCH.is_multiple_of(dot_u8::BATCH_IMAGES));

@@ -14,17 +14,16 @@
 //! pass over them all, so the staged estimate has the unstaged one's bits.
 //!
 //! f32 images are summed in 16 f32 lanes per row, the lanes added in f64; 8-bit images exactly in
-//! integers (the two agree to about 1e-6 relative). Each has an AVX-512 body ([`avx512`]) that
+//! integers (the two agree to about 1e-6 relative). Each has an AVX-512 body ([`crate::kernels::noise`]) that
 //! performs the portable body's operations in the same order, so every build gives the same bits.
 
-#[cfg(target_arch = "x86_64")]
-mod avx512;
 mod uniform;
 
 pub use uniform::add_uniform_noise;
 #[cfg(test)]
 mod tests;
 
+use crate::kernels::noise::{self, Image};
 use crate::kernels::Level;
 
 /// Rows sampled by [`pixel_noise`]: every this many. Fewer rows cost less and estimate the noise
@@ -80,13 +79,13 @@ pub(crate) fn pixel_variance(x: &[f32], w: usize, h: usize, ch: usize) -> f64 {
 /// once. With `early` > 0 it is staged: the estimate from the first quarter of the sampled rows
 /// ([`Pass::First`]) when that is under `early` (the image is clearly clean), else the estimate from every sampled row, the same bits as unstaged.
 pub(crate) fn pixel_variance_in(x: &[f32], w: usize, h: usize, ch: usize, rows: &mut RowsF32, early: f64) -> f64 {
+    let level = Level::detect();
     let pass = |rows: &mut RowsF32, pass: Pass| {
-        #[cfg(target_arch = "x86_64")]
-        if Level::detect().avx512() {
-            // SAFETY: the CPU supports AVX-512 F/BW (detected).
-            return unsafe { avx512::pixel_variance_avx512(x, w, h, ch, rows, pass) };
+        let image = Image { w, h, ch, len: x.len() };
+        match noise::mask_sums_f32(level, image, || SampledRows::new(x, w * ch, h, pass), &mut rows.sums) {
+            Some(sums) => sums,
+            None => immerkaer_pass(x, w, h, ch, rows, pass),
         }
-        immerkaer_pass(x, w, h, ch, rows, pass)
     };
     rows.sums.resize(sampled_rows(h), 0.0);
     staged(w, h, ch, rows, early, pass)
@@ -238,19 +237,6 @@ impl<'a, T> Iterator for SampledRows<'a, T> {
         Some((k, &x[(yy - 1) * row..yy * row], &x[yy * row..(yy + 1) * row], &x[(yy + 1) * row..(yy + 2) * row]))
     }
 }
-
-/// 0, 1, .., 63: the permutation indices of [`avx512`]'s shifted vectors, widened to each
-/// lane's width where they are loaded.
-#[cfg(target_arch = "x86_64")]
-static IOTA: [u8; 64] = {
-    let mut v = [0u8; 64];
-    let mut j = 0;
-    while j < 64 {
-        v[j] = j as u8;
-        j += 1;
-    }
-    v
-};
 
 /// Immerkaer's variance from the sum of the mask's absolute responses over `count` rows of
 /// `row` values of `ch` channels (less `ch` at each end); 0 without any.
@@ -447,13 +433,14 @@ pub(crate) fn pixel_variance_u8(x: &[u8], w: usize, h: usize, ch: usize) -> f64 
 /// for rows of w x ch values), so a batch allocates them once; staged when `early` > 0, as
 /// [`pixel_variance_in`] (the two passes' integer sums add up to the one pass's exactly).
 pub(crate) fn pixel_variance_u8_in(x: &[u8], w: usize, h: usize, ch: usize, rows: &mut RowsU8, early: f64) -> f64 {
+    let level = Level::detect();
     let pass = |rows: &mut RowsU8, pass: Pass| {
-        #[cfg(target_arch = "x86_64")]
-        if Level::detect().avx512_vl() {
-            // SAFETY: the CPU supports AVX-512 F/BW/VL (detected).
-            return unsafe { avx512::pixel_variance_u8_avx512(x, w, h, ch, rows, pass) };
+        let image = Image { w, h, ch, len: x.len() };
+        let lanes = noise::RowsU8 { keep: &rows.keep, flush_every: rows.flush_every };
+        match noise::mask_sums_u8(level, image, || SampledRows::new(x, w * ch, h, pass), lanes) {
+            Some(sums) => sums,
+            None => immerkaer_pass(x, w, h, ch, rows, pass),
         }
-        immerkaer_pass(x, w, h, ch, rows, pass)
     };
     staged(w, h, ch, rows, early, pass)
 }

@@ -237,15 +237,22 @@ impl FastRows {
         }
     }
 
-    /// [`FastRows::dots`] for the `xs.len() / m` images of `xs`, with each image's exact sum of
-    /// squares into `energy`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn dots_batch(&self, level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Scratch) {
+    /// [`FastRows::dots`] for the `xs.len() / m` images of `xs` into `into.out`, with each
+    /// image's exact sum of squares into `into.energy`.
+    pub fn dots_batch(&self, level: Level, xs: &[u8], m: usize, w: &[f32], into: Batch<'_>, scratch: &mut Scratch) {
+        let Batch { out, energy } = into;
         match self.at(level) {
             Some(q) => dots_batch(level, xs, q, out, energy, &mut scratch.i32s),
             None => super::dot_u8::dots_batch(level, xs, m, w, out, energy, &mut scratch.f32s),
         }
     }
+}
+
+/// Where a batch's results go: each image's products (a row of them per image) and its exact
+/// sum of squares.
+pub struct Batch<'a> {
+    pub out: &'a mut [f32],
+    pub energy: &'a mut [u64],
 }
 
 /// Images per register block of [`dots_batch`]: a digit vector loaded serves this many images.

@@ -25,10 +25,20 @@ fn tile_rows(r: usize, c0: usize, n16: usize) -> (usize, usize) {
     (rs, re.saturating_sub(rs) / GROUP16)
 }
 
-/// One band of C += s * P P^T for an 8-bit panel of `kcp` step pairs: `a` the 16-row groups,
-/// `b` the broadcast side at `bs` lanes a step; rows of C at or past `n16` are padding.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn band_update_u8(band: &mut Band, n16: usize, a: &[i32], b: &[i32], bs: usize, kcp: usize, s: f64, level: Level) {
+/// A packed 8-bit panel of `steps` step pairs (or, with four sides, step quads): `sides` the
+/// 16-row groups (the levels, then for a cross panel the signed values), then the broadcast
+/// sides, at `bs` lanes a step.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Panel<'a, const N: usize> {
+    pub sides: [&'a [i32]; N],
+    pub bs: usize,
+    pub steps: usize,
+}
+
+/// One band of C += s * P P^T for an 8-bit panel `p` of step pairs: `a` the 16-row groups, `b`
+/// the broadcast side; rows of C at or past `n16` are padding.
+pub(super) fn band_update_u8(band: &mut Band, n16: usize, p: Panel<'_, 2>, s: f64, level: Level) {
+    let Panel { sides: [a, b], bs, steps: kcp } = p;
     let ld = band.rows;
     let cols = band.r0 + band.rows;
     let ga = GROUP16 * kcp;
@@ -57,15 +67,15 @@ pub(super) fn band_update_u8(band: &mut Band, n16: usize, a: &[i32], b: &[i32], 
                 continue;
             }
             let _ = level;
-            tile_u8_portable(q, ap, bp, bs, kcp, out, ld, s);
+            tile_u8_portable(q, Panel { sides: [ap, bp], bs, steps: kcp }, out, ld, s);
         }
     }
 }
 
 /// One band of C += s * (K^T R + R^T K) for a cross panel of `kcq` step quads (as
 /// [`band_update_u8`], the levels and the signed values side by side).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn band_update_u8_cross(band: &mut Band, n16: usize, [ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, s: f64, level: Level) {
+pub(super) fn band_update_u8_cross(band: &mut Band, n16: usize, p: Panel<'_, 4>, s: f64, level: Level) {
+    let Panel { sides: [ak, ar, bk, br], bs, steps: kcq } = p;
     let ld = band.rows;
     let cols = band.r0 + band.rows;
     let ga = GROUP16 * kcq;
@@ -95,7 +105,7 @@ pub(super) fn band_update_u8_cross(band: &mut Band, n16: usize, [ak, ar, bk, br]
                 continue;
             }
             let _ = level;
-            tile_u8_cross_portable(q, [akp, arp, bkp, brp], bs, kcq, out, ld, s);
+            tile_u8_cross_portable(q, Panel { sides: [akp, arp, bkp, brp], bs, steps: kcq }, out, ld, s);
         }
     }
 }
@@ -103,8 +113,8 @@ pub(super) fn band_update_u8_cross(band: &mut Band, n16: usize, [ak, ar, bk, br]
 /// out[c * ld + r] += s * sum_j (lo(a[r][j]) lo(b[c][j]) + hi(a[r][j]) hi(b[c][j])) for the
 /// (16 q) x 8 8-bit tile (q <= 3), summed exactly in i32 (a: q packed groups of 16, b: 8 lanes a
 /// step, `bs` lanes apart).
-#[allow(clippy::too_many_arguments)]
-fn tile_u8_portable(q: usize, a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
+fn tile_u8_portable(q: usize, p: Panel<'_, 2>, out: &mut [f64], ld: usize, s: f64) {
+    let Panel { sides: [a, b], bs, steps: kcp } = p;
     assert!(q <= 3 && a.len() >= q * GROUP16 * kcp && b.len() >= (kcp.max(1) - 1) * bs + GROUP && out.len() >= 7 * ld + q * GROUP16);
     let mut acc = [[0i32; MR16]; GROUP];
     for j in 0..kcp {
@@ -138,8 +148,8 @@ fn bytes_s(v: i32) -> [i32; 4] {
 /// out[c * ld + r] += s * sum_j sum_b (k[r][4j+b] rr[c][4j+b] + k[c][4j+b] rr[r][4j+b]) for the
 /// (16 q) x 8 tile (q <= 3), summed exactly in i32 (ak, ar: q packed groups of 16; bk, br: 8
 /// lanes a step, `bs` lanes apart).
-#[allow(clippy::too_many_arguments)]
-fn tile_u8_cross_portable(q: usize, [ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
+fn tile_u8_cross_portable(q: usize, p: Panel<'_, 4>, out: &mut [f64], ld: usize, s: f64) {
+    let Panel { sides: [ak, ar, bk, br], bs, steps: kcq } = p;
     let bl = (kcq.max(1) - 1) * bs + GROUP;
     assert!(q <= 3 && ak.len() >= q * GROUP16 * kcq && ar.len() >= q * GROUP16 * kcq && bk.len() >= bl && br.len() >= bl);
     assert!(out.len() >= 7 * ld + q * GROUP16);

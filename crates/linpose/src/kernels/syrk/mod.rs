@@ -41,7 +41,7 @@ pub(super) use tile::tile;
 
 use super::Level;
 use faer::Mat;
-use int8::{band_update_u8, band_update_u8_cross};
+use int8::{band_update_u8, band_update_u8_cross, Panel};
 use rayon::prelude::*;
 
 /// Rows of P per packed group (one AVX-512 register of f64).
@@ -177,7 +177,7 @@ impl SyrkAcc {
         assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
         assert!(a.len() == np * kcp && b.len() == np * kcp, "packed 8-bit panel size");
         let (level, n16) = (self.level, self.n.div_ceil(GROUP16) * GROUP16);
-        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, a, b, bs, kcp, s, level));
+        self.bands.par_iter_mut().for_each(|band| band_update_u8(band, n16, Panel { sides: [a, b], bs, steps: kcp }, s, level));
     }
 
     /// The cross pass, the broadcast sides `bk`, `br` at `bs` lanes a step.
@@ -188,7 +188,7 @@ impl SyrkAcc {
             assert_eq!(v.len(), np * kcq, "packed 8-bit panel size");
         }
         let (level, n16) = (self.level, self.n.div_ceil(GROUP16) * GROUP16);
-        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, [ak, ar, bk, br], bs, kcq, s, level));
+        self.bands.par_iter_mut().for_each(|band| band_update_u8_cross(band, n16, Panel { sides: [ak, ar, bk, br], bs, steps: kcq }, s, level));
     }
 
     /// C += other's C (both n x n, element by element).

@@ -46,8 +46,7 @@ pub fn pack_pairs_u8(a: &mut [i32], b: &mut [i32], block: &[u8], kc: usize, m: u
 /// [`super::SyrkAcc::update_u8_cross`]: `ak` / `bk` hold the levels k, `ar` / `br` the signed values
 /// `r[k]`, each 32-bit lane four consecutive steps (bytes, zero past `kc`); `ak` / `ar` in groups
 /// of 16 rows of P, `bk` / `br` in groups of 8 (`padded(m) * kc.div_ceil(4)` lanes each).
-#[allow(clippy::too_many_arguments)] // four outputs, their block and its shape, the table
-pub fn pack_quads_u8(ak: &mut [i32], ar: &mut [i32], bk: &mut [i32], br: &mut [i32], block: &[u8], kc: usize, m: usize, r: &[i8; 256]) {
+pub fn pack_quads_u8([ak, ar, bk, br]: [&mut [i32]; 4], block: &[u8], kc: usize, m: usize, r: &[i8; 256]) {
     let kcq = kc.div_ceil(4);
     assert!(kcq <= KCQ_MAX, "8-bit panel of {kcq} step quads exceeds {KCQ_MAX}");
     for v in [&*ak, &*ar, &*bk, &*br] {

@@ -89,7 +89,7 @@ fn u8_cross_panels_accumulate_exact_integer_sums() {
                 let len = padded(m) * k.div_ceil(4);
                 let mut v = [vec![0; len], vec![0; len], vec![0; len], vec![0; len]];
                 let [ak, ar, bk, br] = &mut v;
-                pack_quads_u8(ak, ar, bk, br, &x[r0 * m..(r0 + k) * m], k, m, &r);
+                pack_quads_u8([ak, ar, bk, br], &x[r0 * m..(r0 + k) * m], k, m, &r);
                 acc.update_u8_cross(ak, ar, bk, br, k.div_ceil(4), 0.5);
                 r0 += k;
             }

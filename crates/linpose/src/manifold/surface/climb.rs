@@ -1,9 +1,8 @@
 //! The climb: a walk over the reporting lattice to a local least of a cost of the surface's
 //! values.
 
-#[cfg(target_arch = "x86_64")]
-use super::simd;
 use super::Surface;
+use crate::kernels::{surface as kernel, Level};
 
 impl Surface {
     /// Moves `t`, a pose on the lattice of `step` degrees anchored at the first knot of each axis,
@@ -28,7 +27,8 @@ impl Surface {
         y64[..lo].iter_mut().zip(y).for_each(|(o, &v)| *o = v as f64);
         w64[..lo].copy_from_slice(&wt[..lo]);
         let (y64, w64) = (&*y64, &*w64);
-        self.climb_pair(None, lo, t, step, |f, _| lane_distance(y64, w64, f))
+        let level = Level::detect();
+        self.climb_pair(None, lo, t, step, |f, _| kernel::lane_distance(level, y64, w64, f))
     }
 
     /// The lattice of `step` degrees at `t` (anchored at each axis's first knot): per axis the
@@ -107,7 +107,7 @@ fn lattice_step(k: i64, count: i64, circ: bool) -> Option<i64> {
 type BlockAt = [[Option<i64>; 3]; 2];
 
 /// Most coordinates [`Surface::climb_pair`] evaluates in blocks (more go point by point).
-pub(crate) const BLOCK_DIM: usize = 32;
+pub(crate) use crate::kernels::surface::BLOCK_DIM;
 
 impl Surface {
     /// [`Surface::climb_by`] on a cost of the surface's values (the first `lo` coordinates) and,
@@ -230,12 +230,10 @@ impl Surface {
         fv: &mut [[f64; BLOCK_DIM]; 9],
         gv: &mut [[f64; BLOCK_DIM]; 9],
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect().avx512() {
-            // SAFETY: the CPU supports AVX-512F (detected).
-            return unsafe { simd::block2_avx512(self, other, lo, p0, p1, fv, gv) };
+        let block = || kernel::Block { w0: p0.map(|p| p.map(|t| self.splines[0].weights_d(t))), w1: p1.map(|p| p.map(|t| self.splines[1].weights_d(t))), lo };
+        if !kernel::block2(Level::detect(), self.grid2(), self.coefs(), other.map(Surface::coefs), block, fv, gv) {
+            self.block2_body(other, lo, p0, p1, fv, gv)
         }
-        self.block2_body(other, lo, p0, p1, fv, gv)
     }
 
     #[inline(always)]
@@ -312,29 +310,4 @@ impl Surface {
             }
         }
     }
-}
-
-/// The weighted squared distance sum w (y - f)^2 over values given in multiples of 8 (zero
-/// weight beyond the coordinates), summed 8 lanes at a time.
-pub(crate) fn lane_distance(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect().avx512() {
-        // SAFETY: the CPU supports AVX-512F (detected).
-        return unsafe { simd::lane_distance_avx512(y, w, f) };
-    }
-    lane_distance_body(y, w, f)
-}
-
-#[inline(always)]
-pub(crate) fn lane_distance_body(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
-    let n = f.len() / 8 * 8;
-    let (y, w, f) = (&y[..n], &w[..n], &f[..n]);
-    let mut acc = [0f64; 8];
-    for k in (0..n).step_by(8) {
-        for i in k..k + 8 {
-            let e = y[i] - f[i];
-            acc[i - k] += w[i] * e * e;
-        }
-    }
-    acc.iter().sum()
 }

@@ -1,9 +1,7 @@
 //! Evaluating the surface (and a second one on the same knots) with its derivatives at a pose.
 
-#[cfg(target_arch = "x86_64")]
-use super::simd;
 use super::Surface;
-use crate::kernels::dispatch;
+use crate::kernels::{dispatch, surface as kernel, Level};
 
 /// A second surface evaluated with the first ([`Surface::eval_pair`]): it, its values, and its
 /// Jacobian when wanted.
@@ -25,7 +23,7 @@ impl Surface {
     /// (D rows of L, row-major) too. `t` must lie in the domain ([`Surface::clamp`]).
     /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
     pub fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
-        eval_built(crate::kernels::Level::detect(), self, t, f, jac, None)
+        eval_built(Level::detect(), self, t, f, jac, None)
     }
 
     /// [`Surface::eval`] of this surface (into `f`, `jac`) and of `other` (into `g`, `jac_g`) at
@@ -34,7 +32,7 @@ impl Surface {
     /// own [`Surface::eval`].
     pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
         assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
-        eval_built(crate::kernels::Level::detect(), self, t, f, jac, Some((other, g, jac_g)))
+        eval_built(Level::detect(), self, t, f, jac, Some((other, g, jac_g)))
     }
 
     /// The body of [`Surface::eval`] (and with `other`, of [`Surface::eval_pair`]): every
@@ -45,12 +43,7 @@ impl Surface {
     pub(crate) fn eval_body(&self, t: &[f64], f: &mut [f64], mut jac: Option<&mut [f64]>, mut other: Option<Other<'_>>) {
         let d = self.params();
         if d == 2 && jac.is_none() && other.as_ref().is_none_or(|o| o.2.is_none()) {
-            #[cfg(target_arch = "x86_64")]
-            if crate::kernels::Level::detect().avx512() {
-                // SAFETY: the CPU supports AVX-512F (detected).
-                return unsafe { simd::values2_avx512(self, t, f, other.map(|(o, g, _)| (o, g))) };
-            }
-            return self.values2(t, f, other.map(|(o, g, _)| (o, g)));
+            return kernel::values2(Level::detect(), &self.terms2(t), self.coefs(), f, other.map(|(o, g, _)| (o.coefs(), g)));
         }
         let n = self.shape.iter().product::<usize>();
         debug_assert!(f.len() <= self.dim);
@@ -96,7 +89,7 @@ impl Surface {
     /// The 16 terms of [`Surface::eval_body`] for D = 2 at `t`, in its order: each one's offset
     /// into `coef` (a multiple of L) and its weight.
     #[inline(always)]
-    pub(crate) fn terms2(&self, t: &[f64]) -> ([usize; 16], [f64; 16]) {
+    pub(crate) fn terms2(&self, t: &[f64]) -> kernel::Terms2 {
         let n = self.shape[0] * self.shape[1];
         let (w0, _, a0, b0) = self.splines[0].weights_d(t[0]);
         let (w1, _, a1, b1) = self.splines[1].weights_d(t[1]);
@@ -113,19 +106,9 @@ impl Surface {
     /// The values of [`Surface::eval_body`] for D = 2 without derivatives (and of `other`'s,
     /// into its slice): the same 16 terms in the same order, the same products and sums, so the
     /// same bits, without the general loop's bookkeeping.
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn values2(&self, t: &[f64], f: &mut [f64], other: Option<(&Surface, &mut [f64])>) {
-        let (at, wt) = self.terms2(t);
-        let sum = |acc: &mut [f64], coef: &[f32]| {
-            acc.fill(0.0);
-            for (&a, &w) in at.iter().zip(&wt) {
-                acc.iter_mut().zip(&coef[a..]).for_each(|(v, &x)| *v += w * x as f64);
-            }
-        };
-        sum(f, &self.coef);
-        if let Some((o, g)) = other {
-            sum(g, &o.coef);
-        }
+        kernel::values2_portable(&self.terms2(t), self.coefs(), f, other.map(|(o, g)| (o.coefs(), g)))
     }
 }
 

@@ -19,12 +19,10 @@
 //!
 //! Evaluation ([`eval`]), Levenberg-Marquardt on the distance to the surface and the snap to the
 //! reporting lattice ([`lm`]), and the climb on that lattice ([`climb`]) are each in a file of
-//! their own; [`simd`] holds their AVX-512 bodies.
+//! their own; their AVX-512 bodies are in [`crate::kernels::surface`].
 
 pub(crate) mod climb;
 mod eval;
-#[cfg(target_arch = "x86_64")]
-pub(crate) mod simd;
 
 pub(crate) use climb::BLOCK_DIM;
 
@@ -104,6 +102,16 @@ pub struct Surface {
 }
 
 impl Surface {
+    /// The coefficients as the kernels read them.
+    pub(crate) fn coefs(&self) -> crate::kernels::surface::Coefs<'_> {
+        crate::kernels::surface::Coefs { coef: &self.coef, dim: self.dim }
+    }
+
+    /// The knot grid of a two-parameter surface as the kernels read it.
+    pub(crate) fn grid2(&self) -> crate::kernels::surface::Grid2 {
+        crate::kernels::surface::Grid2 { knots: self.shape[0] * self.shape[1], stride: [self.stride[0], self.stride[1]] }
+    }
+
     /// The surface through `knots` (the training views' coordinates, `dim` each, row-major over
     /// the grid `axes`, last parameter fastest), by `interpolant` along each axis.
     pub fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f64], dim: usize, interpolant: Interpolant) -> Result<Self> {

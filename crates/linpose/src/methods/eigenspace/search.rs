@@ -240,7 +240,7 @@ mod tests {
     /// second basin) is brute force's over the points outside it within the reach.
     #[test]
     fn the_tree_s_near_points_are_brute_force_s() {
-        use crate::manifold::kdtree::near_distance;
+        use crate::kernels::kdtree::near_distance;
         let mut rng = ChaCha8Rng::seed_from_u64(13);
         let mut near = Vec::new();
         for (dim, n) in [(2, 3000), (12, 4000), (20, 2000)] {

@@ -35,7 +35,7 @@ pub mod ridge;
 pub(crate) mod stream;
 
 use crate::dataset::Dataset;
-use crate::kernels::{combine::combine_rows, dot_u8::dots, AlignedF32, Level};
+use crate::kernels::{combine::{combine_rows, Centred}, dot_u8::dots, AlignedF32, Level};
 use crate::model::split;
 use crate::linalg::{dot_f32, gram_of, mat_from_rows, mean_row};
 use crate::dataset::Rows;
@@ -293,7 +293,7 @@ impl<'a> GramSystem<'a> {
                 let (p0, p1) = (c * chunk, ((c + 1) * chunk).min(m));
                 let len = p1 - p0;
                 let (mut w, mut row) = (vec![0.0; k * len], vec![0.0; len]);
-                combine_rows(level, self.x, self.mean_x.as_deref(), m, p0, &d_rows, k, &mut w, &mut row);
+                combine_rows(level, Centred { x: self.x, mean: self.mean_x.as_deref(), m }, p0, &d_rows, k, &mut w, &mut row);
                 w
             })
             .collect();

@@ -123,7 +123,7 @@ impl NormalEquations {
                     let kcq = kc.div_ceil(4);
                     s.quads.iter_mut().for_each(|v| v.resize(np * KCQ, 0));
                     let [ak, ar, bk, br] = s.quads.each_mut().map(|v| &mut v[..np * kcq]);
-                    pack_quads_u8(ak, ar, bk, br, q8, kc, m, &level_residuals());
+                    pack_quads_u8([ak, ar, bk, br], q8, kc, m, &level_residuals());
                     self.acc.update_u8_cross(ak, ar, bk, br, kcq, SCALE_CROSS);
                     r0 += kc;
                 }

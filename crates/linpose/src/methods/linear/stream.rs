@@ -436,7 +436,7 @@ mod tests {
         acc.update_u8(&a, &b, kcp, SCALE_PAIRS);
         let mut v: [Vec<i32>; 4] = std::array::from_fn(|_| vec![0; np * kcq]);
         let [ak, ar, bk, br] = &mut v;
-        pack_quads_u8(ak, ar, bk, br, &q, n, m, &level_residuals());
+        pack_quads_u8([ak, ar, bk, br], &q, n, m, &level_residuals());
         acc.update_u8_cross(ak, ar, bk, br, kcq, SCALE_CROSS);
         let c = acc.into_lower(1.0);
         let mut worst = 0f64;

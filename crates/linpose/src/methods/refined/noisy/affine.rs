@@ -1,6 +1,8 @@
 //! The affine fit of the noisy match: a query's coordinates against a surface point under a free
 //! gain and a free offset along a second surface, solved in closed form.
 
+use crate::kernels::affine::AffineLanes;
+use crate::kernels::Level;
 use crate::manifold::surface::BLOCK_DIM;
 use crate::methods::refined::tuning::DEGENERATE;
 
@@ -52,12 +54,11 @@ impl AffineQuery {
     /// The residual at the surface point `f` with offset `g`: the query's coordinates rounded up
     /// to a multiple of 8 values (as [`Surface::climb_pair`](crate::manifold::surface::Surface::climb_pair) gives them), zero beyond.
     pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect().avx512() {
-            // SAFETY: the CPU supports AVX-512F (detected).
-            return unsafe { simd::affine_residual_avx512(self, f, g) };
+        let lanes = AffineLanes { n: self.lanes, wz: &self.wz, c: &self.c, w: &self.w };
+        match crate::kernels::affine::sums(Level::detect(), lanes, f, g) {
+            Some(sums) => affine_solve(self.zz, sums).0,
+            None => self.residual_body(f, g),
         }
-        self.residual_body(f, g)
     }
 
     #[inline(always)]
@@ -91,44 +92,5 @@ fn affine_solve(zz: f64, [a, b, cc, u, v]: [f64; 5]) -> (f64, [f64; 2]) {
         ((zz - u * u / a).max(0.0), [u / a, 0.0])
     } else {
         (zz, [0.0, 0.0])
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-mod simd {
-    use super::BLOCK_DIM;
-    use crate::manifold::surface::simd::lanes_sum;
-    use std::arch::x86_64::*;
-
-    /// [`super::AffineQuery::residual`] compiled for AVX-512.
-    ///
-    /// # Safety
-    /// The CPU must support AVX-512F.
-    #[target_feature(enable = "avx512f")]
-    pub unsafe fn affine_residual_avx512(q: &super::AffineQuery, f: &[f64], g: &[f64]) -> f64 {
-        let n = q.lanes;
-        assert!(f.len() >= n && g.len() >= n && n <= BLOCK_DIM, "{n} values, zero beyond the coordinates");
-        let mut acc = [_mm512_setzero_pd(); 5];
-        for k in (0..n).step_by(8) {
-            // SAFETY: k + 8 <= n, within f, g and the query's arrays of BLOCK_DIM (asserted).
-            let (fk, gk, c, w, wz) = unsafe {
-                (
-                    _mm512_loadu_pd(f.as_ptr().add(k)),
-                    _mm512_loadu_pd(g.as_ptr().add(k)),
-                    _mm512_loadu_pd(q.c.as_ptr().add(k)),
-                    _mm512_loadu_pd(q.w.as_ptr().add(k)),
-                    _mm512_loadu_pd(q.wz.as_ptr().add(k)),
-                )
-            };
-            // The portable body's operations, lane by lane.
-            let m = _mm512_add_pd(fk, c);
-            let (wm, wg) = (_mm512_mul_pd(w, m), _mm512_mul_pd(w, gk));
-            acc[0] = _mm512_add_pd(acc[0], _mm512_mul_pd(wm, m));
-            acc[1] = _mm512_add_pd(acc[1], _mm512_mul_pd(wm, gk));
-            acc[2] = _mm512_add_pd(acc[2], _mm512_mul_pd(wg, gk));
-            acc[3] = _mm512_add_pd(acc[3], _mm512_mul_pd(wz, m));
-            acc[4] = _mm512_add_pd(acc[4], _mm512_mul_pd(wz, gk));
-        }
-        super::affine_solve(q.zz, acc.map(|v| lanes_sum(v))).0
     }
 }

@@ -1,5 +1,6 @@
 //! The noisy scan: the affine fit at every coarse point, pruned on the leading coordinates.
 
+use crate::kernels::scan::Tables;
 use crate::kernels::Level;
 use crate::methods::refined::model::RefinedModel;
 use crate::methods::refined::tuning::{DEGENERATE, NOISE_SCAN_BLOCK, NOISE_SCAN_SLACK, NOISE_SCAN_SPLIT_FROM, START_RATIO};
@@ -70,7 +71,7 @@ impl AffineTables {
     /// of weighted sums `ac` = (w0 z).c and `zz` = (w0 z).z.
     fn residuals(&self, range: std::ops::Range<usize>, u: &mut [f32], v: &[f32], ac: f64, zz: f64) {
         let (ba, ia, is) = (&self.b_over_a[range.clone()], &self.inv_a[range.clone()], &self.inv_s[range]);
-        crate::kernels::scan::affine_residuals(Level::detect(), u, v, ba, ia, is, ac, zz);
+        crate::kernels::scan::affine_residuals(Level::detect(), u, v, ba, ia, is, crate::kernels::scan::AffineTerms { ac, zz });
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -116,7 +117,7 @@ impl NoiseScan {
         };
         self.degenerate.iter().for_each(|&i| u[i] = 0.0);
         let (mut u1, mut v1) = ([0f32], [0f32]);
-        crate::kernels::scan::dots2_at(level, &cols[..ln * n], &gcols[..ln * n], n, first, &a, &mut u1, &mut v1);
+        crate::kernels::scan::dots2_at(level, Tables { cols: &cols[..ln * n], gcols: &gcols[..ln * n] }, n, first, &a, &mut u1, &mut v1);
         self.full.residuals(first..first + 1, &mut u1, &v1, ac, zz);
         // Twice that residual bounds the cut of the starts; the slack covers the rounding of
         // the f32 products (about 1e-6 of z.z) many times over.
@@ -124,7 +125,7 @@ impl NoiseScan {
         for (b, (ub, vb)) in u.chunks_mut(NOISE_SCAN_BLOCK).zip(v.chunks_mut(NOISE_SCAN_BLOCK)).enumerate() {
             if ub.iter().fold(false, |hit, &x| hit | !(x > cut)) {
                 let i0 = b * NOISE_SCAN_BLOCK;
-                crate::kernels::scan::dots2_at(level, &cols[..ln * n], &gcols[..ln * n], n, i0, &a, ub, vb);
+                crate::kernels::scan::dots2_at(level, Tables { cols: &cols[..ln * n], gcols: &gcols[..ln * n] }, n, i0, &a, ub, vb);
                 self.full.residuals(i0..i0 + ub.len(), ub, vb, ac, zz);
             } else {
                 ub.fill(f32::INFINITY);

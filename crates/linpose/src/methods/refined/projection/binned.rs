@@ -143,7 +143,7 @@ impl RefinedModel {
             return;
         }
         s.xout.resize(nx * k, 0.0);
-        self.proj.planes_products(level, &rr, src, &mut s.xout, raw, energy, &mut s.products);
+        self.proj.planes_products(level, &rr, src, &mut s.xout, crate::manifold::projector::PlaneBuffers { raw, energy }, &mut s.products);
         scatter(&s.xout, k, sel, 0, 1 + self.components(), rr.start, &mut s.raw);
     }
 }

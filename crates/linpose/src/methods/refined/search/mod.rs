@@ -39,44 +39,7 @@ pub(crate) fn smallest(dist: &[f32], k: usize) -> Vec<(f32, usize)> {
 
 /// [`smallest`] given the least of `dist`, `lo`.
 pub(crate) fn smallest_under(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
-    #[cfg(target_arch = "x86_64")]
-    if Level::detect().avx512() {
-        // SAFETY: the CPU supports AVX-512 F/BW (detected).
-        return unsafe { simd::smallest_avx512(dist, k, lo) };
-    }
-    smallest_body(dist, k, lo)
-}
-
-/// The body of [`smallest_under`] (compiled for AVX-512 too: comparisons only, the same result).
-#[inline(always)]
-fn smallest_body(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
-    let cut = START_RATIO * lo.max(0.0) + f32::MIN_POSITIVE;
-    let mut best: Vec<(f32, usize)> = Vec::with_capacity(k + 1);
-    // Blocks of 16 tested without branches first: few hold a point under the cut.
-    for (b, c) in dist.chunks(16).enumerate() {
-        if !c.iter().fold(false, |hit, &v| hit | (v <= cut)) {
-            continue;
-        }
-        for (i, &v) in c.iter().enumerate() {
-            if v <= cut && (best.len() < k || v < best[best.len() - 1].0) {
-                let at = best.partition_point(|b| b.0 <= v);
-                best.insert(at, (v, 16 * b + i));
-                best.truncate(k);
-            }
-        }
-    }
-    best
-}
-
-/// The body of [`smallest_under`] compiled for AVX-512 (comparisons only: the same result).
-#[cfg(target_arch = "x86_64")]
-mod simd {
-    /// # Safety
-    /// The CPU must support AVX-512 F and BW.
-    #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn smallest_avx512(dist: &[f32], k: usize, lo: f32) -> Vec<(f32, usize)> {
-        super::smallest_body(dist, k, lo)
-    }
+    crate::kernels::scan::smallest_under_cut(Level::detect(), dist, k, START_RATIO * lo.max(0.0) + f32::MIN_POSITIVE)
 }
 
 impl RefinedModel {
@@ -141,7 +104,8 @@ impl RefinedModel {
             // Every coarse point's distance, then the k closest.
             dist.resize(self.start_len(), 0.0);
             let split = box_split(self.components());
-            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, &self.start_boxes, split, y, w32, dist, lb);
+            let boxes = crate::kernels::scan::Boxes { boxes: &self.start_boxes, split };
+            let lo = crate::kernels::scan::sq_dist_boxed(Level::detect(), &self.start_points, boxes, y, w32, dist, lb);
             let best = smallest_under(dist, k, lo);
             buf.resize((d + 2) * l, 0.0);
             let mut best_cost = f64::INFINITY;

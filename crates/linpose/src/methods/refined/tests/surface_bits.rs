@@ -1,6 +1,7 @@
 //! The SIMD kernels of this module against their portable bodies, bit for bit (the portable
 //! bodies are what a machine without AVX-512 runs).
-use crate::manifold::surface::climb::{lane_distance, lane_distance_body};
+use crate::kernels::surface::{lane_distance, lane_distance_body};
+use crate::kernels::Level;
 use crate::manifold::surface::*;
 use crate::pose::{wrap_positive, PoseSpace};
 use crate::methods::refined::noisy::AffineQuery;
@@ -47,7 +48,7 @@ fn the_block_and_the_costs_give_their_portable_bits() {
                     assert_eq!((bits(&fa[k]), bits(&ga[k])), (bits(&fb[k]), bits(&gb[k])), "dim {dim}, ({e}, {a}), point {k}");
                     let (f, g) = (&fa[k][..lanes], &ga[k][..lanes]);
                     assert_eq!(q.residual(f, g).to_bits(), q.residual_body(f, g).to_bits(), "dim {dim}, point {k}");
-                    assert_eq!(lane_distance(&y, &wl, f).to_bits(), lane_distance_body(&y, &wl, f).to_bits(), "dim {dim}, point {k}");
+                    assert_eq!(lane_distance(Level::detect(), &y, &wl, f).to_bits(), lane_distance_body(&y, &wl, f).to_bits(), "dim {dim}, point {k}");
                     // The block's points are the surface's to rounding.
                     if let (Some(t0), Some(t1)) = (p0[k % 3], p1[k / 3]) {
                         let mut v = vec![0.0; dim];

@@ -35,11 +35,11 @@
 //! [`Surface::snap`](crate::manifold::surface::Surface::snap) measures there, up to
 //! rounding; ties go to the lowest lattice pose.
 
-#[cfg(target_arch = "x86_64")]
-mod simd;
 #[cfg(test)]
 mod tests;
 
+use crate::kernels::lattice::{self as kernel, EvenQuery, LatticeView, PAIRS};
+use crate::kernels::Level;
 use crate::methods::refined::tuning::PRUNE_MAX;
 
 /// The lattice search of one model's curve (see the module doc).
@@ -76,7 +76,7 @@ pub struct Lattice {
     /// lattice pose, `[offset j][interval]` in rows of the intervals rounded up to 16 (+inf past
     /// the last interval).
     norms: Vec<f32>,
-    /// For an even lattice, what the pruned scan reads ([`simd::pruned_avx512`]): the norms
+    /// For an even lattice, what the pruned scan reads ([`kernel::even_scan`]): the norms
     /// again as `[interval][offset]` in rows of the offsets rounded up to 16 (+inf past the last
     /// offset), the Hermite weights as `[weight][offset]` (0 past it), each interval's least norm
     /// (rows of `norms`' length, +inf past the last interval), and the largest h h10 and
@@ -98,9 +98,6 @@ thread_local! {
     static EVEN_SCRATCH: std::cell::RefCell<EvenScratch> = const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
 
-/// Products per knot k of [`Lattice::pairs`]: p_k p_k, p_k s_k, s_k s_k, p_k p_{k+1},
-/// p_k s_{k+1}, s_k p_{k+1}, s_k s_{k+1}.
-const PAIRS: usize = 7;
 
 /// The places of the values of `d` (rows of `np`) no more than `cut`, in increasing order, into
 /// `hits` as (column, row).
@@ -300,15 +297,30 @@ impl Lattice {
     /// The lattice pose closest to `y` under the weights `wt` (only the first `ls` count; all
     /// alike when `uniform` gives their common value). `scratch` is reused between calls.
     pub fn nearest(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
-        #[cfg(target_arch = "x86_64")]
-        if crate::kernels::Level::detect().avx512() {
-            // SAFETY: the CPU supports AVX-512F (detected).
-            return unsafe { simd::nearest_avx512(self, y, wt, uniform, scratch) };
-        }
-        if self.even.is_empty() {
-            self.nearest_body(y, wt, uniform, scratch, false)
-        } else {
-            self.nearest_even(y, wt, false)
+        let level = Level::detect();
+        kernel::with_avx512f(level, || {
+            if self.even.is_empty() {
+                self.nearest_body(y, wt, uniform, scratch, level)
+            } else {
+                self.nearest_even(y, wt, level)
+            }
+        })
+    }
+
+    /// What the kernels read of the search.
+    fn view(&self) -> LatticeView<'_> {
+        LatticeView {
+            ls: self.ls,
+            cols: self.cols,
+            values: &self.values,
+            slopes: &self.slopes,
+            even: &self.even,
+            herm: &self.herm,
+            norms: &self.norms,
+            norms_t: &self.norms_t,
+            herm_t: &self.herm_t,
+            norm_min: &self.norm_min,
+            slope_max: self.slope_max,
         }
     }
 
@@ -320,9 +332,9 @@ impl Lattice {
     /// bound can hold the least, and only those are measured exactly, in f64 (none when one
     /// alone is left). The same pose as measuring every lattice pose exactly, up to the f64
     /// rounding of near ties; the same operations on every build (no fused multiply-adds), so
-    /// the AVX-512 build (`avx512`) gives the same bits.
+    /// the AVX-512 build (at a `level` with AVX-512) gives the same bits.
     #[inline(always)]
-    fn nearest_even(&self, y: &[f32], wt: &[f64], avx512: bool) -> f64 {
+    fn nearest_even(&self, y: &[f32], wt: &[f64], level: Level) -> f64 {
         let (c, ls, nj) = (self.cols, self.ls, self.even.len());
         let np = self.norms.len() / nj;
         let (mut wmin, mut wmax) = (f64::INFINITY, 0f64);
@@ -355,18 +367,7 @@ impl Lattice {
                 buf.resize(len, 0.0);
             }
             hits.clear();
-            #[cfg(target_arch = "x86_64")]
-            if avx512 {
-                // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-                unsafe {
-                    simd::even_products_avx512(self, y, buf);
-                    if !simd::pruned_avx512(self, yy as f32, slack, &cut_of, buf, hits) {
-                        let least = simd::even_poses_avx512(self, yy as f32, buf);
-                        simd::under_avx512(&buf[2 * (c + 16)..2 * (c + 16) + nj * np], np, cut_of(least), hits);
-                    }
-                }
-            }
-            if !(avx512 && cfg!(target_arch = "x86_64")) {
+            if !kernel::even_scan::<PRUNE_MAX>(level, self.view(), y, EvenQuery { yy: yy as f32, slack }, &cut_of, buf, hits) {
                 let least = self.even_distances(y, yy as f32, buf);
                 under(&buf[2 * (c + 16)..2 * (c + 16) + nj * np], np, cut_of(least), hits);
             }
@@ -409,7 +410,8 @@ impl Lattice {
     /// The f32 distances of [`Lattice::nearest_even`] into `buf` (cp, cs, each `cols` + 16
     /// long, then d laid out as `norms`): cp = sum_l y_l values_l and cs = sum_l y_l slopes_l
     /// (l in increasing order), then d = (yy + norm) - 2 y.f with y.f = ((h0 cp_i + h1 cs_i) +
-    /// h2 cp_i+1) + h3 cs_i+1; returns the least d. [`simd::even_poses_avx512`]'s operations.
+    /// h2 cp_i+1) + h3 cs_i+1; returns the least d. The AVX-512 scan's operations
+    /// ([`kernel::even_scan`]).
     fn even_distances(&self, y: &[f32], yy: f32, buf: &mut [f32]) -> f32 {
         let (c, nj) = (self.cols, self.even.len());
         let np = self.norms.len() / nj;
@@ -438,7 +440,7 @@ impl Lattice {
     }
 
     /// cp = sum_l a_l values_l, cs = sum_l a_l slopes_l (a = wt y), 8 columns at a time summed
-    /// over l in registers, l in increasing order ([`simd::products_avx512`]'s operations).
+    /// over l in registers, l in increasing order ([`kernel::products`]' operations).
     #[inline(always)]
     fn products(&self, y: &[f32], wt: &[f64], cp: &mut [f64], cs: &mut [f64]) {
         let c = self.cols;
@@ -461,26 +463,22 @@ impl Lattice {
     }
 
     /// The body of [`Lattice::nearest`]: the same operations on every build (no fused
-    /// multiply-adds), so the AVX-512 build (`avx512`) gives the same bits.
+    /// multiply-adds), so the AVX-512 build (at a `level` with AVX-512) gives the same bits.
     #[inline(always)]
-    fn nearest_body(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>, avx512: bool) -> f64 {
+    fn nearest_body(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>, level: Level) -> f64 {
         let c = self.cols;
         scratch.resize((PAIRS + 2) * c, 0.0);
         let (g, rest) = scratch.split_at_mut(PAIRS * c);
         let (cp, cs) = rest.split_at_mut(c);
         match uniform {
             Some(w) => g.iter_mut().zip(&self.unit).for_each(|(o, &u)| *o = w * u),
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-            None if avx512 => unsafe { simd::pairs_avx512(self, wt, g) },
-            None => self.pairs(wt, g),
+            None => {
+                if !kernel::pairs(level, self.view(), wt, g) {
+                    self.pairs(wt, g)
+                }
+            }
         }
-        #[cfg(target_arch = "x86_64")]
-        if avx512 {
-            // SAFETY: only the AVX-512 build passes avx512 (the CPU supports it).
-            unsafe { simd::products_avx512(self, y, wt, cp, cs) };
-        }
-        if !(avx512 && cfg!(target_arch = "x86_64")) {
+        if !kernel::products(level, self.view(), y, wt, cp, cs) {
             self.products(y, wt, cp, cs);
         }
         let (g, cp, cs) = (&*g, &*cp, &*cs);

@@ -80,11 +80,11 @@ fn the_lattice_search_finds_the_least_of_every_lattice_pose() {
                 })
                 .collect();
             let got = lat.nearest(&y, &wt, uniform.then_some(0.7), &mut scratch);
+            let port = Level::supported()[0];
             let portable =
-                if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, false) } else { lat.nearest_even(&y, &wt, false) };
+                if lat.even.is_empty() { lat.nearest_body(&y, &wt, uniform.then_some(0.7), &mut scratch, port) } else { lat.nearest_even(&y, &wt, port) };
             assert_eq!(got.to_bits(), portable.to_bits(), "the AVX-512 build gives the portable one's pose");
-            #[cfg(target_arch = "x86_64")]
-            if !lat.even.is_empty() && crate::kernels::Level::detect().avx512() {
+            if !lat.even.is_empty() {
                 pruned += pruned_as_full(&lat, &y, &wt) as usize;
             }
             let all = brute(&s, &y, &wt, 0.5);
@@ -94,15 +94,13 @@ fn the_lattice_search_finds_the_least_of_every_lattice_pose() {
             assert!(at_got.1 <= least + 1e-12 * (1.0 + least), "query {q}: {got} at {} against the least {least}", at_got.1);
         }
     }
-    #[cfg(target_arch = "x86_64")]
-    if crate::kernels::Level::detect().avx512() {
+    if Level::detect().avx512() {
         assert!(pruned >= 20, "the uniform queries near the curve take the pruned scan: {pruned}");
     }
 }
 
 /// Whether the pruned scan of an even lattice ran for `y` (else it left the full scan to
-/// run), asserting that it found the full scan's poses within the cut.
-#[cfg(target_arch = "x86_64")]
+/// run), asserting that it found the full scan's poses within the cut; false without AVX-512.
 fn pruned_as_full(lat: &Lattice, y: &[f32], wt: &[f64]) -> bool {
     let ls = lat.ls;
     let (wmin, wmax) = wt[..ls].iter().fold((f64::INFINITY, 0f64), |(a, b), &w| (a.min(w), b.max(w)));
@@ -113,16 +111,14 @@ fn pruned_as_full(lat: &Lattice, y: &[f32], wt: &[f64]) -> bool {
     let np = lat.norms.len() / nj;
     let mut buf = vec![0f32; 2 * (c + 16) + (nj * np).max(np + PRUNE_MAX * lat.herm_t.len() / 4)];
     let (mut full, mut pruned) = (Vec::new(), Vec::new());
-    // SAFETY: AVX-512F (detected by the caller).
-    unsafe {
-        simd::even_products_avx512(lat, y, &mut buf);
-        let ran = simd::pruned_avx512(lat, yy as f32, slack, &cut_of, &mut buf, &mut pruned);
-        let least = simd::even_poses_avx512(lat, yy as f32, &mut buf);
-        simd::under_avx512(&buf[2 * (c + 16)..2 * (c + 16) + nj * np], np, cut_of(least), &mut full);
-        if !ran {
+    let q = crate::kernels::lattice::EvenQuery { yy: yy as f32, slack };
+    match crate::kernels::lattice::even_scans::<PRUNE_MAX>(Level::detect(), lat.view(), y, q, &cut_of, &mut buf, (&mut pruned, &mut full)) {
+        None => return false,
+        Some(false) => {
             assert!(pruned.is_empty());
             return false;
         }
+        Some(true) => {}
     }
     pruned.sort_unstable();
     full.sort_unstable();
