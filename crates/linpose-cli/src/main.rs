@@ -6,6 +6,7 @@ use std::process::ExitCode;
 mod cmd;
 mod common;
 mod report;
+mod study;
 
 /// Pose estimation from appearance: Okatani & Deguchi's linear model and Murase & Nayar's
 /// parametric eigenspace, with a turntable renderer to make data anywhere.

@@ -51,7 +51,6 @@
 //!   how well the confidence flags the gross errors ([`evaluate_with`], [`EvalOptions`]).
 //! - **The renderer**: [`render`] makes turntable data sets of built-in objects, meshes or
 //!   procedural objects (`render::objects::random`, a zoo to measure robustness on).
-//! - **The experiment**: [`experiment`] runs the paper's study on one object.
 //!
 //! Errors are one [`Error`] type that names the file, line or value at fault.
 #![deny(missing_docs)]
@@ -66,7 +65,6 @@ pub mod confidence;
 pub mod dataset;
 pub mod error;
 pub mod eval;
-pub mod experiment;
 pub mod image_io;
 pub(crate) mod kernels;
 pub(crate) mod linalg;

@@ -2,9 +2,9 @@
 
 use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
+use crate::study::recognition::{self, RecognitionStudy};
+use crate::study::{normalization, run_object, ObjectResult, StudyParams};
 use anyhow::Context;
-use linpose::experiment::recognition::{self, RecognitionStudy};
-use linpose::experiment::{normalization, run_object, ObjectResult, StudyParams};
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{self, PoseGrid};
 use linpose::render::{objects, Grid, Jitter, RenderParams};

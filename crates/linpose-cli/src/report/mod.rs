@@ -11,8 +11,8 @@ use confidence::{confidence_finding, confidence_section};
 use normalization::{normalization_finding, normalization_section};
 use recognition::{recognition_finding, recognition_section};
 
+use crate::study::{ObjectResult, Run, GROSS_ERROR_DEG};
 use doc::{Block, Doc, FigureData};
-use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
 use linpose::model::Origin;
 use linpose::{Method, PoseModel};
 use serde::Serialize;
@@ -42,7 +42,7 @@ pub struct StudyInfo {
     pub total_s: f64,
     /// Recognition on all the objects at once, when there were several of one image size.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub recognition: Option<linpose::experiment::recognition::RecognitionStudy>,
+    pub recognition: Option<crate::study::recognition::RecognitionStudy>,
 }
 
 pub(super) fn f(v: f64, d: usize) -> String {
@@ -252,7 +252,7 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
         out.push(text);
         if let Some(o) = main.first() {
             let t = |m: &str| o.table1.iter().find(|t| t.method == m);
-            let rows: Vec<&linpose::experiment::Table1Row> = methods.iter().filter_map(|m| t(m.name)).collect();
+            let rows: Vec<&crate::study::Table1Row> = methods.iter().filter_map(|m| t(m.name)).collect();
             if !rows.is_empty() {
                 let bytes: Vec<(&str, f64)> = rows.iter().map(|r| (r.method.as_str(), r.model_bytes as f64)).collect();
                 let (small, large) = (rows.iter().min_by_key(|r| r.model_bytes).expect("a row"), rows.iter().max_by_key(|r| r.model_bytes).expect("a row"));

@@ -3,8 +3,8 @@
 
 use super::doc::Block;
 use super::f;
-use linpose::experiment::normalization::REGISTERED_COST;
-use linpose::experiment::ObjectResult;
+use crate::study::normalization::REGISTERED_COST;
+use crate::study::ObjectResult;
 
 /// The section: a table and, per method, whether to normalise.
 pub(super) fn normalization_section(b: &mut Vec<Block>, objects: &[ObjectResult]) {
@@ -61,14 +61,14 @@ pub(super) fn normalization_finding(objects: &[&ObjectResult]) -> Option<String>
     let parts: Vec<String> = methods
         .iter()
         .map(|m| {
-            let rows: Vec<(&str, &linpose::experiment::normalization::NormalizationRow)> = objects
+            let rows: Vec<(&str, &crate::study::normalization::NormalizationRow)> = objects
                 .iter()
                 .flat_map(|o| o.normalization.iter().filter(|r| r.method == *m && r.unavailable.is_none()).map(move |r| (o.name.as_str(), r)))
                 .collect();
             if rows.is_empty() {
                 return format!("{m}: the stage refused a training view of every object");
             }
-            let mean = |g: &dyn Fn(&linpose::experiment::normalization::NormalizationRow) -> Option<f64>| {
+            let mean = |g: &dyn Fn(&crate::study::normalization::NormalizationRow) -> Option<f64>| {
                 let v: Vec<f64> = rows.iter().filter_map(|(_, r)| g(r)).collect();
                 (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
             };

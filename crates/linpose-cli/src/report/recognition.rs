@@ -4,7 +4,7 @@
 
 use super::doc::Block;
 use super::f;
-use linpose::experiment::recognition::RecognitionStudy;
+use crate::study::recognition::RecognitionStudy;
 
 fn pct(v: f64) -> String {
     if v.is_finite() {

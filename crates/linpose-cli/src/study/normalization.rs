@@ -1,16 +1,16 @@
 //! Whether to normalise: each method fitted on the registered training views as they are and
-//! behind the normalisation stage ([`crate::normalize`], position, scale and brightness), both
+//! behind the normalisation stage ([`linpose::normalize`], position, scale and brightness), both
 //! measured on the registered unseen views and, where the study has them, on the same views as a
 //! camera would take them (moved, nearer or farther, brighter or darker: `synth --jitter`). The
 //! report recommends the stage for a method when it costs at most [`REGISTERED_COST`] of the
 //! accuracy on registered views, and says what it buys on the jittered ones.
 
-use crate::dataset::Dataset;
-use crate::eval::{evaluate_with, EvalOptions};
-use crate::manifest::TrainSelection;
-use crate::model::{AnyModel, PoseModel};
-use crate::normalize::{NormalizeParams, Normalized};
-use crate::{Error, Result};
+use linpose::dataset::Dataset;
+use linpose::eval::{evaluate_with, EvalOptions};
+use linpose::manifest::TrainSelection;
+use linpose::model::{AnyModel, PoseModel};
+use linpose::normalize::{NormalizeParams, Normalized};
+use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 use super::StudyParams;

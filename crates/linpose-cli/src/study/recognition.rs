@@ -1,14 +1,14 @@
-//! Recognition, then pose, on all the study's objects at once ([`crate::recognize`]): each
+//! Recognition, then pose, on all the study's objects at once ([`linpose::recognize`]): each
 //! recogniser fitted on every object's training views, then every view of every object
 //! recognised and given its pose by the recognised object's model (each method's); and each
 //! object left out of training in turn, to measure how its views are reported unknown while the
 //! others' unseen views are not.
 
-use crate::catalog::ObjectSet;
-use crate::dataset::Dataset;
-use crate::model::{AnyModel, PoseModel};
-use crate::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
-use crate::{Error, Result};
+use linpose::catalog::ObjectSet;
+use linpose::dataset::Dataset;
+use linpose::model::{AnyModel, PoseModel};
+use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
+use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
