@@ -34,6 +34,14 @@ pub struct StudyInfo {
     pub size_steps: Vec<f64>,
     /// Noise seed.
     pub seed: u64,
+    /// The coarser grid of the normalisation's jittered views, when not the data's own (the
+    /// default study; none with `--full`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jitter_grid: Option<String>,
+    /// The step of the coarser grid the left-out objects are measured on in the recognition
+    /// study, when not every view (the default study; none with `--full`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_out_step: Option<f64>,
     /// Objects that are the conclusion's open cases (reported in their own section).
     pub open_cases: Vec<String>,
     /// Seconds spent rendering or loading data.
@@ -205,8 +213,8 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
     }
 
     confidence_section(&mut b, objects)?;
-    normalization_section(&mut b, objects);
-    recognition_section(&mut b, info.recognition.as_ref());
+    normalization_section(&mut b, objects, info.jitter_grid.as_deref());
+    recognition_section(&mut b, info.recognition.as_ref(), info.left_out_step);
 
     // Figures.
     b.push(Block::Heading(1, "Figures".into()));

@@ -241,6 +241,18 @@ fn param_errors(data: &Dataset, samples: &[linpose::eval::SampleResult]) -> (Vec
     (per, gross)
 }
 
+/// The method's exact leave-one-out mean error on `train`, where it has one in closed form.
+fn loo_mean(method: &MethodSpec, train: &Dataset) -> Result<Option<f64>> {
+    Ok(match method.leave_one_out(train).transpose()? {
+        Some(loo) => {
+            let k = train.space().len();
+            let e: f64 = (0..train.len()).map(|i| train.space().error_deg(train.pose(i), &loo[i * k..(i + 1) * k])).sum();
+            Some(e / train.len() as f64)
+        }
+        None => None,
+    })
+}
+
 /// Runs the study on one object's full data set. `progress(stage)` is called as each stage
 /// starts.
 pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn(&str)) -> Result<ObjectResult> {
@@ -249,6 +261,9 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
     let mut runs = Vec::new();
     let mut table1 = Vec::new();
     let mut models = Vec::new();
+    // Each method's clean evaluation at the main step, for the sweep's point at that step (the
+    // same model on the same views: its errors are those of the clean run).
+    let mut clean = Vec::new();
     for method in &p.methods {
         progress(&format!("{name}: {} fit", method.name()));
         let t0 = std::time::Instant::now();
@@ -260,6 +275,7 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
             let per_query_us = r.predict_s / r.n_eval as f64 * 1e6;
             if noise == 0.0 {
                 table1.push(table1_row(&model, per_query_us));
+                clean.push((models.len(), r.n_train, r.all.mean_deg, r.unseen.map_or(f64::NAN, |u| u.mean_deg)));
             }
             let (param_err, gross) = param_errors(data, &r.samples);
             runs.push(Run {
@@ -287,8 +303,21 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
     for &step in &p.size_steps {
         let mask = data.manifest().training_mask(&TrainSelection::Step(step))?;
         let train = data.subset(&mask)?;
-        for method in &p.methods {
+        for (i, method) in p.methods.iter().enumerate() {
             progress(&format!("{name}: {} with a {step}-degree training step", method.name()));
+            // The main step: the model and its clean errors are the main run's.
+            let shared = clean.iter().find(|c| c.0 == i).filter(|_| step == p.train_step);
+            if let Some(&(_, n_train, all_mean_deg, unseen_mean_deg)) = shared {
+                sweep.push(SweepPoint {
+                    method: models[i].meta().method.clone(),
+                    step,
+                    n_train,
+                    unseen_mean_deg,
+                    all_mean_deg,
+                    loo_mean_deg: loo_mean(method, &train)?,
+                });
+                continue;
+            }
             let model = match method.fit(&train) {
                 Ok(m) => m,
                 // Too few samples for a method (e.g. an eigenspace wider than the set): skip the point.
@@ -296,14 +325,7 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
                 Err(e) => return Err(e),
             };
             let r = evaluate_with(&model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, p.seed) })?;
-            let loo_mean_deg = match method.leave_one_out(&train).transpose()? {
-                Some(loo) => {
-                    let k = train.space().len();
-                    let e: f64 = (0..train.len()).map(|i| train.space().error_deg(train.pose(i), &loo[i * k..(i + 1) * k])).sum();
-                    Some(e / train.len() as f64)
-                }
-                None => None,
-            };
+            let loo_mean_deg = loo_mean(method, &train)?;
             sweep.push(SweepPoint {
                 method: r.method,
                 step,

@@ -9,7 +9,7 @@ use linpose::dataset::Dataset;
 use linpose::eval::{evaluate_with, EvalOptions};
 use linpose::manifest::TrainSelection;
 use linpose::model::{AnyModel, PoseModel};
-use linpose::normalize::{NormalizeParams, Normalized};
+use linpose::normalize::{NormalizeParams, Normalized, Normalizer};
 use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -49,11 +49,61 @@ fn unseen_mean(model: &AnyModel, data: &Dataset, seed: u64) -> Result<(f64, usiz
     Ok((r.unseen.map_or(r.all.mean_deg, |u| u.mean_deg), r.rejected.len()))
 }
 
+/// Views normalised by a stage once for every method behind it: the views it accepts, as a data
+/// set (none when it refuses them all), and how many it refused.
+struct NormalisedViews {
+    kept: Option<Dataset>,
+    refused: usize,
+}
+
+impl NormalisedViews {
+    /// What evaluating a model behind `stage` on `d` normalises: the same rows, in order.
+    fn of(stage: &Normalizer, d: &Dataset) -> Result<Self> {
+        let (rows, verdicts) = stage.apply_batch(d.features());
+        let keep: Vec<bool> = verdicts.iter().map(Option::is_none).collect();
+        let refused = keep.iter().filter(|&&k| !k).count();
+        let kept = match refused {
+            0 => Some(Dataset::from_features(d.manifest().clone(), d.spec(), rows)?),
+            r if r == d.len() => None,
+            _ => Some(Dataset::from_features(d.subset(&keep)?.manifest().clone(), d.spec(), rows)?),
+        };
+        Ok(NormalisedViews { kept, refused })
+    }
+
+    /// The unseen mean error of `inner` (fitted behind `stage`) on the views, and how many the
+    /// stage refused: what [`unseen_mean`] of the model behind the stage on the views gives.
+    fn unseen_mean(&self, stage: &Normalizer, inner: &AnyModel, d: &Dataset, seed: u64) -> Result<(f64, usize)> {
+        match &self.kept {
+            Some(k) => Ok((unseen_mean(inner, k, seed)?.0, self.refused)),
+            // Every view refused: the evaluation's own error.
+            None => unseen_mean(&AnyModel::new(Normalized::new(stage.clone(), inner.clone())), d, seed),
+        }
+    }
+}
+
 /// Fits every method of `p` behind the stage on `data`'s training views and compares it with
-/// `plain` (the same methods fitted without it, in the same order) on `data` and on `jittered`.
-pub fn run(data: &Dataset, jittered: Option<&Dataset>, plain: &[AnyModel], p: &StudyParams, progress: &dyn Fn(&str)) -> Result<Vec<NormalizationRow>> {
+/// `plain` (the same methods fitted without it, in the same order) on `data` and on `jittered`
+/// (its unseen views: `jittered` may be the views of a coarser grid). `plain_registered[i]`, when
+/// given, is `plain[i]`'s unseen mean error on `data` already measured (the study's clean run:
+/// the same model on the same views), else it is measured here.
+pub fn run(
+    data: &Dataset,
+    jittered: Option<&Dataset>,
+    plain: &[AnyModel],
+    plain_registered: Option<&[f64]>,
+    p: &StudyParams,
+    progress: &dyn Fn(&str),
+) -> Result<Vec<NormalizationRow>> {
     let mask = data.manifest().training_mask(&TrainSelection::Step(p.train_step))?;
     let train = data.subset(&mask)?;
+    // The stage depends on the training views alone: fitted, and the training views normalised,
+    // once for all the methods (what `Normalized::fit` does for each). A training view the stage
+    // refuses: the study says so for this data set and goes on.
+    let stage = match Normalizer::fit(&train, NormalizeParams { geometry: true, brightness: true }).and_then(|s| Ok((s.apply_dataset(&train)?, s))) {
+        Ok(s) => Ok(s),
+        Err(e @ Error::Normalize { .. }) => Err(e.to_string()),
+        Err(e) => return Err(e),
+    };
     // Only the unseen views are measured, so only they are estimated.
     let unseen_of = |d: &Dataset| -> Result<Dataset> {
         let m = d.manifest().training_mask(&TrainSelection::Step(p.train_step))?;
@@ -65,34 +115,53 @@ pub fn run(data: &Dataset, jittered: Option<&Dataset>, plain: &[AnyModel], p: &S
     let data = &unseen_of(data)?;
     let jittered = jittered.map(unseen_of).transpose()?;
     let jittered = jittered.as_ref();
+    // The views normalised once for all the methods (each method's evaluation behind the stage
+    // normalises the same rows the same way).
+    let views = match &stage {
+        Ok((_, s)) => Some((NormalisedViews::of(s, data)?, jittered.map(|j| NormalisedViews::of(s, j)).transpose()?)),
+        Err(_) => None,
+    };
     let mut rows = Vec::new();
-    for (method, plain) in p.methods.iter().zip(plain) {
+    for (i, (method, plain)) in p.methods.iter().zip(plain).enumerate() {
         progress(&format!("{} normalised", method.name()));
-        let normalised = match Normalized::fit(method, &train, NormalizeParams { geometry: true, brightness: true }) {
+        let plain_mean = |d: &Dataset| -> Result<f64> {
+            match plain_registered {
+                Some(v) => Ok(v[i]),
+                None => Ok(unseen_mean(plain, d, p.seed)?.0),
+            }
+        };
+        let fitted = match (&stage, &views) {
+            (Ok((normalised, s)), Some(v)) => match method.fit(normalised) {
+                Ok(inner) => Ok((s, inner, v)),
+                Err(e @ Error::Normalize { .. }) => Err(e.to_string()),
+                Err(e) => return Err(e),
+            },
+            (Err(why), _) => Err(why.clone()),
+            (Ok(_), None) => unreachable!("views are normalised whenever the stage is fitted"),
+        };
+        let (stage, inner, (registered_views, jittered_views)) = match fitted {
             Ok(m) => m,
-            // A training view the stage refuses: the study says so for this data set and goes on.
-            Err(e @ Error::Normalize { .. }) => {
+            Err(why) => {
                 rows.push(NormalizationRow {
                     method: plain.meta().method.clone(),
-                    registered: [unseen_mean(plain, data, p.seed)?.0, f64::NAN],
+                    registered: [plain_mean(data)?, f64::NAN],
                     jittered: None,
                     refused: 0,
                     n_jittered: 0,
                     recommended: false,
-                    unavailable: Some(e.to_string()),
+                    unavailable: Some(why),
                 });
                 continue;
             }
-            Err(e) => return Err(e),
         };
-        let registered = [unseen_mean(plain, data, p.seed)?.0, unseen_mean(&normalised, data, p.seed)?.0];
-        let (jittered_err, refused) = match jittered {
-            Some(j) => {
+        let registered = [plain_mean(data)?, registered_views.unseen_mean(stage, &inner, data, p.seed)?.0];
+        let (jittered_err, refused) = match (jittered, jittered_views) {
+            (Some(j), Some(jv)) => {
                 let (a, _) = unseen_mean(plain, j, p.seed)?;
-                let (b, refused) = unseen_mean(&normalised, j, p.seed)?;
+                let (b, refused) = jv.unseen_mean(stage, &inner, j, p.seed)?;
                 (Some([a, b]), refused)
             }
-            None => (None, 0),
+            _ => (None, 0),
         };
         rows.push(NormalizationRow {
             method: plain.meta().method.clone(),
