@@ -9,6 +9,7 @@ mod common;
 mod plan;
 mod queries;
 mod report;
+mod study;
 
 /// Pose estimation from appearance: Okatani & Deguchi's linear model and Murase & Nayar's
 /// parametric eigenspace, with a turntable renderer to make data anywhere.

@@ -92,6 +92,7 @@ fn experiment_refuses_bad_arguments_before_any_work() {
     let d = Dir::new();
     d.fails(&["experiment", "--quick", "--objects", "teapot", "--out", "rep"], &["teapot"]);
     d.fails(&["experiment", "--quick", "--noise", "2", "--out", "rep"], &["noise", "[0, 1]"]);
+    d.fails(&["experiment", "--quick", "--full", "--out", "rep"], &["--full", "--quick"]);
     std::fs::write(d.path("file"), "x").unwrap();
     d.fails(&["experiment", "--quick", "--out", "file"], &["file", "not a folder"]);
     assert!(!d.path("rep").exists());

@@ -52,7 +52,6 @@
 //! - **The renderer** (cargo feature `render`, off by default): `render` makes turntable data sets
 //!   of built-in objects, meshes or procedural objects (`render::objects::random`, a zoo to
 //!   measure robustness on).
-//! - **The experiment**: [`experiment`] runs the paper's study on one object.
 //!
 //! Errors are one [`Error`] type that names the file, line or value at fault.
 #![deny(missing_docs)]
@@ -70,7 +69,6 @@ pub mod confidence;
 pub mod dataset;
 pub mod error;
 pub mod eval;
-pub mod experiment;
 pub(crate) mod huge;
 pub mod image_io;
 pub(crate) mod kernels;

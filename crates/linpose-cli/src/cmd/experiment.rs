@@ -2,9 +2,9 @@
 
 use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
+use crate::study::recognition::{self, RecognitionStudy};
+use crate::study::{normalization, run_object, ObjectResult, Run, StudyParams};
 use anyhow::Context;
-use linpose::experiment::recognition::{self, RecognitionStudy};
-use linpose::experiment::{normalization, run_object, ObjectResult, StudyParams};
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{self, PoseGrid};
 use linpose::render::{objects, Grid, Jitter, RenderParams};
@@ -22,6 +22,13 @@ const JITTER_SCALE: f64 = 0.1;
 /// See [`JITTER_SHIFT_PER_WIDTH`].
 const JITTER_EXPOSURE: f64 = 0.2;
 
+/// The training steps of the default size sweep (`--full`: 6, 9, 12, 18, 27).
+const SIZE_STEPS: [f64; 3] = [9.0, 18.0, 27.0];
+/// The step (degrees, on each axis) of the coarser grid the default study measures its two
+/// slowest measures on, where a sample of the views tells the same: the normalisation's jittered
+/// views and the objects left out of recognition (`--full`: the paper's grid, 3).
+const COARSE_STEP: f64 = 12.0;
+
 #[derive(clap::Args, Debug)]
 pub struct ExperimentArgs {
     /// Run the study on your own data set instead of the built-in objects (repeatable): a
@@ -38,12 +45,19 @@ pub struct ExperimentArgs {
     #[arg(long, value_delimiter = ',', default_value = "twin,column")]
     pub open_cases: Vec<String>,
     /// A smaller grid and images for a quick look (and the tests).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "full")]
     pub quick: bool,
+    /// The long version, on the built-in objects: the size sweep over 6,9,12,18,27 degrees, the
+    /// normalisation study on every unseen view jittered, and each object left out of
+    /// recognition measured on every view (by default: steps 9,18,27, and the views of a 12-degree
+    /// grid for the other two).
+    #[arg(long)]
+    pub full: bool,
     /// Main training step in degrees (default: 9, the paper's; 18 with --quick).
     #[arg(long, value_name = "S")]
     pub train_step: Option<f64>,
-    /// Training steps of the training-set-size sweep (default: 6,9,12,18,27; 18,27,36 with --quick).
+    /// Training steps of the training-set-size sweep (default: 9,18,27; 6,9,12,18,27 with
+    /// --full; 18,27,36 with --quick).
     #[arg(long, value_name = "S,...", value_delimiter = ',')]
     pub size_steps: Option<Vec<f64>>,
     /// Noise levels of the queries, fractions of full brightness.
@@ -99,7 +113,11 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         methods: StudyParams::default().methods,
         train_step: a.train_step.unwrap_or(if a.quick { 18.0 } else { 9.0 }),
         noise: a.noise.clone(),
-        size_steps: a.size_steps.clone().unwrap_or_else(|| if a.quick { vec![18.0, 27.0, 36.0] } else { vec![6.0, 9.0, 12.0, 18.0, 27.0] }),
+        size_steps: a.size_steps.clone().unwrap_or_else(|| match (a.quick, a.full) {
+            (true, _) => vec![18.0, 27.0, 36.0],
+            (false, true) => vec![6.0, 9.0, 12.0, 18.0, 27.0],
+            (false, false) => SIZE_STEPS.to_vec(),
+        }),
         seed: a.seed,
     };
     if !params.noise.contains(&0.0) {
@@ -112,6 +130,15 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     };
     let render_params = RenderParams::default().width(size.0).height(size.1);
     let grid = PoseGrid::new(el.clone(), az.clone())?;
+    // The built-in objects on the paper's grid, not --full: the slow measures on a coarser grid.
+    let coarse = !a.quick && !a.full && a.data.is_empty();
+    let (jitter_az, jitter_el) = if coarse {
+        (Grid::parse("azimuth", &format!("0:327:{COARSE_STEP}"))?, Grid::parse("elevation", &format!("32:77:{COARSE_STEP}"))?)
+    } else {
+        (az.clone(), el.clone())
+    };
+    let jitter_grid = PoseGrid::new(jitter_el.clone(), jitter_az.clone())?;
+    let left_out_step = coarse.then_some(COARSE_STEP);
     // The objects: user data sets, or the built-in ones rendered on the grid.
     enum Source {
         Builtin(String),
@@ -164,9 +191,9 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             // The same views as a camera in a cell would take them, for the normalisation's study.
             let jittered = match src {
                 Source::Builtin(n) => {
-                    let bar = progress(grid.len() as u64, &format!("rendering {n}, jittered"));
+                    let bar = progress(jitter_grid.len() as u64, &format!("rendering {n}, jittered"));
                     let shift = JITTER_SHIFT_PER_WIDTH * size.0 as f64;
-                    let jgrid = grid.clone().with_jitter(Jitter { shift, scale: JITTER_SCALE, exposure: JITTER_EXPOSURE, seed: params.seed })?;
+                    let jgrid = jitter_grid.clone().with_jitter(Jitter { shift, scale: JITTER_SCALE, exposure: JITTER_EXPOSURE, seed: params.seed })?;
                     let d = synth::dataset(&objects::builtin(n)?, &jgrid, &render_params, Path::new(n), &|k| bar.inc(k))?;
                     bar.finish_and_clear();
                     Some(d)
@@ -181,7 +208,14 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
                 bar.inc(1);
             };
             let mut r = run_object(name, &data, &params, &tick).with_context(|| format!("the study on {name}"))?;
-            r.normalization = normalization::run(&data, jittered.as_ref(), &r.models, &params, &|s| tick(&format!("{name}: {s}")))
+            // The plain models' unseen mean on the registered views is the clean run's.
+            let clean: Vec<f64> = r
+                .models
+                .iter()
+                .map(|m| r.runs.iter().find(|x| x.method == m.meta().method && x.noise == 0.0).map(unseen_mean))
+                .collect::<Option<_>>()
+                .context("a clean run per method")?;
+            r.normalization = normalization::run(&data, jittered.as_ref(), &r.models, Some(&clean), &params, &|s| tick(&format!("{name}: {s}")))
                 .with_context(|| format!("the normalisation study on {name}"))?;
             bar.finish_and_clear();
             for m in &r.models {
@@ -201,7 +235,7 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             return Err(e);
         }
     };
-    let recognition = match recognition_study(&results, kept) {
+    let recognition = match recognition_study(&results, kept, left_out_step) {
         Ok(r) => r,
         Err(e) => {
             let _ = std::fs::remove_dir_all(&tmp);
@@ -236,6 +270,8 @@ pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         train_step: params.train_step,
         noise: params.noise.clone(),
         size_steps: params.size_steps.clone(),
+        jitter_grid: coarse.then(|| format!("azimuth {jitter_az} x elevation {jitter_el}")),
+        left_out_step,
         seed: params.seed,
         open_cases,
         data_s,
@@ -294,7 +330,7 @@ impl Views {
 
 /// The recognition study across the study's objects, when there are at least two of one image
 /// size and pose parameters (otherwise none).
-fn recognition_study(results: &[ObjectResult], kept: Vec<(Dataset, Views)>) -> anyhow::Result<Option<RecognitionStudy>> {
+fn recognition_study(results: &[ObjectResult], kept: Vec<(Dataset, Views)>, left_out_step: Option<f64>) -> anyhow::Result<Option<RecognitionStudy>> {
     if kept.len() < 2 {
         return Ok(None);
     }
@@ -306,15 +342,33 @@ fn recognition_study(results: &[ObjectResult], kept: Vec<(Dataset, Views)>) -> a
     let names: Vec<String> = results.iter().map(|r| r.name.clone()).collect();
     let set = linpose::ObjectSet::new(names, train)?;
     let methods = results[0].models.len();
-    let poses: Vec<Vec<linpose::AnyModel>> = (0..methods).map(|m| results.iter().map(|r| r.models[m].clone()).collect()).collect();
+    let models: Vec<Vec<linpose::AnyModel>> = (0..methods).map(|m| results.iter().map(|r| r.models[m].clone()).collect()).collect();
+    // Each model's clean errors on its object's views (the clean run's).
+    let errors = models
+        .iter()
+        .map(|per_object| {
+            results
+                .iter()
+                .zip(per_object)
+                .map(|(r, m)| r.runs.iter().find(|x| x.method == m.meta().method && x.noise == 0.0).map(|x| x.errors.clone()))
+                .collect::<Option<Vec<Vec<f64>>>>()
+        })
+        .collect::<Option<Vec<_>>>()
+        .context("a clean run per method and object")?;
+    let poses = recognition::PoseRuns { models, errors };
     let bar = progress((2 * (1 + set.len())) as u64, "recognition");
-    let study = recognition::run(&set, &|k| views[k].dataset(), &poses, &|s| {
+    let study = recognition::run(&set, &|k| views[k].dataset(), &poses, left_out_step, &|s| {
         bar.set_message(s.to_string());
         bar.inc(1);
     })
     .context("the recognition study")?;
     bar.finish_and_clear();
     Ok(Some(study))
+}
+
+/// A run's unseen mean error (over all views when none was unseen).
+fn unseen_mean(r: &Run) -> f64 {
+    r.unseen.map_or(r.all.mean_deg, |u| u.mean_deg)
 }
 
 fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {

@@ -4,9 +4,9 @@
 
 use super::doc::{Block, FigureData};
 use super::{f, pct, plots};
+use crate::study::{ObjectResult, Run};
 use linpose::confidence::{FLAG_BELOW, GROSS_DEG};
 use linpose::eval::ConfidenceSummary;
-use linpose::experiment::{ObjectResult, Run};
 
 /// The methods in the results, in the order they first appear.
 fn methods_run<'a>(objects: impl Iterator<Item = &'a ObjectResult>) -> Vec<&'a str> {

@@ -11,8 +11,8 @@ use confidence::{confidence_finding, confidence_section};
 use normalization::{normalization_finding, normalization_section};
 use recognition::{recognition_finding, recognition_section};
 
+use crate::study::{ObjectResult, Run, GROSS_ERROR_DEG};
 use doc::{Block, Doc, FigureData};
-use linpose::experiment::{ObjectResult, Run, GROSS_ERROR_DEG};
 use linpose::model::Origin;
 use linpose::{Method, PoseModel};
 use serde::Serialize;
@@ -34,6 +34,14 @@ pub struct StudyInfo {
     pub size_steps: Vec<f64>,
     /// Noise seed.
     pub seed: u64,
+    /// The coarser grid of the normalisation's jittered views, when not the data's own (the
+    /// default study; none with `--full`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub jitter_grid: Option<String>,
+    /// The step of the coarser grid the left-out objects are measured on in the recognition
+    /// study, when not every view (the default study; none with `--full`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub left_out_step: Option<f64>,
     /// Objects that are the conclusion's open cases (reported in their own section).
     pub open_cases: Vec<String>,
     /// Seconds spent rendering or loading data.
@@ -42,7 +50,7 @@ pub struct StudyInfo {
     pub total_s: f64,
     /// Recognition on all the objects at once, when there were several of one image size.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub recognition: Option<linpose::experiment::recognition::RecognitionStudy>,
+    pub recognition: Option<crate::study::recognition::RecognitionStudy>,
 }
 
 pub(super) fn f(v: f64, d: usize) -> String {
@@ -205,8 +213,8 @@ pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> 
     }
 
     confidence_section(&mut b, objects)?;
-    normalization_section(&mut b, objects);
-    recognition_section(&mut b, info.recognition.as_ref());
+    normalization_section(&mut b, objects, info.jitter_grid.as_deref());
+    recognition_section(&mut b, info.recognition.as_ref(), info.left_out_step);
 
     // Figures.
     b.push(Block::Heading(1, "Figures".into()));
@@ -252,7 +260,7 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
         out.push(text);
         if let Some(o) = main.first() {
             let t = |m: &str| o.table1.iter().find(|t| t.method == m);
-            let rows: Vec<&linpose::experiment::Table1Row> = methods.iter().filter_map(|m| t(m.name)).collect();
+            let rows: Vec<&crate::study::Table1Row> = methods.iter().filter_map(|m| t(m.name)).collect();
             if !rows.is_empty() {
                 let bytes: Vec<(&str, f64)> = rows.iter().map(|r| (r.method.as_str(), r.model_bytes as f64)).collect();
                 let (small, large) = (rows.iter().min_by_key(|r| r.model_bytes).expect("a row"), rows.iter().max_by_key(|r| r.model_bytes).expect("a row"));

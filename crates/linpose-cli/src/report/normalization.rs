@@ -3,11 +3,12 @@
 
 use super::doc::Block;
 use super::f;
-use linpose::experiment::normalization::REGISTERED_COST;
-use linpose::experiment::ObjectResult;
+use crate::study::normalization::REGISTERED_COST;
+use crate::study::ObjectResult;
 
 /// The section: a table and, per method, whether to normalise.
-pub(super) fn normalization_section(b: &mut Vec<Block>, objects: &[ObjectResult]) {
+/// `jitter_grid`: the coarser grid of the jittered views, when not every unseen view's.
+pub(super) fn normalization_section(b: &mut Vec<Block>, objects: &[ObjectResult], jitter_grid: Option<&str>) {
     let rows: Vec<Vec<String>> = objects
         .iter()
         .flat_map(|o| o.normalization.iter().map(move |r| (o, r)))
@@ -33,9 +34,13 @@ pub(super) fn normalization_section(b: &mut Vec<Block>, objects: &[ObjectResult]
         return;
     }
     b.push(Block::Heading(1, "Normalisation: images as a camera takes them".into()));
-    b.push(Block::Para(
-        "Every method compares pixels, so it expects a query registered like the training views. The normalisation stage (`train --normalize`) finds the object in each image, centres it on its centroid, scales it to the training views' median size and brings it to their median brightness, for training and query images alike. Here each method is fitted on the registered training views with and without it, and measured on the registered unseen views and on the same views rendered as a camera in a cell would take them (moved by up to 8 pixels in a 160-pixel frame, 0.9 to 1.1 times the size, 0.8 to 1.2 times the exposure; rendered objects only). Images the stage cannot normalise (the object cut by the frame edge) are counted apart.".into(),
-    ));
+    let mut text = "Every method compares pixels, so it expects a query registered like the training views. The normalisation stage (`train --normalize`) finds the object in each image, centres it on its centroid, scales it to the training views' median size and brings it to their median brightness, for training and query images alike. Here each method is fitted on the registered training views with and without it, and measured on the registered unseen views and on the same views rendered as a camera in a cell would take them (moved by up to 8 pixels in a 160-pixel frame, 0.9 to 1.1 times the size, 0.8 to 1.2 times the exposure; rendered objects only). Images the stage cannot normalise (the object cut by the frame edge) are counted apart.".to_string();
+    if let Some(g) = jitter_grid {
+        text.push_str(&format!(
+            " The jittered views are the unseen views of a coarser grid, {g}, a sample of the registered ones (`--full`: every unseen view)."
+        ));
+    }
+    b.push(Block::Para(text));
     b.push(Block::Table(
         ["object", "method", "registered", "registered, normalised", "jittered", "jittered, normalised", "refused", "normalise?"].map(String::from).to_vec(),
         rows,
@@ -61,14 +66,14 @@ pub(super) fn normalization_finding(objects: &[&ObjectResult]) -> Option<String>
     let parts: Vec<String> = methods
         .iter()
         .map(|m| {
-            let rows: Vec<(&str, &linpose::experiment::normalization::NormalizationRow)> = objects
+            let rows: Vec<(&str, &crate::study::normalization::NormalizationRow)> = objects
                 .iter()
                 .flat_map(|o| o.normalization.iter().filter(|r| r.method == *m && r.unavailable.is_none()).map(move |r| (o.name.as_str(), r)))
                 .collect();
             if rows.is_empty() {
                 return format!("{m}: the stage refused a training view of every object");
             }
-            let mean = |g: &dyn Fn(&linpose::experiment::normalization::NormalizationRow) -> Option<f64>| {
+            let mean = |g: &dyn Fn(&crate::study::normalization::NormalizationRow) -> Option<f64>| {
                 let v: Vec<f64> = rows.iter().filter_map(|(_, r)| g(r)).collect();
                 (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
             };

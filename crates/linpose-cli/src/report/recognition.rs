@@ -4,7 +4,7 @@
 
 use super::doc::Block;
 use super::f;
-use linpose::experiment::recognition::RecognitionStudy;
+use crate::study::recognition::RecognitionStudy;
 
 fn pct(v: f64) -> String {
     if v.is_finite() {
@@ -15,14 +15,19 @@ fn pct(v: f64) -> String {
 }
 
 /// The section (nothing when the study did not run it).
-pub(super) fn recognition_section(b: &mut Vec<Block>, study: Option<&RecognitionStudy>) {
+/// `left_out_step`: the step of the coarser grid the left-out measure ran on, when not every view.
+pub(super) fn recognition_section(b: &mut Vec<Block>, study: Option<&RecognitionStudy>, left_out_step: Option<f64>) {
     let Some(s) = study else { return };
     b.push(Block::Heading(1, "Many objects: which object, then its pose".into()));
-    b.push(Block::Para(format!(
+    let mut text = format!(
         "All {} objects ({}) at once: a recogniser fitted on every object's training views names the object of each view, and the recognised object's own model gives the pose (Murase & Nayar's order; the paper's linear model takes over \"after object recognition is completed\"). `universal`: Murase & Nayar's universal eigenspace, the nearest object manifold; `linear`: the paper's minimum-norm linear model with one-hot object targets. A view is reported unknown when its distance to the nearest object exceeds the largest distance of that object's own held-out training views, in the recogniser's space and then in that object's own eigenspace; to measure that, each object is left out of training in turn and its views should be reported unknown while the others' unseen views should not.",
         s.objects.len(),
         s.objects.join(", ")
-    )));
+    );
+    if let Some(step) = left_out_step {
+        text.push_str(&format!(" The left-out measure runs on the views every {step} degrees on each axis, a sample of them (`--full`: every view)."));
+    }
+    b.push(Block::Para(text));
     let methods: Vec<&str> = s.rows.first().map(|r| r.pose_unseen.iter().map(|p| p.0.as_str()).collect()).unwrap_or_default();
     let mut header: Vec<String> = [
         "recogniser",

@@ -3,20 +3,21 @@
 //! model's closed-form leave-one-out error beside its true unseen error), and the storage and
 //! cost of Table 1 measured on the fitted models.
 //!
-//! The CLI renders or loads each object, runs [`run_object`] (and [`normalization::run`], each
-//! method with and without the normalisation stage) and writes the report; everything a figure or
-//! table shows is in the returned [`ObjectResult`].
+//! `linpose experiment` (`cmd/experiment.rs`) renders or loads each object, runs
+//! [`run_object`] (and [`normalization::run`], each method with and without the normalisation
+//! stage) and writes the report; everything a figure or table shows is in the returned
+//! [`ObjectResult`]. The study uses only the library's public API.
 
 pub mod normalization;
 pub mod recognition;
 
-use crate::dataset::Dataset;
-use crate::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};
-use crate::manifest::TrainSelection;
-use crate::model::MethodSpec;
-use crate::model::{AnyModel, PoseModel};
-use crate::pose::ErrorSummary;
-use crate::Result;
+use linpose::dataset::Dataset;
+use linpose::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};
+use linpose::manifest::TrainSelection;
+use linpose::model::MethodSpec;
+use linpose::model::{AnyModel, PoseModel};
+use linpose::pose::ErrorSummary;
+use linpose::Result;
 use serde::{Deserialize, Serialize};
 
 /// What to run on each object.
@@ -37,7 +38,7 @@ pub struct StudyParams {
 impl Default for StudyParams {
     fn default() -> Self {
         StudyParams {
-            methods: crate::methods::METHODS.iter().map(|m| m.default_spec()).collect(),
+            methods: linpose::methods::METHODS.iter().map(|m| m.default_spec()).collect(),
             train_step: 9.0,
             noise: vec![0.0, 0.05, 0.10],
             size_steps: vec![6.0, 9.0, 12.0, 18.0, 27.0],
@@ -89,15 +90,15 @@ pub struct Run {
     pub param_mean_abs_err_deg: Vec<f64>,
     /// Fraction of unseen samples with an error above [`GROSS_ERROR_DEG`].
     pub gross_frac: f64,
-    /// Each sample's confidence ([`crate::confidence`]), in data set order.
+    /// Each sample's confidence ([`linpose::confidence`]), in data set order.
     pub confidences: Vec<f64>,
     /// How well the confidence told the gross errors (flagged shares, reliability table).
     pub confidence: Option<ConfidenceSummary>,
 }
 
 /// An error above this many degrees counts as a gross failure (a wrong side, a lost parameter):
-/// [`crate::confidence::GROSS_DEG`].
-pub const GROSS_ERROR_DEG: f64 = crate::confidence::GROSS_DEG;
+/// [`linpose::confidence::GROSS_DEG`].
+pub const GROSS_ERROR_DEG: f64 = linpose::confidence::GROSS_DEG;
 
 /// One method at one training-set size.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -164,7 +165,7 @@ pub struct ObjectResult {
 }
 
 /// Finds the full grid the samples lie on, if they do (two parameters, every combination once).
-pub(crate) fn find_grid(data: &Dataset) -> Option<Grid> {
+fn find_grid(data: &Dataset) -> Option<Grid> {
     let space = data.space();
     if space.len() != 2 {
         return None;
@@ -198,7 +199,7 @@ pub(crate) fn find_grid(data: &Dataset) -> Option<Grid> {
 }
 
 /// The storage / cost terms of the paper's Table 1 for a fitted model.
-pub(crate) fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
+fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
     let storage = model.storage();
     Table1Row {
         method: model.meta().method.clone(),
@@ -210,10 +211,17 @@ pub(crate) fn table1_row(model: &AnyModel, per_query_us: f64) -> Table1Row {
     }
 }
 
+/// |a - b| on a circle of the given period (the library's own wrapped difference, which is not
+/// public: `linpose::pose`).
+fn wrapped_diff(a: f64, b: f64, period: f64) -> f64 {
+    let d = (a - b).rem_euclid(period);
+    d.min(period - d)
+}
+
 /// Per-parameter mean absolute errors and the gross-error fraction over unseen samples.
-fn param_errors(data: &Dataset, samples: &[crate::eval::SampleResult]) -> (Vec<f64>, f64) {
+fn param_errors(data: &Dataset, samples: &[linpose::eval::SampleResult]) -> (Vec<f64>, f64) {
     let params = data.space().params();
-    let unseen: Vec<&crate::eval::SampleResult> = samples.iter().filter(|s| !s.seen).collect();
+    let unseen: Vec<&linpose::eval::SampleResult> = samples.iter().filter(|s| !s.seen).collect();
     let n = unseen.len().max(1) as f64;
     let per = params
         .iter()
@@ -222,7 +230,7 @@ fn param_errors(data: &Dataset, samples: &[crate::eval::SampleResult]) -> (Vec<f
             unseen
                 .iter()
                 .map(|s| match p.period {
-                    Some(t) => crate::pose::wrapped_diff(s.r#true[j], s.estimated[j], t),
+                    Some(t) => wrapped_diff(s.r#true[j], s.estimated[j], t),
                     None => (s.r#true[j] - s.estimated[j]).abs(),
                 })
                 .sum::<f64>()
@@ -233,6 +241,18 @@ fn param_errors(data: &Dataset, samples: &[crate::eval::SampleResult]) -> (Vec<f
     (per, gross)
 }
 
+/// The method's exact leave-one-out mean error on `train`, where it has one in closed form.
+fn loo_mean(method: &MethodSpec, train: &Dataset) -> Result<Option<f64>> {
+    Ok(match method.leave_one_out(train).transpose()? {
+        Some(loo) => {
+            let k = train.space().len();
+            let e: f64 = (0..train.len()).map(|i| train.space().error_deg(train.pose(i), &loo[i * k..(i + 1) * k])).sum();
+            Some(e / train.len() as f64)
+        }
+        None => None,
+    })
+}
+
 /// Runs the study on one object's full data set. `progress(stage)` is called as each stage
 /// starts.
 pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn(&str)) -> Result<ObjectResult> {
@@ -241,6 +261,9 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
     let mut runs = Vec::new();
     let mut table1 = Vec::new();
     let mut models = Vec::new();
+    // Each method's clean evaluation at the main step, for the sweep's point at that step (the
+    // same model on the same views: its errors are those of the clean run).
+    let mut clean = Vec::new();
     for method in &p.methods {
         progress(&format!("{name}: {} fit", method.name()));
         let t0 = std::time::Instant::now();
@@ -252,6 +275,7 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
             let per_query_us = r.predict_s / r.n_eval as f64 * 1e6;
             if noise == 0.0 {
                 table1.push(table1_row(&model, per_query_us));
+                clean.push((models.len(), r.n_train, r.all.mean_deg, r.unseen.map_or(f64::NAN, |u| u.mean_deg)));
             }
             let (param_err, gross) = param_errors(data, &r.samples);
             runs.push(Run {
@@ -279,23 +303,29 @@ pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn
     for &step in &p.size_steps {
         let mask = data.manifest().training_mask(&TrainSelection::Step(step))?;
         let train = data.subset(&mask)?;
-        for method in &p.methods {
+        for (i, method) in p.methods.iter().enumerate() {
             progress(&format!("{name}: {} with a {step}-degree training step", method.name()));
+            // The main step: the model and its clean errors are the main run's.
+            let shared = clean.iter().find(|c| c.0 == i).filter(|_| step == p.train_step);
+            if let Some(&(_, n_train, all_mean_deg, unseen_mean_deg)) = shared {
+                sweep.push(SweepPoint {
+                    method: models[i].meta().method.clone(),
+                    step,
+                    n_train,
+                    unseen_mean_deg,
+                    all_mean_deg,
+                    loo_mean_deg: loo_mean(method, &train)?,
+                });
+                continue;
+            }
             let model = match method.fit(&train) {
                 Ok(m) => m,
                 // Too few samples for a method (e.g. an eigenspace wider than the set): skip the point.
-                Err(crate::Error::InvalidParameter { .. }) | Err(crate::Error::Dataset { .. }) => continue,
+                Err(linpose::Error::InvalidParameter { .. }) | Err(linpose::Error::Dataset { .. }) => continue,
                 Err(e) => return Err(e),
             };
             let r = evaluate_with(&model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, p.seed) })?;
-            let loo_mean_deg = match method.leave_one_out(&train).transpose()? {
-                Some(loo) => {
-                    let k = train.space().len();
-                    let e: f64 = (0..train.len()).map(|i| train.space().error_deg(train.pose(i), &loo[i * k..(i + 1) * k])).sum();
-                    Some(e / train.len() as f64)
-                }
-                None => None,
-            };
+            let loo_mean_deg = loo_mean(method, &train)?;
             sweep.push(SweepPoint {
                 method: r.method,
                 step,

@@ -1,14 +1,15 @@
-//! Recognition, then pose, on all the study's objects at once ([`crate::recognize`]): each
+//! Recognition, then pose, on all the study's objects at once ([`linpose::recognize`]): each
 //! recogniser fitted on every object's training views, then every view of every object
 //! recognised and given its pose by the recognised object's model (each method's); and each
 //! object left out of training in turn, to measure how its views are reported unknown while the
 //! others' unseen views are not.
 
-use crate::catalog::ObjectSet;
-use crate::dataset::Dataset;
-use crate::model::{AnyModel, PoseModel};
-use crate::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
-use crate::{Error, Result};
+use linpose::catalog::ObjectSet;
+use linpose::dataset::Dataset;
+use linpose::manifest::TrainSelection;
+use linpose::model::{AnyModel, PoseModel};
+use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
+use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -52,15 +53,53 @@ pub struct RecognitionStudy {
     pub rows: Vec<RecognitionRow>,
 }
 
+/// What the recognition study is given of the pose methods: each method's model of every object,
+/// fitted on the objects' training views, and each model's clean pose error on every view of its
+/// object (the study's clean run, in the order of `views`), which the recognised views' pose
+/// error is taken from (the same model on the same views).
+pub struct PoseRuns {
+    /// `models[m][k]`: method m's model of object k (at least one method).
+    pub models: Vec<Vec<AnyModel>>,
+    /// `errors[m][k][i]`: that model's error on view i of object k (degrees).
+    pub errors: Vec<Vec<Vec<f64>>>,
+}
+
 /// Runs the study. `train` holds every object's training views; `views(k)` gives every view of
 /// object k (called once per object and model: the views need not all be in memory at once);
-/// `poses[m][k]` is method m's model of object k fitted on those training views (at least one
-/// method).
-pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &[Vec<AnyModel>], progress: &dyn Fn(&str)) -> Result<RecognitionStudy> {
+/// `poses` the pose methods' models and errors. With `left_out_step`, the left-out measure runs
+/// on the views of that coarser grid only (the views on its lattice, as a training step of that
+/// many degrees would pick them), else on every view.
+pub fn run(
+    train: &ObjectSet,
+    views: &dyn Fn(usize) -> Result<Dataset>,
+    poses: &PoseRuns,
+    left_out_step: Option<f64>,
+    progress: &dyn Fn(&str),
+) -> Result<RecognitionStudy> {
+    let (errors, poses) = (&poses.errors, &poses.models);
     let k = train.len();
     if k < 2 {
         return Err(Error::invalid("objects", k, "recognition needs at least two objects"));
     }
+    // The coarser grid's views, made once for every left-out model of every recogniser (small:
+    // the views of the full grid are made again each time, not kept).
+    let coarse: Option<Vec<Dataset>> = match left_out_step.filter(|_| k >= 3) {
+        Some(s) => Some(
+            (0..k)
+                .map(|o| {
+                    let data = views(o)?;
+                    data.subset(&data.manifest().training_mask(&TrainSelection::Step(s))?)
+                })
+                .collect::<Result<_>>()?,
+        ),
+        None => None,
+    };
+    let left_out_views = |o: usize| -> Result<Dataset> {
+        match &coarse {
+            Some(c) => Ok(c[o].clone()),
+            None => views(o),
+        }
+    };
     let mut rows = Vec::new();
     for kind in RecognizerKind::ALL {
         let params = RecognizerParams::new(kind);
@@ -70,7 +109,7 @@ pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &
         let model = ObjectModel::from_pose_models(train, &params, first.clone())?;
         let fit_s = t.elapsed().as_secs_f64();
         let (mut ok_all, mut n_all, mut ok_unseen, mut n_unseen, mut rejected) = (0, 0, 0, 0, 0);
-        let mut errors: Vec<(f64, usize)> = vec![(0.0, 0); poses.len()];
+        let mut sums: Vec<(f64, usize)> = vec![(0.0, 0); poses.len()];
         let mut rec_s = 0.0;
         for o in 0..k {
             let data = views(o)?;
@@ -91,18 +130,15 @@ pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &
             // Pose of the unseen views recognised as their object, by each method's model of it.
             let unseen_right: Vec<usize> = right.into_iter().filter(|&i| !seen[i]).collect();
             if !unseen_right.is_empty() {
-                let q: Vec<f32> = unseen_right.iter().flat_map(|&i| data.row(i).iter().copied()).collect();
-                for (e, per_object) in errors.iter_mut().zip(poses) {
-                    let est = per_object[o].predict(&q)?;
-                    let d = data.space().len();
-                    for (j, &i) in unseen_right.iter().enumerate() {
-                        e.0 += data.space().error_deg(data.pose(i), &est[j * d..(j + 1) * d]);
+                for (e, per_object) in sums.iter_mut().zip(errors) {
+                    for &i in &unseen_right {
+                        e.0 += per_object[o][i];
                     }
                     e.1 += unseen_right.len();
                 }
             }
         }
-        let (left_out_rejected, left_out_false) = if k >= 3 { left_out(train, views, first, &params, progress)? } else { (None, None) };
+        let (left_out_rejected, left_out_false) = if k >= 3 { left_out(train, &left_out_views, first, &params, progress)? } else { (None, None) };
         let s = model.recognizer_storage();
         let terms: Vec<String> = s.terms.iter().map(|(n, v)| format!("{n} = {v}")).collect();
         rows.push(RecognitionRow {
@@ -112,7 +148,7 @@ pub fn run(train: &ObjectSet, views: &dyn Fn(usize) -> Result<Dataset>, poses: &
             false_rejections: rejected as f64 / n_unseen.max(1) as f64,
             left_out_rejected,
             left_out_false,
-            pose_unseen: poses.iter().zip(&errors).map(|(p, e)| (p[0].meta().method.clone(), e.0 / e.1.max(1) as f64)).collect(),
+            pose_unseen: poses.iter().zip(&sums).map(|(p, e)| (p[0].meta().method.clone(), e.0 / e.1.max(1) as f64)).collect(),
             fit_s,
             per_query_us: rec_s / n_all.max(1) as f64 * 1e6,
             storage: format!("{} = {} ({})", kind.storage(), s.numbers, terms.join(", ")),
@@ -142,17 +178,19 @@ fn left_out(
         let model = ObjectModel::from_pose_models(&sub, params, kept)?;
         for (o, own) in first.iter().enumerate() {
             let data = views(o)?;
-            let rec = model.recognize(data.features())?;
             if o == out {
+                let rec = model.recognize(data.features())?;
                 n += rec.len();
                 rej += rec.iter().filter(|r| r.object.is_none()).count();
             } else {
-                for (i, r) in rec.iter().enumerate() {
-                    if !own.meta().is_seen(data.pose(i)) {
-                        n_known += 1;
-                        false_rej += r.object.is_none() as usize;
-                    }
+                // Only the known objects' unseen views count, so only they are recognised.
+                let unseen: Vec<bool> = (0..data.len()).map(|i| !own.meta().is_seen(data.pose(i))).collect();
+                if !unseen.iter().any(|&u| u) {
+                    continue;
                 }
+                let rec = model.recognize(data.subset(&unseen)?.features())?;
+                n_known += rec.len();
+                false_rej += rec.iter().filter(|r| r.object.is_none()).count();
             }
         }
     }
