@@ -8,8 +8,8 @@
 use linpose::dataset::Dataset;
 use linpose::eval::{evaluate_with, EvalOptions};
 use linpose::manifest::TrainSelection;
-use linpose::model::{AnyModel, PoseModel};
 use linpose::model::Normalized;
+use linpose::model::{AnyModel, PoseModel};
 use linpose::normalize::{NormalizeParams, Normalizer};
 use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};

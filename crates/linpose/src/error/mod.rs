@@ -7,8 +7,8 @@ mod rejection;
 mod remedy;
 
 pub use rejection::Rejection;
-pub use remedy::{format_bytes, Remedy, StreamChange};
 pub(crate) use remedy::remedies_text;
+pub use remedy::{format_bytes, Remedy, StreamChange};
 use std::path::PathBuf;
 
 /// Result alias used throughout linpose.
