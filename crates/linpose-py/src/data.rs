@@ -21,7 +21,8 @@ type Params = Vec<(String, Option<f64>)>;
 /// uint8, poses (n, 2) degrees, params)`, poses elevation-major over `elevation` and
 /// `azimuth` (`START:STOP:STEP` degrees).
 #[pyfunction]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[allow(clippy::type_complexity)]
+#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
 #[pyo3(signature = (object=None, *, random=None, mesh=None, azimuth="0:327:3", elevation="32:77:3", size=(160, 120), perspective=false, specular=0.0, jitter=None, jitter_seed=0))]
 pub fn synth<'py>(
     py: Python<'py>,

@@ -314,7 +314,7 @@ impl Model {
 /// pixels) at the poses `y` ((n, K) degrees) of the parameters `params`; `normalize`: `"auto"`,
 /// `None` or `"off"`, `"all"`, `"geometry"` or `"brightness"`.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
 #[pyo3(signature = (method, settings, x, height, width, y, params, normalize=None))]
 pub fn fit(
     py: Python<'_>,

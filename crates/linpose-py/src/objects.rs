@@ -225,7 +225,7 @@ impl Objects {
 /// `all`, `geometry` or `brightness`. `caller_labels`: the caller's labels for the objects
 /// (`linpose::recognize::Labels` as JSON), kept with the model and in its file.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
 #[pyo3(signature = (recognizer, components, manifold_step, unknown, x, height, width, labels, names, y=None, params=None, method=None, settings=Vec::new(), normalize=None, caller_labels=None))]
 pub fn fit_objects(
     py: Python<'_>,

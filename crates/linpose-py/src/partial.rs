@@ -75,7 +75,7 @@ pub fn partial_plan(
 /// Reads shard `index` (0-based) of `count` of the fit's training images (`width` x `height`,
 /// as [`partial_plan`] found them) from disk: its partial statistics, as a file's bytes.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
 #[pyo3(signature = (method, settings, paths, poses, params, width, height, index, count))]
 pub fn partial_read_shard<'py>(
     py: Python<'py>,

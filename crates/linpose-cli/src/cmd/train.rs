@@ -110,21 +110,28 @@ pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
     let file_bytes = linpose::model_file::save(&model, out).context("writing the model")?;
-    report(a, out, &model, load_s, fit_s, file_bytes, how, &plan)
+    report(a, Trained { out, model: &model, load_s, fit_s, file_bytes, how }, &plan)
+}
+
+/// What a training run made, for its [`report`].
+struct Trained<'a> {
+    /// The model file written.
+    out: &'a std::path::Path,
+    /// The model.
+    model: &'a AnyModel,
+    /// Seconds spent decoding the images (0 when streamed: the fit's seconds include the reading).
+    load_s: f64,
+    /// Seconds spent fitting.
+    fit_s: f64,
+    /// The model file's size in bytes.
+    file_bytes: u64,
+    /// A streamed fit's line saying how it was fitted (None when fitted in memory).
+    how: Option<String>,
 }
 
 /// Says what was trained, and writes the JSON summary when asked.
-#[allow(clippy::too_many_arguments)]
-fn report(
-    a: &TrainArgs,
-    out: &std::path::Path,
-    model: &AnyModel,
-    load_s: f64,
-    fit_s: f64,
-    file_bytes: u64,
-    how: Option<String>,
-    plan: &Plan,
-) -> anyhow::Result<()> {
+fn report(a: &TrainArgs, trained: Trained<'_>, plan: &Plan) -> anyhow::Result<()> {
+    let Trained { out, model, load_s, fit_s, file_bytes, how } = trained;
     let meta = model.meta();
     let summary = TrainSummary {
         method: meta.method.clone(),

@@ -392,13 +392,10 @@ fn error_map(o: &ObjectResult, r: &Run, title: &str, vmax: f64) -> Result<Figure
             }
             Ok(FigureData::Svg(plots::heatmap(
                 title,
-                &format!("{} (degrees)", g.cols.0),
-                &format!("{} (degrees)", g.rows.0),
-                &g.cols.1,
-                &g.rows.1,
+                plots::GridAxis { desc: &format!("{} (degrees)", g.cols.0), values: &g.cols.1 },
+                plots::GridAxis { desc: &format!("{} (degrees)", g.rows.0), values: &g.rows.1 },
                 &values,
-                vmax,
-                "pose error (degrees)",
+                plots::ColorScale { vmax, unit: "pose error (degrees)" },
             )?))
         }
         None => {

@@ -83,10 +83,29 @@ fn colorbar(area: &Area<'_>, vmax: f64, label: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// A heat map of `values` (row-major, `ys.len()` rows of `xs.len()`) over a regular grid, with
-/// a colour bar from 0 to `vmax` labelled `unit`.
-#[allow(clippy::too_many_arguments)] // the axes' titles and values, the data and its colour scale
-pub fn heatmap(title: &str, x_desc: &str, y_desc: &str, xs: &[f64], ys: &[f64], values: &[f64], vmax: f64, unit: &str) -> Result<String, String> {
+/// One axis of a [`heatmap`]: its title and the grid's values along it.
+#[derive(Debug, Clone, Copy)]
+pub struct GridAxis<'a> {
+    /// The axis title.
+    pub desc: &'a str,
+    /// The grid's values along the axis, evenly spaced (each cell as wide as the first step).
+    pub values: &'a [f64],
+}
+
+/// The colour scale of a [`heatmap`]: its colour bar runs from 0 to `vmax`, labelled `unit`.
+#[derive(Debug, Clone, Copy)]
+pub struct ColorScale<'a> {
+    /// The value of the top colour (the bar's top); 1 when not positive and finite.
+    pub vmax: f64,
+    /// The colour bar's label.
+    pub unit: &'a str,
+}
+
+/// A heat map of `values` (row-major, one row of `x.values.len()` per value of `y`) over a
+/// regular grid, with a colour bar as `scale` says.
+pub fn heatmap(title: &str, x: GridAxis<'_>, y: GridAxis<'_>, values: &[f64], scale: ColorScale<'_>) -> Result<String, String> {
+    let (GridAxis { desc: x_desc, values: xs }, GridAxis { desc: y_desc, values: ys }) = (x, y);
+    let ColorScale { vmax, unit } = scale;
     let half = |v: &[f64]| if v.len() > 1 { (v[1] - v[0]) / 2.0 } else { 0.5 };
     let (hx, hy) = (half(xs), half(ys));
     let (x0, x1) = (xs[0] - hx, xs[xs.len() - 1] + hx);

@@ -90,25 +90,32 @@ pub(crate) fn border(img: &[f32], w: usize, h: usize, c: usize, level: Option<[f
     Border { median: med, q90 }
 }
 
-/// Finds the object in `img` (`w` x `h` pixels of `c` interleaved channels): the background
-/// level from `background`, foreground where the deviation exceeds `threshold` (raised to the
-/// border's noise unless the data is `framed`, its objects covering the border), the heaviest
-/// 8-connected region and every region near it. An object touching the frame edge is refused
-/// unless `edges`. A `noisy` image (its pixel noise given) is measured on a copy smoothed by a
-/// box of 2 [`SMOOTH`] + 1 pixels: the background's level on its border, the threshold from the
-/// smoothed noise, and the radius corrected for the box's own spread.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn locate(
-    img: &[f32],
-    w: usize,
-    h: usize,
-    c: usize,
-    background: Background,
-    threshold: f32,
-    framed: bool,
-    edges: bool,
-    noisy: Option<f32>,
-) -> Result<Placement, Rejection> {
+/// How [`locate`] tells the object from the background (the stage's fitted rules, see
+/// [`super::Normalizer`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Rules {
+    /// How the background's level is found.
+    pub background: Background,
+    /// The smallest deviation from the background that is foreground (a fraction of full
+    /// brightness), raised to the border's noise unless `framed`.
+    pub threshold: f32,
+    /// Whether the data is framed to its objects, their views covering the border: the
+    /// border's noise is then not measured.
+    pub framed: bool,
+    /// Whether the object may touch the frame edge.
+    pub edges: bool,
+}
+
+/// Finds the object in `img` (`w` x `h` pixels of `c` interleaved channels) by `rules`: the
+/// background level from `rules.background`, foreground where the deviation exceeds
+/// `rules.threshold` (raised to the border's noise unless the data is `rules.framed`, its
+/// objects covering the border), the heaviest 8-connected region and every region near it. An
+/// object touching the frame edge is refused unless `rules.edges`. A `noisy` image (its pixel
+/// noise given) is measured on a copy smoothed by a box of 2 [`SMOOTH`] + 1 pixels: the
+/// background's level on its border, the threshold from the smoothed noise, and the radius
+/// corrected for the box's own spread.
+pub(crate) fn locate(img: &[f32], w: usize, h: usize, c: usize, rules: Rules, noisy: Option<f32>) -> Result<Placement, Rejection> {
+    let Rules { background, threshold, framed, edges } = rules;
     if img.iter().any(|v| !v.is_finite()) {
         return Err(Rejection::NotFinite);
     }

@@ -207,7 +207,7 @@ impl Normalizer {
         let found: Vec<Placement> = (0..rows.len())
             .into_par_iter()
             .map(|i| {
-                let p = find::locate(row(i), w, h, c, background, threshold, true, true, None)
+                let p = find::locate(row(i), w, h, c, find::Rules { background, threshold, framed: true, edges: true }, None)
                     .map_err(|r| Error::Normalize { image: name(i).display().to_string(), reason: r })?;
                 match p.apart {
                     Some(a) => Err(Error::Normalize {
@@ -369,7 +369,8 @@ impl Normalizer {
         // A noisy query is found on a smoothed copy.
         let sigma = find::noise(image, w, h, c);
         let noisy = (sigma > NOISY * self.noise).then_some(sigma);
-        find::locate(image, w, h, c, self.background, self.threshold, self.framed, self.edges, noisy).map(|p| (p, noisy))
+        let rules = find::Rules { background: self.background, threshold: self.threshold, framed: self.framed, edges: self.edges };
+        find::locate(image, w, h, c, rules, noisy).map(|p| (p, noisy))
     }
 
     /// Normalises `image` into `out` (both one row of [`Normalizer::features`] values): the

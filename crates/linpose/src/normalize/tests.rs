@@ -135,7 +135,8 @@ fn fitting_reads_the_background_threshold_and_size_from_the_training_images() {
     let s = Normalizer::fit(&train, NormalizeParams { geometry: true, brightness: true }).unwrap();
     assert_eq!((s.background, s.threshold, s.edges), (Background::Dark, tuning::HALF_LEVEL, false));
     let radius = s.radius.unwrap();
-    let p = find::locate(train.row(2), W, H, 1, Background::Dark, s.threshold, false, false, None).unwrap();
+    let p =
+        find::locate(train.row(2), W, H, 1, find::Rules { background: Background::Dark, threshold: s.threshold, framed: false, edges: false }, None).unwrap();
     assert_eq!(radius, p.radius, "the median view's radius");
     // A bright background is measured per image.
     let bright = dataset((0..3).map(|_| object(20.0, 15.0, 8.0, 5.0, 0.5)).collect());

@@ -602,7 +602,6 @@ impl ObjectModel {
     /// arrays, the pose models (already read back), the image size of a model without pose
     /// models (`views`, [`ObjectModel::fit_views`]), the normalisation stage and the caller's
     /// labels, if any.
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn from_parts(
         names: Vec<String>,
         settings: ObjectSettings,

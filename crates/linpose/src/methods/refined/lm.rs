@@ -35,7 +35,7 @@ impl Surface {
             if mu < 0.0 {
                 mu = DAMPING_START * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
-            let Some(c) = self.damped_step(&h, &g, &mut mu, t, cost, STEP_TOL, |cand| {
+            let Some(c) = self.damped_step(Normal { h: &h, grad: &g }, &mut mu, t, cost, STEP_TOL, |cand| {
                 self.eval(cand, ftry, None);
                 dist(ftry)
             }) else {
@@ -48,23 +48,24 @@ impl Surface {
     }
 }
 
+/// The normal equations of a Gauss-Newton step in the pose, H delta = grad (the first D rows
+/// and columns count).
+#[derive(Clone, Copy)]
+struct Normal<'a> {
+    /// H = J^T W J.
+    h: &'a [[f64; 8]; 8],
+    /// grad = J^T W r, r the residual.
+    grad: &'a [f64; 8],
+}
+
 impl Surface {
     /// One damped Gauss-Newton step of Levenberg-Marquardt from `t` on the normal equations
-    /// (`h`, `grad`): the damping `mu` grows 4x until `cost_at` a (domain-clamped) candidate is
+    /// `normal`: the damping `mu` grows 4x until `cost_at` a (domain-clamped) candidate is
     /// below `cost` (then `t` moves there and `mu` shrinks 3x), at most 12 tries, none moving any
     /// coordinate by less than `tol`. Returns the new cost, or None when no try lowered the cost
     /// (which ends the iteration).
-    #[allow(clippy::too_many_arguments)]
-    fn damped_step(
-        &self,
-        h: &[[f64; 8]; 8],
-        grad: &[f64; 8],
-        mu: &mut f64,
-        t: &mut [f64],
-        cost: f64,
-        tol: f64,
-        mut cost_at: impl FnMut(&[f64]) -> f64,
-    ) -> Option<f64> {
+    fn damped_step(&self, normal: Normal<'_>, mu: &mut f64, t: &mut [f64], cost: f64, tol: f64, mut cost_at: impl FnMut(&[f64]) -> f64) -> Option<f64> {
+        let Normal { h, grad } = normal;
         let d = self.params();
         let mut cand = [0f64; 8];
         for _ in 0..DAMPING_TRIES {
@@ -139,7 +140,7 @@ impl Surface {
                 mu = DAMPING_START * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
             let mut trial = ab;
-            let Some(cst) = self.damped_step(&h, &grad, &mut mu, t, cost, AFFINE_STEP_TOL, |cand| {
+            let Some(cst) = self.damped_step(Normal { h: &h, grad: &grad }, &mut mu, t, cost, AFFINE_STEP_TOL, |cand| {
                 self.eval_pair(bg, cand, ftry, None, gtry, None);
                 let (cst, abt) = affine_fit(z, c, wt, ftry, gtry);
                 trial = abt;

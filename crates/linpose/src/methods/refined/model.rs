@@ -76,7 +76,6 @@ pub struct RefinedModel {
 }
 
 impl RefinedModel {
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         mut meta: ModelMeta,
         settings: RefinedSettings,

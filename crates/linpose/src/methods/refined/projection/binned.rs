@@ -9,6 +9,15 @@ use crate::methods::refined::scratch::{BinScratch, QueryScratch, BIN_SCRATCH};
 use crate::methods::refined::tuning::BIN_SUB_U8;
 use crate::pixel_noise::{pixel_variance_u8_in, RowsU8};
 
+/// Binned 8-bit queries as digit planes, for [`RefinedModel::planes_pass`].
+#[derive(Clone, Copy)]
+struct Planes<'a> {
+    /// Per query its low then its high plane, of M each.
+    planes: &'a [u8],
+    /// The queries that take the pass (their indices), or None for all.
+    sel: Option<&'a [usize]>,
+}
+
 impl RefinedModel {
     /// Whether 8-bit queries at `level` take the 16-bit products of block sums (a model that
     /// bins, VNNI).
@@ -102,11 +111,11 @@ impl RefinedModel {
                         }
                     }
                     // Every query's clean rows, then the noisy ones' extra rows.
-                    self.planes_pass(level, self.clean_rows(), &planes[..2 * n * mb], None, raw, energy, s);
+                    self.planes_pass(level, self.clean_rows(), Planes { planes: &planes[..2 * n * mb], sel: None }, raw, energy, s);
                     if self.extra_rows() > 0 {
                         sel.clear();
                         sel.extend((0..n).filter(|&i| s.noisy[i]));
-                        self.planes_pass(level, self.extra_range(), &planes[..2 * n * mb], Some(&sel[..]), raw, energy, s);
+                        self.planes_pass(level, self.extra_range(), Planes { planes: &planes[..2 * n * mb], sel: Some(&sel[..]) }, raw, energy, s);
                     }
                 }
             }
@@ -122,21 +131,11 @@ impl RefinedModel {
         });
     }
 
-    /// The products of binned 8-bit queries given as digit planes (`planes`: per query its low
-    /// then its high plane, of M each; those at `sel` when given, else all) with the rows `rr`
-    /// into `s.raw` as [`Self::pass_f32`] ([`Projector::planes_products`](crate::manifold::projector::Projector::planes_products); `raw` and `energy`
+    /// The products of binned 8-bit queries given as digit `planes` with the rows `rr` into
+    /// `s.raw` as [`Self::pass_f32`] ([`Projector::planes_products`](crate::manifold::projector::Projector::planes_products); `raw` and `energy`
     /// hold the planes' products and sums of squares).
-    #[allow(clippy::too_many_arguments)]
-    fn planes_pass(
-        &self,
-        level: Level,
-        rr: std::ops::Range<usize>,
-        planes: &[u8],
-        sel: Option<&[usize]>,
-        raw: &mut Vec<f32>,
-        energy: &mut Vec<u64>,
-        s: &mut QueryScratch,
-    ) {
+    fn planes_pass(&self, level: Level, rr: std::ops::Range<usize>, planes: Planes<'_>, raw: &mut Vec<f32>, energy: &mut Vec<u64>, s: &mut QueryScratch) {
+        let Planes { planes, sel } = planes;
         let (mb, k) = (self.m, rr.len());
         let (src, nx) = selected(planes, 2 * mb, sel, &mut s.gather_u8);
         if nx == 0 || k == 0 {
