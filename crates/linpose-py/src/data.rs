@@ -19,24 +19,21 @@ type Params = Vec<(String, Option<f64>)>;
 
 /// Renders a turntable data set in memory, as `linpose synth` writes it: `(images (n, h, w)
 /// uint8, poses (n, 2) degrees, params)`, poses elevation-major over `elevation` and
-/// `azimuth` (`START:STOP:STEP` degrees).
+/// `azimuth` (`START:STOP:STEP` degrees). The arguments come grouped from the package's
+/// `linpose.synth` (which documents them): `source` = `(object, random, mesh)`, `poses` =
+/// `(azimuth, elevation)`, `look` = `(size, perspective, specular)`, `jitter` = `(shift, scale,
+/// exposure)` or None, and its seed.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
-#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
-#[pyo3(signature = (object=None, *, random=None, mesh=None, azimuth="0:327:3", elevation="32:77:3", size=(160, 120), perspective=false, specular=0.0, jitter=None, jitter_seed=0))]
 pub fn synth<'py>(
     py: Python<'py>,
-    object: Option<&str>,
-    random: Option<u64>,
-    mesh: Option<PathBuf>,
-    azimuth: &str,
-    elevation: &str,
-    size: (u32, u32),
-    perspective: bool,
-    specular: f64,
-    jitter: Option<(f64, f64, f64)>,
-    jitter_seed: u64,
+    source: (Option<String>, Option<u64>, Option<PathBuf>),
+    poses: (String, String),
+    look: ((u32, u32), bool, f64),
+    jitter: (Option<(f64, f64, f64)>, u64),
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, numpy::PyArray2<f64>>, Params)> {
+    let ((object, random, mesh), (azimuth, elevation), (size, perspective, specular), (jitter, jitter_seed)) = (source, poses, look, jitter);
+    let (object, azimuth, elevation) = (object.as_deref(), azimuth.as_str(), elevation.as_str());
     let mesh: Mesh = match (object, random, &mesh) {
         (Some(name), None, None) => objects::builtin(name).map_err(py_err)?,
         (None, Some(seed), None) => objects::random(seed).map_err(py_err)?,

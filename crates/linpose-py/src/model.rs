@@ -310,23 +310,22 @@ impl Model {
     }
 }
 
-/// Fits `method` with `settings` (name, value) on the images `x` (rows of `height` x `width`
-/// pixels) at the poses `y` ((n, K) degrees) of the parameters `params`; `normalize`: `"auto"`,
-/// `None` or `"off"`, `"all"`, `"geometry"` or `"brightness"`.
+/// Fits `method` with `settings` (name, value) on the images `(x, height, width)` (rows of
+/// `height` x `width` pixels) at the poses `y` ((n, K) degrees) of the parameters `params`;
+/// `normalize`: `"auto"`, `None` or `"off"`, `"all"`, `"geometry"` or `"brightness"`.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
-#[pyo3(signature = (method, settings, x, height, width, y, params, normalize=None))]
+#[pyo3(signature = (method, settings, images, y, params, normalize=None))]
 pub fn fit(
     py: Python<'_>,
     method: &str,
     settings: Vec<(String, String)>,
-    x: &Bound<'_, PyAny>,
-    height: u32,
-    width: u32,
+    images: (Bound<'_, PyAny>, u32, u32),
     y: PyReadonlyArray2<'_, f64>,
     params: Vec<(String, Option<f64>)>,
     normalize: Option<&str>,
 ) -> PyResult<Model> {
+    let (x, height, width) = images;
+    let x = &x;
     let (_, _, spec) = method_of(method, settings)?;
     let stage = stage(normalize)?;
     let space = space(params)?;

@@ -224,27 +224,34 @@ impl Objects {
 /// recogniser alone on the views as points (`ObjectModel::fit_views`). `normalize`: `None`,
 /// `all`, `geometry` or `brightness`. `caller_labels`: the caller's labels for the objects
 /// (`linpose::recognize::Labels` as JSON), kept with the model and in its file.
+///
+/// The arguments come grouped from the package's `ObjectRecognizer.fit`: `recognizer` =
+/// `(recognizer, components, manifold_step, unknown)`, `images` = `(x, height, width)`, `labels`
+/// = `(labels, names, caller_labels)`, `poses` = `(y, params, method, settings)` or None.
+/// The poses of [`fit_objects`]: `(y, params, method, settings)`.
+type Poses<'py> = (PyReadonlyArray2<'py, f64>, Vec<(String, Option<f64>)>, String, Vec<(String, String)>);
+
 #[pyfunction]
-#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
-#[pyo3(signature = (recognizer, components, manifold_step, unknown, x, height, width, labels, names, y=None, params=None, method=None, settings=Vec::new(), normalize=None, caller_labels=None))]
+#[pyo3(signature = (recognizer, images, labels, poses=None, normalize=None))]
 pub fn fit_objects(
     py: Python<'_>,
-    recognizer: &str,
-    components: usize,
-    manifold_step: f64,
-    unknown: &Bound<'_, PyAny>,
-    x: &Bound<'_, PyAny>,
-    height: u32,
-    width: u32,
-    labels: PyReadonlyArray1<'_, i64>,
-    names: Vec<String>,
-    y: Option<PyReadonlyArray2<'_, f64>>,
-    params: Option<Vec<(String, Option<f64>)>>,
-    method: Option<&str>,
-    settings: Vec<(String, String)>,
+    recognizer: (String, usize, f64, Bound<'_, PyAny>),
+    images: (Bound<'_, PyAny>, u32, u32),
+    labels: (PyReadonlyArray1<'_, i64>, Vec<String>, Option<String>),
+    poses: Option<Poses<'_>>,
     normalize: Option<&str>,
-    caller_labels: Option<&str>,
 ) -> PyResult<Objects> {
+    let (recognizer, components, manifold_step, unknown) = recognizer;
+    let (recognizer, unknown) = (recognizer.as_str(), &unknown);
+    let (x, height, width) = images;
+    let x = &x;
+    let (labels, names, caller_labels) = labels;
+    let caller_labels = caller_labels.as_deref();
+    let (y, params, method, settings) = match poses {
+        Some((y, params, method, settings)) => (Some(y), Some(params), Some(method), settings),
+        None => (None, None, None, Vec::new()),
+    };
+    let method = method.as_deref();
     let caller_labels: Option<Labels> =
         caller_labels.map(|j| serde_json::from_str(j).map_err(|e| PyValueError::new_err(format!("caller_labels: not the labels' JSON ({e})")))).transpose()?;
     let unknown = if let Ok(s) = unknown.extract::<String>() {

@@ -73,22 +73,19 @@ pub fn partial_plan(
 }
 
 /// Reads shard `index` (0-based) of `count` of the fit's training images (`width` x `height`,
-/// as [`partial_plan`] found them) from disk: its partial statistics, as a file's bytes.
+/// as [`partial_plan`] found them) from disk: its partial statistics, as a file's bytes. The
+/// fit is `(method, settings)`, the data `(paths, poses, params)`, the size `(width, height)`
+/// and the shard `(index, count)`.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)] // one Rust parameter per Python parameter: the Python signature is the API
-#[pyo3(signature = (method, settings, paths, poses, params, width, height, index, count))]
 pub fn partial_read_shard<'py>(
     py: Python<'py>,
-    method: &str,
-    settings: Vec<(String, String)>,
-    paths: Vec<String>,
-    poses: PyReadonlyArray2<'_, f64>,
-    params: Params,
-    width: u32,
-    height: u32,
-    index: usize,
-    count: usize,
+    fit: (String, Vec<(String, String)>),
+    data: (Vec<String>, PyReadonlyArray2<'_, f64>, Params),
+    size: (u32, u32),
+    shard: (usize, usize),
 ) -> PyResult<Bound<'py, PyBytes>> {
+    let ((method, settings), (paths, poses, params), (width, height), (index, count)) = (fit, data, size, shard);
+    let method = method.as_str();
     let (method, settings, manifest) = fit_of(method, settings, paths, poses, params)?;
     let spec = ImageSpec { width, height, color: ColorMode::Gray };
     let partial = py

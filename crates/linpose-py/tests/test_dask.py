@@ -126,7 +126,7 @@ def test_the_tasks_give_the_f64_model(small, large, case, settings, tol):
     want = linpose.LinearPose(params=params, **settings).fit(X, y).coef_
     worst = []
     for count in (1, 3, 8):
-        parts = [_linpose.partial_read_shard("linear", text, paths, y, params, w, h, i, count) for i in range(count)]
+        parts = [_linpose.partial_read_shard(("linear", text), (paths, y, params), (w, h), (i, count)) for i in range(count)]
         while len(parts) > 1:
             parts = [_linpose.partial_merge(*parts[i : i + 2]) if i + 1 < len(parts) else parts[i] for i in range(0, len(parts), 2)]
         worst.append(_rel(want, _linpose.partial_finish(parts[0]).coefficients))
@@ -221,7 +221,7 @@ def test_other_mistakes_are_explained(client, small):
     # The tasks themselves: a shard merged twice, and statistics that miss a shard, named.
     from linpose import _linpose
 
-    one = _linpose.partial_read_shard("linear", [("ridge", "0.001")], paths, y, params, 16, 12, 0, 2)
+    one = _linpose.partial_read_shard(("linear", [("ridge", "0.001")]), (paths, y, params), (16, 12), (0, 2))
     with pytest.raises(ValueError, match=r"shard 1/2 again.*images 0\.\.144"):
         _linpose.partial_merge(one, one, "shard 1/2", "shard 1/2 again")
     with pytest.raises(ValueError, match=r"missing images 144\.\.288"):

@@ -93,16 +93,10 @@ def synth(
     degrees (elevation, azimuth) and the parameters ``[("elevation", None), ("azimuth", 360.0)]``.
     """
     return _linpose.synth(
-        object,
-        random=random,
-        mesh=None if mesh is None else os.fspath(mesh),
-        azimuth=azimuth,
-        elevation=elevation,
-        size=tuple(size),
-        perspective=perspective,
-        specular=float(specular),
-        jitter=None if jitter is None else tuple(float(v) for v in jitter),
-        jitter_seed=jitter_seed,
+        (object, random, None if mesh is None else os.fspath(mesh)),
+        (azimuth, elevation),
+        (tuple(size), perspective, float(specular)),
+        (None if jitter is None else tuple(float(v) for v in jitter), jitter_seed),
     )
 
 

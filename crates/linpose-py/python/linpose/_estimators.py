@@ -95,7 +95,7 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         params = resolve_params(self.params, y2.shape[1])
         settings = self._settings()
         self._release()
-        model = _linpose.fit(self._method, settings, X, shape[0], shape[1], np.ascontiguousarray(y2), params, self.normalize)
+        model = _linpose.fit(self._method, settings, (X, shape[0], shape[1]), np.ascontiguousarray(y2), params, self.normalize)
         # What the model was fitted with, as the model holds it (its getters give the same values):
         # after a fit the interpreter's own data is out of the cache, and reading back through
         # the getters cost about 8 us of a 0.6 ms fit.

@@ -45,9 +45,7 @@ class Serve:
 def fit(
     method: str,
     settings: Sequence[Tuple[str, str]],
-    x: Images,
-    height: int,
-    width: int,
+    images: Tuple[Images, int, int],
     y: npt.NDArray[np.float64],
     params: Params,
     normalize: Optional[str] = None,
@@ -87,38 +85,21 @@ class Objects:
     def save(self, path: Union[str, PathLike[str]]) -> int: ...
 
 def fit_objects(
-    recognizer: str,
-    components: int,
-    manifold_step: float,
-    unknown: Union[str, float],
-    x: Images,
-    height: int,
-    width: int,
-    labels: npt.NDArray[np.int64],
-    names: Sequence[str],
-    y: Optional[npt.NDArray[np.float64]] = None,
-    params: Optional[Params] = None,
-    method: Optional[str] = None,
-    settings: Sequence[Tuple[str, str]] = (),
+    recognizer: Tuple[str, int, float, Union[str, float]],
+    images: Tuple[Images, int, int],
+    labels: Tuple[npt.NDArray[np.int64], Sequence[str], Optional[str]],
+    poses: Optional[Tuple[npt.NDArray[np.float64], Params, str, Sequence[Tuple[str, str]]]] = None,
     normalize: Optional[str] = None,
-    caller_labels: Optional[str] = None,
 ) -> Objects: ...
 def load_objects(path: Union[str, PathLike[str]]) -> Objects: ...
 def holds_objects(path: Union[str, PathLike[str]]) -> bool: ...
 def bytes_hold_objects(data: bytes) -> bool: ...
 def methods() -> List[Tuple[str, str, List[Tuple[str, str, str]]]]: ...
 def synth(
-    object: Optional[str] = None,
-    *,
-    random: Optional[int] = None,
-    mesh: Optional[Union[str, PathLike[str]]] = None,
-    azimuth: str = "0:327:3",
-    elevation: str = "32:77:3",
-    size: Tuple[int, int] = (160, 120),
-    perspective: bool = False,
-    specular: float = 0.0,
-    jitter: Optional[Tuple[float, float, float]] = None,
-    jitter_seed: int = 0,
+    source: Tuple[Optional[str], Optional[int], Optional[str]],
+    poses: Tuple[str, str],
+    look: Tuple[Tuple[int, int], bool, float],
+    jitter: Tuple[Optional[Tuple[float, float, float]], int],
 ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.float64], Params]: ...
 def read_dataset(
     path: Union[str, PathLike[str]], object: Optional[int] = None
@@ -138,15 +119,10 @@ def partial_plan(
     """(split "images" or "pixels", units to share, width, height, bytes of a partial's sums)."""
     ...
 def partial_read_shard(
-    method: str,
-    settings: Sequence[Tuple[str, str]],
-    paths: Sequence[str],
-    poses: npt.NDArray[np.float64],
-    params: Params,
-    width: int,
-    height: int,
-    index: int,
-    count: int,
+    fit: Tuple[str, Sequence[Tuple[str, str]]],
+    data: Tuple[Sequence[str], npt.NDArray[np.float64], Params],
+    size: Tuple[int, int],
+    shard: Tuple[int, int],
 ) -> bytes: ...
 def partial_merge(a: bytes, b: bytes, a_name: str = ..., b_name: str = ...) -> bytes: ...
 def partial_finish(data: bytes, name: str = ...) -> Model: ...

@@ -154,17 +154,14 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
         else:
             unknown = float(_number(self.unknown))
         common = dict(
-            recognizer=str(self.recognizer),
-            components=int(_integer(self.components, "components")),
-            manifold_step=float(_number(self.manifold_step)),
-            unknown=unknown,
-            x=X,
-            height=shape[0],
-            width=shape[1],
-            labels=np.ascontiguousarray(labels, dtype=np.int64),
-            names=names,
+            recognizer=(str(self.recognizer), int(_integer(self.components, "components")), float(_number(self.manifold_step)), unknown),
+            images=(X, shape[0], shape[1]),
+            labels=(
+                np.ascontiguousarray(labels, dtype=np.int64),
+                names,
+                _stored_labels(classes, unknown_label, self.unknown_label is not None),
+            ),
             normalize=self.normalize,
-            caller_labels=_stored_labels(classes, unknown_label, self.unknown_label is not None),
         )
         y_1d = False
         params = None
@@ -184,9 +181,7 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
             for name, default in (("params", None), ("image_shape", None), ("normalize", "auto")):
                 if getattr(method, name) != default:
                     raise ValueError(f"pose={method!r}: set {name} on the ObjectRecognizer, not on its pose estimator")
-            model = _linpose.fit_objects(
-                **common, y=np.ascontiguousarray(p2), params=params, method=method._method, settings=method._settings()
-            )
+            model = _linpose.fit_objects(**common, poses=(np.ascontiguousarray(p2), params, method._method, method._settings()))
         self._set_fitted(model, classes, unknown_label, params, y_1d, shape, m)
         return self
 

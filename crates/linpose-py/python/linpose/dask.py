@@ -71,7 +71,7 @@ def _plan(job: _Fit) -> Tuple[str, int, int, int, int]:
 def _read_shard(job: _Fit, width: int, height: int, index: int, count: int) -> bytes:
     """Shard ``index`` of ``count``: its images read from disk and summed; the partial
     statistics' bytes."""
-    return _linpose.partial_read_shard(job.method, job.settings, job.paths, job.poses, job.params, width, height, index, count)
+    return _linpose.partial_read_shard((job.method, job.settings), (job.paths, job.poses, job.params), (width, height), (index, count))
 
 
 def _merge(a: bytes, b: bytes, a_name: str, b_name: str) -> bytes:
