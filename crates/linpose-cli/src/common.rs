@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 /// Where a data set comes from.
 #[derive(clap::Args, Debug, Clone)]
-pub struct DataArgs {
+pub(crate) struct DataArgs {
     /// Data set folder: `poses.csv` beside the images, or a COIL folder with --object.
     #[arg(long, value_name = "DIR")]
     pub data: PathBuf,
@@ -39,13 +39,13 @@ impl From<ColorArg> for ColorMode {
 
 impl DataArgs {
     /// Reads the manifest (no pixels yet).
-    pub fn manifest(&self) -> anyhow::Result<Manifest> {
+    pub(crate) fn manifest(&self) -> anyhow::Result<Manifest> {
         Ok(Manifest::open(&self.data, self.object)?)
     }
 }
 
 /// Decodes a manifest's images with a progress bar on a terminal.
-pub fn load_dataset(manifest: Manifest, color: ColorMode) -> anyhow::Result<Dataset> {
+pub(crate) fn load_dataset(manifest: Manifest, color: ColorMode) -> anyhow::Result<Dataset> {
     let bar = progress(manifest.len() as u64, "decoding images");
     let data = Dataset::load(manifest, color, &|n| bar.inc(n))?;
     bar.finish_and_clear();
@@ -53,7 +53,7 @@ pub fn load_dataset(manifest: Manifest, color: ColorMode) -> anyhow::Result<Data
 }
 
 /// A progress bar on stderr when it is a terminal; hidden (and free) otherwise.
-pub fn progress(len: u64, what: &str) -> ProgressBar {
+pub(crate) fn progress(len: u64, what: &str) -> ProgressBar {
     if !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
@@ -64,7 +64,7 @@ pub fn progress(len: u64, what: &str) -> ProgressBar {
 }
 
 /// Writes `value` as pretty JSON to `path`, atomically.
-pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+pub(crate) fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
     let mut text = serde_json::to_string_pretty(value).context("serialising JSON")?;
     text.push('\n');
     linpose::atomic::write_atomic(path, text.as_bytes())?;
@@ -72,7 +72,7 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<
 }
 
 /// Refuses an output path that is an existing folder, before any work is done.
-pub fn check_output_file(path: &Path, what: &str) -> anyhow::Result<()> {
+pub(crate) fn check_output_file(path: &Path, what: &str) -> anyhow::Result<()> {
     if path.is_dir() {
         anyhow::bail!("{}: {what} output path is an existing folder; give a file name", path.display());
     }

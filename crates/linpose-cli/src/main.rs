@@ -1,5 +1,7 @@
 //! The `linpose` command: thin subcommands over the linpose library.
 
+#![warn(unreachable_pub)]
+
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 /// The plan in the JSON summary.
 #[derive(Serialize)]
-pub struct MemorySummary {
+pub(crate) struct MemorySummary {
     /// "in memory" or "streamed".
     path: &'static str,
     /// What the chosen path needs (bytes).
@@ -31,7 +31,7 @@ pub struct MemorySummary {
 
 impl MemorySummary {
     /// The summary of `plan`.
-    pub fn of(plan: &Plan) -> Self {
+    pub(crate) fn of(plan: &Plan) -> Self {
         MemorySummary {
             path: plan.path.name(),
             estimate_bytes: plan.chosen().bytes,
@@ -53,7 +53,7 @@ fn limit(a: &TrainArgs) -> Limit {
 }
 
 /// Plans training on the images of `manifest` (one object); [`say`] tells which path.
-pub fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, stage: StageRule) -> anyhow::Result<Plan> {
+pub(crate) fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, stage: StageRule) -> anyhow::Result<Plan> {
     let spec = first_image_spec(manifest, a.color.into())?;
     let job = Job::for_manifest(manifest, spec, method, &a.settings.settings)
         .map_err(as_flag)?
@@ -68,12 +68,12 @@ pub fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, sta
 }
 
 /// Says on stderr which path a plan takes.
-pub fn say(plan: &Plan) {
+pub(crate) fn say(plan: &Plan) {
     eprintln!("{}", plan.describe());
 }
 
 /// Plans training on a catalog of many objects (in memory); [`say`] tells which path.
-pub fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams, stage: StageRule) -> anyhow::Result<Plan> {
+pub(crate) fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams, stage: StageRule) -> anyhow::Result<Plan> {
     let first = catalog.manifests().first().ok_or_else(|| anyhow::anyhow!("{}: no object to train on", a.data.data.display()))?;
     let spec = first_image_spec(first, a.color.into())?;
     let job = Job::for_objects(catalog.manifests(), spec, method, &a.settings.settings, params)

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use std::borrow::Cow;
 
 /// Images as numpy gave them.
-pub enum Pixels<'py> {
+pub(crate) enum Pixels<'py> {
     U8(PyReadonlyArrayDyn<'py, u8>),
     U16(PyReadonlyArrayDyn<'py, u16>),
     F32(PyReadonlyArrayDyn<'py, f32>),
@@ -19,7 +19,7 @@ pub enum Pixels<'py> {
 }
 
 /// Reads `x` as images; `what` names it in errors.
-pub fn pixels<'py>(x: &Bound<'py, PyAny>, what: &str) -> PyResult<Pixels<'py>> {
+pub(crate) fn pixels<'py>(x: &Bound<'py, PyAny>, what: &str) -> PyResult<Pixels<'py>> {
     let busy = |e: numpy::BorrowError| PyValueError::new_err(format!("{what}: {e}"));
     let kind =
         || PyTypeError::new_err(format!("{what} must be a 2-D or 3-D numpy array of uint8, uint16, float32 or float64 (one image per row, or (n, h, w))"));
@@ -51,13 +51,13 @@ impl Pixels<'_> {
     }
 
     /// (rows, values per row): (n, h w) for (n, h, w) images.
-    pub fn shape(&self) -> (usize, usize) {
+    pub(crate) fn shape(&self) -> (usize, usize) {
         let s = self.dims();
         (s[0], s[1..].iter().product())
     }
 
     /// The 8-bit values in place, when they are C-contiguous `uint8`.
-    pub fn u8_slice(&self) -> Option<&[u8]> {
+    pub(crate) fn u8_slice(&self) -> Option<&[u8]> {
         match self {
             Pixels::U8(a) => a.as_slice().ok(),
             _ => None,
@@ -67,7 +67,7 @@ impl Pixels<'_> {
     /// The features: borrowed from a C-contiguous `float32` array, else converted (8-bit and
     /// 16-bit values scaled as the image reader scales them). A value that is not finite is a
     /// `ValueError` naming its row.
-    pub fn features(&self, what: &str) -> PyResult<Cow<'_, [f32]>> {
+    pub(crate) fn features(&self, what: &str) -> PyResult<Cow<'_, [f32]>> {
         let f: Cow<'_, [f32]> = match self {
             Pixels::F32(a) => match a.as_slice() {
                 Ok(s) => Cow::Borrowed(s),

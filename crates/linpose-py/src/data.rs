@@ -25,7 +25,7 @@ type Params = Vec<(String, Option<f64>)>;
 /// exposure)` or None, and its seed.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
-pub fn synth<'py>(
+pub(crate) fn synth<'py>(
     py: Python<'py>,
     source: (Option<String>, Option<u64>, Option<PathBuf>),
     poses: (String, String),
@@ -66,7 +66,7 @@ pub fn synth<'py>(
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 #[pyo3(signature = (path, object=None))]
-pub fn read_dataset<'py>(
+pub(crate) fn read_dataset<'py>(
     py: Python<'py>,
     path: PathBuf,
     object: Option<u32>,
@@ -110,7 +110,7 @@ pub fn read_dataset<'py>(
 /// Which rows of `poses` the paper's protocol trains on: every parameter a multiple of `step`
 /// degrees from its smallest value (as `linpose train --train-step`).
 #[pyfunction]
-pub fn train_mask<'py>(py: Python<'py>, poses: PyReadonlyArray2<'py, f64>, params: Params, step: f64) -> PyResult<Bound<'py, PyArray1<bool>>> {
+pub(crate) fn train_mask<'py>(py: Python<'py>, poses: PyReadonlyArray2<'py, f64>, params: Params, step: f64) -> PyResult<Bound<'py, PyArray1<bool>>> {
     let space = space(params)?;
     let (n, k) = (poses.shape()[0], poses.shape()[1]);
     if k != space.len() {
@@ -125,7 +125,7 @@ pub fn train_mask<'py>(py: Python<'py>, poses: PyReadonlyArray2<'py, f64>, param
 /// The pose error of each row (degrees): the angle on the viewing sphere between the true and
 /// the estimated pose (the measure `linpose eval` reports).
 #[pyfunction]
-pub fn pose_error<'py>(
+pub(crate) fn pose_error<'py>(
     py: Python<'py>,
     y_true: PyReadonlyArray2<'py, f64>,
     y_pred: PyReadonlyArray2<'py, f64>,

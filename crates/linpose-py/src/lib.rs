@@ -9,6 +9,8 @@
 //! are Python exceptions carrying the library's message: `ValueError` for bad values,
 //! `OSError` for files, `TypeError` for inputs of the wrong kind.
 
+#![warn(unreachable_pub)]
+
 mod arrays;
 mod data;
 mod model;

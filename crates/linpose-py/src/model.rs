@@ -315,7 +315,7 @@ impl Model {
 /// `normalize`: `"auto"`, `None` or `"off"`, `"all"`, `"geometry"` or `"brightness"`.
 #[pyfunction]
 #[pyo3(signature = (method, settings, images, y, params, normalize=None))]
-pub fn fit(
+pub(crate) fn fit(
     py: Python<'_>,
     method: &str,
     settings: Vec<(String, String)>,
@@ -359,7 +359,7 @@ pub fn fit(
 
 /// Reads a model file.
 #[pyfunction]
-pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
+pub(crate) fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
     let inner = py.detach(|| model_file::load(&path)).map_err(py_err)?;
     Ok(Model { inner })
 }
@@ -367,6 +367,6 @@ pub fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
 /// The methods: `(name, summary, options)`, options as `(name, value, help)`.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
-pub fn methods() -> Vec<(&'static str, &'static str, Vec<(&'static str, &'static str, &'static str)>)> {
+pub(crate) fn methods() -> Vec<(&'static str, &'static str, Vec<(&'static str, &'static str, &'static str)>)> {
     linpose::METHODS.iter().map(|m| (m.name, m.summary, m.options.iter().map(|o| (o.name, o.value, o.help)).collect())).collect()
 }

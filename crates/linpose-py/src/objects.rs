@@ -233,7 +233,7 @@ type Poses<'py> = (PyReadonlyArray2<'py, f64>, Vec<(String, Option<f64>)>, Strin
 
 #[pyfunction]
 #[pyo3(signature = (recognizer, images, labels, poses=None, normalize=None))]
-pub fn fit_objects(
+pub(crate) fn fit_objects(
     py: Python<'_>,
     recognizer: (String, usize, f64, Bound<'_, PyAny>),
     images: (Bound<'_, PyAny>, u32, u32),
@@ -334,19 +334,19 @@ pub fn fit_objects(
 
 /// Reads a many-object model file.
 #[pyfunction]
-pub fn load_objects(py: Python<'_>, path: PathBuf) -> PyResult<Objects> {
+pub(crate) fn load_objects(py: Python<'_>, path: PathBuf) -> PyResult<Objects> {
     let inner = py.detach(|| model_file::load_objects(&path)).map_err(py_err)?;
     Ok(Objects { inner })
 }
 
 /// Whether the model file at `path` holds many objects (read it with `load_objects`).
 #[pyfunction]
-pub fn holds_objects(py: Python<'_>, path: PathBuf) -> PyResult<bool> {
+pub(crate) fn holds_objects(py: Python<'_>, path: PathBuf) -> PyResult<bool> {
     py.detach(|| model_file::holds_objects(&path)).map_err(py_err)
 }
 
 /// Whether model file bytes hold many objects (read them with `Objects.from_bytes`).
 #[pyfunction]
-pub fn bytes_hold_objects(data: &[u8]) -> bool {
+pub(crate) fn bytes_hold_objects(data: &[u8]) -> bool {
     model_file::bytes_hold_objects(data)
 }

@@ -55,7 +55,7 @@ fn fit_of(
 /// 4 N bytes each).
 #[pyfunction]
 #[pyo3(signature = (method, settings, paths, poses, params))]
-pub fn partial_plan(
+pub(crate) fn partial_plan(
     py: Python<'_>,
     method: &str,
     settings: Vec<(String, String)>,
@@ -77,7 +77,7 @@ pub fn partial_plan(
 /// fit is `(method, settings)`, the data `(paths, poses, params)`, the size `(width, height)`
 /// and the shard `(index, count)`.
 #[pyfunction]
-pub fn partial_read_shard<'py>(
+pub(crate) fn partial_read_shard<'py>(
     py: Python<'py>,
     fit: (String, Vec<(String, String)>),
     data: (Vec<String>, PyReadonlyArray2<'_, f64>, Params),
@@ -114,7 +114,7 @@ fn parse(data: &[u8], name: &str) -> linpose::Result<Partial> {
 /// `a_name` and `b_name` name them in errors (e.g. the shards each holds).
 #[pyfunction]
 #[pyo3(signature = (a, b, a_name="partial statistics a", b_name="partial statistics b"))]
-pub fn partial_merge<'py>(py: Python<'py>, a: &[u8], b: &[u8], a_name: &str, b_name: &str) -> PyResult<Bound<'py, PyBytes>> {
+pub(crate) fn partial_merge<'py>(py: Python<'py>, a: &[u8], b: &[u8], a_name: &str, b_name: &str) -> PyResult<Bound<'py, PyBytes>> {
     // b's statistics are added and dropped before the sum is written: two sets of statistics
     // in memory at most, beside the inputs.
     let sum = py
@@ -130,13 +130,13 @@ pub fn partial_merge<'py>(py: Python<'py>, a: &[u8], b: &[u8], a_name: &str, b_n
 /// The model fitted from partial statistics that cover the whole training set.
 #[pyfunction]
 #[pyo3(signature = (data, name="partial statistics"))]
-pub fn partial_finish(py: Python<'_>, data: &[u8], name: &str) -> PyResult<Model> {
+pub(crate) fn partial_finish(py: Python<'_>, data: &[u8], name: &str) -> PyResult<Model> {
     let inner = py.detach(|| parse(data, name)?.finish()).map_err(py_err)?;
     Ok(Model::new(inner))
 }
 
 /// What partial statistics hold, in one line.
 #[pyfunction]
-pub fn partial_describe(py: Python<'_>, data: &[u8]) -> PyResult<String> {
+pub(crate) fn partial_describe(py: Python<'_>, data: &[u8]) -> PyResult<String> {
     py.detach(|| parse(data, "partial statistics").map(|p| p.describe())).map_err(py_err)
 }

@@ -19,11 +19,11 @@ use crate::{Error, Result};
 use rayon::prelude::*;
 
 /// Largest binning factor.
-pub const MAX_FACTOR: usize = 16;
+pub(crate) const MAX_FACTOR: usize = 16;
 
 /// Binning by `factor` of images of the spec `full`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Binning {
+pub(crate) struct Binning {
     factor: usize,
     full: ImageSpec,
 }
@@ -31,7 +31,7 @@ pub struct Binning {
 impl Binning {
     /// Binning of `full` images by `factor` (1 to [`MAX_FACTOR`]); a factor above 1 must leave
     /// at least 3 x 3 pixels (the pixel-noise estimate's mask).
-    pub fn new(full: ImageSpec, factor: usize) -> Result<Self> {
+    pub(crate) fn new(full: ImageSpec, factor: usize) -> Result<Self> {
         if !(1..=MAX_FACTOR).contains(&factor) {
             return Err(Error::invalid("bin", factor, format!("must be 1 to {MAX_FACTOR}")));
         }
@@ -62,29 +62,29 @@ impl Binning {
     }
 
     /// The factor b.
-    pub fn factor(&self) -> usize {
+    pub(crate) fn factor(&self) -> usize {
         self.factor
     }
 
     /// Whether images are binned at all (b > 1).
-    pub fn bins(&self) -> bool {
+    pub(crate) fn bins(&self) -> bool {
         self.factor > 1
     }
 
     /// The spec of the images binned.
-    pub fn full(&self) -> ImageSpec {
+    pub(crate) fn full(&self) -> ImageSpec {
         self.full
     }
 
     /// The spec of a binned image.
-    pub fn spec(&self) -> ImageSpec {
+    pub(crate) fn spec(&self) -> ImageSpec {
         let b = self.factor as u32;
         ImageSpec { width: self.full.width / b, height: self.full.height / b, color: self.full.color }
     }
 
     /// Bins one image `x` (features of [`Self::full`]) into `out` (features of [`Self::spec`]),
     /// with `acc` as scratch.
-    pub fn apply(&self, x: &[f32], out: &mut [f32], acc: &mut Vec<f32>) {
+    pub(crate) fn apply(&self, x: &[f32], out: &mut [f32], acc: &mut Vec<f32>) {
         let ch = self.full.color.channels();
         let (w, b) = (self.full.width as usize, self.factor);
         let s = self.spec();
@@ -120,7 +120,7 @@ impl Binning {
     /// The block sums (not means) of an 8-bit image `x` (raw values, [`Self::full`]'s layout)
     /// into `out` (one per binned value, exact: at most 255 x 16^2 = 65,280), with `acc` as
     /// scratch; returns their exact sum of squares.
-    pub fn sums_u8(&self, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> u64 {
+    pub(crate) fn sums_u8(&self, x: &[u8], out: &mut [u16], acc: &mut Vec<u16>) -> u64 {
         self.sums_u8_at(Level::detect(), x, out, acc)
     }
 
@@ -180,13 +180,13 @@ impl Binning {
     }
 
     /// The largest block sum of an 8-bit image: 255 b^2.
-    pub fn max_sum(&self) -> u32 {
+    pub(crate) fn max_sum(&self) -> u32 {
         255 * (self.factor * self.factor) as u32
     }
 
     /// Bins every image of `xs` (rows of [`Self::full`]'s features), in parallel; a copy when
     /// b = 1.
-    pub fn apply_all(&self, xs: &[f32]) -> Vec<f32> {
+    pub(crate) fn apply_all(&self, xs: &[f32]) -> Vec<f32> {
         if !self.bins() {
             return xs.to_vec();
         }

@@ -25,16 +25,16 @@
 /// larger ones, which are mapped and unmapped whole). Measured: the eigendecompositions at
 /// N = 1,440 (16.6 MB matrices) peak about 20 MB above those at N = 2,880 and 5,760 scaled by
 /// N^2.
-pub const HEAP_MATRIX_BYTES: u64 = 32 << 20;
+pub(crate) const HEAP_MATRIX_BYTES: u64 = 32 << 20;
 
 /// Buffers of at most this many bytes stay on ordinary pages (see the module doc).
-pub const HUGE_MIN_BYTES: usize = HEAP_MATRIX_BYTES as usize;
+pub(crate) const HUGE_MIN_BYTES: usize = HEAP_MATRIX_BYTES as usize;
 
 /// The huge page size the buffer aligns to (x86-64's 2 MiB).
 const HUGE_PAGE: usize = 2 << 20;
 
 /// A zeroed run of `len` f64 values, on huge pages where the kernel grants them.
-pub struct HugeBuf {
+pub(crate) struct HugeBuf {
     v: Vec<f64>,
     off: usize,
     len: usize,
@@ -44,7 +44,7 @@ impl HugeBuf {
     /// `len` zeros. Above [`HUGE_MIN_BYTES`] (on Linux), the run starts on a huge page boundary inside an
     /// allocation up to one huge page larger (the slack is never touched, so it takes no memory)
     /// and its whole huge pages are advised as such before they are first touched.
-    pub fn zeroed(len: usize) -> HugeBuf {
+    pub(crate) fn zeroed(len: usize) -> HugeBuf {
         if !cfg!(target_os = "linux") || len.saturating_mul(8) <= HUGE_MIN_BYTES {
             return HugeBuf { v: vec![0.0; len], off: 0, len };
         }
@@ -57,12 +57,12 @@ impl HugeBuf {
     }
 
     /// The values.
-    pub fn as_slice(&self) -> &[f64] {
+    pub(crate) fn as_slice(&self) -> &[f64] {
         &self.v[self.off..self.off + self.len]
     }
 
     /// The values, to write.
-    pub fn as_mut_slice(&mut self) -> &mut [f64] {
+    pub(crate) fn as_mut_slice(&mut self) -> &mut [f64] {
         &mut self.v[self.off..self.off + self.len]
     }
 }

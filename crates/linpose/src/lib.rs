@@ -55,6 +55,7 @@
 //!
 //! Errors are one [`Error`] type that names the file, line or value at fault.
 #![deny(missing_docs)]
+#![warn(unreachable_pub)]
 // `!(x > t)` is how this crate rejects NaN together with the values at or below t (it is true for
 // NaN, where `x <= t` is false); the lint's rewrite would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

@@ -4,6 +4,7 @@
 use faer::{Mat, MatRef, Par};
 
 /// The parallelism faer uses: rayon's global pool.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn par() -> Par {
     match rayon::current_num_threads() {
         0 | 1 => Par::Seq,
@@ -13,12 +14,14 @@ pub fn par() -> Par {
 
 /// An M x N f64 matrix, column-major, on huge pages where it is large
 /// ([`crate::huge`]): [`transpose_features`]'s X^T.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub struct Columns {
     buf: crate::huge::HugeBuf,
     m: usize,
     n: usize,
 }
 
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 impl Columns {
     /// The matrix.
     pub fn as_ref(&self) -> MatRef<'_, f64> {
@@ -33,6 +36,7 @@ impl Columns {
 
 /// X^T as an M x N f64 matrix (one image per column, contiguous) from N row-major f32 feature
 /// rows, each optionally minus `mean`.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn transpose_features(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Columns {
     debug_assert_eq!(features.len(), n * m);
     let mut xt = Columns { buf: crate::huge::HugeBuf::zeroed(m * n), m, n };
@@ -48,7 +52,7 @@ pub fn transpose_features(features: &[f32], n: usize, m: usize, mean: Option<&[f
 }
 
 /// The mean row of N row-major feature rows.
-pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
+pub(crate) fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
     let mut mu = vec![0f64; m];
     for row in features.chunks_exact(m) {
         mu.iter_mut().zip(row).for_each(|(u, &v)| *u += v as f64);
@@ -60,6 +64,7 @@ pub fn mean_row(features: &[f32], n: usize, m: usize) -> Vec<f64> {
 /// The Gram matrix G = X X^T (N x N) from X^T (M x N), lower triangle by the crate's f64
 /// symmetric rank-k kernel (AVX-512 where the CPU has it), mirrored: exactly symmetric, and the
 /// same bits whatever the thread count.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
     let (m, n) = (xt.nrows(), xt.ncols());
     let cols: Option<Vec<&[f64]>> = (0..n).map(|j| xt.col(j).try_as_col_major().map(|c| c.as_slice())).collect();
@@ -76,6 +81,7 @@ pub fn gram(xt: MatRef<'_, f64>) -> Mat<f64> {
 /// `mean`, in f64 (every f32 product is exact in f64), without an f64 copy of X. Uncentred
 /// 8-bit features (what PNG images give) are summed exactly in integers where the CPU has
 /// AVX-512 VNNI, within about 1e-14 of the f64 sums.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     crate::kernels::gram::gram_f32(features, n, m, mean)
 }
@@ -84,7 +90,7 @@ pub fn gram_f32(features: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> M
 /// read from its 8-bit values where it keeps them ([`Dataset::rows`]) and no mean is taken, by
 /// the 8-bit Gram (AVX-512 VNNI) or else the f64 kernel packing the bytes, so that the f32
 /// features are not made.
-pub fn gram_of(data: &crate::Dataset, mean: Option<&[f64]>) -> Mat<f64> {
+pub(crate) fn gram_of(data: &crate::Dataset, mean: Option<&[f64]>) -> Mat<f64> {
     let (n, m) = (data.len(), data.n_features());
     if let (crate::dataset::Rows::U8(px), None) = (data.rows(), mean) {
         return crate::kernels::gram8::gram_u8(px, n, m).unwrap_or_else(|| crate::kernels::gram::gram_u8_fma(px, n, m));
@@ -93,7 +99,7 @@ pub fn gram_of(data: &crate::Dataset, mean: Option<&[f64]>) -> Mat<f64> {
 }
 
 /// A row-major N x K matrix as faer's column-major one.
-pub fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
+pub(crate) fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
     Mat::from_fn(n, k, |i, j| data[i * k + j])
 }
 
@@ -117,14 +123,14 @@ fn lanes_sum(s: &[f32; ENERGY_LANES]) -> f64 {
 /// values (32 a lane) summed into f64 in eight chains. Compiled for the detected SIMD level
 /// (the same operations, so the same bits: queries are scaled by it, and both methods'
 /// projections take it).
-pub fn energy(x: &[f32]) -> f64 {
+pub(crate) fn energy(x: &[f32]) -> f64 {
     energy_built(crate::kernels::Level::detect(), x)
 }
 
 /// (||x||^2, x . w): [`energy`] (the same bits) with x . w summed alongside it the same way, in
 /// one pass over `x` (the refined model's product of a query with the mean, which its residual
 /// takes, without a row of its own in the product with the eigenimages).
-pub fn energy_and_dot(x: &[f32], w: &[f32]) -> (f64, f64) {
+pub(crate) fn energy_and_dot(x: &[f32], w: &[f32]) -> (f64, f64) {
     assert_eq!(x.len(), w.len(), "x and w of one length");
     energy_and_dot_built(crate::kernels::Level::detect(), x, w)
 }
@@ -178,7 +184,7 @@ fn energy_and_dot_body(x: &[f32], w: &[f32]) -> (f64, f64) {
 /// Dot product of two f32 vectors with eight independent accumulators (vectorises well and
 /// keeps the rounding error of a 19,200-term sum near that of pairwise summation).
 #[inline]
-pub fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
+pub(crate) fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
     debug_assert_eq!(a.len(), b.len());
     let mut acc = [0f32; 16];
     let (ca, cb) = (a.chunks_exact(16), b.chunks_exact(16));

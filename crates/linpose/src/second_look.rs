@@ -72,7 +72,7 @@ use serde::{Deserialize, Serialize};
 /// components of 19,200 pixels, against 204 of 1,200). Kept at 4 for every model: a choice per
 /// model would need a held-out measure that tells such an object apart, and the one tried for the
 /// look's interpolant, the held-out flip count, was too noisy (docs/confidence.md).
-pub const SECOND_LOOK_BIN: usize = 4;
+pub(crate) const SECOND_LOOK_BIN: usize = 4;
 
 /// The share of the held-out training views' mean squared distance to the surface that a fresh
 /// view between training views is expected at (D_h in the module doc). What it trades: a larger
@@ -86,14 +86,14 @@ pub const SECOND_LOOK_BIN: usize = 4;
 /// lies twice as far from its neighbours as a fresh one; its distance measured 7 to 109 times
 /// (median about 40) an unseen view's at its true pose on those seeds. Held-out seeds report it
 /// (BENCHMARKS.md).
-pub const UNSEEN_SHARE: f64 = 1.0 / 16.0;
+pub(crate) const UNSEEN_SHARE: f64 = 1.0 / 16.0;
 
 /// Scan points per knot interval along each axis, where the basins start: a basin narrower than
 /// half a knot interval can be missed. Not tuned.
-pub const PER_CELL: usize = 2;
+pub(crate) const PER_CELL: usize = 2;
 
 /// The lattice (degrees) the basins are climbed on. Not tuned: the eigenspace's manifold step.
-pub const STEP_DEG: f64 = 0.5;
+pub(crate) const STEP_DEG: f64 = 0.5;
 
 /// What a model records of its second look (in its settings).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 /// Arguments of `linpose eval`.
 #[derive(clap::Args, Debug)]
-pub struct EvalArgs {
+pub(crate) struct EvalArgs {
     /// The model file.
     #[arg(long, value_name = "MODEL")]
     pub model: PathBuf,

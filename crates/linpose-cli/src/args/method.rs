@@ -30,7 +30,7 @@ fn flags() -> Vec<Flag> {
 
 /// The method flags given on the command line.
 #[derive(Debug, Clone, Default)]
-pub struct MethodArgs {
+pub(crate) struct MethodArgs {
     /// The settings, named as the flags without their dashes.
     pub settings: Settings,
 }
@@ -79,17 +79,17 @@ fn capitalised(s: &str) -> String {
 }
 
 /// The registry's method names as clap's possible values, each with its summary.
-pub fn method_names() -> clap::builder::PossibleValuesParser {
+pub(crate) fn method_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(METHODS.iter().map(|m| clap::builder::PossibleValue::new(m.name).help(m.summary)))
 }
 
 /// The method called `name` (one of [`method_names`]).
-pub fn method(name: &str) -> &'static Method {
+pub(crate) fn method(name: &str) -> &'static Method {
     linpose::methods::find(name).expect("clap checked the name against the registry")
 }
 
 /// A library error about a setting, said as the flag that gave it.
-pub fn as_flag(e: linpose::Error) -> anyhow::Error {
+pub(crate) fn as_flag(e: linpose::Error) -> anyhow::Error {
     match e {
         linpose::Error::Setting { name, value, reason, .. } if value == "true" => anyhow::anyhow!("--{name}: {reason}"),
         linpose::Error::Setting { name, value, reason, .. } => anyhow::anyhow!("--{name} {value}: {reason}"),

@@ -2,11 +2,11 @@
 //! them (train, its shards and memory plan, and the many-object paths of train, eval and
 //! predict) depend on it and not on each other.
 
-pub mod eval;
-pub mod method;
-pub mod predict;
-pub mod train;
+pub(crate) mod eval;
+pub(crate) mod method;
+pub(crate) mod predict;
+pub(crate) mod train;
 
-pub use eval::EvalArgs;
-pub use predict::PredictArgs;
-pub use train::{ShardArg, TrainArgs};
+pub(crate) use eval::EvalArgs;
+pub(crate) use predict::PredictArgs;
+pub(crate) use train::{ShardArg, TrainArgs};

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 /// Arguments of `linpose predict`.
 #[derive(clap::Args, Debug)]
-pub struct PredictArgs {
+pub(crate) struct PredictArgs {
     /// The model file.
     #[arg(long, value_name = "MODEL")]
     pub model: PathBuf,

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 /// Arguments of `linpose train`.
 #[derive(clap::Args, Debug)]
-pub struct TrainArgs {
+pub(crate) struct TrainArgs {
     #[command(flatten)]
     pub data: DataArgs,
     /// Train on samples whose every parameter is a multiple of S degrees from its smallest value
@@ -91,7 +91,7 @@ pub struct TrainArgs {
 
 impl TrainArgs {
     /// The training views `--train-step` or `--train-list` pick (every view when neither).
-    pub fn selection(&self) -> anyhow::Result<TrainSelection> {
+    pub(crate) fn selection(&self) -> anyhow::Result<TrainSelection> {
         Ok(match (&self.train_step, &self.train_list) {
             (Some(s), _) => TrainSelection::Step(*s),
             (None, Some(list)) => TrainSelection::read_list(list)?,
@@ -102,7 +102,7 @@ impl TrainArgs {
 
 /// What `--normalize` normalises.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NormalizeArg {
+pub(crate) enum NormalizeArg {
     /// Chosen on held-out training views (what train does without the flag).
     Auto,
     /// Position, scale and brightness.
@@ -117,7 +117,7 @@ pub enum NormalizeArg {
 
 impl TrainArgs {
     /// What the normalisation flags ask for: chosen on held-out views unless fixed.
-    pub fn stage_rule(&self) -> StageRule {
+    pub(crate) fn stage_rule(&self) -> StageRule {
         let fixed = |geometry, brightness| StageRule::Fixed(NormalizeParams { geometry, brightness });
         match (self.no_normalize, self.normalize) {
             (true, _) | (_, Some(NormalizeArg::Off)) => StageRule::Fixed(NormalizeParams::OFF),
@@ -129,14 +129,14 @@ impl TrainArgs {
     }
 
     /// Whether the flags force a stage (not off, not chosen).
-    pub fn forces_stage(&self) -> bool {
+    pub(crate) fn forces_stage(&self) -> bool {
         matches!(self.stage_rule(), StageRule::Fixed(p) if p.is_on())
     }
 }
 
 /// Which shard of how many: `I/N`, 1 <= I <= N.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ShardArg {
+pub(crate) struct ShardArg {
     /// 0-based.
     pub index: usize,
     pub count: usize,
@@ -156,7 +156,7 @@ impl std::str::FromStr for ShardArg {
 }
 
 /// `--memory-budget SIZE` as bytes, or clap's error naming the value.
-pub fn parse_budget(text: &str) -> Result<u64, String> {
+pub(crate) fn parse_budget(text: &str) -> Result<u64, String> {
     linpose::memory::parse_size(text).map_err(|e| e.to_string())
 }
 

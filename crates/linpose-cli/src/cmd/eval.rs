@@ -9,7 +9,7 @@ use serde::Serialize;
 use std::collections::{HashMap, HashSet};
 
 /// Runs `linpose eval`.
-pub fn run(a: &EvalArgs) -> anyhow::Result<()> {
+pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
     if let Some(j) = &a.json {
         check_output_file(j, "JSON")?;
     }

@@ -30,7 +30,7 @@ const SIZE_STEPS: [f64; 3] = [9.0, 18.0, 27.0];
 const COARSE_STEP: f64 = 12.0;
 
 #[derive(clap::Args, Debug)]
-pub struct ExperimentArgs {
+pub(crate) struct ExperimentArgs {
     /// Run the study on your own data set instead of the built-in objects (repeatable): a
     /// folder with poses.csv, or a COIL folder with --object.
     #[arg(long, value_name = "DIR")]
@@ -93,7 +93,7 @@ fn replace_dir(tmp: &Path, out: &Path) -> anyhow::Result<()> {
 }
 
 /// Runs `linpose experiment`.
-pub fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
+pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     let t0 = Instant::now();
     if a.out.exists() && !a.out.is_dir() {
         anyhow::bail!("{}: the report output exists and is not a folder", a.out.display());

@@ -1,9 +1,9 @@
 //! One module per subcommand.
 
-pub mod eval;
-pub mod experiment;
-pub mod objects;
-pub mod predict;
-pub mod shard;
-pub mod synth;
-pub mod train;
+pub(crate) mod eval;
+pub(crate) mod experiment;
+pub(crate) mod objects;
+pub(crate) mod predict;
+pub(crate) mod shard;
+pub(crate) mod synth;
+pub(crate) mod train;

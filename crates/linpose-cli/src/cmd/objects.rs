@@ -18,7 +18,7 @@ use std::path::Path;
 use std::time::Instant;
 
 /// The options of `train` that only a many-object data set takes, with the flag that gave each.
-pub fn recognizer_params(a: &TrainArgs) -> anyhow::Result<RecognizerParams> {
+pub(crate) fn recognizer_params(a: &TrainArgs) -> anyhow::Result<RecognizerParams> {
     let kind = RecognizerKind::from_name(a.recognizer.as_deref().unwrap_or("universal")).map_err(|e| anyhow::anyhow!("--recognizer: {e}"))?;
     let mut p = RecognizerParams::new(kind).unknown(parse_unknown(a.unknown.as_deref().unwrap_or("calibrated"))?);
     if let Some(l) = a.recognizer_components {
@@ -28,7 +28,7 @@ pub fn recognizer_params(a: &TrainArgs) -> anyhow::Result<RecognizerParams> {
 }
 
 /// `--unknown calibrated|off|D`.
-pub fn parse_unknown(s: &str) -> anyhow::Result<Unknown> {
+pub(crate) fn parse_unknown(s: &str) -> anyhow::Result<Unknown> {
     match s {
         "calibrated" => Ok(Unknown::Calibrated),
         "off" => Ok(Unknown::Off),
@@ -84,7 +84,13 @@ struct TrainSummary<'a> {
 }
 
 /// `train` on a many-object data set.
-pub fn train(a: &TrainArgs, params: &RecognizerParams, method: &'static linpose::Method, spec: &linpose::MethodSpec, rule: StageRule) -> anyhow::Result<()> {
+pub(crate) fn train(
+    a: &TrainArgs,
+    params: &RecognizerParams,
+    method: &'static linpose::Method,
+    spec: &linpose::MethodSpec,
+    rule: StageRule,
+) -> anyhow::Result<()> {
     let out = a.out.as_deref().context("--out MODEL is required")?;
     let t0 = Instant::now();
     let c = catalog(&a.data.data, &a.leave_out)?;
@@ -242,7 +248,7 @@ struct PoseErrors {
 const UNKNOWN: &str = "unknown";
 
 /// `eval` with a many-object model.
-pub fn eval(a: &EvalArgs) -> anyhow::Result<()> {
+pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     let model = linpose::model_file::load_objects(&a.model)?;
     let model = match &a.unknown {
         Some(u) => model.with_unknown(parse_unknown(u)?)?,
@@ -416,7 +422,7 @@ struct Estimate<'a> {
 
 /// `predict` with a many-object model: each image's object, its confidence and its pose, or
 /// "unknown".
-pub fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<()> {
+pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<()> {
     if a.top.is_some() {
         anyhow::bail!(
             "--top with a many-object model ({}): not supported yet; each image gets its object, the confidence of that and its pose",

@@ -63,7 +63,7 @@ fn query_paths(a: &PredictArgs) -> anyhow::Result<Vec<PathBuf>> {
 }
 
 /// Runs `linpose predict`.
-pub fn run(a: &PredictArgs) -> anyhow::Result<()> {
+pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
     if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {
         anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
     }

@@ -29,7 +29,7 @@ struct ShardSummary {
 }
 
 /// `train --shard I/N --partial OUT`: the shard's partial statistics.
-pub fn train_shard(a: &TrainArgs, shard: ShardArg, out: &std::path::Path) -> anyhow::Result<()> {
+pub(crate) fn train_shard(a: &TrainArgs, shard: ShardArg, out: &std::path::Path) -> anyhow::Result<()> {
     check_output_file(out, "partial statistics")?;
     if let Some(j) = &a.json {
         check_output_file(j, "JSON")?;
@@ -95,7 +95,7 @@ pub fn train_shard(a: &TrainArgs, shard: ShardArg, out: &std::path::Path) -> any
 
 /// Arguments of `linpose merge`.
 #[derive(clap::Args, Debug)]
-pub struct MergeArgs {
+pub(crate) struct MergeArgs {
     /// Partial statistics files (`train --shard I/N --partial FILE`), every shard of one fit, in
     /// any order.
     #[arg(required = true, value_name = "PARTIAL")]
@@ -122,7 +122,7 @@ struct MergeSummary {
 
 /// Runs `linpose merge`: adds the partial statistics one file at a time (two in memory at
 /// most) and fits the model.
-pub fn merge(a: &MergeArgs) -> anyhow::Result<()> {
+pub(crate) fn merge(a: &MergeArgs) -> anyhow::Result<()> {
     check_output_file(&a.out, "model")?;
     if let Some(j) = &a.json {
         check_output_file(j, "JSON")?;

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 /// Arguments of `linpose synth`.
 #[derive(clap::Args, Debug)]
-pub struct SynthArgs {
+pub(crate) struct SynthArgs {
     /// Built-in object to render (see --list).
     #[arg(long, value_name = "NAME", conflicts_with_all = ["mesh", "random"], required_unless_present_any = ["mesh", "random", "list"])]
     pub object: Option<String>,
@@ -56,7 +56,7 @@ pub struct SynthArgs {
 }
 
 /// Runs `linpose synth`.
-pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
+pub(crate) fn run(args: &SynthArgs) -> anyhow::Result<()> {
     // A closed pipe (`linpose synth --list | head -1`) is an error that main treats as success,
     // where the print macro would panic.
     let mut stdout = std::io::stdout().lock();

@@ -36,7 +36,7 @@ struct TrainSummary {
 const OFF: StageRule = StageRule::Fixed(NormalizeParams::OFF);
 
 /// Runs `linpose train`.
-pub fn run(a: &TrainArgs) -> anyhow::Result<()> {
+pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
     let out = match (&a.out, a.shard, &a.partial) {
         (_, Some(shard), Some(partial)) => return crate::cmd::shard::train_shard(a, shard, partial),
         (Some(out), _, _) => out,

@@ -5,7 +5,7 @@
 use std::fmt::Write;
 
 /// A figure's content.
-pub enum FigureData {
+pub(crate) enum FigureData {
     /// SVG markup.
     Svg(String),
     /// PNG bytes.
@@ -13,7 +13,7 @@ pub enum FigureData {
 }
 
 /// One block of the document.
-pub enum Block {
+pub(crate) enum Block {
     /// A heading of level 1 to 3.
     Heading(u8, String),
     /// A paragraph (plain text; `**bold**` is kept in Markdown and made bold in HTML).
@@ -27,7 +27,7 @@ pub enum Block {
 }
 
 /// A document: a title and blocks.
-pub struct Doc {
+pub(crate) struct Doc {
     pub title: String,
     pub blocks: Vec<Block>,
 }
@@ -56,7 +56,7 @@ fn inline_html(s: &str) -> String {
 
 impl Doc {
     /// The Markdown text; figures are referenced as `figures/<file>`.
-    pub fn markdown(&self) -> String {
+    pub(crate) fn markdown(&self) -> String {
         let mut s = format!("# {}\n\n", self.title);
         for b in &self.blocks {
             match b {
@@ -89,7 +89,7 @@ impl Doc {
     }
 
     /// One self-contained HTML page.
-    pub fn html(&self) -> String {
+    pub(crate) fn html(&self) -> String {
         let mut s = String::new();
         let _ = write!(
             s,
@@ -151,7 +151,7 @@ figcaption{{font-size:0.9em;color:#444;max-width:900px}}svg,img{{max-width:100%;
     }
 
     /// The figures, as (file name, bytes).
-    pub fn figure_files(&self) -> Vec<(&str, Vec<u8>)> {
+    pub(crate) fn figure_files(&self) -> Vec<(&str, Vec<u8>)> {
         self.blocks
             .iter()
             .filter_map(|b| match b {
@@ -164,7 +164,7 @@ figcaption{{font-size:0.9em;color:#444;max-width:900px}}svg,img{{max-width:100%;
 }
 
 /// Standard base64 with padding.
-pub fn base64(data: &[u8]) -> String {
+pub(crate) fn base64(data: &[u8]) -> String {
     const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::with_capacity(data.len().div_ceil(3) * 4);
     for c in data.chunks(3) {

@@ -2,9 +2,9 @@
 //! figures, and `results.json` with every number behind them.
 
 mod confidence;
-pub mod doc;
+pub(crate) mod doc;
 mod normalization;
-pub mod plots;
+pub(crate) mod plots;
 mod recognition;
 
 use confidence::{confidence_finding, confidence_section};
@@ -19,7 +19,7 @@ use serde::Serialize;
 
 /// What the study was, for the report's opening and the JSON.
 #[derive(Debug, Clone, Serialize)]
-pub struct StudyInfo {
+pub(crate) struct StudyInfo {
     /// Where the data came from (rendered built-in objects, or user folders).
     pub source: String,
     /// The grid or data description.
@@ -83,7 +83,7 @@ pub(super) fn pct(noise: f64) -> String {
 }
 
 /// Builds the report document. `models[i]` are the models of `objects[i]` (for Fig. 2).
-pub fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> {
+pub(crate) fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, String> {
     let mut b = Vec::new();
     let main: Vec<&ObjectResult> = objects.iter().filter(|o| !info.open_cases.contains(&o.name)).collect();
     let open: Vec<&ObjectResult> = objects.iter().filter(|o| info.open_cases.contains(&o.name)).collect();

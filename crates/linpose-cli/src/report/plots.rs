@@ -31,7 +31,7 @@ fn svg(size: (u32, u32), draw: impl FnOnce(&Area<'_>) -> Result<(), String>) -> 
 }
 
 /// Viridis, sampled at nine points and interpolated linearly; `t` in [0, 1].
-pub fn viridis(t: f64) -> RGBColor {
+pub(crate) fn viridis(t: f64) -> RGBColor {
     const V: [(u8, u8, u8); 9] =
         [(68, 1, 84), (71, 44, 122), (59, 81, 139), (44, 113, 142), (33, 144, 141), (39, 173, 129), (92, 200, 99), (170, 220, 50), (253, 231, 37)];
     let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 1.0 };
@@ -43,7 +43,7 @@ pub fn viridis(t: f64) -> RGBColor {
 }
 
 /// A diverging blue-white-red map for signed values; `t` in [-1, 1].
-pub fn diverging(t: f64) -> RGBColor {
+pub(crate) fn diverging(t: f64) -> RGBColor {
     let t = if t.is_finite() { t.clamp(-1.0, 1.0) } else { 0.0 };
     let (r, g, b) = if t < 0.0 {
         let s = -t;
@@ -85,7 +85,7 @@ fn colorbar(area: &Area<'_>, vmax: f64, label: &str) -> Result<(), String> {
 
 /// One axis of a [`heatmap`]: its title and the grid's values along it.
 #[derive(Debug, Clone, Copy)]
-pub struct GridAxis<'a> {
+pub(crate) struct GridAxis<'a> {
     /// The axis title.
     pub desc: &'a str,
     /// The grid's values along the axis, evenly spaced (each cell as wide as the first step).
@@ -94,7 +94,7 @@ pub struct GridAxis<'a> {
 
 /// The colour scale of a [`heatmap`]: its colour bar runs from 0 to `vmax`, labelled `unit`.
 #[derive(Debug, Clone, Copy)]
-pub struct ColorScale<'a> {
+pub(crate) struct ColorScale<'a> {
     /// The value of the top colour (the bar's top); 1 when not positive and finite.
     pub vmax: f64,
     /// The colour bar's label.
@@ -103,7 +103,7 @@ pub struct ColorScale<'a> {
 
 /// A heat map of `values` (row-major, one row of `x.values.len()` per value of `y`) over a
 /// regular grid, with a colour bar as `scale` says.
-pub fn heatmap(title: &str, x: GridAxis<'_>, y: GridAxis<'_>, values: &[f64], scale: ColorScale<'_>) -> Result<String, String> {
+pub(crate) fn heatmap(title: &str, x: GridAxis<'_>, y: GridAxis<'_>, values: &[f64], scale: ColorScale<'_>) -> Result<String, String> {
     let (GridAxis { desc: x_desc, values: xs }, GridAxis { desc: y_desc, values: ys }) = (x, y);
     let ColorScale { vmax, unit } = scale;
     let half = |v: &[f64]| if v.len() > 1 { (v[1] - v[0]) / 2.0 } else { 0.5 };
@@ -144,7 +144,7 @@ pub fn heatmap(title: &str, x: GridAxis<'_>, y: GridAxis<'_>, values: &[f64], sc
 }
 
 /// Line plots of several named series of (x, y) points, with markers.
-pub fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f64, f64)>)], log_y: bool) -> Result<String, String> {
+pub(crate) fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f64, f64)>)], log_y: bool) -> Result<String, String> {
     let pts = series.iter().flat_map(|(_, s)| s.iter());
     let (mut xmin, mut xmax, mut ymin, mut ymax) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for &(x, y) in pts.filter(|(x, y)| x.is_finite() && y.is_finite() && (!log_y || *y > 0.0)) {
@@ -207,7 +207,7 @@ pub fn lines(title: &str, x_desc: &str, y_desc: &str, series: &[(String, Vec<(f6
 }
 
 /// Empirical cumulative distributions of several named samples of errors.
-pub fn cdf(title: &str, x_desc: &str, series: &[(String, Vec<f64>)], x_max: f64) -> Result<String, String> {
+pub(crate) fn cdf(title: &str, x_desc: &str, series: &[(String, Vec<f64>)], x_max: f64) -> Result<String, String> {
     let curves: Vec<(String, Vec<(f64, f64)>)> = series
         .iter()
         .map(|(n, e)| {
@@ -261,7 +261,7 @@ pub fn cdf(title: &str, x_desc: &str, series: &[(String, Vec<f64>)], x_max: f64)
 /// Coefficient images (paper Fig. 2) as one PNG: each of `images` (`w` x `h`, row-major,
 /// signed) side by side, magnified `scale` times, in a diverging map symmetric about zero with
 /// each image on its own scale (blue negative, white zero, red positive).
-pub fn coefficient_png(images: &[&[f64]], w: u32, h: u32, scale: u32) -> Result<Vec<u8>, String> {
+pub(crate) fn coefficient_png(images: &[&[f64]], w: u32, h: u32, scale: u32) -> Result<Vec<u8>, String> {
     let gap = 6;
     let n = images.len() as u32;
     let (tw, th) = (n * w * scale + (n.saturating_sub(1)) * gap, h * scale);
@@ -286,7 +286,7 @@ pub fn coefficient_png(images: &[&[f64]], w: u32, h: u32, scale: u32) -> Result<
 /// drawn as a vertical line and the gross-error bound `gross_deg` as a horizontal one. Points
 /// with a non-finite coordinate are left out; errors under the axis' floor (zero included) are
 /// drawn on it.
-pub fn confidence_scatter(title: &str, series: &[(String, Vec<(f64, f64)>)], flag_below: f64, gross_deg: f64) -> Result<String, String> {
+pub(crate) fn confidence_scatter(title: &str, series: &[(String, Vec<(f64, f64)>)], flag_below: f64, gross_deg: f64) -> Result<String, String> {
     let finite = |&&(x, y): &&(f64, f64)| x.is_finite() && y.is_finite();
     let positive: Vec<f64> = series.iter().flat_map(|(_, s)| s.iter().filter(finite).map(|p| p.1).filter(|&y| y > 0.0)).collect();
     let (lo, hi) = positive.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| (a.min(y), b.max(y)));

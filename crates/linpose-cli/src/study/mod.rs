@@ -8,8 +8,8 @@
 //! stage) and writes the report; everything a figure or table shows is in the returned
 //! [`ObjectResult`]. The study uses only the library's public API.
 
-pub mod normalization;
-pub mod recognition;
+pub(crate) mod normalization;
+pub(crate) mod recognition;
 
 use linpose::dataset::Dataset;
 use linpose::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};
@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 /// What to run on each object.
 #[derive(Debug, Clone)]
-pub struct StudyParams {
+pub(crate) struct StudyParams {
     /// The methods compared.
     pub methods: Vec<MethodSpec>,
     /// The main training step (the paper: 9 degrees).
@@ -49,7 +49,7 @@ impl Default for StudyParams {
 
 /// A regular (elevation x azimuth) grid the samples lie on, for heat maps.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Grid {
+pub(crate) struct Grid {
     /// Name of the row parameter and its values.
     pub rows: (String, Vec<f64>),
     /// Name of the column parameter and its values.
@@ -60,7 +60,7 @@ pub struct Grid {
 
 /// One method evaluated at the main training step under one noise level.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Run {
+pub(crate) struct Run {
     /// Method name.
     pub method: String,
     /// Noise amplitude.
@@ -98,11 +98,11 @@ pub struct Run {
 
 /// An error above this many degrees counts as a gross failure (a wrong side, a lost parameter):
 /// [`linpose::confidence::GROSS_DEG`].
-pub const GROSS_ERROR_DEG: f64 = linpose::confidence::GROSS_DEG;
+pub(crate) const GROSS_ERROR_DEG: f64 = linpose::confidence::GROSS_DEG;
 
 /// One method at one training-set size.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SweepPoint {
+pub(crate) struct SweepPoint {
     /// Method name.
     pub method: String,
     /// Training step (degrees).
@@ -119,7 +119,7 @@ pub struct SweepPoint {
 
 /// Table 1 of the paper, measured: storage and cost terms of one fitted model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Table1Row {
+pub(crate) struct Table1Row {
     /// Method name.
     pub method: String,
     /// The paper's formula for storage and cost.
@@ -136,7 +136,7 @@ pub struct Table1Row {
 
 /// Everything measured on one object.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ObjectResult {
+pub(crate) struct ObjectResult {
     /// Object name.
     pub name: String,
     /// Parameter names.
@@ -255,7 +255,7 @@ fn loo_mean(method: &MethodSpec, train: &Dataset) -> Result<Option<f64>> {
 
 /// Runs the study on one object's full data set. `progress(stage)` is called as each stage
 /// starts.
-pub fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn(&str)) -> Result<ObjectResult> {
+pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: &dyn Fn(&str)) -> Result<ObjectResult> {
     let mask = data.manifest().training_mask(&TrainSelection::Step(p.train_step))?;
     let train = data.subset(&mask)?;
     let mut runs = Vec::new();

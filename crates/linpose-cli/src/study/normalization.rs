@@ -19,11 +19,11 @@ use super::StudyParams;
 /// The largest share of accuracy on registered views the stage may cost and still be
 /// recommended (0.10: the normalised unseen mean at most 1.1 times the plain one). Not tuned: the
 /// bar issue 33 set, a cost a user who needs unregistered queries would accept.
-pub const REGISTERED_COST: f64 = 0.10;
+pub(crate) const REGISTERED_COST: f64 = 0.10;
 
 /// One method with and without the stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct NormalizationRow {
+pub(crate) struct NormalizationRow {
     /// The method.
     pub method: String,
     /// Unseen mean error on the registered views, without and with the stage (degrees).
@@ -87,7 +87,7 @@ impl NormalisedViews {
 /// (its unseen views: `jittered` may be the views of a coarser grid). `plain_registered[i]`, when
 /// given, is `plain[i]`'s unseen mean error on `data` already measured (the study's clean run:
 /// the same model on the same views), else it is measured here.
-pub fn run(
+pub(crate) fn run(
     data: &Dataset,
     jittered: Option<&Dataset>,
     plain: &[AnyModel],

@@ -15,7 +15,7 @@ use std::time::Instant;
 
 /// One recogniser over the study's objects.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RecognitionRow {
+pub(crate) struct RecognitionRow {
     /// The recogniser's name.
     pub recognizer: String,
     /// Views of every object recognised as their object, over all views and over the unseen
@@ -46,7 +46,7 @@ pub struct RecognitionRow {
 
 /// What [`run`] measured.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RecognitionStudy {
+pub(crate) struct RecognitionStudy {
     /// The objects, in order.
     pub objects: Vec<String>,
     /// One row per recogniser.
@@ -57,7 +57,7 @@ pub struct RecognitionStudy {
 /// fitted on the objects' training views, and each model's clean pose error on every view of its
 /// object (the study's clean run, in the order of `views`), which the recognised views' pose
 /// error is taken from (the same model on the same views).
-pub struct PoseRuns {
+pub(crate) struct PoseRuns {
     /// `models[m][k]`: method m's model of object k (at least one method).
     pub models: Vec<Vec<AnyModel>>,
     /// `errors[m][k][i]`: that model's error on view i of object k (degrees).
@@ -69,7 +69,7 @@ pub struct PoseRuns {
 /// `poses` the pose methods' models and errors. With `left_out_step`, the left-out measure runs
 /// on the views of that coarser grid only (the views on its lattice, as a training step of that
 /// many degrees would pick them), else on every view.
-pub fn run(
+pub(crate) fn run(
     train: &ObjectSet,
     views: &dyn Fn(usize) -> Result<Dataset>,
     poses: &PoseRuns,

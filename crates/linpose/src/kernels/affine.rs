@@ -41,7 +41,7 @@ mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn affine_sums_avx512(q: super::AffineLanes<'_>, f: &[f64], g: &[f64]) -> [f64; 5] {
+    pub(super) unsafe fn affine_sums_avx512(q: super::AffineLanes<'_>, f: &[f64], g: &[f64]) -> [f64; 5] {
         let n = q.n;
         assert!(f.len() >= n && g.len() >= n && n <= BLOCK_DIM, "{n} values, zero beyond the coordinates");
         let mut acc = [_mm512_setzero_pd(); 5];

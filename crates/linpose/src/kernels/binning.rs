@@ -93,7 +93,7 @@ mod simd {
     /// The CPU must support AVX-512 F and BW; `x` holds at least (2 hb) rows of `w` pixels, `w
     /// >= 2 wb`, and `out` at least `wb` x `hb` values.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn sums_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, out: &mut [u16]) -> (u64, u64) {
+    pub(super) unsafe fn sums_2x2_avx512(x: &[u8], w: usize, wb: usize, hb: usize, out: &mut [u16]) -> (u64, u64) {
         let span = 2 * wb;
         assert!(w >= span && x.len() >= 2 * hb * w && out.len() >= wb * hb);
         assert!(span.div_ceil(64) <= 1024, "a row of at most 65,536 pixels");
@@ -141,7 +141,7 @@ mod simd {
     /// # Safety
     /// As [`sums_2x2_avx512`], with (4 hb) rows and `w >= 4 wb`.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn sums_4x4_avx512(x: &[u8], w: usize, wb: usize, hb: usize, out: &mut [u16]) -> (u64, u64) {
+    pub(super) unsafe fn sums_4x4_avx512(x: &[u8], w: usize, wb: usize, hb: usize, out: &mut [u16]) -> (u64, u64) {
         let span = 4 * wb;
         assert!(w >= span && x.len() >= 4 * hb * w && out.len() >= wb * hb);
         assert!(span.div_ceil(64) <= 128, "a row of at most 8,192 pixels");

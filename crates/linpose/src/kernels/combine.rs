@@ -10,7 +10,7 @@ use crate::kernels::Rows;
 /// The rows a combination reads: `x`, rows of `m` values, each less `mean` (of M values) when
 /// given.
 #[derive(Debug, Clone, Copy)]
-pub struct Centred<'a> {
+pub(crate) struct Centred<'a> {
     pub x: Rows<'a>,
     pub mean: Option<&'a [f64]>,
     pub m: usize,
@@ -20,7 +20,7 @@ dispatch! {
     /// For pixels `p0..p0 + row.len()` of the `n = d.len() / k` rows of `m` values of `x`
     /// (`src`): `w[j * len + p] = sum_i d[i k + j] (x_i[p0 + p] - mean[p0 + p])`, the rows taken
     /// in order (`w` zeroed first; `row` is scratch of the chunk's length).
-    pub fn combine_rows(src: Centred, p0: usize, d: &[f64], k: usize, w: &mut [f64], row: &mut [f64]) = combine_portable;
+    pub(crate) fn combine_rows(src: Centred, p0: usize, d: &[f64], k: usize, w: &mut [f64], row: &mut [f64]) = combine_portable;
 }
 
 #[inline(always)]

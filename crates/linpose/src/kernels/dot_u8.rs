@@ -23,7 +23,7 @@ const MAX_ROWS_AVX2: usize = 4;
 
 /// `out[r] = sum_p x[p] * w[r * m + p]` for every row r (`out.len()` rows), m = `x.len()`.
 #[track_caller]
-pub fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
+pub(crate) fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
     let m = x.len();
     assert_eq!(w.len(), m * out.len(), "weight rows of the image's length");
     // AVX2 has half AVX-512's registers, and a row's 16 lanes take two: at most 4 rows a pass
@@ -45,9 +45,9 @@ pub fn dots(level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
 
 /// Images per register block of [`dots_batch`]: with [`BATCH_ROWS`] weight rows, 24 of the 32
 /// AVX-512 registers accumulate.
-pub const BATCH_IMAGES: usize = 6;
+pub(crate) const BATCH_IMAGES: usize = 6;
 /// Weight rows per register block of [`dots_batch`].
-pub const BATCH_ROWS: usize = 4;
+pub(crate) const BATCH_ROWS: usize = 4;
 /// Images per register block of [`dots_batch`]'s AVX2 kernel, which takes [`BATCH_IMAGES`] in
 /// two such blocks (16 registers: 3 images by 4 rows of 8-lane accumulators, 3 image vectors and
 /// a weight vector).
@@ -58,10 +58,10 @@ const _: () = assert!(BATCH_IMAGES.is_multiple_of(AVX2_IMAGES));
 
 /// Images per cache block of [`dots_batch`]: the weights are read from the outer caches once per
 /// this many images.
-pub const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
+pub(crate) const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
 /// Pixels per cache block of [`dots_batch`]: a block of 20 weight rows (30 KiB) stays in the L1
 /// cache while the images' block passes over it.
-pub const PIXEL_CHUNK: usize = 384;
+pub(crate) const PIXEL_CHUNK: usize = 384;
 // A cache block's steps fit the u32 masks of nonzero steps.
 const _: () = assert!(PIXEL_CHUNK.is_multiple_of(LANES) && PIXEL_CHUNK / LANES <= 32);
 
@@ -77,7 +77,7 @@ const _: () = assert!(PIXEL_CHUNK.is_multiple_of(LANES) && PIXEL_CHUNK / LANES <
 /// image at a time is bound by reading all the weights once per image. Images past the last
 /// whole block of [`BATCH_IMAGES`] go one at a time.
 #[track_caller]
-pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<f32>) {
+pub(crate) fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<f32>) {
     assert!(m > 0 && xs.len().is_multiple_of(m) && w.len().is_multiple_of(m), "whole images and weight rows of length m");
     let (n, rows) = (xs.len() / m, w.len() / m);
     assert_eq!(out.len(), n * rows, "one output per image and row");
@@ -170,7 +170,7 @@ pub fn dots_batch(level: Level, xs: &[u8], m: usize, w: &[f32], out: &mut [f32],
 }
 
 /// Sum of squares of the pixels, exact (in integers).
-pub fn sum_squares(x: &[u8]) -> u64 {
+pub(crate) fn sum_squares(x: &[u8]) -> u64 {
     // Per chunk the u32 sum stays below 2^32 (65,536 * 255^2 < 2^32).
     x.chunks(1 << 16).map(|c| c.iter().map(|&v| v as u32 * v as u32).sum::<u32>() as u64).sum()
 }
@@ -262,7 +262,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F and AVX-512BW.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn widen_avx512(x: &[u8], out: &mut [f32]) -> (u32, u32) {
+    pub(super) unsafe fn widen_avx512(x: &[u8], out: &mut [f32]) -> (u32, u32) {
         assert!(x.len().is_multiple_of(LANES) && out.len() == x.len() && x.len() <= 32 * LANES);
         let mut sq = _mm512_setzero_si512();
         let mut nonzero = 0u32;
@@ -280,7 +280,7 @@ mod x86 {
 
     /// Hints the cache line at `p` into the L2 cache.
     #[inline(always)]
-    pub fn prefetch(p: *const u8) {
+    pub(super) fn prefetch(p: *const u8) {
         // SAFETY: a prefetch is a hint that never faults, whatever the address, and SSE is part
         // of every x86_64 CPU.
         unsafe { _mm_prefetch::<_MM_HINT_T1>(p as *const i8) };
@@ -295,7 +295,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn block_avx512(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, mask: u32, acc: &mut [f32]) {
+    pub(super) unsafe fn block_avx512(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, mask: u32, acc: &mut [f32]) {
         assert!(steps * LANES <= PIXEL_CHUNK && steps <= 32 && (steps == 32 || mask >> steps == 0));
         assert!(xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && rows > 0);
         assert!(stride.is_multiple_of(LANES) && wf.len() >= (rows - 1) * stride + steps * LANES && wf.as_ptr().align_offset(64) == 0);
@@ -349,7 +349,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F; `w` holds R rows of `x.len()` values.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn lanes_avx512<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
+    pub(super) unsafe fn lanes_avx512<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
         let m = x.len();
         assert!(w.len() >= R * m);
         let mut acc = [_mm512_setzero_ps(); R];
@@ -377,7 +377,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn widen_avx2(x: &[u8], out: &mut [f32]) -> (u32, u32) {
+    pub(super) unsafe fn widen_avx2(x: &[u8], out: &mut [f32]) -> (u32, u32) {
         assert!(x.len().is_multiple_of(LANES) && out.len() == x.len() && x.len() <= 32 * LANES);
         let mut sq = _mm256_setzero_si256();
         let mut nonzero = 0u32;
@@ -404,7 +404,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn block_avx2(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, mask: u32, acc: &mut [f32]) {
+    pub(super) unsafe fn block_avx2(xf: &[f32], wf: &[f32], stride: usize, rows: usize, steps: usize, mask: u32, acc: &mut [f32]) {
         assert!(steps * LANES <= PIXEL_CHUNK && steps <= 32 && (steps == 32 || mask >> steps == 0));
         assert!(xf.len() >= BATCH_IMAGES * PIXEL_CHUNK && rows > 0);
         assert!(stride >= steps * LANES && wf.len() >= (rows - 1) * stride + steps * LANES);
@@ -479,7 +479,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA; `w` holds R rows of `x.len()` values.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn lanes_avx2<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
+    pub(super) unsafe fn lanes_avx2<const R: usize>(x: &[u8], w: &[f32]) -> [[f32; LANES]; R] {
         let m = x.len();
         assert!(w.len() >= R * m);
         let (mut lo, mut hi) = ([_mm256_setzero_ps(); R], [_mm256_setzero_ps(); R]);

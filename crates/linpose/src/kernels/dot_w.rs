@@ -20,18 +20,18 @@ use super::dot_q::VMAX;
 use super::Level;
 
 /// Values per step: one 512-bit vector of i16.
-pub const STEP: usize = 32;
+pub(crate) const STEP: usize = 32;
 /// Images per register block of the VNNI kernel.
-pub const BLOCK: usize = 4;
+pub(crate) const BLOCK: usize = 4;
 
 /// 32 i16 on a 64-byte boundary.
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C, align(64))]
-pub struct Line(pub [i16; STEP]);
+pub(crate) struct Line(pub [i16; STEP]);
 
 /// Weight rows in 16-bit fixed point for images of integers up to a bound (see the module doc).
 #[derive(Debug, Clone)]
-pub struct WordRows {
+pub(crate) struct WordRows {
     rows: usize,
     m: usize,
     /// Per row, the scale of its integers.
@@ -47,7 +47,7 @@ impl WordRows {
     /// images of integers in [0, `xmax`]; none when `xmax` exceeds i16 or a single step could
     /// overflow an i32 lane.
     #[track_caller]
-    pub fn new(w: &[f32], m: usize, xmax: u32) -> Option<WordRows> {
+    pub(crate) fn new(w: &[f32], m: usize, xmax: u32) -> Option<WordRows> {
         assert!(m > 0 && w.len().is_multiple_of(m), "whole rows of m > 0 weights");
         assert!(w.iter().all(|v| v.is_finite()), "finite weights");
         if xmax == 0 || xmax > i16::MAX as u32 {
@@ -65,32 +65,32 @@ impl WordRows {
     }
 
     /// Steps of the lines of one image ([`Self::lines_of`]).
-    pub fn steps(&self) -> usize {
+    pub(crate) fn steps(&self) -> usize {
         self.m.div_ceil(STEP)
     }
 
     /// Steps summed in i32 lanes before they are added into i64.
     #[cfg(test)]
-    pub fn span(&self) -> usize {
+    pub(crate) fn span(&self) -> usize {
         self.span
     }
 
     /// The stored integer of row r at pixel p.
     #[cfg(test)]
-    pub fn int(&self, r: usize, p: usize) -> i32 {
+    pub(crate) fn int(&self, r: usize, p: usize) -> i32 {
         self.lines[r * self.steps() + p / STEP].0[p % STEP] as i32
     }
 
     /// The scale of row r.
     #[cfg(test)]
-    pub fn scale(&self, r: usize) -> f64 {
+    pub(crate) fn scale(&self, r: usize) -> f64 {
         self.scale[r]
     }
 
     /// Room for `n` images in lines, as [`Self::dots_batch`] takes them: image i's values at
     /// `i * steps() * STEP`, zero past m; the caller writes the first m of each (only the
     /// padding is cleared: a batch's lines are written once, not twice).
-    pub fn lines_of(&self, n: usize, buf: &mut Vec<Line>) {
+    pub(crate) fn lines_of(&self, n: usize, buf: &mut Vec<Line>) {
         let steps = self.steps();
         buf.resize(n * steps, Line::default());
         let tail = self.m % STEP;
@@ -102,7 +102,7 @@ impl WordRows {
     }
 
     /// The values of `lines` (written as u16, read as i16: at most xmax <= 32,767).
-    pub fn values_mut(lines: &mut [Line]) -> &mut [u16] {
+    pub(crate) fn values_mut(lines: &mut [Line]) -> &mut [u16] {
         // SAFETY: a `Line` is 32 i16 with no padding, the lines are contiguous, and u16 has
         // i16's size and alignment.
         unsafe { std::slice::from_raw_parts_mut(lines.as_mut_ptr() as *mut u16, lines.len() * STEP) }
@@ -113,7 +113,7 @@ impl WordRows {
     /// `idx` is scratch. The VNNI kernel where [`super::dot_q::fast`] holds, else the portable
     /// body.
     #[track_caller]
-    pub fn dots_batch(&self, level: Level, xs: &[Line], out: &mut [f32], idx: &mut Vec<u32>) {
+    pub(crate) fn dots_batch(&self, level: Level, xs: &[Line], out: &mut [f32], idx: &mut Vec<u32>) {
         let steps = self.steps();
         assert!(xs.len().is_multiple_of(steps) && out.len() == xs.len() / steps * self.rows, "whole images, one output per image and row");
         #[cfg(target_arch = "x86_64")]
@@ -164,7 +164,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512 F, BW and VNNI.
     #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
-    pub unsafe fn block(q: &WordRows, xs: &[Line], out: &mut [f32], idx: &mut Vec<u32>) {
+    pub(super) unsafe fn block(q: &WordRows, xs: &[Line], out: &mut [f32], idx: &mut Vec<u32>) {
         let steps = q.steps();
         let nb = xs.len() / steps;
         idx.clear();

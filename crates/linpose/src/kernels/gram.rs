@@ -31,7 +31,7 @@ use rayon::prelude::*;
 /// Reduction steps per packed panel: a tile's 24 rows (24 KiB) stay in L1 while the columns
 /// stream past; a panel of 224 rows (230 KiB) and the partial Gram it updates (350 KiB) stay in
 /// L2, and for N = 2000 an item's rows (24 KiB) and columns (192 KiB) do.
-pub const KC: usize = 128;
+pub(crate) const KC: usize = 128;
 /// Rows of C per band (a multiple of 24, so that tiles start on the band's groups). Small
 /// items balance the threads at the end of each panel's fork-join, and the bands store less
 /// above the diagonal, so that for N = 2000 two partial Grams fit [`PARTIALS_BYTES`] (each
@@ -39,13 +39,13 @@ pub const KC: usize = 128;
 /// and 2000 (M = 19,200), alternated.
 const BAND: usize = 24;
 /// Most columns of C per work item.
-pub const COLS: usize = 192;
+pub(crate) const COLS: usize = 192;
 /// Most partial Grams.
-pub const MAX_CHUNKS: usize = 8;
+pub(crate) const MAX_CHUNKS: usize = 8;
 /// Fewest panels per partial Gram.
-pub const MIN_PANELS: usize = 4;
+pub(crate) const MIN_PANELS: usize = 4;
 /// Most memory the partial Grams beyond the first may take together.
-pub const PARTIALS_BYTES: usize = 16 << 20;
+pub(crate) const PARTIALS_BYTES: usize = 16 << 20;
 
 /// Rows of C computed for n rows of X: n padded with zero rows to whole groups.
 fn padded8(n: usize) -> usize {
@@ -55,7 +55,7 @@ fn padded8(n: usize) -> usize {
 /// How many partial Grams (chunks of M) to sum for n rows of m values: as many as fit in
 /// [`PARTIALS_BYTES`], up to [`MAX_CHUNKS`], with at least [`MIN_PANELS`] panels each. A
 /// function of n and m only, never of the thread count.
-pub fn chunks(n: usize, m: usize) -> usize {
+pub(crate) fn chunks(n: usize, m: usize) -> usize {
     let bytes = Acc::new(n).len() * 8;
     let by_memory = 1 + PARTIALS_BYTES / bytes.max(1);
     (m.div_ceil(KC) / MIN_PANELS).min(by_memory).clamp(1, MAX_CHUNKS)
@@ -168,7 +168,7 @@ fn gram_with(n: usize, m: usize, level: Level, chunks: usize, pack: impl Fn(&mut
 }
 
 /// G = X X^T for `n` rows of `m` values read by `read(i, k0, out)` (row i from column k0).
-pub fn gram_rows(n: usize, m: usize, read: impl Fn(usize, usize, &mut [f64]) + Sync) -> Mat<f64> {
+pub(crate) fn gram_rows(n: usize, m: usize, read: impl Fn(usize, usize, &mut [f64]) + Sync) -> Mat<f64> {
     gram_with(n, m, Level::detect(), chunks(n, m), |panel, k0, kc| {
         panel.par_chunks_mut(GROUP * kc).enumerate().for_each(|(g, p)| {
             let rows = n.saturating_sub(g * GROUP).min(GROUP);
@@ -181,7 +181,7 @@ pub fn gram_rows(n: usize, m: usize, read: impl Fn(usize, usize, &mut [f64]) + S
 /// difference of the f32 value converted, as the f64 paths compute it). Uncentred 8-bit
 /// features go to [`gram_levels`] (exact integer sums) where the CPU has AVX-512 VNNI,
 /// everything else to the f64 kernel ([`gram_f32_fma`]).
-pub fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
+pub(crate) fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     if mean.is_none() {
         if let Some(g) = gram_levels(x, n, m) {
             return g;
@@ -191,6 +191,7 @@ pub fn gram_f32(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64>
 }
 
 /// `gram_f32` by the f64 kernel whatever the values.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn gram_f32_fma(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>) -> Mat<f64> {
     gram_f32_with(x, n, m, mean, Level::detect(), chunks(n, m))
 }
@@ -206,7 +207,7 @@ fn gram_f32_with(x: &[f32], n: usize, m: usize, mean: Option<&[f64]>, level: Lev
 /// Where a packed group lies: rows `i0..i0 + 8` of a row-major matrix of `n` rows of `m` values
 /// (rows past `n` packed as zeros), steps `k0..k0 + kc`.
 #[derive(Debug, Clone, Copy)]
-pub struct Group {
+pub(crate) struct Group {
     pub n: usize,
     pub m: usize,
     pub i0: usize,
@@ -225,7 +226,7 @@ impl Group {
 /// Packs the group `at` of the f32 matrix `x` (rows `i0..i0 + 8`, rows past n zero, steps
 /// `k0..k0 + kc`), each value minus `mean` when given, into `out` (`8 * kc`: step k's 8 rows at
 /// `out[8 k..]`).
-pub fn pack_group_f32(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>, level: Level) {
+pub(crate) fn pack_group_f32(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>, level: Level) {
     let Group { n, m, i0, k0, kc } = at;
     assert!(out.len() == GROUP * kc && k0 + kc <= m && x.len() >= n * m, "packed group size");
     let rows = at.rows();
@@ -259,7 +260,7 @@ pub fn pack_group_f32(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]
 /// each), packed from the bytes, with the same bits: where the 8-bit integer Gram is not to
 /// be had (no AVX-512 VNNI), the fit need not make the f32 features first (a pass writing four
 /// times the bytes, then reading them back to pack).
-pub fn gram_u8_fma(pixels: &[u8], n: usize, m: usize) -> Mat<f64> {
+pub(crate) fn gram_u8_fma(pixels: &[u8], n: usize, m: usize) -> Mat<f64> {
     gram_u8_with(pixels, n, m, Level::detect(), chunks(n, m))
 }
 
@@ -296,7 +297,7 @@ fn pack_group_u8(out: &mut [f64], px: &[u8], at: Group, level: Level) {
 /// G = X X^T for the f64 rows `rows` (one image each, at least `m` values), by the f64 kernel.
 /// The same bits as [`gram_rows`] on the same values; the rows are packed 8 at a time by an
 /// AVX-512 transpose where the level has it ([`pack_group_f64`]).
-pub fn gram_f64(rows: &[&[f64]], m: usize) -> Mat<f64> {
+pub(crate) fn gram_f64(rows: &[&[f64]], m: usize) -> Mat<f64> {
     let (n, level) = (rows.len(), Level::detect());
     assert!(rows.iter().all(|r| r.len() >= m), "rows of m values");
     gram_with(n, m, level, chunks(n, m), |panel, k0, kc| {
@@ -306,7 +307,7 @@ pub fn gram_f64(rows: &[&[f64]], m: usize) -> Mat<f64> {
 
 /// Packs the rows `rows` (at most 8; the rest of the group zero), steps `k0..k0 + kc`, into
 /// `out` (`8 * kc`: step k's 8 rows at `out[8 k..]`).
-pub fn pack_group_f64(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize, level: Level) {
+pub(crate) fn pack_group_f64(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize, level: Level) {
     assert!(out.len() == GROUP * kc && rows.len() <= GROUP && rows.iter().all(|r| r.len() >= k0 + kc), "packed group size");
     let mut done = 0;
     #[cfg(target_arch = "x86_64")]
@@ -378,7 +379,7 @@ mod x86 {
     /// The CPU must support AVX-512F; rows `i0..i0 + rows` of `x` (row length m) must hold steps
     /// `k0..k0 + kc`, `out` 8 * kc values and `mean` (when given) m.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn pack_group_f32_avx512(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>) {
+    pub(super) unsafe fn pack_group_f32_avx512(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>) {
         let (Group { m, i0, k0, kc, .. }, rows) = (at, at.rows());
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
         assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
@@ -413,7 +414,7 @@ mod x86 {
     /// The CPU must support AVX2; rows `i0..i0 + rows` of `x` (row length m) must hold steps
     /// `k0..k0 + kc`, `out` 8 * kc values and `mean` (when given) m.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn pack_group_f32_avx2(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>) {
+    pub(super) unsafe fn pack_group_f32_avx2(out: &mut [f64], x: &[f32], at: Group, mean: Option<&[f64]>) {
         let (Group { m, i0, k0, kc, .. }, rows) = (at, at.rows());
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= x.len()));
         assert!(mean.is_none_or(|u| u.len() >= k0 + kc));
@@ -463,7 +464,7 @@ mod x86 {
     /// The CPU must support AVX2; rows `i0..i0 + rows` of `px` (row length m) must hold steps
     /// `k0..k0 + kc` and `out` 8 * kc values.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn pack_group_u8_avx2(out: &mut [f64], px: &[u8], at: Group) {
+    pub(super) unsafe fn pack_group_u8_avx2(out: &mut [f64], px: &[u8], at: Group) {
         let (Group { m, i0, k0, kc, .. }, rows) = (at, at.rows());
         assert!(out.len() >= GROUP * kc && rows <= GROUP && (rows == 0 || (i0 + rows - 1) * m + k0 + kc <= px.len()));
         let (xp, o) = (px.as_ptr(), out.as_mut_ptr());
@@ -484,7 +485,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn pack_group_f64_avx512(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize) {
+    pub(super) unsafe fn pack_group_f64_avx512(out: &mut [f64], rows: &[&[f64]], k0: usize, kc: usize) {
         assert!(out.len() >= GROUP * kc && rows.len() <= GROUP && rows.iter().all(|r| r.len() >= k0 + kc));
         let o = out.as_mut_ptr();
         for k in (0..kc - kc % GROUP).step_by(GROUP) {

@@ -53,6 +53,7 @@ const CHUNK: usize = 64;
 /// G = X X^T for `n` row-major rows of `m` f32 values that are all 8-bit features, summed in
 /// integers, on a CPU with AVX-512 VNNI; None otherwise (packing stops at the first panel with
 /// a value that is not one).
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn gram_levels(x: &[f32], n: usize, m: usize) -> Option<Mat<f64>> {
     gram_rows8(Rows8::F32(x), n, m)
 }
@@ -60,7 +61,7 @@ pub fn gram_levels(x: &[f32], n: usize, m: usize) -> Option<Mat<f64>> {
 /// [`gram_levels`] of the features of `n` rows of `m` 8-bit values (`feature_of_u8` of each),
 /// read from the bytes (a quarter of the features' memory traffic), with the same bits; None
 /// on a CPU without AVX-512 VNNI.
-pub fn gram_u8(pixels: &[u8], n: usize, m: usize) -> Option<Mat<f64>> {
+pub(crate) fn gram_u8(pixels: &[u8], n: usize, m: usize) -> Option<Mat<f64>> {
     gram_rows8(Rows8::U8(pixels), n, m)
 }
 
@@ -271,7 +272,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512 F and BW; `src` and every output must hold 64 values.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn convert_u8_avx512(src: &[u8], [lv, rv, w0, w1]: [&mut [u8]; 4]) {
+    pub(super) unsafe fn convert_u8_avx512(src: &[u8], [lv, rv, w0, w1]: [&mut [u8]; 4]) {
         let (s8, two31, m8) = (_mm512_set1_ps(S8), _mm512_set1_ps(2147483648.0), _mm512_set1_epi32(M8));
         _mm_prefetch::<_MM_HINT_T0>(src.as_ptr().wrapping_add(2 * 64) as *const i8);
         let bytes = _mm512_loadu_si512(src.as_ptr() as *const __m512i);
@@ -294,7 +295,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F and BW; `src` and every output must hold 64 values.
     #[target_feature(enable = "avx512f,avx512bw")]
-    pub unsafe fn convert_avx512(src: &[f32], [lv, rv, w0, w1]: [&mut [u8]; 4]) -> bool {
+    pub(super) unsafe fn convert_avx512(src: &[f32], [lv, rv, w0, w1]: [&mut [u8]; 4]) -> bool {
         let (c255, half, s8, two31) = (_mm512_set1_ps(255.0), _mm512_set1_ps(0.5), _mm512_set1_ps(S8), _mm512_set1_ps(2147483648.0));
         let (top, m8) = (_mm512_set1_epi32(255), _mm512_set1_epi32(M8));
         let mut bad: __mmask16 = 0;
@@ -324,7 +325,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn transpose_avx512(src: &Words, out: &mut [i32]) {
+    pub(super) unsafe fn transpose_avx512(src: &Words, out: &mut [i32]) {
         let count = out.len() / GROUP16;
         assert!(count <= 16);
         let r: [__m512i; 16] = std::array::from_fn(|l| _mm512_load_si512(src.0[l].as_ptr() as *const _));

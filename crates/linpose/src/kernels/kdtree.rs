@@ -140,7 +140,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn scan_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
+    pub(super) unsafe fn scan_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32)) {
         assert!(items.len() == LEAF);
         let acc = leaf_distances(rows, q);
         // Only lanes at most the best distance can change it.
@@ -159,7 +159,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn scan_near_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
+    pub(super) unsafe fn scan_near_avx512(rows: &[f32], items: &[u32], q: &[f32], best: &mut (f32, u32), reach: f32, near: &mut Vec<(f32, u32)>) {
         assert!(items.len() == LEAF && rows.len() >= q.len() * LEAF);
         let diff = |l: usize| _mm512_sub_ps(_mm512_loadu_ps(rows.as_ptr().add(l * LEAF)), _mm512_set1_ps(q[l]));
         // The four chains in registers: whole groups of four coordinates, then the rest.

@@ -9,23 +9,23 @@
 //! summation's own rounding.
 
 /// 1/255 as `image_io` computes 8-bit features (`k as f32 * S8`).
-pub const S8: f32 = 1.0 / 255.0;
+pub(crate) const S8: f32 = 1.0 / 255.0;
 
 /// The feature of an 8-bit value `v`: v / 255 as an f32, the same bits the image reader makes
 /// of an 8-bit pixel (`crate::image_io::feature_of_u8` is this).
 #[inline]
-pub fn feature_of_u8(v: u8) -> f32 {
+pub(crate) fn feature_of_u8(v: u8) -> f32 {
     v as f32 * S8
 }
 
 /// Weight of the integer sums of k_p k_q: S8^2 = 2^-62 m^2, exact in f64.
-pub const SCALE_PAIRS: f64 = (S8 as f64) * (S8 as f64);
+pub(crate) const SCALE_PAIRS: f64 = (S8 as f64) * (S8 as f64);
 
 /// Weight of the integer sums of k_p r_q + r_p k_q: 2^-62 m, exact in f64.
-pub const SCALE_CROSS: f64 = (S8 as f64) / 2_147_483_648.0;
+pub(crate) const SCALE_CROSS: f64 = (S8 as f64) / 2_147_483_648.0;
 
 /// The residuals r_k = V_k - k m of the 8-bit features k * S8 = V_k 2^-31; all within -127..=127.
-pub fn residuals() -> [i8; 256] {
+pub(crate) fn residuals() -> [i8; 256] {
     let m = S8 as f64 * 2f64.powi(31);
     let mut r = [0i8; 256];
     for (k, r) in r.iter_mut().enumerate() {
@@ -48,7 +48,7 @@ pub(crate) fn level(v: f32) -> Option<u8> {
 
 /// Fills `q` with the 8-bit levels of `f` and says whether every value is one (values that are
 /// not get level 0).
-pub fn quantize(f: &[f32], q: &mut [u8]) -> bool {
+pub(crate) fn quantize(f: &[f32], q: &mut [u8]) -> bool {
     let mut exact = true;
     for (d, &v) in q.iter_mut().zip(f) {
         let k = level(v);

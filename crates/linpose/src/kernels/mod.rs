@@ -94,12 +94,12 @@ impl std::fmt::Debug for AlignedF32 {
 #[cfg(test)]
 mod test_data {
     /// n rows of m deterministic values in [-0.3, 0.7).
-    pub fn data(n: usize, m: usize) -> Vec<f32> {
+    pub(super) fn data(n: usize, m: usize) -> Vec<f32> {
         (0..n * m).map(|i| ((i * 2654435761usize) % 1009) as f32 / 1009.0 - 0.3).collect()
     }
 
     /// The Gram matrix of n rows of m values, row-major, summed plainly in f64.
-    pub fn reference(x: &[f32], n: usize, m: usize) -> Vec<f64> {
+    pub(super) fn reference(x: &[f32], n: usize, m: usize) -> Vec<f64> {
         let mut g = vec![0.0; n * n];
         for i in 0..n {
             for j in 0..n {

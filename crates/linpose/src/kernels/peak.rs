@@ -93,14 +93,14 @@ mod x86 {
     use std::arch::x86_64::*;
 
     /// VNNI instructions per iteration of [`vnni_loop`].
-    pub const VNNI_PER_ITER: u64 = 16;
+    pub(super) const VNNI_PER_ITER: u64 = 16;
 
     /// 8 `vpdpwssd` and 8 `vpdpbusd` per iteration into 16 independent accumulators.
     ///
     /// # Safety
     /// The CPU must support AVX-512F and AVX-512 VNNI.
     #[target_feature(enable = "avx512f,avx512vnni")]
-    pub unsafe fn vnni_loop(iters: u64, seed: i32) -> i32 {
+    pub(super) unsafe fn vnni_loop(iters: u64, seed: i32) -> i32 {
         let (x, y) = (_mm512_set1_epi32(seed | 0x0001_0001), _mm512_set1_epi32(0x0102_0304));
         let mut acc = [_mm512_setzero_si512(); 16];
         for _ in 0..iters {
@@ -120,7 +120,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn read_avx512(words: &[u64]) -> u64 {
+    pub(super) unsafe fn read_avx512(words: &[u64]) -> u64 {
         let mut acc = [_mm512_setzero_si512(); 4];
         let chunks = words.chunks_exact(32);
         let tail = chunks.remainder().iter().fold(0u64, |a, &b| a.wrapping_add(b));
@@ -139,7 +139,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn fma_loop_avx2(iters: u64, seed: f64) -> f64 {
+    pub(super) unsafe fn fma_loop_avx2(iters: u64, seed: f64) -> f64 {
         let mul = _mm256_set1_pd(0.999_999_999);
         let add = _mm256_set1_pd(1e-9);
         let mut acc = [_mm256_set1_pd(seed); 8];
@@ -162,7 +162,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn fma_loop_avx512(iters: u64, seed: f64) -> f64 {
+    pub(super) unsafe fn fma_loop_avx512(iters: u64, seed: f64) -> f64 {
         let mul = _mm512_set1_pd(0.999_999_999);
         let add = _mm512_set1_pd(1e-9);
         let mut acc = [_mm512_set1_pd(seed); 16];

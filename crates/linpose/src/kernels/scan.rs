@@ -11,24 +11,24 @@ use super::{dispatch, Level};
 dispatch! {
     /// `dist[i] = sum_q wt[q] (cols[q][i] - y[q])^2` over the coordinates with a non-zero weight
     /// (`cols`: rows of `dist.len()` values, at least `y.len()` rows).
-    pub fn sq_dist(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) = sq_dist_portable;
+    pub(crate) fn sq_dist(cols: &[f32], y: &[f32], wt: &[f32], dist: &mut [f32]) = sq_dist_portable;
 }
 
 /// Two coordinate-major tables of the same points (a surface's and its offset's).
 #[derive(Debug, Clone, Copy)]
-pub struct Tables<'a> {
+pub(crate) struct Tables<'a> {
     pub cols: &'a [f32],
     pub gcols: &'a [f32],
 }
 
 /// `u[i] = sum_q a[q] cols[q][i]` and `v[i] = sum_q a[q] gcols[q][i]` (rows of `u.len()` values).
-pub fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
+pub(crate) fn dots2(level: Level, cols: &[f32], gcols: &[f32], a: &[f32], u: &mut [f32], v: &mut [f32]) {
     dots2_at(level, Tables { cols, gcols }, u.len(), 0, a, u, v)
 }
 
 /// [`dots2`] for the points `i0..i0 + u.len()` of rows of `n` values: the same bits as the whole
 /// scan's at those points.
-pub fn dots2_at(level: Level, t: Tables, n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
+pub(crate) fn dots2_at(level: Level, t: Tables, n: usize, i0: usize, a: &[f32], u: &mut [f32], v: &mut [f32]) {
     assert!(i0 + u.len() <= n && u.len() == v.len(), "points inside the rows");
     dots2_built(level, t, n, i0, a, u, v)
 }
@@ -43,12 +43,12 @@ dispatch! {
     /// `u[i] = max(zz - uu^2 inv_a[i] - e^2 inv_s[i], 0)` with `uu = u[i] + ac` and
     /// `e = v[i] - b_over_a[i] uu`, in f64 (the refined eigenspace's noisy scan; the per-point
     /// sums `u`, `v` from [`dots2`]; `q` the query's terms).
-    pub fn affine_residuals(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], q: AffineTerms) = affine_residuals_portable;
+    pub(crate) fn affine_residuals(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: &[f64], inv_s: &[f64], q: AffineTerms) = affine_residuals_portable;
 }
 
 /// The query's terms of [`affine_residuals`]: `ac` added to each point's `u`, and `zz`.
 #[derive(Debug, Clone, Copy)]
-pub struct AffineTerms {
+pub(crate) struct AffineTerms {
     pub ac: f64,
     pub zz: f64,
 }
@@ -65,11 +65,12 @@ fn affine_residuals_portable(u: &mut [f32], v: &[f32], b_over_a: &[f64], inv_a: 
 }
 
 /// Points per box of [`boxes`] and [`sq_dist_boxed`]: one AVX-512 vector.
-pub const BOX: usize = 16;
+pub(crate) const BOX: usize = 16;
 
 /// The bounding boxes of every `BOX` (16) consecutive points (the last box maybe fewer) in the
 /// first `split` rows of `cols` (rows of `n` values): for each row q, the boxes' least values,
 /// then their greatest (`2 split` rows of `n.div_ceil(BOX)`).
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn boxes(cols: &[f32], n: usize, split: usize) -> Vec<f32> {
     let nb = n.div_ceil(BOX);
     let mut out = vec![0f32; 2 * split * nb];
@@ -91,12 +92,12 @@ dispatch! {
     /// sums. The points of the box of least bound are scored in full; twice their least distance
     /// bounds the cut, and only boxes whose bound is within it are scored. Every distance given has
     /// the bits of [`sq_dist`]'s. `lb` is scratch.
-    pub fn sq_dist_boxed(cols: &[f32], b: Boxes, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 = sq_dist_boxed_portable;
+    pub(crate) fn sq_dist_boxed(cols: &[f32], b: Boxes, y: &[f32], wt: &[f32], dist: &mut [f32], lb: &mut Vec<f32>) -> f32 = sq_dist_boxed_portable;
 }
 
 /// The points' bounding boxes ([`boxes`]) over their first `split` coordinates.
 #[derive(Debug, Clone, Copy)]
-pub struct Boxes<'a> {
+pub(crate) struct Boxes<'a> {
     pub boxes: &'a [f32],
     pub split: usize,
 }
@@ -162,7 +163,7 @@ fn score_box(cols: &[f32], n: usize, b: usize, y: &[f32], wt: &[f32], out: &mut 
 
 dispatch! {
     /// The least of `v` (+inf when empty or all NaN).
-    pub fn least(v: &[f32]) -> f32 = least_portable;
+    pub(crate) fn least(v: &[f32]) -> f32 = least_portable;
 }
 
 #[inline(always)]
@@ -174,7 +175,7 @@ fn least_portable(v: &[f32]) -> f32 {
 
 dispatch! {
     /// The index of the least of `v` (the first of equals; None when empty or all NaN).
-    pub fn argmin(v: &[f32]) -> Option<usize> = argmin_portable;
+    pub(crate) fn argmin(v: &[f32]) -> Option<usize> = argmin_portable;
 }
 
 #[inline(always)]

@@ -129,7 +129,7 @@ pub(crate) mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn lane_distance_avx512(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
+    pub(crate) unsafe fn lane_distance_avx512(y: &[f64], w: &[f64], f: &[f64]) -> f64 {
         let n = f.len() / 8 * 8;
         assert!(y.len() >= n && w.len() >= n);
         let mut acc = _mm512_setzero_pd();
@@ -163,7 +163,7 @@ pub(crate) mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn block2_avx512(
+    pub(crate) unsafe fn block2_avx512(
         grid: Grid2,
         s: Coefs<'_>,
         other: Option<Coefs<'_>>,
@@ -258,7 +258,7 @@ pub(crate) mod simd {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn values2_avx512(terms: &Terms2, s: Coefs<'_>, f: &mut [f64], other: Option<(Coefs<'_>, &mut [f64])>) {
+    pub(crate) unsafe fn values2_avx512(terms: &Terms2, s: Coefs<'_>, f: &mut [f64], other: Option<(Coefs<'_>, &mut [f64])>) {
         let (at, wt) = *terms;
         let sum = |acc: &mut [f64], coef: &[f32], dim: usize| {
             let lo = acc.len();

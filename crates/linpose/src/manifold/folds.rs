@@ -10,14 +10,14 @@ use crate::Result;
 
 /// The held-out folds of `grid`: for each usable axis, which training samples are kept (every
 /// other knot held out, the odd ones).
-pub fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
+pub(crate) fn folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
     folds_of(train, grid, 1)
 }
 
 /// [`folds`], then the same with the other half held out (the even knots, a linear axis still
 /// keeping both its ends): every knot is held out once (the interior ones of a linear axis), at
 /// the same spacing, so the score has twice the views behind it.
-pub fn both_folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
+pub(crate) fn both_folds(train: &Dataset, grid: &Grid) -> Vec<Vec<bool>> {
     let mut out = folds_of(train, grid, 1);
     out.extend(folds_of(train, grid, 0));
     out
@@ -50,7 +50,7 @@ fn folds_of(train: &Dataset, grid: &Grid, parity: usize) -> Vec<Vec<bool>> {
 /// training order) over the held-out folds of `grid` ([`folds`]): each held-out knot's coordinates
 /// against the surface through the remaining knots by `interpolant`, at its pose. None when no
 /// fold is possible.
-pub fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim: usize, interpolant: Interpolant) -> Result<Option<Vec<f64>>> {
+pub(crate) fn interpolation_variance(train: &Dataset, grid: &Grid, coords: &[f64], dim: usize, interpolant: Interpolant) -> Result<Option<Vec<f64>>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);

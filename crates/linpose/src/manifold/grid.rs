@@ -14,15 +14,15 @@ use crate::{Error, Result};
 use std::path::Path;
 
 /// Most manifold points accepted (keeps a tiny step from exhausting memory).
-pub const MAX_POINTS: usize = 1 << 24;
+pub(crate) const MAX_POINTS: usize = 1 << 24;
 
 /// Most manifold values (points x dimensions) accepted.
-pub const MAX_VALUES: usize = 1 << 28;
+pub(crate) const MAX_VALUES: usize = 1 << 28;
 
 /// The training grid: the distinct values of each pose parameter, and which training sample sits
 /// at each grid point.
 #[derive(Debug, Clone)]
-pub struct Grid {
+pub(crate) struct Grid {
     /// Distinct values per parameter, increasing.
     pub axes: Vec<Vec<f64>>,
     /// For each grid point in row-major order (the last parameter fastest), its training sample.
@@ -33,7 +33,7 @@ impl Grid {
     /// Arranges training poses (`poses`, row-major, one row per sample, named by `images`) on
     /// their grid. Every combination of the parameters' values must be present exactly once;
     /// otherwise the error names the missing point or the duplicated images.
-    pub fn new(space: &PoseSpace, poses: &[f64], images: &[String], root: &Path) -> Result<Self> {
+    pub(crate) fn new(space: &PoseSpace, poses: &[f64], images: &[String], root: &Path) -> Result<Self> {
         let d = space.len();
         let n = poses.len() / d;
         // -0.0 and 0.0 are one grid value (x + 0.0 turns -0.0 into 0.0).
@@ -115,7 +115,7 @@ impl Grid {
     }
 
     /// Number of grid points along each parameter.
-    pub fn shape(&self) -> Vec<usize> {
+    pub(crate) fn shape(&self) -> Vec<usize> {
         self.axes.iter().map(Vec::len).collect()
     }
 }
@@ -123,14 +123,14 @@ impl Grid {
 /// The positions at which an axis with knots `g` is resampled every `step` degrees, as numpy's
 /// `arange` computes them: n = ceil((stop - start) / step) values start + i * delta with
 /// delta = (start + step) - start.
-pub fn sample_positions(g: &[f64], period: Option<f64>, step: f64) -> Vec<f64> {
+pub(crate) fn sample_positions(g: &[f64], period: Option<f64>, step: f64) -> Vec<f64> {
     let count = sample_count(g, period, step) as usize;
     let delta = (g[0] + step) - g[0];
     (0..count).map(|i| g[0] + i as f64 * delta).collect()
 }
 
 /// How many positions [`sample_positions`] gives (as f64, so an absurd step cannot overflow).
-pub fn sample_count(g: &[f64], period: Option<f64>, step: f64) -> f64 {
+pub(crate) fn sample_count(g: &[f64], period: Option<f64>, step: f64) -> f64 {
     let stop = match period {
         Some(t) => g[0] + t,
         None => g[g.len() - 1] + 1e-9,
@@ -140,7 +140,7 @@ pub fn sample_count(g: &[f64], period: Option<f64>, step: f64) -> f64 {
 
 /// The dense manifold: points on a grid of sample positions.
 #[derive(Debug, Clone)]
-pub struct Manifold {
+pub(crate) struct Manifold {
     /// Sample positions per parameter (degrees, as resampled: a circular one may pass its period).
     pub axes: Vec<Vec<f64>>,
     /// Points, one row of L coordinates per grid point, row-major over the axes.
@@ -150,7 +150,7 @@ pub struct Manifold {
 impl Manifold {
     /// Resamples the coordinates `coords` (N x `dim`, row-major, in training-sample order) of the
     /// training images on `grid` every `step` degrees.
-    pub fn build(space: &PoseSpace, grid: &Grid, coords: &[f64], dim: usize, step: f64) -> Result<Self> {
+    pub(crate) fn build(space: &PoseSpace, grid: &Grid, coords: &[f64], dim: usize, step: f64) -> Result<Self> {
         let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| sample_count(g, p.period, step)).collect();
         check_size(&counts, dim, step)?;
         let positions: Vec<Vec<f64>> = space.params().iter().zip(&grid.axes).map(|(p, g)| sample_positions(g, p.period, step)).collect();
@@ -181,19 +181,19 @@ impl Manifold {
 
     /// Number of manifold points.
     #[cfg(test)]
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.axes.iter().map(Vec::len).product()
     }
 
     /// The pose of point `k` into `out`, circular values wrapped into [0, period).
     #[cfg(test)]
-    pub fn pose(&self, space: &PoseSpace, k: usize, out: &mut [f64]) {
+    pub(crate) fn pose(&self, space: &PoseSpace, k: usize, out: &mut [f64]) {
         pose_of(&self.axes, space, k, out)
     }
 }
 
 /// The pose of grid point `k` of sample positions `axes` (row-major, the last fastest).
-pub fn pose_of(axes: &[Vec<f64>], space: &PoseSpace, mut k: usize, out: &mut [f64]) {
+pub(crate) fn pose_of(axes: &[Vec<f64>], space: &PoseSpace, mut k: usize, out: &mut [f64]) {
     for j in (0..axes.len()).rev() {
         let v = axes[j][k % axes[j].len()];
         k /= axes[j].len();
@@ -206,7 +206,7 @@ pub fn pose_of(axes: &[Vec<f64>], space: &PoseSpace, mut k: usize, out: &mut [f6
 
 /// Refuses a manifold of `counts` samples along each parameter, `dim` values each, that would be
 /// too large to hold.
-pub fn check_size(counts: &[f64], dim: usize, step: f64) -> Result<()> {
+pub(crate) fn check_size(counts: &[f64], dim: usize, step: f64) -> Result<()> {
     let points = counts.iter().product::<f64>();
     if points > MAX_POINTS as f64 || points * dim as f64 > MAX_VALUES as f64 {
         return Err(Error::invalid(

@@ -17,11 +17,11 @@
 use crate::kernels::{kdtree, Level};
 
 /// Points per leaf (one AVX-512 vector of f32).
-pub const LEAF: usize = kdtree::LEAF;
+pub(crate) const LEAF: usize = kdtree::LEAF;
 
 /// Largest dimension the tree is built for (the incremental distance keeps one offset per
 /// coordinate on the stack).
-pub const MAX_DIM: usize = kdtree::MAX_DIM;
+pub(crate) const MAX_DIM: usize = kdtree::MAX_DIM;
 
 /// A node: `dim < u32::MAX` splits coordinate `dim` at `split`, child `a` holding the points
 /// with that coordinate <= `split` and `b` those >= `split`; `dim == u32::MAX` is leaf `a`.
@@ -44,7 +44,7 @@ struct Cell {
 
 /// The tree over `n` points of `dim` coordinates.
 #[derive(Debug, Clone)]
-pub struct KdTree {
+pub(crate) struct KdTree {
     dim: usize,
     nodes: Vec<Node>,
     /// Per leaf, `dim` rows of [`LEAF`] coordinates; unused lanes hold +infinity (never nearest).
@@ -56,7 +56,7 @@ pub struct KdTree {
 impl KdTree {
     /// Builds the tree over `points` (rows of `dim` finite coordinates, fewer than 2^32 rows,
     /// `1 <= dim <= MAX_DIM`).
-    pub fn new(points: &[f32], dim: usize) -> KdTree {
+    pub(crate) fn new(points: &[f32], dim: usize) -> KdTree {
         assert!((1..=MAX_DIM).contains(&dim) && points.len().is_multiple_of(dim), "rows of 1 to {MAX_DIM} coordinates");
         let n = points.len() / dim;
         assert!(n < u32::MAX as usize, "fewer than 2^32 points");
@@ -111,19 +111,19 @@ impl KdTree {
     }
 
     /// Bytes held: nodes, leaves and indices.
-    pub fn bytes(&self) -> usize {
+    pub(crate) fn bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>() + self.leaves.len() * 4 + self.items.len() * 4
     }
 
     /// The index of the point nearest to `q` (`dim` coordinates): brute force's answer, the
     /// least squared distance summed coordinate by coordinate, ties to the lower index; 0 when
     /// no distance compares (a query with a NaN), as brute force gives.
-    pub fn nearest(&self, q: &[f32]) -> usize {
+    pub(crate) fn nearest(&self, q: &[f32]) -> usize {
         self.nearest_with_distance(q).0
     }
 
     /// [`KdTree::nearest`] with its squared distance (infinite when no distance compares).
-    pub fn nearest_with_distance(&self, q: &[f32]) -> (usize, f32) {
+    pub(crate) fn nearest_with_distance(&self, q: &[f32]) -> (usize, f32) {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         let mut best = (f32::INFINITY, u32::MAX);
         let mut off = [0f32; MAX_DIM];
@@ -149,7 +149,7 @@ impl KdTree {
     /// the dependent adds of [`KdTree::nearest`]'s sums), so the point is brute force's under
     /// them, ties to the lower index, and may differ from [`KdTree::nearest`]'s where two
     /// points' distances agree to the last bits.
-    pub fn nearest_and_near(&self, q: &[f32], reach: f32, near: &mut Vec<(f32, u32)>) -> (usize, f32) {
+    pub(crate) fn nearest_and_near(&self, q: &[f32], reach: f32, near: &mut Vec<(f32, u32)>) -> (usize, f32) {
         assert_eq!(q.len(), self.dim, "a query of the tree's dimension");
         assert!(reach >= 1.0, "a reach of at least 1");
         near.clear();

@@ -10,7 +10,7 @@
 pub(crate) mod folds;
 pub(crate) mod grid;
 pub(crate) mod kdtree;
-pub mod pca;
+pub(crate) mod pca;
 pub(crate) mod projector;
 pub(crate) mod spline;
 pub(crate) mod surface;

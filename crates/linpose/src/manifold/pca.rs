@@ -26,7 +26,7 @@ pub enum Dimension {
 
 /// A fitted eigenspace.
 #[derive(Debug, Clone)]
-pub struct Pca {
+pub(crate) struct Pca {
     /// The mean unit-energy training image (M).
     pub mean: Vec<f64>,
     /// The eigenimages, one row of M values each (L x M, row-major).
@@ -40,12 +40,12 @@ pub struct Pca {
 
 impl Pca {
     /// Number of eigenimages L.
-    pub fn dim(&self) -> usize {
+    pub(crate) fn dim(&self) -> usize {
         self.basis.len() / self.mean.len()
     }
 
     /// Keeps only the first `l` eigenimages (and coordinates); no-op when `l >= dim()`.
-    pub fn truncate(&mut self, l: usize) {
+    pub(crate) fn truncate(&mut self, l: usize) {
         let (dim, m) = (self.dim(), self.mean.len());
         if l >= dim {
             return;
@@ -55,7 +55,7 @@ impl Pca {
     }
 
     /// The fraction of the training set's energy (about its mean) the kept eigenimages hold.
-    pub fn energy_kept(&self) -> f64 {
+    pub(crate) fn energy_kept(&self) -> f64 {
         let total: f64 = self.eigenvalues.iter().map(|&l| l.max(0.0)).sum();
         let kept: f64 = self.eigenvalues[..self.dim()].iter().map(|&l| l.max(0.0)).sum();
         if total > 0.0 {
@@ -75,7 +75,7 @@ impl Pca {
 /// amplified by 1 / lambda_l in u_l . u_k). A component with lambda_l < lambda_1 * eps / eps_f32
 /// (about 2e-9 lambda_1) would leak more than the f32 rounding it is served in, so it is dropped;
 /// 8-bit images never come near this (their quantisation alone is far above it).
-pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
+pub(crate) fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
     fit_from(train, dim, None)
 }
 
@@ -84,7 +84,7 @@ pub fn fit(train: &Dataset, dim: Dimension) -> Result<Pca> {
 /// centred unit-energy images follows from it (G~_ij = G_ij / (s_i s_j) with s_i = sqrt(G_ii),
 /// then centred: G~_ij - (r_i + r_j) + t, r the row means of G~, t their mean), so only the
 /// eigenimages read the pixels again.
-pub fn fit_with_gram(train: &Dataset, dim: Dimension, gram: Mat<f64>) -> Result<Pca> {
+pub(crate) fn fit_with_gram(train: &Dataset, dim: Dimension, gram: Mat<f64>) -> Result<Pca> {
     assert!(gram.nrows() == train.len() && gram.ncols() == train.len(), "a Gram matrix of the training set's size");
     fit_from(train, dim, Some(gram))
 }

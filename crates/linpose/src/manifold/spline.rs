@@ -19,7 +19,7 @@ use faer::{Accum, Mat, MatRef};
 
 /// The end conditions of a spline.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Boundary {
+pub(crate) enum Boundary {
     /// Not-a-knot at both ends (the third derivative is continuous at the second and the
     /// second-to-last knots): SciPy's default. Two knots give a line, three a parabola.
     NotAKnot,
@@ -30,7 +30,7 @@ pub enum Boundary {
 
 /// A cubic spline's knots and its slope operator, reusable for any number of curves.
 #[derive(Debug, Clone)]
-pub struct Spline {
+pub(crate) struct Spline {
     /// Knots, strictly increasing; for a periodic spline the closing knot x_0 + period is last.
     x: Vec<f64>,
     /// Number of distinct values a curve has (the knots, less the closing one when periodic).
@@ -42,7 +42,7 @@ pub struct Spline {
 impl Spline {
     /// A spline through `knots` (strictly increasing, finite) with `boundary`. For a periodic
     /// spline give only the distinct knots, all within one period: the closing knot is added.
-    pub fn new(knots: &[f64], boundary: Boundary) -> Result<Self> {
+    pub(crate) fn new(knots: &[f64], boundary: Boundary) -> Result<Self> {
         Self::build(knots, boundary, false)
     }
 
@@ -51,7 +51,7 @@ impl Spline {
     /// Catmull-Rom's), the ends of a linear axis the derivative of the parabola through the first
     /// or last three knots. The curve is C1, reproduces quadratics, and a value moves it only on
     /// the four pieces around its knot, where the C2 spline of [`Spline::new`] couples every knot.
-    pub fn local(knots: &[f64], boundary: Boundary) -> Result<Self> {
+    pub(crate) fn local(knots: &[f64], boundary: Boundary) -> Result<Self> {
         Self::build(knots, boundary, true)
     }
 
@@ -92,7 +92,7 @@ impl Spline {
 
     /// The slopes s = S y of every curve at the distinct knots; `values` holds n rows of `width`
     /// values (one curve per column), row-major, and so does the result.
-    pub fn slopes(&self, values: &[f64], width: usize) -> Vec<f64> {
+    pub(crate) fn slopes(&self, values: &[f64], width: usize) -> Vec<f64> {
         assert_eq!(values.len(), self.n * width, "spline values: n rows of `width`");
         let mut s = vec![0.0; values.len()];
         let y = MatRef::from_row_major_slice(values, self.n, width);
@@ -104,7 +104,7 @@ impl Spline {
     /// The Hermite weights (w_y0, w_s0, w_y1, w_s1) of point `t` and the indices of the two
     /// values they apply to: value = w_y0 y_i + w_s0 s_i + w_y1 y_j + w_s1 s_j. Outside the knots
     /// the first or last piece is extended, as SciPy's `extrapolate=True` does.
-    pub fn weights(&self, t: f64) -> ([f64; 4], usize, usize) {
+    pub(crate) fn weights(&self, t: f64) -> ([f64; 4], usize, usize) {
         let nx = self.x.len();
         if nx == 1 {
             return ([1.0, 0.0, 0.0, 0.0], 0, 0);
@@ -122,7 +122,7 @@ impl Spline {
     /// [`Spline::weights`] with their derivatives in `t`: (weights, d weights / dt, i, j), so
     /// that value' = dw_y0 y_i + dw_s0 s_i + dw_y1 y_j + dw_s1 s_j.
     #[inline]
-    pub fn weights_d(&self, t: f64) -> ([f64; 4], [f64; 4], usize, usize) {
+    pub(crate) fn weights_d(&self, t: f64) -> ([f64; 4], [f64; 4], usize, usize) {
         let nx = self.x.len();
         if nx == 1 {
             return ([1.0, 0.0, 0.0, 0.0], [0.0; 4], 0, 0);
@@ -137,25 +137,25 @@ impl Spline {
     }
 
     /// The knots, strictly increasing; for a periodic spline the closing knot x_0 + period is last.
-    pub fn knots(&self) -> &[f64] {
+    pub(crate) fn knots(&self) -> &[f64] {
         &self.x
     }
 
     /// The knots' span: the first knot and the last (for a periodic spline, the closing knot).
-    pub fn span(&self) -> (f64, f64) {
+    pub(crate) fn span(&self) -> (f64, f64) {
         (self.x[0], self.x[self.x.len() - 1])
     }
 
     /// Evaluates one curve (its n values and n slopes) at `t`.
     #[cfg(test)]
-    pub fn eval(&self, y: &[f64], s: &[f64], t: f64) -> f64 {
+    pub(crate) fn eval(&self, y: &[f64], s: &[f64], t: f64) -> f64 {
         let (w, i, j) = self.weights(t);
         w[0] * y[i] + w[1] * s[i] + w[2] * y[j] + w[3] * s[j]
     }
 
     /// Resamples every curve of `values` (n rows of `width`, row-major) at the points `at`:
     /// `at.len()` rows of `width`.
-    pub fn resample(&self, values: &[f64], width: usize, at: &[f64]) -> Vec<f64> {
+    pub(crate) fn resample(&self, values: &[f64], width: usize, at: &[f64]) -> Vec<f64> {
         let s = self.slopes(values, width);
         let mut out = vec![0.0; at.len() * width];
         for (row, &t) in out.chunks_exact_mut(width).zip(at) {

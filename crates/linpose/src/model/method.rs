@@ -145,27 +145,27 @@ pub(crate) struct SettingsReader<'a> {
 
 impl SettingsReader<'_> {
     /// The raw value of `name`, if given.
-    pub fn text(&self, name: &str) -> Option<&str> {
+    pub(crate) fn text(&self, name: &str) -> Option<&str> {
         self.settings.iter().find(|(n, _)| *n == name).map(|(_, v)| v)
     }
 
     /// An error about the value of `name`.
-    pub fn error(&self, name: &str, value: &str, reason: impl Into<String>) -> Error {
+    pub(crate) fn error(&self, name: &str, value: &str, reason: impl Into<String>) -> Error {
         Error::Setting { method: self.method.name, name: name.to_string(), value: value.to_string(), reason: reason.into() }
     }
 
     /// `name` parsed as a `T` (a number), if given; `what` says what was expected.
-    pub fn parse<T: std::str::FromStr>(&self, name: &str, what: &str) -> Result<Option<T>> {
+    pub(crate) fn parse<T: std::str::FromStr>(&self, name: &str, what: &str) -> Result<Option<T>> {
         self.text(name).map(|v| v.parse().map_err(|_| self.error(name, v, format!("expected {what}")))).transpose()
     }
 
     /// An on/off switch: absent or `true`/`false`.
-    pub fn switch(&self, name: &str) -> Result<bool> {
+    pub(crate) fn switch(&self, name: &str) -> Result<bool> {
         Ok(self.parse::<bool>(name, "true or false")?.unwrap_or(false))
     }
 
     /// Refuses `a` and `b` given together.
-    pub fn exclusive(&self, a: &str, b: &str) -> Result<()> {
+    pub(crate) fn exclusive(&self, a: &str, b: &str) -> Result<()> {
         match (self.text(a), self.text(b)) {
             (Some(v), Some(_)) => Err(self.error(a, v, format!("cannot be given with {b}"))),
             _ => Ok(()),

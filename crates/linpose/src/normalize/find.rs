@@ -41,7 +41,7 @@ pub(crate) struct Placement {
 
 impl Placement {
     /// The object's brightness independent of its size: weight per squared radius.
-    pub fn brightness(&self) -> f64 {
+    pub(super) fn brightness(&self) -> f64 {
         self.weight / (self.radius * self.radius)
     }
 }

@@ -47,7 +47,7 @@ impl LinearRecognizer {
     /// 0's first). Returns the model and, per object, its views' held-out distances.
     /// With `views_only` the poses are not read: each view is held out with its nearest other
     /// view of its object.
-    pub fn fit(objects: &ObjectSet, all: &Dataset, views_only: bool) -> Result<(Self, Vec<Vec<f64>>)> {
+    pub(super) fn fit(objects: &ObjectSet, all: &Dataset, views_only: bool) -> Result<(Self, Vec<Vec<f64>>)> {
         let (n, m, k) = (all.len(), all.n_features(), objects.len());
         let mut y = vec![0.0; n * k];
         let mut offsets = Vec::with_capacity(k);
@@ -123,7 +123,7 @@ impl LinearRecognizer {
     }
 
     /// Each query's distance to each object's one-hot outputs into `out` (rows of K).
-    pub fn distances(&self, queries: &[f32], out: &mut [f64]) {
+    pub(super) fn distances(&self, queries: &[f32], out: &mut [f64]) {
         let (k, m) = (self.k, self.proj.rows().len() / self.k);
         let rows = chunk_rows(queries.len() / m);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * k)).for_each(|(q, o)| {
@@ -139,17 +139,17 @@ impl LinearRecognizer {
     }
 
     /// Numbers stored: M K.
-    pub fn numbers(&self) -> usize {
+    pub(super) fn numbers(&self) -> usize {
         self.proj.rows().len()
     }
 
-    pub fn tensors(&self) -> Vec<Tensor> {
+    pub(super) fn tensors(&self) -> Vec<Tensor> {
         let m = self.proj.rows().len() / self.k;
         vec![Tensor::f32("recognizer.weights", vec![self.k, m], self.proj.rows().to_vec())]
     }
 
     /// Reads back [`LinearRecognizer::tensors`] for `k` objects of `m` features.
-    pub fn from_parts(t: &TensorSet, k: usize, m: usize) -> Result<Self> {
+    pub(super) fn from_parts(t: &TensorSet, k: usize, m: usize) -> Result<Self> {
         let w = t.f32("recognizer.weights", &[k, m])?;
         if w.iter().any(|v| !v.is_finite()) {
             return Err(t.error("the linear recogniser holds non-finite weights"));

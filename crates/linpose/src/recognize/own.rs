@@ -88,7 +88,7 @@ impl OwnSpaces {
     /// object's eigenspace ([`super::universal::nearest_other`]; the eigenspace fitted with
     /// every view: refitting without each pair would cost one eigenspace per view); the poses are
     /// not read.
-    pub fn fit(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<OwnFit> {
+    pub(super) fn fit(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<OwnFit> {
         let space = objects.space();
         let most = objects.objects().iter().map(Dataset::len).max().unwrap_or(0);
         let binning = Binning::coarsest(objects.spec(), SECOND_LOOK_BIN, most);
@@ -131,13 +131,13 @@ impl OwnSpaces {
     }
 
     /// Whether object `k` has an eigenspace of its own.
-    pub fn has(&self, k: usize) -> bool {
+    pub(super) fn has(&self, k: usize) -> bool {
         self.spaces.get(k).is_some_and(Option::is_some)
     }
 
     /// The queries binned as the own eigenspaces' images are (the queries themselves when they
     /// are not binned).
-    pub fn binned<'a>(&self, queries: &'a [f32]) -> Cow<'a, [f32]> {
+    pub(super) fn binned<'a>(&self, queries: &'a [f32]) -> Cow<'a, [f32]> {
         if self.binning.bins() {
             Cow::Owned(self.binning.apply_all(queries))
         } else {
@@ -148,7 +148,7 @@ impl OwnSpaces {
     /// Each query's distance to object `k`'s manifold in its own eigenspace into `out` (one per
     /// query), the queries [`OwnSpaces::binned`]; NaN for a query that cannot be scaled to unit
     /// energy. Object `k` has one ([`OwnSpaces::has`]).
-    pub fn distances(&self, k: usize, binned: &[f32], out: &mut [f64]) {
+    pub(super) fn distances(&self, k: usize, binned: &[f32], out: &mut [f64]) {
         if let Some(s) = &self.spaces[k] {
             s.own_distances(binned, out);
         }
@@ -160,7 +160,7 @@ impl OwnSpaces {
     /// measured, but mostly by bounds ([`Universal::own_distances_under`]); chunks of queries in
     /// parallel, each against every object (one query is answered on the calling thread: its
     /// objects are too little work each to hand to other threads).
-    pub fn nearer(&self, binned: &[f32], named: &[usize], d: &[f64]) -> Vec<Option<(usize, f64)>> {
+    pub(super) fn nearer(&self, binned: &[f32], named: &[usize], d: &[f64]) -> Vec<Option<(usize, f64)>> {
         let n = named.len();
         let mut out = vec![None; n];
         if n == 0 {
@@ -186,33 +186,33 @@ impl OwnSpaces {
     }
 
     /// The binning factor of the images the own eigenspaces are of.
-    pub fn bin(&self) -> usize {
+    pub(super) fn bin(&self) -> usize {
         self.binning.factor()
     }
 
     /// Numbers stored: every object's eigenimages, mean and manifold points.
-    pub fn numbers(&self) -> usize {
+    pub(super) fn numbers(&self) -> usize {
         self.spaces.iter().flatten().map(Universal::numbers).sum()
     }
 
     /// Manifold points over all objects, N_own.
-    pub fn manifold_len(&self) -> usize {
+    pub(super) fn manifold_len(&self) -> usize {
         self.spaces.iter().flatten().map(Universal::manifold_len).sum()
     }
 
     /// The largest own dimension L_k.
-    pub fn max_components(&self) -> usize {
+    pub(super) fn max_components(&self) -> usize {
         self.spaces.iter().flatten().map(Universal::components).max().unwrap_or(0)
     }
 
     /// The arrays, object k's under `recognizer.own.K.` (`basis`, `mean`, `manifold.0`).
-    pub fn tensors(&self) -> Vec<Tensor> {
+    pub(super) fn tensors(&self) -> Vec<Tensor> {
         self.spaces.iter().enumerate().filter_map(|(k, s)| s.as_ref().map(|s| s.tensors(&prefix(k)))).flatten().collect()
     }
 
     /// Reads back [`OwnSpaces::tensors`] for objects of images `spec` binned by `bin`, and own
     /// dimensions `components` (0: none).
-    pub fn from_parts(t: &TensorSet, spec: ImageSpec, bin: usize, components: &[usize]) -> Result<Self> {
+    pub(super) fn from_parts(t: &TensorSet, spec: ImageSpec, bin: usize, components: &[usize]) -> Result<Self> {
         let binning = Binning::new(spec, bin).map_err(|e| t.error(format!("damaged second-stage settings: {e}")))?;
         let m = binning.spec().features();
         let spaces =

@@ -101,7 +101,7 @@ impl Universal {
     /// a view is held out together with its nearest other view: its held-out distance is its
     /// distance to the second nearest other view of its object ([`nearest_other`]); the poses
     /// are not read.
-    pub fn fit(objects: &ObjectSet, all: &Dataset, params: &RecognizerParams, views_only: bool) -> Result<UniversalFit> {
+    pub(super) fn fit(objects: &ObjectSet, all: &Dataset, params: &RecognizerParams, views_only: bool) -> Result<UniversalFit> {
         if views_only {
             let pca = pca::fit(all, Dimension::Fixed(params.components))?;
             let l = pca.dim();
@@ -146,7 +146,7 @@ impl Universal {
 
     /// The model of eigenimages `basis` (L x M), mean image `mean` and each object's manifold
     /// points `points` (rows of L).
-    pub fn new(basis: Vec<f32>, mean: Vec<f32>, points: Vec<Vec<f32>>) -> Result<Self> {
+    pub(super) fn new(basis: Vec<f32>, mean: Vec<f32>, points: Vec<Vec<f32>>) -> Result<Self> {
         let m = mean.len();
         let l = basis.len() / m;
         if let Some(k) = points.iter().position(|p| p.is_empty() || !p.len().is_multiple_of(l)) {
@@ -196,13 +196,13 @@ impl Universal {
     }
 
     /// Dimensions L.
-    pub fn components(&self) -> usize {
+    pub(super) fn components(&self) -> usize {
         self.mean_proj.len()
     }
 
     /// Each query's distance to each object's manifold into `out` (rows of K); a query that
     /// cannot be scaled to unit energy gets NaN.
-    pub fn distances(&self, queries: &[f32], out: &mut [f64]) {
+    pub(super) fn distances(&self, queries: &[f32], out: &mut [f64]) {
         let (l, m, k) = (self.components(), self.mean.len(), self.points.len());
         let n = queries.len() / m;
         let rows = chunk_rows(n);
@@ -227,7 +227,7 @@ impl Universal {
     /// bounds and the search stops at the first bound beyond the second nearest object's distance
     /// found: the same answer as searching every point ([`Universal::distances`]; ties to the
     /// lower object index).
-    pub fn nearest_two(&self, queries: &[f32], out: &mut [(usize, f64, f64)]) {
+    pub(super) fn nearest_two(&self, queries: &[f32], out: &mut [(usize, f64, f64)]) {
         let (l, m) = (self.components(), self.mean.len());
         let n = queries.len() / m;
         let rows = chunk_rows(n);
@@ -250,7 +250,7 @@ impl Universal {
     /// unit-energy query, the eigenimages orthonormal) and d the distance within it to the
     /// nearest manifold point ([`Universal::nearest_two`]'s search); NaN for a query that cannot
     /// be scaled to unit energy.
-    pub fn own_distances(&self, queries: &[f32], out: &mut [f64]) {
+    pub(super) fn own_distances(&self, queries: &[f32], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
         let rows = chunk_rows(queries.len() / m);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows)).for_each(|(q, o)| {
@@ -270,7 +270,7 @@ impl Universal {
     /// lies outside the range of the manifold points' norms (one product with the mean), then the
     /// bound from its first [`PREFIX`] coordinates and each segment's sphere and tail norms, then
     /// its residual off the eigenspace (the whole projection, no search of the manifold).
-    pub fn own_distances_under(&self, queries: &[f32], bounds: &[f64], out: &mut [f64]) {
+    pub(super) fn own_distances_under(&self, queries: &[f32], bounds: &[f64], out: &mut [f64]) {
         let (l, m) = (self.components(), self.mean.len());
         let q = PREFIX.min(l);
         let (lo, hi) = self.norms[0];
@@ -440,17 +440,17 @@ impl Universal {
     }
 
     /// Numbers stored: the eigenimages, the mean, every manifold point.
-    pub fn numbers(&self) -> usize {
+    pub(super) fn numbers(&self) -> usize {
         self.proj.rows().len() + self.mean.len() + self.points.iter().map(Vec::len).sum::<usize>()
     }
 
     /// Manifold points over all objects, N_dense.
-    pub fn manifold_len(&self) -> usize {
+    pub(super) fn manifold_len(&self) -> usize {
         self.points.iter().map(Vec::len).sum::<usize>() / self.components()
     }
 
     /// The arrays, named `{prefix}basis`, `{prefix}mean` and `{prefix}manifold.K`.
-    pub fn tensors(&self, prefix: &str) -> Vec<Tensor> {
+    pub(super) fn tensors(&self, prefix: &str) -> Vec<Tensor> {
         let (l, m) = (self.components(), self.mean.len());
         let mut v = vec![
             Tensor::f32(&format!("{prefix}basis"), vec![l, m], self.proj.rows().to_vec()),
@@ -464,7 +464,7 @@ impl Universal {
 
     /// Reads back [`Universal::tensors`] under `prefix` for `objects` objects of `m` features and
     /// `l` dimensions.
-    pub fn from_parts(t: &TensorSet, prefix: &str, objects: usize, m: usize, l: usize) -> Result<Self> {
+    pub(super) fn from_parts(t: &TensorSet, prefix: &str, objects: usize, m: usize, l: usize) -> Result<Self> {
         let basis = t.f32(&format!("{prefix}basis"), &[l, m])?;
         let mean = t.f32(&format!("{prefix}mean"), &[m])?;
         let mut points = Vec::with_capacity(objects);

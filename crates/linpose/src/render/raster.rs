@@ -48,7 +48,7 @@ pub(crate) struct Samples {
 
 impl Samples {
     /// Clears the buffers for a `width x height` sample grid.
-    pub fn reset(&mut self, width: usize, height: usize) {
+    pub(super) fn reset(&mut self, width: usize, height: usize) {
         let n = width * height;
         self.width = width;
         self.height = height;
@@ -64,7 +64,7 @@ impl Samples {
     /// sample-grid position and depth (larger is nearer). Samples lie at the centres of the
     /// grid's cells, (i + 0.5, j + 0.5); a sample on an edge belongs to the first triangle drawn
     /// there (triangles are drawn in order, so ties are settled the same way every time).
-    pub fn draw(&mut self, xyd: &[[f64; 3]], triangles: &[[u32; 3]]) {
+    pub(super) fn draw(&mut self, xyd: &[[f64; 3]], triangles: &[[u32; 3]]) {
         let (w, h) = (self.width as i64, self.height as i64);
         for (t, tri) in triangles.iter().enumerate() {
             let [p0, p1, p2] = tri.map(|i| xyd[i as usize]);
@@ -116,7 +116,7 @@ impl Samples {
 
     /// Shades the visible samples and averages each `ss x ss` block into one 8-bit pixel of
     /// `out` (row-major, `width / ss` by `height / ss`).
-    pub fn resolve(&self, verts: &[Projected], triangles: &[[u32; 3]], shading: &Shading, ss: usize, out: &mut [u8]) {
+    pub(super) fn resolve(&self, verts: &[Projected], triangles: &[[u32; 3]], shading: &Shading, ss: usize, out: &mut [u8]) {
         let (pw, ph) = (self.width / ss, self.height / ss);
         debug_assert_eq!(out.len(), pw * ph);
         let norm = (ss * ss) as f64;

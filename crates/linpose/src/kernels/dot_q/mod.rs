@@ -26,9 +26,10 @@
 use super::{dispatch, Level};
 
 /// Balanced base-256 digits per stored integer (the module doc says why 2, not 3).
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub const DIGITS: usize = 2;
 /// Largest stored integer: [`DIGITS`] balanced base-256 digits of at most 127.
-pub const VMAX: i32 = 127 * ((1 << (8 * DIGITS)) - 1) / 255;
+pub(crate) const VMAX: i32 = 127 * ((1 << (8 * DIGITS)) - 1) / 255;
 // The integers and their digit sums fit i32 (and VMAX's formula) up to three digits.
 const _: () = assert!(DIGITS >= 1 && DIGITS <= 3);
 
@@ -61,7 +62,7 @@ pub(crate) fn fixed_point(w: &[f32], m: usize, mut put: impl FnMut(usize, usize,
 
 /// Weight rows in fixed point (see the module doc).
 #[derive(Debug, Clone)]
-pub struct QuantRows {
+pub(crate) struct QuantRows {
     rows: usize,
     m: usize,
     /// Per row, the scale of its integers.
@@ -87,7 +88,7 @@ fn at(rows: usize, r: usize, k: usize, p: usize) -> usize {
 impl QuantRows {
     /// The rows of `w` (`rows` x `m`, finite), each scaled to [-VMAX, VMAX] and rounded.
     #[track_caller]
-    pub fn new(w: &[f32], m: usize) -> QuantRows {
+    pub(crate) fn new(w: &[f32], m: usize) -> QuantRows {
         assert!(m > 0 && w.len().is_multiple_of(m), "whole rows of m > 0 weights");
         assert!(w.iter().all(|v| v.is_finite()), "finite weights");
         let rows = w.len() / m;
@@ -119,32 +120,32 @@ impl QuantRows {
 
     /// Rows stored.
     #[cfg(test)]
-    pub fn rows(&self) -> usize {
+    pub(crate) fn rows(&self) -> usize {
         self.rows
     }
 
     /// The stored integer of row r at pixel p.
     #[cfg(test)]
-    pub fn int(&self, r: usize, p: usize) -> i32 {
+    pub(crate) fn int(&self, r: usize, p: usize) -> i32 {
         (0..DIGITS).map(|k| self.digits()[self.at(r, k, p)] as i32 * radix(k) as i32).sum()
     }
 
     /// The weight row r as stored: its integers times its scale.
     #[cfg(test)]
-    pub fn row(&self, r: usize) -> Vec<f64> {
+    pub(crate) fn row(&self, r: usize) -> Vec<f64> {
         (0..self.m).map(|p| self.int(r, p) as f64 * self.scale[r]).collect()
     }
 }
 
 /// Whether the AVX-512 VNNI path runs at `level`: the only one faster than the f32 products of
 /// [`super::dot_u8`] (the portable and AVX2 paths are exact too, but slower than them).
-pub fn fast(level: Level) -> bool {
+pub(crate) fn fast(level: Level) -> bool {
     level.avx512_vnni()
 }
 
 /// `out[r] = sum_p x[p] * row_r[p]` for every stored row, exact then rounded once.
 #[track_caller]
-pub fn dots(level: Level, x: &[u8], q: &QuantRows, out: &mut [f32]) {
+pub(crate) fn dots(level: Level, x: &[u8], q: &QuantRows, out: &mut [f32]) {
     assert!(x.len() == q.m && out.len() == q.rows, "one image of the rows' length, one output per row");
     let mut sums = [0i64; 8];
     for r0 in (0..q.rows).step_by(8) {
@@ -199,11 +200,11 @@ fn sums_portable(x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
 /// [`super::dot_u8`]'s f32 products of the f32 rows the caller passes (the same rows the copy
 /// was made from).
 #[derive(Debug, Clone, Default)]
-pub struct FastRows(Option<QuantRows>);
+pub(crate) struct FastRows(Option<QuantRows>);
 
 /// The buffers of [`FastRows::dots_batch`], one per parallel task.
 #[derive(Debug, Default)]
-pub struct Scratch {
+pub(crate) struct Scratch {
     f32s: Vec<f32>,
     i32s: Vec<i32>,
 }
@@ -211,7 +212,7 @@ pub struct Scratch {
 impl FastRows {
     /// The copy of `w` (rows of `m`), or none where [`fast`] does not hold for
     /// [`Level::detect`].
-    pub fn new(w: &[f32], m: usize) -> FastRows {
+    pub(crate) fn new(w: &[f32], m: usize) -> FastRows {
         FastRows(fast(Level::detect()).then(|| QuantRows::new(w, m)))
     }
 
@@ -221,7 +222,7 @@ impl FastRows {
 
     /// Images per block the batch kernel at `level` wants: a group here, a register block of
     /// [`super::dot_u8::dots_batch`] otherwise.
-    pub fn block(&self, level: Level) -> usize {
+    pub(crate) fn block(&self, level: Level) -> usize {
         if self.at(level).is_some() {
             GROUP * BLOCK
         } else {
@@ -230,7 +231,7 @@ impl FastRows {
     }
 
     /// The products of `x` with every row of `w` (rows of `x.len()`) into `out`.
-    pub fn dots(&self, level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
+    pub(crate) fn dots(&self, level: Level, x: &[u8], w: &[f32], out: &mut [f32]) {
         match self.at(level) {
             Some(q) => dots(level, x, q, out),
             None => super::dot_u8::dots(level, x, w, out),
@@ -239,7 +240,7 @@ impl FastRows {
 
     /// [`FastRows::dots`] for the `xs.len() / m` images of `xs` into `into.out`, with each
     /// image's exact sum of squares into `into.energy`.
-    pub fn dots_batch(&self, level: Level, xs: &[u8], m: usize, w: &[f32], into: Batch<'_>, scratch: &mut Scratch) {
+    pub(crate) fn dots_batch(&self, level: Level, xs: &[u8], m: usize, w: &[f32], into: Batch<'_>, scratch: &mut Scratch) {
         let Batch { out, energy } = into;
         match self.at(level) {
             Some(q) => dots_batch(level, xs, q, out, energy, &mut scratch.i32s),
@@ -250,18 +251,18 @@ impl FastRows {
 
 /// Where a batch's results go: each image's products (a row of them per image) and its exact
 /// sum of squares.
-pub struct Batch<'a> {
+pub(crate) struct Batch<'a> {
     pub out: &'a mut [f32],
     pub energy: &'a mut [u64],
 }
 
 /// Images per register block of [`dots_batch`]: a digit vector loaded serves this many images.
-pub const BLOCK: usize = 8;
+pub(crate) const BLOCK: usize = 8;
 /// Steps (of 64 pixels) per cache block of [`dots_batch`]: the group's images' copies (16 KiB)
 /// stay in L1 while every row passes over them.
-pub const CHUNK: usize = 16;
+pub(crate) const CHUNK: usize = 16;
 /// Register blocks per group of [`dots_batch`]: a row's digits, once in L1, serve this many.
-pub const GROUP: usize = 2;
+pub(crate) const GROUP: usize = 2;
 // A cache block's steps fit the u32 masks of nonzero steps.
 const _: () = assert!(CHUNK <= 32);
 
@@ -275,7 +276,7 @@ const _: () = assert!(CHUNK <= 32);
 /// images by [`DIGITS`] digits. `scratch` holds the lane sums between chunks. Images past the
 /// last whole block go one at a time.
 #[track_caller]
-pub fn dots_batch(level: Level, xs: &[u8], q: &QuantRows, out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<i32>) {
+pub(crate) fn dots_batch(level: Level, xs: &[u8], q: &QuantRows, out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<i32>) {
     let m = q.m;
     assert!(xs.len().is_multiple_of(m) && out.len() == xs.len() / m * q.rows && energy.len() == xs.len() / m);
     let n = xs.len() / m;

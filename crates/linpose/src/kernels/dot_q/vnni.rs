@@ -28,7 +28,7 @@ unsafe fn load_step(x: *const u8, p: usize, m: usize) -> __m512i {
 /// # Safety
 /// The CPU must support AVX-512 F, BW and VNNI.
 #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
-pub unsafe fn group_vnni(xs: &[u8], q: &QuantRows, out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<i32>) {
+pub(super) unsafe fn group_vnni(xs: &[u8], q: &QuantRows, out: &mut [f32], energy: &mut [u64], scratch: &mut Vec<i32>) {
     let (m, rows) = (q.m, q.rows);
     let nb = xs.len() / (BLOCK * m);
     assert!(nb <= GROUP && xs.len() == nb * BLOCK * m && out.len() == nb * BLOCK * rows && energy.len() == nb * BLOCK && m.div_ceil(STEP) <= SPAN);
@@ -130,7 +130,7 @@ unsafe fn row_block(sp: *const u8, q: &QuantRows, r: usize, c0: usize, mask: u32
 /// # Safety
 /// The CPU must support AVX-512 F, BW and VNNI.
 #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
-pub unsafe fn sums_vnni(x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
+pub(super) unsafe fn sums_vnni(x: &[u8], q: &QuantRows, r0: usize, s: &mut [i64]) {
     match s.len() {
         1 => rows_vnni::<1>(x, q, r0, s),
         2 => rows_vnni::<2>(x, q, r0, s),

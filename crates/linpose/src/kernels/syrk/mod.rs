@@ -36,7 +36,9 @@ mod tile;
 #[cfg(target_arch = "x86_64")]
 mod vnni;
 
-pub use pack::{pack_columns, pack_pairs_u8, pack_quads_u8, pack_rows};
+pub(crate) use pack::pack_rows;
+#[cfg_attr(not(feature = "bench"), allow(unused_imports, unreachable_pub))] // public through crate::bench
+pub use pack::{pack_columns, pack_pairs_u8, pack_quads_u8};
 pub(super) use tile::tile;
 
 use super::Level;
@@ -45,7 +47,7 @@ use int8::{band_update_u8, band_update_u8_cross, Panel};
 use rayon::prelude::*;
 
 /// Rows of P per packed group (one AVX-512 register of f64).
-pub const GROUP: usize = 8;
+pub(crate) const GROUP: usize = 8;
 /// Rows of a micro-tile (three groups).
 const MR: usize = 24;
 /// Rows of an 8-bit micro-tile (three groups of 16 i32 lanes); bands and padding are multiples
@@ -61,21 +63,24 @@ fn band_rows(np: usize) -> usize {
 }
 
 /// Number of rows a packed panel has for `n` rows of P: padded with zero rows to a multiple of 48.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn padded(n: usize) -> usize {
     n.div_ceil(MR16) * MR16
 }
 
 /// Rows of P per packed group of an 8-bit panel (16 i32 lanes of one AVX-512 register).
-pub const GROUP16: usize = 16;
+pub(crate) const GROUP16: usize = 16;
 /// Most step pairs an 8-bit panel may hold: an i32 lane sums 2 * 255^2 per pair and must stay
 /// below 2^31.
-pub const KCP_MAX: usize = (i32::MAX as usize) / (2 * 255 * 255);
+pub(crate) const KCP_MAX: usize = (i32::MAX as usize) / (2 * 255 * 255);
 /// Most step quads a cross panel may hold: an i32 lane sums 2 * 4 * 255 * 128 per quad.
-pub const KCQ_MAX: usize = (i32::MAX as usize) / (2 * 4 * 255 * 128);
+pub(crate) const KCQ_MAX: usize = (i32::MAX as usize) / (2 * 4 * 255 * 128);
 /// Step quads per cross panel used by streaming (1024 images).
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub const KCQ: usize = 256;
 /// Step pairs per 8-bit panel used by streaming (1024 images): a band's micro-panels (384 KiB)
 /// stay in L2, a column group's (16 KiB) in L1.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub const KCP: usize = 512;
 
 /// One band of C's rows: `rows` rows from `r0`, columns `0..r0 + rows`, stored column by
@@ -119,6 +124,7 @@ pub(super) fn bands_into_matrix(n: usize, bands: Vec<Band>) -> Mat<f64> {
 }
 
 /// The lower triangle of C = sum of P P^T over the panels given to [`SyrkAcc::update`].
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub struct SyrkAcc {
     n: usize,
     bands: Vec<Band>,
@@ -126,6 +132,7 @@ pub struct SyrkAcc {
     level: Level,
 }
 
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 impl SyrkAcc {
     /// A zero n x n accumulator using the detected SIMD level.
     pub fn new(n: usize) -> Self {
@@ -345,6 +352,7 @@ fn band_update(band: &mut Band, panel: &[f64], kc: usize, level: Level) {
 }
 
 /// Reduction steps per packed f64 panel of the streaming X^T X (256 ran faster than 128).
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub const KC: usize = 256;
 
 #[cfg(test)]

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 /// 16 rows of P, each step pair as 16 lanes of two i16 (steps 2j and 2j + 1, the second zero
 /// past `kc`); `b` (as many lanes) the same values in groups of 8 rows, the micro-kernel's
 /// broadcast side. Rows past m are zero.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn pack_pairs_u8(a: &mut [i32], b: &mut [i32], block: &[u8], kc: usize, m: usize) {
     let kcp = kc.div_ceil(2);
     assert!(kcp <= KCP_MAX, "8-bit panel of {kcp} step pairs exceeds {KCP_MAX}");
@@ -46,6 +47,7 @@ pub fn pack_pairs_u8(a: &mut [i32], b: &mut [i32], block: &[u8], kc: usize, m: u
 /// [`super::SyrkAcc::update_u8_cross`]: `ak` / `bk` hold the levels k, `ar` / `br` the signed values
 /// `r[k]`, each 32-bit lane four consecutive steps (bytes, zero past `kc`); `ak` / `ar` in groups
 /// of 16 rows of P, `bk` / `br` in groups of 8 (`padded(m) * kc.div_ceil(4)` lanes each).
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn pack_quads_u8([ak, ar, bk, br]: [&mut [i32]; 4], block: &[u8], kc: usize, m: usize, r: &[i8; 256]) {
     let kcq = kc.div_ceil(4);
     assert!(kcq <= KCQ_MAX, "8-bit panel of {kcq} step quads exceeds {KCQ_MAX}");
@@ -84,7 +86,7 @@ pub fn pack_quads_u8([ak, ar, bk, br]: [&mut [i32]; 4], block: &[u8], kc: usize,
 
 /// Packs rows `0..n` of P, steps `k0..k0 + kc`, into `dst` (whole groups of 8 rows, at least
 /// n rows; rows past n are zero), on the calling thread. `read(i, k0, out)` writes row i's `out.len()` values from step k0.
-pub fn pack_rows(dst: &mut [f64], n: usize, kc: usize, k0: usize, read: impl Fn(usize, usize, &mut [f64])) {
+pub(crate) fn pack_rows(dst: &mut [f64], n: usize, kc: usize, k0: usize, read: impl Fn(usize, usize, &mut [f64])) {
     assert!(dst.len().is_multiple_of(GROUP * kc) && dst.len() >= n * kc, "packed panel size");
     let mut row = vec![0f64; kc];
     for (g, out) in dst.chunks_exact_mut(GROUP * kc).enumerate() {
@@ -105,6 +107,7 @@ pub fn pack_rows(dst: &mut [f64], n: usize, kc: usize, k0: usize, read: impl Fn(
 /// Packs the columns of a row-major `kc x m` block of f32 values (P = block^T: row p of P is
 /// column p of the block, over the block's `kc` rows) into `dst` (`padded(m) * kc` values),
 /// each value minus `mean[p]` when given.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn pack_columns(dst: &mut [f64], block: &[f32], kc: usize, m: usize, mean: Option<&[f64]>) {
     assert_eq!(dst.len(), padded(m) * kc, "packed panel size");
     assert_eq!(block.len(), kc * m, "block size");

@@ -71,7 +71,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F; `a` holds Q * 8 * kc values, `b` 8 * kc, `out` 7 * ld + 8 Q.
     #[target_feature(enable = "avx512f")]
-    pub unsafe fn tile_avx512<const Q: usize>(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
+    pub(super) unsafe fn tile_avx512<const Q: usize>(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
         assert!(a.len() >= Q * GROUP * kc && b.len() >= GROUP * kc && out.len() >= 7 * ld + Q * GROUP);
         let (a0, b0, o) = (a.as_ptr(), b.as_ptr(), out.as_mut_ptr());
         for c in 0..8 {
@@ -112,7 +112,7 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2 and FMA; `a` holds 24 * kc values, `b` 8 * kc, `out` 7 * ld + 24.
     #[target_feature(enable = "avx2,fma")]
-    pub unsafe fn tile24_avx2(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
+    pub(super) unsafe fn tile24_avx2(a: &[f64], b: &[f64], kc: usize, out: &mut [f64], ld: usize) {
         assert!(a.len() >= 3 * GROUP * kc && b.len() >= GROUP * kc && out.len() >= 7 * ld + 3 * GROUP);
         let (a0, b0, o) = (a.as_ptr(), b.as_ptr(), out.as_mut_ptr());
         for s in 0..4 {

@@ -17,7 +17,7 @@ use std::arch::x86_64::*;
 /// # Safety
 /// The CPU must support AVX-512F and AVX-512 VNNI.
 #[target_feature(enable = "avx512f,avx512vnni")]
-pub unsafe fn tile_u8_vnni(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
+pub(super) unsafe fn tile_u8_vnni(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
     assert!(a.len() >= 3 * GROUP16 * kcp && b.len() >= (kcp.max(1) - 1) * bs + GROUP && out.len() >= 7 * ld + MR16);
     let mut acc = [_mm512_setzero_si512(); 24];
     if kcp > 0 {
@@ -88,7 +88,7 @@ pub unsafe fn tile_u8_vnni(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mu
 /// # Safety
 /// The CPU must support AVX-512F and AVX-512 VNNI.
 #[target_feature(enable = "avx512f,avx512vnni")]
-pub unsafe fn tile_u8_vnni_q<const Q: usize>(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
+pub(super) unsafe fn tile_u8_vnni_q<const Q: usize>(a: &[i32], b: &[i32], bs: usize, kcp: usize, out: &mut [f64], ld: usize, s: f64) {
     assert!(Q <= 2 && a.len() >= Q * GROUP16 * kcp && b.len() >= (kcp.max(1) - 1) * bs + GROUP && out.len() >= 7 * ld + Q * GROUP16);
     let (ap, bp, ga) = (a.as_ptr(), b.as_ptr(), GROUP16 * kcp);
     let mut acc = [[_mm512_setzero_si512(); Q]; GROUP];
@@ -109,7 +109,7 @@ pub unsafe fn tile_u8_vnni_q<const Q: usize>(a: &[i32], b: &[i32], bs: usize, kc
 /// # Safety
 /// The CPU must support AVX-512F and AVX-512 VNNI.
 #[target_feature(enable = "avx512f,avx512vnni")]
-pub unsafe fn tile_u8_cross_vnni_q<const Q: usize>([ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
+pub(super) unsafe fn tile_u8_cross_vnni_q<const Q: usize>([ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
     let bl = (kcq.max(1) - 1) * bs + GROUP;
     assert!(Q <= 2 && ak.len() >= Q * GROUP16 * kcq && ar.len() >= Q * GROUP16 * kcq && bk.len() >= bl && br.len() >= bl);
     assert!(out.len() >= 7 * ld + Q * GROUP16);
@@ -176,7 +176,7 @@ unsafe fn flush(acc: &[__m512i; 24], out: &mut [f64], ld: usize, s: f64) {
 /// # Safety
 /// The CPU must support AVX-512F and AVX-512 VNNI.
 #[target_feature(enable = "avx512f,avx512vnni")]
-pub unsafe fn tile_u8_cross_vnni([ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
+pub(super) unsafe fn tile_u8_cross_vnni([ak, ar, bk, br]: [&[i32]; 4], bs: usize, kcq: usize, out: &mut [f64], ld: usize, s: f64) {
     let bl = (kcq.max(1) - 1) * bs + GROUP;
     assert!(ak.len() >= 3 * GROUP16 * kcq && ar.len() >= 3 * GROUP16 * kcq && bk.len() >= bl && br.len() >= bl);
     assert!(out.len() >= 7 * ld + MR16);

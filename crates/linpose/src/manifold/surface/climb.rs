@@ -11,7 +11,7 @@ impl Surface {
     /// point) as long as one is closer; returns its squared distance. Every move lowers the
     /// distance, so no pose is visited twice and the walk ends (from the coarse tree's point it
     /// takes a step or two).
-    pub fn climb(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64) -> f64 {
+    pub(crate) fn climb(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64) -> f64 {
         // Coordinates of zero weight add nothing.
         let lo = wt.iter().rposition(|&w| w != 0.0).map_or(0, |i| i + 1).min(y.len());
         let lanes = lo.div_ceil(8) * 8;
@@ -52,7 +52,7 @@ impl Surface {
     /// [`Surface::climb`] on any `cost` of the pose (which evaluates what it needs at the pose
     /// it is given): `t` moves to a local least of it over the lattice of `step` degrees, which
     /// is returned.
-    pub fn climb_by(&self, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64]) -> f64) -> f64 {
+    pub(crate) fn climb_by(&self, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64]) -> f64) -> f64 {
         let d = self.params();
         let mut at = |idx: &[i64; 8], pose: &mut [f64; 8]| {
             for j in 0..d {
@@ -121,7 +121,7 @@ impl Surface {
     /// neighbours in the same order, to the best one while it is closer. After a move the
     /// points the new block shares with the last keep their costs: 3 new points after a move
     /// along one axis, 5 after a diagonal one, instead of 9.
-    pub fn climb_pair(&self, other: Option<&Surface>, lo: usize, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
+    pub(crate) fn climb_pair(&self, other: Option<&Surface>, lo: usize, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64], &[f64]) -> f64) -> f64 {
         let d = self.params();
         let lanes = lo.div_ceil(8) * 8;
         if d != 2 || lo > BLOCK_DIM {

@@ -22,7 +22,7 @@ impl Surface {
     /// The surface point at `t` into `f` (L values), and when `jac` is given its derivatives
     /// (D rows of L, row-major) too. `t` must lie in the domain ([`Surface::clamp`]).
     /// With `f` shorter than L, only its first coordinates (and Jacobian rows of that length).
-    pub fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
+    pub(crate) fn eval(&self, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>) {
         eval_built(Level::detect(), self, t, f, jac, None)
     }
 
@@ -30,7 +30,7 @@ impl Surface {
     /// the same `t`: two surfaces on the same knots (the noisy match's f and offset g), the
     /// spline weights and knot indices found once. Each surface's values have the bits of its
     /// own [`Surface::eval`].
-    pub fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
+    pub(crate) fn eval_pair(&self, other: &Surface, t: &[f64], f: &mut [f64], jac: Option<&mut [f64]>, g: &mut [f64], jac_g: Option<&mut [f64]>) {
         assert!(self.shape == other.shape && self.stride == other.stride, "surfaces on different knots");
         eval_built(Level::detect(), self, t, f, jac, Some((other, g, jac_g)))
     }

@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 
 /// One pose parameter's curve ([`Surface::line_parts`]): knots (with the closing knot of a
 /// circular axis), period, knot values and slopes (knot-major, L each), and L.
-pub type LineParts<'a> = (&'a [f64], Option<f64>, &'a [f32], &'a [f32], usize);
+pub(crate) type LineParts<'a> = (&'a [f64], Option<f64>, &'a [f32], &'a [f32], usize);
 
 /// How the surface passes between its knots: both are cubic on each knot interval, in Hermite
 /// form, and differ only in the slopes at the knots.
@@ -88,7 +88,7 @@ impl std::str::FromStr for Interpolant {
 
 /// The continuous manifold of one fitted model.
 #[derive(Debug, Clone)]
-pub struct Surface {
+pub(crate) struct Surface {
     pub(crate) splines: Vec<Spline>,
     pub(crate) periods: Vec<Option<f64>>,
     /// Knots per axis.
@@ -114,7 +114,7 @@ impl Surface {
 
     /// The surface through `knots` (the training views' coordinates, `dim` each, row-major over
     /// the grid `axes`, last parameter fastest), by `interpolant` along each axis.
-    pub fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f64], dim: usize, interpolant: Interpolant) -> Result<Self> {
+    pub(crate) fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f64], dim: usize, interpolant: Interpolant) -> Result<Self> {
         let d = axes.len();
         let shape: Vec<usize> = axes.iter().map(Vec::len).collect();
         let n: usize = shape.iter().product();
@@ -150,13 +150,13 @@ impl Surface {
     }
 
     /// Number of pose parameters D.
-    pub fn params(&self) -> usize {
+    pub(crate) fn params(&self) -> usize {
         self.shape.len()
     }
 
     /// For one pose parameter: its knots (with the closing knot of a circular axis), its
     /// period, and the knot values and slopes (knot-major, L each) with L; None for D > 1.
-    pub fn line_parts(&self) -> Option<LineParts<'_>> {
+    pub(crate) fn line_parts(&self) -> Option<LineParts<'_>> {
         if self.params() != 1 {
             return None;
         }
@@ -165,13 +165,13 @@ impl Surface {
     }
 
     /// Numbers held: 2^D x N x L.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.coef.len()
     }
 
     /// Brings `t` into the domain: a circular parameter wrapped into [first knot, first knot +
     /// period), a linear one clamped to its knots' range.
-    pub fn clamp(&self, t: &mut [f64]) {
+    pub(crate) fn clamp(&self, t: &mut [f64]) {
         for (j, v) in t.iter_mut().enumerate() {
             let (lo, hi) = self.splines[j].span();
             *v = match self.periods[j] {
@@ -183,14 +183,14 @@ impl Surface {
 
     /// The number of points along each axis of [`Surface::grid_poses`], and whether the axis is
     /// circular.
-    pub fn grid_shape(&self, per_cell: usize) -> Vec<(usize, bool)> {
+    pub(crate) fn grid_shape(&self, per_cell: usize) -> Vec<(usize, bool)> {
         let per_cell = per_cell.max(1);
         self.shape.iter().zip(&self.periods).map(|(&n, p)| if p.is_some() { (n * per_cell, true) } else { ((n - 1) * per_cell + 1, false) }).collect()
     }
 
     /// The poses of a regular grid over the domain with `per_cell` points per knot interval
     /// along each axis (the knots included), row-major.
-    pub fn grid_poses(&self, per_cell: usize) -> Vec<f64> {
+    pub(crate) fn grid_poses(&self, per_cell: usize) -> Vec<f64> {
         let per_cell = per_cell.max(1);
         let axes: Vec<Vec<f64>> = self
             .splines

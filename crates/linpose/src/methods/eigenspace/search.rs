@@ -11,7 +11,7 @@ use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// Largest eigenspace dimension a k-d tree is built for.
-pub const MAX_TREE_DIM: usize = crate::manifold::kdtree::MAX_DIM;
+pub(crate) const MAX_TREE_DIM: usize = crate::manifold::kdtree::MAX_DIM;
 
 /// How the nearest manifold point is found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -44,7 +44,7 @@ impl std::fmt::Display for SearchKind {
 /// against 0.13 us); from 64 points on the tree wins everywhere (0.12-0.18 against 0.18-0.99 us)
 /// and stays within 0.1 to 1.2 us up to 65,536 points (1024 points on a curve at L = 20, about
 /// COIL's 720: 0.20 against 9.3 us; the 65,536-point sheet at L = 20: 1.05 against 621 us).
-pub fn auto_kind(points: usize, dim: usize) -> SearchKind {
+pub(crate) fn auto_kind(points: usize, dim: usize) -> SearchKind {
     if dim <= MAX_TREE_DIM && points >= AUTO_TREE_FROM {
         SearchKind::KdTree
     } else {
@@ -109,12 +109,14 @@ enum Store {
 
 /// A nearest-neighbour index over the manifold's points.
 #[derive(Debug, Clone)]
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub struct NearestIndex {
     dim: usize,
     kind: SearchKind,
     store: Store,
 }
 
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 impl NearestIndex {
     /// Indexes `points` (rows of `dim` coordinates) for `kind` of search; `Auto` is resolved by
     /// [`auto_kind`].

@@ -181,13 +181,13 @@ pub(crate) struct GramSystem<'a> {
 
 impl<'a> GramSystem<'a> {
     /// Builds the system, refusing exact duplicate images ([`check_duplicates`]).
-    pub fn new(train: &'a Dataset, center: bool) -> Result<Self> {
+    pub(crate) fn new(train: &'a Dataset, center: bool) -> Result<Self> {
         Self::with_gram(train, center, None)
     }
 
     /// [`Self::new`] with G given (summed elsewhere, e.g. over shards of pixels: centred about
     /// the mean image when `center`); computed from `train` when None.
-    pub fn with_gram(train: &'a Dataset, center: bool, given: Option<Mat<f64>>) -> Result<Self> {
+    pub(crate) fn with_gram(train: &'a Dataset, center: bool, given: Option<Mat<f64>>) -> Result<Self> {
         let (n, m) = (train.len(), train.n_features());
         let k = train.space().encoded_len();
         let mut p = encoded_poses(train);
@@ -217,7 +217,7 @@ impl<'a> GramSystem<'a> {
 
     /// The Cholesky factor of [`Self::system`] with `lambda`, refusing a numerically singular
     /// system: what the fit solves (D = factor.solve(P)) and the leave-one-out spread reuses.
-    pub fn factor(&self, lambda: f64, train: &Dataset) -> Result<Llt<f64>> {
+    pub(crate) fn factor(&self, lambda: f64, train: &Dataset) -> Result<Llt<f64>> {
         let n = self.g.nrows();
         let a = self.system(lambda);
         let scale = (0..n).map(|i| a[(i, i)]).fold(0.0, f64::max);
@@ -258,7 +258,7 @@ impl<'a> GramSystem<'a> {
     /// most [`LOO_SAMPLE`] evenly spaced training rows: e_i = D_i / [(G + lambda I)^-1]_ii. What
     /// the confidence of a query's pair is measured against ([`crate::confidence`]). For a
     /// centred model the inverse is that of G + c 1 1^T, an approximation.
-    pub fn pair_spread(&self, factor: &Llt<f64>, d: &Mat<f64>, space: &PoseSpace) -> Vec<f64> {
+    pub(crate) fn pair_spread(&self, factor: &Llt<f64>, d: &Mat<f64>, space: &PoseSpace) -> Vec<f64> {
         let n = self.g.nrows();
         let rows: Vec<usize> = (0..n.min(LOO_SAMPLE)).map(|j| j * n / n.min(LOO_SAMPLE)).collect();
         let unit = Mat::from_fn(n, rows.len(), |i, j| if i == rows[j] { 1.0 } else { 0.0 });
@@ -278,7 +278,7 @@ impl<'a> GramSystem<'a> {
     /// Computed from the rows (features or their 8-bit values: the same bits) in pixel chunks
     /// (in parallel), each summed over the images in order, so the result does not depend on
     /// the thread count.
-    pub fn weights(&self, d: &Mat<f64>) -> Vec<f64> {
+    pub(crate) fn weights(&self, d: &Mat<f64>) -> Vec<f64> {
         let (n, m, k) = (self.g.nrows(), self.m, d.ncols());
         // The chunk's K sums and its row within 32 KiB, in the core's L1 cache (this machine's
         // is 48 KiB). At K = 3 (the rendered duck's fit, 222 x 19,200) chunks of 1024 and 512
@@ -310,7 +310,7 @@ impl<'a> GramSystem<'a> {
     /// Exact leave-one-out residuals of the fit with `lambda` (docs/method.md): for sample i,
     /// e_i = [(G + lambda I)^{-1} P]_i / [(G + lambda I)^{-1}]_ii, returned as the left-out
     /// predictions P_i - e_i (N x K, row-major, uncentred).
-    pub fn loo_predictions(&self, lambda: f64, train: &Dataset) -> Result<Vec<f64>> {
+    pub(crate) fn loo_predictions(&self, lambda: f64, train: &Dataset) -> Result<Vec<f64>> {
         let n = self.g.nrows();
         let mut a = self.g.clone();
         for i in 0..n {

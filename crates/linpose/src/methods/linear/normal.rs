@@ -74,30 +74,30 @@ pub(crate) struct Solved {
 
 impl NormalEquations {
     /// Zero sums for images of `m` features and `k` encoded pose values.
-    pub fn new(m: usize, k: usize) -> Self {
+    pub(crate) fn new(m: usize, k: usize) -> Self {
         let acc = SyrkAcc::new(m);
         let exact = acc.uses_vnni();
         NormalEquations { m, k, n: 0, acc, xtp: vec![0.0; m * k], ptp: vec![0.0; k], exact, scratch: Scratch::default() }
     }
 
     /// Features per image.
-    pub fn m(&self) -> usize {
+    pub(crate) fn m(&self) -> usize {
         self.m
     }
 
     /// Images added.
-    pub fn n(&self) -> usize {
+    pub(crate) fn n(&self) -> usize {
         self.n
     }
 
     /// Whether every image so far was summed in integers (8-bit levels, AVX-512 VNNI).
-    pub fn integer_8bit(&self) -> bool {
+    pub(crate) fn integer_8bit(&self) -> bool {
         self.exact
     }
 
     /// Adds `p.len() / K` images: their features `f` (rows of M), the same as 8-bit levels `q`
     /// when every value is one, and their encoded poses `p` (rows of K).
-    pub fn add(&mut self, f: &[f32], q: Option<&[u8]>, p: &[f64]) {
+    pub(crate) fn add(&mut self, f: &[f32], q: Option<&[u8]>, p: &[f64]) {
         let (m, k) = (self.m, self.k);
         let b = p.len() / k;
         assert!(f.len() == b * m && p.len() == b * k, "block sizes");
@@ -151,7 +151,7 @@ impl NormalEquations {
     }
 
     /// Adds another set's sums (images of the same size and pose space).
-    pub fn merge(&mut self, other: &NormalEquations) {
+    pub(crate) fn merge(&mut self, other: &NormalEquations) {
         assert!(self.m == other.m && self.k == other.k, "normal equations of one size");
         self.acc.add(&other.acc);
         self.xtp.iter_mut().zip(&other.xtp).for_each(|(a, &b)| *a += b);
@@ -162,18 +162,18 @@ impl NormalEquations {
 
     /// Writes X^T X's lower triangle packed row by row (M (M + 1) / 2 little-endian f64) to `w`,
     /// without a copy of it.
-    pub fn write_xtx(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    pub(crate) fn write_xtx(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         self.acc.write_packed_lower(w)
     }
 
     /// X^T P (M x K, row-major) and P^T P (K).
-    pub fn xtp_ptp(&self) -> (&[f64], &[f64]) {
+    pub(crate) fn xtp_ptp(&self) -> (&[f64], &[f64]) {
         (&self.xtp, &self.ptp)
     }
 
     /// The sums of `n` images back from [`Self::write_xtx`]'s bytes and [`Self::xtp_ptp`]'s
     /// arrays.
-    pub fn from_parts(m: usize, k: usize, n: usize, xtx_bytes: &[u8], xtp: Vec<f64>, ptp: Vec<f64>, integer_8bit: bool) -> Self {
+    pub(crate) fn from_parts(m: usize, k: usize, n: usize, xtx_bytes: &[u8], xtp: Vec<f64>, ptp: Vec<f64>, integer_8bit: bool) -> Self {
         assert!(xtp.len() == m * k && ptp.len() == k, "normal equation sizes");
         let mut acc = SyrkAcc::new(m);
         acc.add_packed_lower_bytes(xtx_bytes);
@@ -182,7 +182,7 @@ impl NormalEquations {
 
     /// Solves (X^T X + lambda I) W = X^T P (see the module documentation) and measures the pairs'
     /// spread from the training residuals.
-    pub fn solve(self, lambda: f64, space: &PoseSpace) -> Result<Solved> {
+    pub(crate) fn solve(self, lambda: f64, space: &PoseSpace) -> Result<Solved> {
         let (m, k, n) = (self.m, self.k, self.n);
         let NormalEquations { acc, xtp, ptp, scratch, .. } = self;
         drop(scratch);

@@ -40,7 +40,7 @@ use std::time::Instant;
 
 /// The solver a streamed fit used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SolverPath {
+pub(crate) enum SolverPath {
     /// N <= M: the minimum-norm fit through the N x N Gram matrix (the paper's model).
     Gram,
     /// N > M: least squares / ridge through X^T X (M x M).
@@ -57,7 +57,7 @@ impl std::fmt::Display for SolverPath {
 }
 
 /// The path [`fit_linear`] takes for `n` images of `m` features.
-pub fn choose_path(n: usize, m: usize) -> SolverPath {
+pub(crate) fn choose_path(n: usize, m: usize) -> SolverPath {
     if n <= m {
         SolverPath::Gram
     } else {
@@ -70,7 +70,7 @@ pub(crate) const BLOCK: usize = 2 * KCP;
 
 /// What a streamed fit did and where its time went.
 #[derive(Debug, Clone, PartialEq)]
-pub struct StreamStats {
+pub(crate) struct StreamStats {
     /// The solver.
     pub path: SolverPath,
     /// Images and features.
@@ -95,7 +95,7 @@ pub struct StreamStats {
 
 impl StreamStats {
     /// What the fit did and how long each part took, in one line.
-    pub fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         match self.path {
             SolverPath::LeastSquares => format!(
                 "{}: reading {:.3} s (overlapped; waited {:.3} s), accumulating X^T X and X^T P {:.3} s ({:.1} GFLOP/s, {}), solving {:.3} s",
@@ -114,14 +114,14 @@ impl StreamStats {
     /// The accumulation's FLOP/s: M^2 N floating-point operations (the M^2 N / 2 multiply-adds of
     /// X^T X's lower triangle, counted once although the 8-bit path does them in integers in two
     /// passes) over `accumulate_s`.
-    pub fn accumulate_flops(&self) -> f64 {
+    pub(crate) fn accumulate_flops(&self) -> f64 {
         (self.m as f64).powi(2) * self.n as f64 / self.accumulate_s
     }
 }
 
 /// Fits the linear model on every image of `manifest`, reading them from disk in blocks (see the
 /// module documentation for the two paths). `progress` is called with images read.
-pub fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, progress: &(dyn Fn(u64) + Sync)) -> Result<(LinearModel, StreamStats)> {
+pub(crate) fn fit_linear(manifest: &Manifest, color: ColorMode, params: &LinearParams, progress: &(dyn Fn(u64) + Sync)) -> Result<(LinearModel, StreamStats)> {
     let mut row0 = Vec::new();
     let (w, h) = read_features(&manifest.image_path(0), color, None, "", &mut row0)?;
     let spec = ImageSpec { width: w, height: h, color };

@@ -159,7 +159,7 @@ fn binned_views(full: &Dataset, binning: Binning) -> Result<(Option<Dataset>, Gr
 /// The training views as given and the binning the model applies to them: what simulated noise
 /// is added to (then binned, as a query's noise would be).
 #[derive(Debug, Clone, Copy)]
-pub struct Views<'a> {
+pub(crate) struct Views<'a> {
     /// The training views as given.
     pub full: &'a Dataset,
     /// The binning of the model.

@@ -11,7 +11,7 @@ impl Surface {
     /// Levenberg-Marquardt from `t` (in the domain) on sum_l wt_l (y_l - f_l(t))^2; returns the squared
     /// distance reached, with `t` moved to where it is reached. `buf` holds at least (D + 2) L
     /// values of scratch.
-    pub fn refine(&self, y: &[f32], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> f64 {
+    pub(crate) fn refine(&self, y: &[f32], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> f64 {
         let (d, l) = (self.params(), self.dim);
         let (f, rest) = buf.split_at_mut(l);
         let (jac, rest) = rest.split_at_mut(d * l);
@@ -105,7 +105,7 @@ impl Surface {
     /// surface g, on the same knots. Returns the weighted squared residual reached and its
     /// (alpha, beta), with `t` moved there. `buf` holds at least (2 D + 5) L values.
     /// Only the first `z.len()` coordinates count.
-    pub fn refine_affine(&self, bg: &Surface, z: &[f64], c: &[f64], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> (f64, [f64; 2]) {
+    pub(crate) fn refine_affine(&self, bg: &Surface, z: &[f64], c: &[f64], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> (f64, [f64; 2]) {
         let (d, l) = (self.params(), z.len());
         let (f, rest) = buf.split_at_mut(l);
         let (g, rest) = rest.split_at_mut(l);
@@ -157,7 +157,7 @@ impl Surface {
     /// The 2^D lattice points of `step` degrees around `t` (anchored at each axis's first knot,
     /// kept in the domain); `t` moves to the one of least `cost` (which evaluates what it needs
     /// at the pose it is given), which is returned.
-    pub fn snap_by(&self, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64]) -> f64) -> f64 {
+    pub(crate) fn snap_by(&self, t: &mut [f64], step: f64, mut cost: impl FnMut(&[f64]) -> f64) -> f64 {
         let d = self.params();
         let mut base = [0f64; 8];
         for j in 0..d {
@@ -184,7 +184,7 @@ impl Surface {
     /// Moves `t` to the closest to `y` (distances weighted by `wt`) of the 2^D points around it on the lattice of `step`
     /// degrees anchored at the first knot of each axis (kept in the domain); returns its squared
     /// distance. `f` holds L values of scratch.
-    pub fn snap(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
+    pub(crate) fn snap(&self, y: &[f32], wt: &[f64], t: &mut [f64], step: f64, f: &mut [f64]) -> f64 {
         self.snap_by(t, step, |cand| {
             self.eval(cand, f, None);
             y.iter().zip(&*f).zip(wt).map(|((&a, &b), &w)| w * (a as f64 - b) * (a as f64 - b)).sum()

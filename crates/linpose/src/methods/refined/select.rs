@@ -56,15 +56,15 @@ fn split(train: &Dataset, keep: &[bool]) -> Result<(Dataset, Dataset, Grid)> {
 }
 
 /// Every candidate L scored, with its mean held-out error (degrees).
-pub type Scores = Vec<(usize, f64)>;
+pub(crate) type Scores = Vec<(usize, f64)>;
 
 /// The noisy match chosen by [`choose_noise`]: L, whether weighted, and every candidate's (L,
 /// weighted, mean capped held-out error in degrees).
-pub type NoiseChoice = (usize, bool, Vec<(usize, bool, f64)>);
+pub(crate) type NoiseChoice = (usize, bool, Vec<(usize, bool, f64)>);
 
 /// What [`choose`] found on one set of training images.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Choice {
+pub(crate) struct Choice {
     /// The chosen interpolant (the one asked for when fixed).
     pub interpolant: Interpolant,
     /// Every interpolant scored, with its least mean held-out error (degrees).
@@ -90,7 +90,7 @@ pub struct Choice {
 
 /// Whether held-out score `a` (gross errors, mean error) beats `b`: fewer gross errors, then a
 /// smaller mean. A candidate never buys a smaller mean error with a flip.
-pub fn better(a: (usize, f64), b: (usize, f64)) -> bool {
+pub(crate) fn better(a: (usize, f64), b: (usize, f64)) -> bool {
     a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
 }
 
@@ -104,7 +104,7 @@ fn gross(v: &[f64]) -> usize {
 /// (unweighted) search in [`NOISE_COMPONENTS`] coordinates (within that bound): the
 /// eigenspace's own metric, which the model falls back to when it scores better; and the least
 /// error's standard error, which the choice of the binning factor weighs.
-pub fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) -> Result<Choice> {
+pub(crate) fn choose(train: &Dataset, grid: &Grid, params: &RefinedParams, bin: usize) -> Result<Choice> {
     let below = below_eigenspace(bin);
     let folds = both_folds(train, grid);
     let interpolants = params.fixed_interpolant().map_or(INTERPOLANTS.to_vec(), |i| vec![i]);
@@ -229,7 +229,7 @@ impl Tally {
 /// product (its [`NOISE_COMPONENTS`] rows on the images as given, 1 / bin^2 the pixels): the
 /// largest of [`CANDIDATES`] with L + [`QUERY_OVERHEAD_ROWS`] under NOISE_COMPONENTS bin^2 (the
 /// eigenspace's own mean row and search not counted: a margin for timing noise). Unbinned, 12.
-pub fn below_eigenspace(bin: usize) -> usize {
+pub(crate) fn below_eigenspace(bin: usize) -> usize {
     let bound = NOISE_COMPONENTS * bin * bin;
     CANDIDATES.iter().copied().filter(|&l| l + QUERY_OVERHEAD_ROWS < bound).max().unwrap_or(CANDIDATES[0])
 }
@@ -240,7 +240,7 @@ pub fn below_eigenspace(bin: usize) -> usize {
 /// error of the least (that least's own), so a difference the held-out views cannot tell from
 /// chance does not buy a costlier model. Returns its index and the standard error allowed (0
 /// and 0 for no candidates; with every error infinite, nothing held out, the cheapest).
-pub fn coarsest_within(scores: &[(f64, f64)]) -> (usize, f64) {
+pub(crate) fn coarsest_within(scores: &[(f64, f64)]) -> (usize, f64) {
     let Some(&(least, se)) = scores.iter().min_by(|a, b| a.0.total_cmp(&b.0)) else {
         return (0, 0.0);
     };
@@ -255,7 +255,7 @@ fn mean(v: &[f64]) -> f64 {
 
 /// The standard error of the mean of `v`: its sample standard deviation over sqrt(len) (0 for
 /// fewer than two values).
-pub fn standard_error(v: &[f64]) -> f64 {
+pub(crate) fn standard_error(v: &[f64]) -> f64 {
     let n = v.len();
     if n < 2 {
         return 0.0;
@@ -300,7 +300,7 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
 /// the model is fitted on (binned); each fold's model takes the held-out views as given
 /// (`views`) with their noise and bins them, as the model will: so a query's noise is measured
 /// as it will be.
-pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
+pub(crate) fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &RefinedParams, l_cap: usize) -> Result<Option<NoiseChoice>> {
     let folds = folds(train, grid);
     if folds.is_empty() {
         return Ok(None);
@@ -378,7 +378,7 @@ pub fn choose_noise(train: &Dataset, views: Views<'_>, grid: &Grid, params: &Ref
 /// be the noisiest of the N + 1, so it exceeds the training maximum with probability 1 / (N +
 /// 1), and about one clean query in N + 1 would take the noisy match, whose free gain and
 /// offset cost precision. The midpoint keeps every simulated noisy training view above it.
-pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
+pub(crate) fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
     let spec = train.spec();
     let (w, h, ch, m) = (spec.width as usize, spec.height as usize, spec.color.channels(), train.n_features());
     let noise = |x: &[f32]| crate::pixel_noise::pixel_noise(x, w, h, ch);
@@ -396,7 +396,7 @@ pub fn noise_threshold(train: &Dataset) -> Result<NoiseThreshold> {
 /// The threshold between the noisiest clean value `clean` and the least noisy value `noisy`:
 /// their geometric mean when they separate, else `clean` (0, no training noise to measure
 /// against, stays 0: detection off).
-pub fn separating(clean: f64, noisy: f64) -> f64 {
+pub(crate) fn separating(clean: f64, noisy: f64) -> f64 {
     if clean > 0.0 && noisy.is_finite() && noisy > clean {
         (clean * noisy).sqrt()
     } else {
@@ -406,7 +406,7 @@ pub fn separating(clean: f64, noisy: f64) -> f64 {
 
 /// What [`noise_threshold`] measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NoiseThreshold {
+pub(crate) struct NoiseThreshold {
     /// The largest pixel noise of a clean training image.
     pub clean: f64,
     /// The smallest pixel noise of a training image with simulated noise (infinite for none).
@@ -417,7 +417,7 @@ pub struct NoiseThreshold {
 
 /// The cap on a held-out view's error when scoring the noisy match: half the smallest spacing of
 /// the training grid's knots (degrees), beyond which an estimate is in the wrong knot interval.
-pub fn error_cap(grid: &Grid) -> f64 {
+pub(crate) fn error_cap(grid: &Grid) -> f64 {
     let h = grid.axes.iter().flat_map(|a| a.windows(2).map(|w| w[1] - w[0])).fold(f64::INFINITY, f64::min);
     if h.is_finite() {
         h / 2.0

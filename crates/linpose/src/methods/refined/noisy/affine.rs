@@ -10,7 +10,7 @@ use crate::methods::refined::tuning::DEGENERATE;
 /// alpha and the offset beta fitted (weighted least squares, `wt`) for each pose: the affine
 /// match of a noisy query ([`super::RefinedModel`]'s noise path). `f` and `g` are the two
 /// surfaces' values at t; returns the weighted squared residual and (alpha, beta).
-pub fn affine_fit(z: &[f64], c: &[f64], wt: &[f64], f: &[f64], g: &[f64]) -> (f64, [f64; 2]) {
+pub(crate) fn affine_fit(z: &[f64], c: &[f64], wt: &[f64], f: &[f64], g: &[f64]) -> (f64, [f64; 2]) {
     let (mut a, mut b, mut cc, mut u, mut v, mut zz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for ((((&zl, &cl), &w), &fl), &gl) in z.iter().zip(c).zip(wt).zip(f).zip(g) {
         let m = fl + cl;
@@ -28,7 +28,7 @@ pub fn affine_fit(z: &[f64], c: &[f64], wt: &[f64], f: &[f64], g: &[f64]) -> (f6
 /// held in lanes of 8 (zero beyond the coordinates used), each sum taken lane by lane and the
 /// lanes added at the end, so the products vectorise (the sums are taken in another order than
 /// [`affine_fit`]'s: equal to rounding).
-pub struct AffineQuery {
+pub(crate) struct AffineQuery {
     lanes: usize,
     /// w z, c and w per coordinate.
     wz: [f64; BLOCK_DIM],
@@ -40,7 +40,7 @@ pub struct AffineQuery {
 impl AffineQuery {
     /// The query `z`, the mean's coordinates `c` and the weights `wt` (at most 32
     /// coordinates, all of the same length).
-    pub fn new(z: &[f64], c: &[f64], wt: &[f64]) -> AffineQuery {
+    pub(crate) fn new(z: &[f64], c: &[f64], wt: &[f64]) -> AffineQuery {
         let n = z.len();
         assert!(n <= BLOCK_DIM && c.len() == n && wt.len() == n);
         let mut q = AffineQuery { lanes: n.div_ceil(8) * 8, wz: [0.0; BLOCK_DIM], c: [0.0; BLOCK_DIM], w: [0.0; BLOCK_DIM], zz: 0.0 };
@@ -53,7 +53,7 @@ impl AffineQuery {
 
     /// The residual at the surface point `f` with offset `g`: the query's coordinates rounded up
     /// to a multiple of 8 values (as [`Surface::climb_pair`](crate::manifold::surface::Surface::climb_pair) gives them), zero beyond.
-    pub fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
+    pub(crate) fn residual(&self, f: &[f64], g: &[f64]) -> f64 {
         let lanes = AffineLanes { n: self.lanes, wz: &self.wz, c: &self.c, w: &self.w };
         match crate::kernels::affine::sums(Level::detect(), lanes, f, g) {
             Some(sums) => affine_solve(self.zz, sums).0,

@@ -39,7 +39,7 @@ use rayon::prelude::*;
 /// minus the mirror image below white, 0 in between. At the reference a = [`BIAS_AMPLITUDE`] this
 /// shape, projected, is the offset direction g of the noisy match: on a black background it is
 /// the background's silhouette, which clipped noise brightens by a / 4.
-pub fn clip_bias_shape(v: f32) -> f32 {
+pub(super) fn clip_bias_shape(v: f32) -> f32 {
     let lo = (1.0 - v / BIAS_AMPLITUDE).max(0.0);
     let hi = (1.0 - (1.0 - v) / BIAS_AMPLITUDE).max(0.0);
     lo * lo - hi * hi

@@ -44,7 +44,7 @@ use crate::methods::refined::tuning::PRUNE_MAX;
 
 /// The lattice search of one model's curve (see the module doc).
 #[derive(Debug, Clone, Default)]
-pub struct Lattice {
+pub(crate) struct Lattice {
     /// Coordinates searched (the first `ls` of the curve's L).
     ls: usize,
     /// Columns per row of `values`, `slopes` and the per-knot products: the knots, the first
@@ -153,7 +153,7 @@ impl Lattice {
     /// The search of the curve with knots `knots` (the closing knot last on a circular axis of
     /// `period`), knot `values` and `slopes` (knot-major, `dim` each), over its first `ls` coordinates, on
     /// the lattice of `step` degrees anchored at the first knot.
-    pub fn new(knots: &[f64], period: Option<f64>, values: &[f32], slopes: &[f32], dim: usize, ls: usize, step: f64) -> Lattice {
+    pub(crate) fn new(knots: &[f64], period: Option<f64>, values: &[f32], slopes: &[f32], dim: usize, ls: usize, step: f64) -> Lattice {
         let n = values.len() / dim;
         let intervals = if period.is_some() { n } else { n - 1 };
         let cols = (intervals.div_ceil(8) * 8 + 1).max(intervals + 9).max(n + 1).div_ceil(16) * 16;
@@ -254,7 +254,7 @@ impl Lattice {
     }
 
     /// Bytes held (the interval table counted as four 8-byte numbers an interval).
-    pub fn bytes(&self) -> usize {
+    pub(crate) fn bytes(&self) -> usize {
         (self.values.len() + self.slopes.len() + 4 * self.herm.len() + self.norms.len() + self.norms_t.len() + self.herm_t.len() + self.norm_min.len() + 2) * 4
             + (self.unit.len() + 4 * self.cells.len() + self.even.len() + 2) * 8
     }
@@ -296,7 +296,7 @@ impl Lattice {
 
     /// The lattice pose closest to `y` under the weights `wt` (only the first `ls` count; all
     /// alike when `uniform` gives their common value). `scratch` is reused between calls.
-    pub fn nearest(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
+    pub(crate) fn nearest(&self, y: &[f32], wt: &[f64], uniform: Option<f64>, scratch: &mut Vec<f64>) -> f64 {
         let level = Level::detect();
         kernel::with_avx512f(level, || {
             if self.even.is_empty() {
