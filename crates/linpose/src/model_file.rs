@@ -81,7 +81,7 @@ const OBJECTS_KIND: &str = "objects";
 
 /// The `kind` metadata of a file of partial training statistics (`crate::partial`), which
 /// [`load`] refuses with a message that says how to make a model of it.
-pub const PARTIAL_KIND: &str = "partial";
+pub(crate) const PARTIAL_KIND: &str = "partial";
 
 /// The `method` of a many-object model fitted without poses (no pose models), in its file's
 /// metadata and in what the command line reports.

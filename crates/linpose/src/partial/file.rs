@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-pub use crate::model_file::PARTIAL_KIND;
+pub(crate) use crate::model_file::PARTIAL_KIND;
 
 /// What `linpose.partial` holds.
 #[derive(Serialize, Deserialize)]

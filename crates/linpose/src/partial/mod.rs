@@ -26,7 +26,6 @@
 
 mod file;
 
-pub use file::PARTIAL_KIND;
 
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
@@ -136,7 +135,7 @@ enum Stats {
 /// let spec = ImageSpec { width: 6, height: 5, color: ColorMode::Gray };
 ///
 /// let settings = Settings::new().set("ridge", "1e-3");
-/// let mut a = Partial::new(&linpose::methods::linear::METHOD, &settings, &manifest, spec)?;
+/// let mut a = Partial::new(linpose::methods::find("linear").unwrap(), &settings, &manifest, spec)?;
 /// let mut b = a.empty();
 /// a.accumulate(Shard::Images { start: 0, features: &x[..25 * 30] })?;
 /// b.accumulate(Shard::Images { start: 25, features: &x[25 * 30..] })?;

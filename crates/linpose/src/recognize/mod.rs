@@ -51,7 +51,7 @@
 //! let object = |lobes: f64| Dataset::new(spec, poses.iter().flat_map(|&a| image(lobes, a)).collect(), space.clone(), poses.clone());
 //! let objects = ObjectSet::new(vec!["one".into(), "two".into()], vec![object(1.0)?, object(2.0)?])?;
 //!
-//! let pose = linpose::methods::eigenspace::METHOD.default_spec();
+//! let pose = linpose::methods::find("eigenspace").unwrap().default_spec();
 //! let model = ObjectModel::fit(&objects, &RecognizerParams::default().components(6), &pose)?;
 //! let view: Vec<f32> = image(2.0, 123.0).collect(); // object "two", between training views
 //! let found = &model.estimate(&view, 1)?[0];

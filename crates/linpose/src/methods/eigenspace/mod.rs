@@ -65,7 +65,7 @@ pub use search::SearchKind;
 use serde::{Deserialize, Serialize};
 
 /// The parametric eigenspace in the method registry.
-pub static METHOD: Method = Method {
+pub(crate) static METHOD: Method = Method {
     name: "eigenspace",
     summary: "Murase & Nayar's parametric eigenspace: PCA, the spline appearance manifold resampled densely, the nearest manifold point",
     origin: Origin::Baseline,

@@ -51,7 +51,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// The linear model in the method registry.
-pub static METHOD: Method = Method {
+pub(crate) static METHOD: Method = Method {
     name: "linear",
     summary: "Okatani & Deguchi's linear model: each pose parameter a linear function of the pixels, the minimum-norm exact fit through the Gram matrix",
     origin: Origin::Paper,

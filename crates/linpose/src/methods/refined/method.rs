@@ -6,7 +6,7 @@ use crate::model::{AnyModel, Method, MethodOption, Origin, PoseModel, Settings, 
 use crate::Result;
 
 /// The refined eigenspace in the method registry.
-pub static METHOD: Method = Method {
+pub(crate) static METHOD: Method = Method {
     name: "refined",
     summary: "beyond the paper: the eigenspace's spline manifold searched continuously, noisy queries detected and matched apart, every setting chosen from held-out training views",
     origin: Origin::Beyond,

@@ -101,7 +101,7 @@ mod search;
 mod tuning;
 pub(crate) mod select;
 
-pub use method::METHOD;
+pub(crate) use method::METHOD;
 pub use model::RefinedModel;
 pub use params::{RefinedParams, RefinedSettings};
 pub use crate::manifold::{Interpolant, INTERPOLANTS};
