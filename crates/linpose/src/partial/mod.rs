@@ -26,7 +26,6 @@
 
 mod file;
 
-
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::linalg::mean_row;
