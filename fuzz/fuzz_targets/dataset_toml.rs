@@ -4,14 +4,7 @@
 
 use std::path::Path;
 
-#[cfg(fuzzing)]
-libfuzzer_sys::fuzz_target!(|text: &str| body(text));
-
-/// Without cargo-fuzz: the body run on every file given (the corpus replayed, as CI does).
-#[cfg(not(fuzzing))]
-fn main() {
-    linpose_fuzz::replay_str(body);
-}
+linpose_fuzz::target!(text: body);
 
 fn body(text: &str) {
     let (head, body) = text.split_once('\n').unwrap_or(("azimuth,elevation", text));

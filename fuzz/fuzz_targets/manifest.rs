@@ -3,14 +3,7 @@
 
 use std::path::Path;
 
-#[cfg(fuzzing)]
-libfuzzer_sys::fuzz_target!(|text: &str| body(text));
-
-/// Without cargo-fuzz: the body run on every file given (the corpus replayed, as CI does).
-#[cfg(not(fuzzing))]
-fn main() {
-    linpose_fuzz::replay_str(body);
-}
+linpose_fuzz::target!(text: body);
 
 fn body(text: &str) {
     if let Ok((names, images, poses)) = linpose::manifest::parse_poses_csv(Path::new("poses.csv"), text) {

@@ -5,14 +5,7 @@
 use linpose::render::Mesh;
 use std::path::Path;
 
-#[cfg(fuzzing)]
-libfuzzer_sys::fuzz_target!(|bytes: &[u8]| body(bytes));
-
-/// Without cargo-fuzz: the body run on every file given (the corpus replayed, as CI does).
-#[cfg(not(fuzzing))]
-fn main() {
-    linpose_fuzz::replay(body);
-}
+linpose_fuzz::target!(bytes: body);
 
 fn body(bytes: &[u8]) {
     if let Ok(m) = Mesh::from_obj_bytes(Path::new("fuzz.obj"), bytes) {

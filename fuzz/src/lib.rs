@@ -8,6 +8,29 @@
 
 use std::path::{Path, PathBuf};
 
+/// A target's two entry points for its `body`: libFuzzer's under cargo-fuzz (`--cfg fuzzing`),
+/// else a `main` that replays the corpus ([`replay`] for `bytes`, [`replay_str`] for `text`).
+/// Each target file starts with `#![cfg_attr(fuzzing, no_main)]` and then calls this once.
+#[macro_export]
+macro_rules! target {
+    (bytes: $body:path) => {
+        #[cfg(fuzzing)]
+        libfuzzer_sys::fuzz_target!(|bytes: &[u8]| $body(bytes));
+        #[cfg(not(fuzzing))]
+        fn main() {
+            $crate::replay($body);
+        }
+    };
+    (text: $body:path) => {
+        #[cfg(fuzzing)]
+        libfuzzer_sys::fuzz_target!(|text: &str| $body(text));
+        #[cfg(not(fuzzing))]
+        fn main() {
+            $crate::replay_str($body);
+        }
+    };
+}
+
 /// The files of the paths given as arguments: a file itself, a folder's files (sorted by name,
 /// not recursing). A path that does not exist, or a folder without a file, is an error: a corpus
 /// that is not there would replay nothing and pass.
