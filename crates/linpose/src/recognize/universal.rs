@@ -7,7 +7,7 @@
 //!
 //! The held-out distance of a training view is its distance to its object's manifold interpolated
 //! from the object's other knots, at its own pose (every other knot held out along each axis,
-//! then the others: `refined::select::both_folds`), what calibrates the unknown-object threshold.
+//! then the others: `manifold::folds::both_folds`), what calibrates the unknown-object threshold.
 
 use super::RecognizerParams;
 use crate::catalog::ObjectSet;

@@ -38,7 +38,7 @@
 //!    uses only: a clean query on the clean search's L_s and the mean, whose product gives its
 //!    residual off the eigenspace; a noisy one on the noisy match's.
 //! 3. **Clean search** (`search/`). The least distance to the surface
-//!    (`surface/`: the tensor-product cubic spline through the training views' coordinates, or
+//!    (`crate::manifold::surface`: the tensor-product cubic spline through the training views' coordinates, or
 //!    the local cubic through the same knots, [`Interpolant`]), weighted per coordinate by
 //!    w_l = 1 / (sigma_l^2 + floor + nu): sigma_l^2 is coordinate l's interpolation error on
 //!    held-out training knots, so coordinates the surface interpolates badly count less; the
@@ -84,8 +84,10 @@
 //! `params.rs` (parameters and recorded settings), `fit.rs` and `select.rs` (fitting), `model.rs`
 //! (the model, its file parts and [`crate::PoseModel`]), `query.rs` (batches and routes),
 //! `projection/`, `search/` (the clean searches, the lattice search among them), `noisy/` (the
-//! affine match, its tree and its scan), `surface/` (evaluation, Levenberg-Marquardt, the climb),
-//! `scratch.rs` (per-thread buffers), `basin.rs` (the search in another basin), `tuning.rs`, `method.rs` (the registry entry), `tests/`.
+//! affine match, its tree and its scan), `lm.rs` (Levenberg-Marquardt on the shared surface of
+//! `crate::manifold::surface`, which evaluates and climbs), `scratch.rs` (per-thread buffers),
+//! `basin.rs` (the search in another basin), `tuning.rs`, `method.rs` (the registry entry),
+//! `tests/`.
 
 mod fit;
 mod lm;
