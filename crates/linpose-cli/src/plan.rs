@@ -118,7 +118,7 @@ fn explain(e: linpose::Error, spec: ImageSpec, a: &TrainArgs) -> anyhow::Error {
                     StreamChange::FixedRidge => "a fixed --ridge (e.g. 1e-3) instead of --ridge auto",
                     StreamChange::FixedNoiseLevel => "a fixed --ridge (e.g. 1e-3) instead of --noise-level",
                     StreamChange::NoCentring => "no --center",
-                    StreamChange::NoNormalization => "no --normalize",
+                    StreamChange::NoNormalization => "--no-normalize",
                     _ => "other settings",
                 };
                 format!("{what}: streaming then needs {}", format_bytes(*bytes))
