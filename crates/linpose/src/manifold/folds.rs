@@ -1,6 +1,7 @@
 //! The held-out folds that every automatic choice of the manifold methods is scored on: along
 //! each axis of the training grid, every other knot held out (then the others), the surface
-//! fitted through the rest; and the interpolation error those held-out knots measure.
+//! fitted through the rest; the interpolation error those held-out knots measure; and the mean
+//! and standard error of held-out scores that the one-standard-error rules compare.
 
 use super::grid::Grid;
 use super::surface::{Interpolant, Surface};
@@ -85,4 +86,21 @@ pub(crate) fn held_out_errors(train: &Dataset, folds: &[Vec<bool>], coords: &[f6
         }
     }
     Ok(sum.iter().map(|s| s / count.max(1) as f64).collect())
+}
+
+/// The mean of `v` (0 when empty).
+pub(crate) fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The standard error of the mean of `v`: its sample standard deviation over sqrt(len) (0 for
+/// fewer than two values).
+pub(crate) fn standard_error(v: &[f64]) -> f64 {
+    let n = v.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let m = mean(v);
+    let var = v.iter().map(|&x| (x - m) * (x - m)).sum::<f64>() / (n - 1) as f64;
+    (var / n as f64).sqrt()
 }

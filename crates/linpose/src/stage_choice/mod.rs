@@ -42,6 +42,7 @@ mod tuning;
 
 use crate::confidence::GROSS_DEG;
 use crate::dataset::Dataset;
+use crate::manifold::folds::{mean, standard_error};
 use crate::manifold::grid::Grid;
 use crate::model::Normalized;
 use crate::model::{AnyModel, MethodSpec};
@@ -128,7 +129,6 @@ fn stats(e: &[f64]) -> (usize, f64) {
 fn decide(scored: &[(NormalizeParams, Conditions)]) -> StageChoice {
     let usable: Vec<(NormalizeParams, Vec<f64>)> =
         scored.iter().filter_map(|(p, r)| r.as_ref().ok().filter(|c| c.iter().all(|e| !e.is_empty())).map(|c| (*p, c.concat()))).collect();
-    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len().max(1) as f64;
     let best = usable.iter().min_by(|a, b| mean(&a.1).total_cmp(&mean(&b.1)));
     let chosen = best.map(|(_, b)| {
         let within = mean(b) + MARGIN * standard_error(b);
@@ -163,18 +163,6 @@ fn decide(scored: &[(NormalizeParams, Conditions)]) -> StageChoice {
         scores,
         note,
     }
-}
-
-/// The standard error of the mean of `e`: its standard deviation over the square root of its
-/// length (0 for fewer than two).
-fn standard_error(e: &[f64]) -> f64 {
-    let n = e.len();
-    if n < 2 {
-        return 0.0;
-    }
-    let mean = e.iter().sum::<f64>() / n as f64;
-    let var = e.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64;
-    (var / n as f64).sqrt()
 }
 
 /// The held-out folds of `train` (each the mask of the views kept): the refined method's folds on

@@ -39,7 +39,7 @@ use super::tuning::{CANDIDATES, FALLBACK_COMPONENTS, MAX_AUTO_COMPONENTS, NOISE_
 use super::{Interpolant, RefinedModel, RefinedParams, RefinedSettings, Views, INTERPOLANTS, METHOD};
 use crate::confidence::GROSS_DEG;
 use crate::dataset::Dataset;
-use crate::manifold::folds::{both_folds, folds, interpolation_variance};
+use crate::manifold::folds::{both_folds, folds, interpolation_variance, mean, standard_error};
 use crate::manifold::grid::Grid;
 use crate::manifold::pca::{self, Dimension};
 use crate::model::{ModelMeta, PoseModel};
@@ -246,23 +246,6 @@ pub(crate) fn coarsest_within(scores: &[(f64, f64)]) -> (usize, f64) {
     };
     let k = scores.iter().rposition(|s| s.0 <= least + se).unwrap_or(0);
     (k, se)
-}
-
-/// The mean of `v` (0 when empty).
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
-}
-
-/// The standard error of the mean of `v`: its sample standard deviation over sqrt(len) (0 for
-/// fewer than two values).
-pub(crate) fn standard_error(v: &[f64]) -> f64 {
-    let n = v.len();
-    if n < 2 {
-        return 0.0;
-    }
-    let m = mean(v);
-    let var = v.iter().map(|&x| (x - m) * (x - m)).sum::<f64>() / (n - 1) as f64;
-    (var / n as f64).sqrt()
 }
 
 /// The settings of a model fitted on one fold: `l` components, all searched, nothing chosen, the

@@ -83,9 +83,9 @@ fn the_one_standard_error_rule_takes_the_cheapest_within_it() {
     // Nothing held out (every error infinite): the cheapest; no candidate: index 0.
     assert_eq!(select::coarsest_within(&[(f64::INFINITY, 0.0), (f64::INFINITY, 0.0)]), (1, 0.0));
     assert_eq!(select::coarsest_within(&[]), (0, 0.0));
-    assert_eq!(select::standard_error(&[1.0]), 0.0);
+    assert_eq!(crate::manifold::folds::standard_error(&[1.0]), 0.0);
     // [0, 1, 2]: sample standard deviation 1, over sqrt(3).
-    assert!((select::standard_error(&[0.0, 1.0, 2.0]) - 1.0 / 3f64.sqrt()).abs() < 1e-15);
+    assert!((crate::manifold::folds::standard_error(&[0.0, 1.0, 2.0]) - 1.0 / 3f64.sqrt()).abs() < 1e-15);
     assert_eq!(select::below_eigenspace(1), 12);
     assert_eq!(select::below_eigenspace(2), 20);
     assert_eq!(select::below_eigenspace(4), 20);
