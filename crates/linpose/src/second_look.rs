@@ -31,6 +31,15 @@
 //!    from the manifold than a view the manifold does not hold (an image not registered like
 //!    the training views, another object) is not trusted, whatever its basins.
 //!
+//! With more than two pose parameters, where the method keeps its manifold as its knots
+//! ([`crate::manifold::dense_lattice`]) and a climb on a lattice would take many steps of
+//! 3^D - 1 poses each in K dimensions, the scan grid is the knots themselves, and a basin's
+//! distance is the look's at the pose the method's own search finds in it: the estimate's at the
+//! estimate, the nearest rival's at the method's search from the rival's knot (the method's
+//! Levenberg-Marquardt, in its own L coordinates), the others' at their knot. The look still
+//! says which basin; the method places the pose within it, and the look's distances are taken
+//! there.
+//!
 //! `predict` and `estimate` take the same steps, so the estimate `predict` gives is the first
 //! hypothesis `estimate` gives. The method's own search still places the pose within its
 //! basin: the second look only says which basin.
@@ -89,7 +98,8 @@ pub(crate) const SECOND_LOOK_BIN: usize = 4;
 pub(crate) const UNSEEN_SHARE: f64 = 1.0 / 16.0;
 
 /// Scan points per knot interval along each axis, where the basins start: a basin narrower than
-/// half a knot interval can be missed. Not tuned.
+/// half a knot interval can be missed. Not tuned. With more than two pose parameters the scan is
+/// the knots themselves (one point per knot: 2^D fewer), as the method's own starts are.
 pub(crate) const PER_CELL: usize = 2;
 
 /// The lattice (degrees) the basins are climbed on. Not tuned: the eigenspace's manifold step.
@@ -215,9 +225,10 @@ impl SecondLook {
         debug_assert_eq!(basis.len(), k * mb);
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
         let surface = Surface::new(&space, &settings.knot_axes, &k64, k, settings.interpolant)?;
-        let scan_shape = surface.grid_shape(PER_CELL);
-        let scan_poses = surface.grid_poses(PER_CELL);
         let d = space.len();
+        let per_cell = if crate::manifold::dense_lattice(d) { PER_CELL } else { 1 };
+        let scan_shape = surface.grid_shape(per_cell);
+        let scan_poses = surface.grid_poses(per_cell);
         let g = scan_poses.len() / d.max(1);
         let mut scan_cols = vec![0f32; g * k];
         let mut f = vec![0.0; k];
@@ -376,6 +387,62 @@ impl SecondLook {
         out
     }
 
+    /// [`Self::basins`] on a manifold kept as its knots (see the module doc): the estimate's
+    /// distance at `pose`, the nearest rival's at the pose `refine` (the method's search in a
+    /// basin) finds from its knot, the others' at their knot. Also whether the second basin's
+    /// pose is the method's own (its search ended in that basin).
+    fn basins_continuous(&self, s: &mut Scratch, q: Query<'_>, pose: &[f64], refine: &impl Fn(&[f32], &[f64], &mut [f64])) -> (Vec<(Vec<f64>, f64)>, bool) {
+        let (k, d) = (self.settings.components, self.space.len());
+        let Scratch { features, z, z32, dist32, dist, .. } = s;
+        let mut f = vec![0.0; k];
+        let mut at = |p: &[f64]| {
+            let mut t = p.to_vec();
+            self.surface.clamp(&mut t);
+            self.surface.eval(&t, &mut f, None);
+            f.iter().zip(z.iter()).map(|(&a, &b)| (a - b) * (a - b)).sum::<f64>()
+        };
+        let mut out = vec![(pose.to_vec(), at(pose))];
+        let mut refined = false;
+        z32.clear();
+        z32.extend(z.iter().map(|&v| v as f32));
+        dist32.resize(self.scan_poses.len() / d.max(1), 0.0);
+        sq_dist(Level::detect(), &self.scan_cols, z32, &self.ones, dist32);
+        dist.clear();
+        dist.extend(dist32.iter().map(|&v| v as f64));
+        let mut minima = grid_minima(&self.scan_shape, dist);
+        minima.sort_by(|&a, &b| dist[a].total_cmp(&dist[b]));
+        for j in minima {
+            if out.len() == MAX_HYPOTHESES {
+                break;
+            }
+            let start = self.pose_of(&self.scan_poses[j * d..(j + 1) * d]);
+            let far = |p: &[f64], out: &[(Vec<f64>, f64)]| out.iter().all(|o| self.space.error_deg(&o.0, p) >= GROSS_DEG);
+            if !far(&start, &out) {
+                continue;
+            }
+            if out.len() == 1 {
+                let x: &[f32] = match q {
+                    Query::F32(x) => x,
+                    Query::U8(x) => {
+                        features.clear();
+                        features.extend(x.iter().map(|&v| v as f32 / 255.0));
+                        features
+                    }
+                };
+                let mut p = start.clone();
+                refine(x, &start, &mut p);
+                if far(&p, &out) {
+                    let dp = at(&p);
+                    out.push((p, dp));
+                    refined = true;
+                    continue;
+                }
+            }
+            out.push((start, dist[j]));
+        }
+        (out, refined)
+    }
+
     /// The second look over a batch (`queries` of `m` features each) whose method's estimates
     /// are `poses` (D each; NaN for a query the method could not scale, left as it is): where
     /// another basin is nearer than the estimate's, `refine(query features, basin pose, out)`
@@ -390,6 +457,7 @@ impl SecondLook {
         refine: impl Fn(&[f32], &[f64], &mut [f64]) + Sync,
     ) -> Vec<Estimate> {
         let (k, d) = (self.settings.components, self.space.len());
+        let continuous = !crate::manifold::dense_lattice(d);
         let one = |s: &mut Scratch, (i, pose): (usize, &mut [f64])| -> Option<Estimate> {
             let q = match queries {
                 Queries::F32(all) => Query::F32(&all[i * m..(i + 1) * m]),
@@ -398,13 +466,16 @@ impl SecondLook {
             if pose[0].is_nan() || !self.coords(q, s) {
                 return None;
             }
-            let mut basins = self.basins(s, pose);
+            let (mut basins, refined) = if continuous { self.basins_continuous(s, q, pose, &refine) } else { (self.basins(s, pose), false) };
             let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
             let unexplained = (self.settings.held_out > 0.0).then_some(self.settings.held_out);
             let score = posterior(&dist, self.settings.floor, self.settings.effective_dims, unexplained);
             // The most probable basin; the method's own on a tie.
             let w = (1..basins.len()).fold(0, |w, j| if score[j] > score[w] { j } else { w });
-            if w != 0 {
+            if w == 1 && refined {
+                // The method's own pose in that basin, found already.
+                pose.copy_from_slice(&basins[w].0);
+            } else if w != 0 {
                 // The method searches again in the nearer basin; where its own metric has
                 // no least there (it slides back towards the first estimate), the basin's
                 // pose stands.

@@ -154,6 +154,26 @@ impl Manifold {
         let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| sample_count(g, p.period, step)).collect();
         check_size(&counts, dim, step)?;
         let positions: Vec<Vec<f64>> = space.params().iter().zip(&grid.axes).map(|(p, g)| sample_positions(g, p.period, step)).collect();
+        Self::build_at(space, grid, coords, dim, positions)
+    }
+
+    /// The points a method searches for the nearest one ([`super::dense_lattice`]): the
+    /// manifold resampled every `step` degrees ([`Manifold::build`]) for at most
+    /// [`super::tuning::LATTICE_MAX_PARAMS`] parameters, else at
+    /// [`super::tuning::KNOT_RESAMPLE`] points per knot interval along each axis (the knots
+    /// among them), which grows with the training views instead of with the pose ranges.
+    pub(crate) fn build_for(space: &PoseSpace, grid: &Grid, coords: &[f64], dim: usize, step: f64) -> Result<Self> {
+        if super::dense_lattice(space.len()) {
+            return Self::build(space, grid, coords, dim, step);
+        }
+        let positions: Vec<Vec<f64>> = space.params().iter().zip(&grid.axes).map(|(p, g)| subdivided(g, p.period, super::tuning::KNOT_RESAMPLE)).collect();
+        let counts: Vec<f64> = positions.iter().map(|a| a.len() as f64).collect();
+        check_size(&counts, dim, step)?;
+        Self::build_at(space, grid, coords, dim, positions)
+    }
+
+    /// The manifold at the sample positions `positions` along each parameter.
+    fn build_at(space: &PoseSpace, grid: &Grid, coords: &[f64], dim: usize, positions: Vec<Vec<f64>>) -> Result<Self> {
         // The training coordinates as a cube [n_0, ..., n_{D-1}, dim].
         let mut cube = Vec::with_capacity(grid.sample_at.len() * dim);
         for &i in &grid.sample_at {
@@ -190,6 +210,20 @@ impl Manifold {
     pub(crate) fn pose(&self, space: &PoseSpace, k: usize, out: &mut [f64]) {
         pose_of(&self.axes, space, k, out)
     }
+}
+
+/// `per` positions per knot interval of the knots `g` (the knots among them): the closing
+/// interval of a circular axis included, a linear axis ending at its last knot.
+pub(crate) fn subdivided(g: &[f64], period: Option<f64>, per: usize) -> Vec<f64> {
+    let per = per.max(1);
+    let n = g.len();
+    let next = |i: usize| if i + 1 < n { g[i + 1] } else { g[0] + period.unwrap_or(0.0) };
+    let pieces = if period.is_some() { n } else { n - 1 };
+    let mut v: Vec<f64> = (0..pieces).flat_map(|i| (0..per).map(move |k| g[i] + (next(i) - g[i]) * k as f64 / per as f64)).collect();
+    if period.is_none() {
+        v.push(g[n - 1]);
+    }
+    v
 }
 
 /// The pose of grid point `k` of sample positions `axes` (row-major, the last fastest).

@@ -3,3 +3,55 @@
 /// The fewest knots along an axis for it to give held-out folds: holding out every other knot of
 /// fewer would leave a curve of one or two knots. Not tuned.
 pub(crate) const MIN_FOLD_KNOTS: usize = 4;
+
+/// Most pose parameters of a manifold resampled on a dense lattice ([`super::dense_lattice`]);
+/// with more, the manifold is kept as its knots (the training views' coordinates, N L numbers,
+/// with the surface's slopes derived from them when loaded) and a query's pose is found from the
+/// nearest training views by Levenberg-Marquardt on the surface. What it trades: the lattice
+/// holds (range / step)^K points whatever the training set, and its nearest point is the least of
+/// the distance over the whole lattice, with no start to choose; the knots hold N points, and the
+/// continuous search can end in the wrong basin where the nearest training views mislead (the
+/// second look then decides the basin). At the default 0.5 degrees, two parameters make at most
+/// 720 x 720 points (41 MB of f32 at L = 20); three, on the set (azimuth 0-354, elevation
+/// 32-68, roll -30-30), 720 x 73 x 121 = 6.4 million points (509 MB, about half a minute to
+/// resample, for 360 training views), where the knots hold 29 KB. Set by the size of the
+/// lattice, not by a comparison of errors; every model of one or two parameters keeps the lattice.
+pub(crate) const LATTICE_MAX_PARAMS: usize = 2;
+
+/// Points per knot interval along each axis at which a manifold kept as its knots is resampled
+/// where a method needs points rather than a surface (the recognisers' nearest-point distances):
+/// P^K points per training view. A finer resampling brings a point's distance nearer the
+/// surface's, at P^K times the knots' memory. Not tuned.
+pub(crate) const KNOT_RESAMPLE: usize = 4;
+
+/// The continuous search's starts on a manifold kept as its knots (the eigenspace's): the nearest
+/// training view, and the others within this ratio of its squared distance that are not next to
+/// a nearer start on the training grid, at most [`KNOT_STARTS`]. Each start costs one
+/// Levenberg-Marquardt search; more reach more basins. The refined method's ratio (its
+/// `START_RATIO`), not tuned.
+pub(crate) const KNOT_START_RATIO: f32 = 2.0;
+
+/// See [`KNOT_START_RATIO`]. Not tuned.
+pub(crate) const KNOT_STARTS: usize = 4;
+
+/// Most Levenberg-Marquardt iterations from a start (the refined method's searches, the
+/// eigenspace's on a manifold kept as its knots). Not tuned.
+pub(crate) const MAX_ITER: usize = 8;
+
+/// A Levenberg-Marquardt step below this many degrees ends a clean search: a fiftieth of the
+/// reporting lattice (the refined method's default 0.5 degrees), which the pose is snapped to anyway. Not compared with other values.
+pub(crate) const STEP_TOL: f64 = 1e-2;
+
+/// Levenberg-Marquardt's damping: it starts at this fraction of the normal matrix's largest
+/// diagonal entry, grows by [`DAMPING_UP`] after a failed step and shrinks by [`DAMPING_DOWN`]
+/// (to at least [`DAMPING_MIN`]) after a successful one, with at most [`DAMPING_TRIES`] tries a
+/// step. Customary values, not tuned.
+pub(crate) const DAMPING_START: f64 = 1e-3;
+/// See [`DAMPING_START`].
+pub(crate) const DAMPING_UP: f64 = 4.0;
+/// See [`DAMPING_START`].
+pub(crate) const DAMPING_DOWN: f64 = 3.0;
+/// See [`DAMPING_START`].
+pub(crate) const DAMPING_MIN: f64 = 1e-12;
+/// See [`DAMPING_START`].
+pub(crate) const DAMPING_TRIES: usize = 12;

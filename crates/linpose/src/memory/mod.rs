@@ -212,7 +212,7 @@ impl Job {
         let first = manifests.first().ok_or_else(|| Error::invalid("objects", 0, "a data set of many objects has at least one"))?;
         let mut job = Job::for_manifest(first, spec, method, settings)?;
         job.n = manifests.iter().map(Manifest::len).sum();
-        job.lattice = job.lattice.max(lattice_points(first, recognizer.manifold_step));
+        job.lattice = job.lattice.max(recogniser_points(first, recognizer.manifold_step));
         job.objects = Some(Objects {
             count: manifests.len(),
             largest: manifests.iter().map(Manifest::len).max().unwrap_or(0),
@@ -334,10 +334,16 @@ pub fn first_image_spec(manifest: &Manifest, color: ColorMode) -> Result<ImageSp
 
 /// Points of the lattice every `step` degrees over the range of each pose parameter of
 /// `manifest` (its period when circular), as the eigenspace resamples its manifold; capped at
-/// the most points a manifold may have.
+/// the most points a manifold may have. A manifold of more parameters kept as its knots
+/// ([`crate::manifold::dense_lattice`]) counts 2^D points per training view instead: the
+/// surface's values and slopes at each knot, which its structures hold in place of a lattice's
+/// points.
 fn lattice_points(manifest: &Manifest, step: f64) -> usize {
     let space = manifest.space();
     let d = space.len();
+    if !crate::manifold::dense_lattice(d) {
+        return knot_points(manifest, 1usize << d.min(16));
+    }
     let mut points = 1.0;
     for (j, p) in space.params().iter().enumerate() {
         let (lo, hi) = manifest.poses().iter().skip(j).step_by(d.max(1)).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
@@ -346,6 +352,22 @@ fn lattice_points(manifest: &Manifest, step: f64) -> usize {
         }
     }
     points.min(manifold::MAX_POINTS as f64) as usize
+}
+
+/// Points of each object's manifold in a recogniser: [`lattice_points`] for a lattice, else the
+/// [`crate::manifold::tuning::KNOT_RESAMPLE`]^D points per training view it is resampled at
+/// (`Manifold::build_for`).
+fn recogniser_points(manifest: &Manifest, step: f64) -> usize {
+    let d = manifest.space().len();
+    if crate::manifold::dense_lattice(d) {
+        return lattice_points(manifest, step);
+    }
+    knot_points(manifest, crate::manifold::tuning::KNOT_RESAMPLE.saturating_pow(d as u32))
+}
+
+/// `per` points per training view of `manifest`, capped as [`lattice_points`] is.
+fn knot_points(manifest: &Manifest, per: usize) -> usize {
+    manifest.len().saturating_mul(per).min(manifold::MAX_POINTS)
 }
 
 /// Why the streamed path cannot take a job.

@@ -141,7 +141,9 @@ pub struct RecognizerParams {
     pub kind: RecognizerKind,
     /// Dimensions of the universal eigenspace (default 20, as Murase & Nayar; capped at N - 1).
     pub components: usize,
-    /// The manifolds' resampling step in the universal eigenspace (degrees, default 0.5).
+    /// The manifolds' resampling step in the universal eigenspace (degrees, default 0.5). With
+    /// more than two pose parameters the manifolds are resampled at a few points per knot
+    /// interval instead, and the step is not used.
     pub manifold_step: f64,
     /// When a query is none of the objects (default: calibrated).
     pub unknown: Unknown,

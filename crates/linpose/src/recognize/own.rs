@@ -8,7 +8,8 @@
 //! recognised object's own eigenspace, the object named is checked in its own: each object k has
 //! the eigenspace of its own unit-energy training views (L_k = min(L, N_k - 1) dimensions, L the
 //! universal eigenspace's, `--recognizer-components`) and its spline manifold in it, resampled at
-//! the recogniser's step; a query's distance to object k is the distance in image space from its
+//! the recogniser's step (with more than two pose parameters, at a few points per knot interval,
+//! `Manifold::build_for`); a query's distance to object k is the distance in image space from its
 //! unit-energy image to that manifold, sqrt(r^2 + d^2), r its residual off k's eigenspace and d
 //! the distance within it to the nearest manifold point (the universal eigenspace's exact pruned
 //! search, with one object: [`Universal::own_distances`]).
@@ -122,7 +123,7 @@ impl OwnSpaces {
             let grid = Grid::new(space, d.poses(), d.manifest().images(), d.manifest().root()).map_err(named)?;
             let pca = pca::fit(d, Dimension::Fixed(params.components)).map_err(named)?;
             let l = pca.dim();
-            let dense = Manifold::build(space, &grid, &pca.coords, l, params.manifold_step).map_err(named)?;
+            let dense = Manifold::build_for(space, &grid, &pca.coords, l, params.manifold_step).map_err(named)?;
             spaces.push(Some(Universal::new(to32(&pca.basis), to32(&pca.mean), vec![to32(&dense.points)]).map_err(named)?));
             components.push(l);
             held_out.push(held_out_distances(d, &grid, params.components).map_err(named)?);

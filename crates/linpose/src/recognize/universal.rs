@@ -4,6 +4,9 @@
 //! resampled densely; a query's distance to an object is its distance to the nearest point of
 //! that object's manifold, in the eigenspace (its residual off the eigenspace is the same for
 //! every object, so it would not change which object is nearest).
+//! With more than two pose parameters the manifolds are resampled at a few points per knot
+//! interval instead of every `manifold_step` degrees (`Manifold::build_for`): points that grow
+//! with the training views, not with the pose ranges.
 //!
 //! The held-out distance of a training view is its distance to its object's manifold interpolated
 //! from the object's other knots, at its own pose (every other knot held out along each axis,
@@ -136,7 +139,7 @@ impl Universal {
         for (d, grid) in objects.objects().iter().zip(&grids) {
             let coords = &pca.coords[offset * l..(offset + d.len()) * l];
             offset += d.len();
-            let dense = Manifold::build(space, grid, coords, l, step)?;
+            let dense = Manifold::build_for(space, grid, coords, l, step)?;
             points.push(dense.points.iter().map(|&v| v as f32).collect::<Vec<f32>>());
             held_out.push(held_out_distances(d, grid, coords, l)?);
         }

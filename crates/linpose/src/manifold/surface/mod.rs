@@ -23,6 +23,7 @@
 
 pub(crate) mod climb;
 mod eval;
+pub(crate) mod lm;
 
 pub(crate) use climb::BLOCK_DIM;
 

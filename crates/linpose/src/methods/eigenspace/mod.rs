@@ -11,6 +11,11 @@
 //! 4. a query is scaled to unit energy, projected (L dot products of length M) and given the pose
 //!    of the nearest manifold point (`search.rs`, a k-d tree or brute force).
 //!
+//! With more than two pose parameters ([`crate::manifold::dense_lattice`]) the manifold is not
+//! resampled: it is kept as its knots, the training views' coordinates, and searched
+//! continuously from the nearest of them (`knots.rs`), so that the model and its training time
+//! grow with the training views rather than with a lattice of (range / step)^K points.
+//!
 //! Beyond Murase & Nayar, linpose then takes the second look (`second_look`): where every
 //! principal component of the training views (binned) puts the query nearer another basin of the
 //! pose space (a nearly symmetric object's other side), the estimate is the nearest manifold point
@@ -46,6 +51,7 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
+mod knots;
 pub(crate) mod search;
 
 use crate::dataset::Dataset;
@@ -60,6 +66,7 @@ use crate::manifold::projector::{u8_tasks, unit_coords, Projector, BATCH_FROM, U
 use crate::manifold::{chunk_rows, pca};
 pub use crate::manifold::pca::Dimension;
 use rayon::prelude::*;
+use knots::KnotSearch;
 use search::NearestIndex;
 pub use search::SearchKind;
 use serde::{Deserialize, Serialize};
@@ -178,8 +185,13 @@ pub struct EigenspaceSettings {
     pub components: usize,
     /// Fraction of the training energy (about the mean) they hold.
     pub energy_kept: f64,
-    /// Manifold samples along each pose parameter.
+    /// Manifold samples along each pose parameter (the knots, when [`Self::continuous`]).
     pub manifold_shape: Vec<usize>,
+    /// Whether the manifold is kept as its knots (the training views on their grid) and
+    /// searched continuously instead of resampled every `manifold_step` degrees: for more than
+    /// two pose parameters. Poses are still reported on the `manifold_step` lattice.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub continuous: bool,
     /// The search in use.
     pub search: SearchKind,
     /// The second look that decides between the estimate and its rivals and scores them
@@ -208,20 +220,31 @@ impl EigenspaceParams {
         let root = train.manifest().root();
         // The grid first: a training set that cannot make a manifold fails before any arithmetic.
         let grid = Grid::new(space, train.poses(), train.manifest().images(), root)?;
-        let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| crate::manifold::grid::sample_count(g, p.period, self.manifold_step)).collect();
-        crate::manifold::grid::check_size(&counts, 1, self.manifold_step)?;
+        let continuous = !crate::manifold::dense_lattice(space.len());
+        if !continuous {
+            let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| crate::manifold::grid::sample_count(g, p.period, self.manifold_step)).collect();
+            crate::manifold::grid::check_size(&counts, 1, self.manifold_step)?;
+        }
         let pca = match gram {
             Some(g) => pca::fit_with_gram(train, self.dimension, g)?,
             None => pca::fit(train, self.dimension)?,
         };
         let l = pca.dim();
-        let dense = Manifold::build(space, &grid, &pca.coords, l, self.manifold_step)?;
+        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+        // The dense manifold's points and sample positions, or the knots and their positions.
+        let (points, axes) = if continuous {
+            (grid.sample_at.iter().flat_map(|&i| to32(&pca.coords[i * l..(i + 1) * l])).collect(), grid.axes.clone())
+        } else {
+            let dense = Manifold::build(space, &grid, &pca.coords, l, self.manifold_step)?;
+            (to32(&dense.points), dense.axes)
+        };
         let look = SecondLook::fit(train, &grid, Interpolant::Spline)?;
         let settings = EigenspaceSettings {
             params: *self,
             components: l,
             energy_kept: pca.energy_kept(),
-            manifold_shape: dense.axes.iter().map(Vec::len).collect(),
+            manifold_shape: axes.iter().map(Vec::len).collect(),
+            continuous,
             search: self.search,
             second_look: Some(look.settings().clone()),
         };
@@ -234,8 +257,7 @@ impl EigenspaceParams {
             normalize: None,
             stage_choice: None,
         };
-        let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
-        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), to32(&dense.points), dense.axes, Some(look))
+        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), points, axes, Some(look))
     }
 }
 
@@ -253,25 +275,44 @@ pub struct EigenspaceModel {
     /// u_l . mean, subtracted from each projection (summed in f64 from the f32 values, so a model
     /// read back from a file computes the same numbers).
     mean_proj: Vec<f32>,
-    /// N_dense x L, row-major.
+    /// N_dense x L, row-major (the knots, N x L, when continuous).
     points: Vec<f32>,
-    /// Sample positions per pose parameter.
+    /// Sample positions per pose parameter (the knots' when continuous).
     axes: Vec<Vec<f64>>,
-    index: NearestIndex,
+    search: Search,
     /// The second look (`second_look`).
     look: Option<SecondLook>,
+}
+
+/// How a query's manifold point is found: the nearest point of the dense lattice, or the
+/// continuous search on the knots.
+#[derive(Debug, Clone)]
+enum Search {
+    Lattice(NearestIndex),
+    Knots(Box<KnotSearch>),
 }
 
 impl EigenspaceModel {
     fn new(mut meta: ModelMeta, mut settings: EigenspaceSettings, basis: Vec<f32>, mean: Vec<f32>, points: Vec<f32>, axes: Vec<Vec<f64>>, look: Option<SecondLook>) -> Result<Self> {
         let (l, m) = (settings.components, mean.len());
-        let index = NearestIndex::new(&points, l, settings.params.search)?;
-        settings.search = index.kind();
+        let search = if settings.continuous {
+            if settings.params.search == SearchKind::KdTree && l > search::MAX_TREE_DIM {
+                // The dense lattice's refusal (NearestIndex::new), for the same request.
+                NearestIndex::new(&points, l, SearchKind::KdTree)?;
+            }
+            let k = KnotSearch::new(&meta.space, &axes, &points, l, settings.params.step(), settings.params.search != SearchKind::Brute)?;
+            settings.search = if k.has_tree() { SearchKind::KdTree } else { SearchKind::Brute };
+            Search::Knots(Box::new(k))
+        } else {
+            let index = NearestIndex::new(&points, l, settings.params.search)?;
+            settings.search = index.kind();
+            Search::Lattice(index)
+        };
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let rows = 0..basis.len() / m;
         let proj = Projector::new(&basis, m).with_u8(rows.clone());
         let mean_proj = proj.dots_f64(&rows, &mean);
-        Ok(EigenspaceModel { meta, settings, proj, mean, mean_proj, points, axes, index, look })
+        Ok(EigenspaceModel { meta, settings, proj, mean, mean_proj, points, axes, search, look })
     }
 
     /// The settings as given and as resolved.
@@ -300,12 +341,13 @@ impl EigenspaceModel {
     }
 
     /// The dense manifold's points (N_dense x L, row-major over the pose grid, last parameter
-    /// fastest).
+    /// fastest); the knots when the manifold is kept as its knots
+    /// ([`EigenspaceSettings::continuous`]).
     pub fn manifold_points(&self) -> &[f32] {
         &self.points
     }
 
-    /// Number of manifold points N_dense.
+    /// Number of manifold points N_dense (of knots, when continuous).
     pub fn manifold_len(&self) -> usize {
         self.points.len() / self.components()
     }
@@ -403,7 +445,17 @@ impl EigenspaceModel {
         if y[0].is_nan() {
             o.fill(f64::NAN);
         } else {
-            pose_of(&self.axes, &self.meta.space, self.index.nearest(&y), o);
+            self.pose_of_coords(&y, o);
+        }
+    }
+
+    /// The pose of a query's coordinates `y` into `o`: the nearest manifold point's, or the
+    /// continuous search's on the knots.
+    #[inline]
+    fn pose_of_coords(&self, y: &[f32], o: &mut [f64]) {
+        match &self.search {
+            Search::Lattice(index) => pose_of(&self.axes, &self.meta.space, index.nearest(y), o),
+            Search::Knots(k) => k.pose_of(&self.meta.space, y, o),
         }
     }
 
@@ -418,6 +470,9 @@ impl EigenspaceModel {
         if l == 0 || settings.manifold_shape.len() != d || settings.manifold_shape.contains(&0) {
             return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
         }
+        if settings.continuous == crate::manifold::dense_lattice(d) {
+            return Err(t.error(format!("damaged eigenspace settings: a manifold of {d} pose parameters {} as its knots", if settings.continuous { "kept" } else { "not kept" })));
+        }
         let counts: Vec<f64> = settings.manifold_shape.iter().map(|&c| c as f64).collect();
         crate::manifold::grid::check_size(&counts, l, settings.params.step()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let n_dense: usize = settings.manifold_shape.iter().product();
@@ -425,11 +480,13 @@ impl EigenspaceModel {
         let mean = t.f32("mean", &[m])?;
         let mut shape = settings.manifold_shape.clone();
         shape.push(l);
-        let points = t.f32("manifold", &shape)?;
+        let (points_name, axis_name) = if settings.continuous { ("knots", "knot_axis") } else { ("manifold", "manifold_axis") };
+        let points = t.f32(points_name, &shape)?;
         let mut axes = Vec::with_capacity(d);
         for (j, p) in meta.space.params().iter().enumerate() {
-            let a = t.f64(&format!("manifold_axis_{j}"), &[settings.manifold_shape[j]])?;
-            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| w[1] <= w[0]) {
+            let a = t.f64(&format!("{axis_name}_{j}"), &[settings.manifold_shape[j]])?;
+            let span_ok = !settings.continuous || p.period.is_none_or(|per| a[a.len() - 1] - a[0] < per);
+            if a.iter().any(|v| !v.is_finite()) || a.windows(2).any(|w| w[1] <= w[0]) || !span_ok {
                 return Err(t.error(format!("manifold positions of '{}' are not finite and increasing", p.name)));
             }
             axes.push(a);
@@ -474,9 +531,14 @@ impl PoseModel for EigenspaceModel {
 
     /// Every stored number: (manifold points + basis + mean) x 4 bytes, the second look's
     /// numbers x 4 bytes, plus the manifold's sample positions (8 bytes each), which turn a
-    /// point's index into its pose.
+    /// point's index into its pose; for a manifold kept as its knots, also what is derived from
+    /// them when loaded (the surface's values and slopes, the starts' index).
     fn model_bytes(&self) -> usize {
-        (self.points.len() + self.basis().len() + self.mean.len() + self.look.as_ref().map_or(0, SecondLook::len)) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8
+        let derived = match &self.search {
+            Search::Lattice(_) => 0,
+            Search::Knots(k) => k.bytes(),
+        };
+        (self.points.len() + self.basis().len() + self.mean.len() + self.look.as_ref().map_or(0, SecondLook::len)) * 4 + self.axes.iter().map(Vec::len).sum::<usize>() * 8 + derived
     }
 
     fn storage(&self) -> Storage {
@@ -490,13 +552,14 @@ impl PoseModel for EigenspaceModel {
         let (l, m) = (self.components(), self.mean.len());
         let mut shape = self.settings.manifold_shape.clone();
         shape.push(l);
+        let (points_name, axis_name) = if self.settings.continuous { ("knots", "knot_axis") } else { ("manifold", "manifold_axis") };
         let mut v = vec![
             Tensor::f32("basis", vec![l, m], self.basis().to_vec()),
             Tensor::f32("mean", vec![m], self.mean.clone()),
-            Tensor::f32("manifold", shape, self.points.clone()),
+            Tensor::f32(points_name, shape, self.points.clone()),
         ];
         for (j, a) in self.axes.iter().enumerate() {
-            v.push(Tensor::f64(&format!("manifold_axis_{j}"), vec![a.len()], a.clone()));
+            v.push(Tensor::f64(&format!("{axis_name}_{j}"), vec![a.len()], a.clone()));
         }
         v.extend(self.look.iter().flat_map(SecondLook::tensors));
         v
@@ -514,13 +577,16 @@ impl EigenspaceModel {
 
     /// The nearest manifold point to query `x` within the basin of `start`: from the manifold
     /// point nearest `start` in pose, to the closest of its neighbours one point along an axis
-    /// while one is closer; its pose into `out`.
+    /// while one is closer (on the knots, Levenberg-Marquardt from `start`); its pose into `out`.
     fn refine_in_basin(&self, x: &[f32], start: &[f64], out: &mut [f64]) {
         let l = self.components();
         let mut y = vec![0f32; l];
         self.project_chunk(x, &mut y);
         if y[0].is_nan() {
             return;
+        }
+        if let Search::Knots(k) = &self.search {
+            return k.pose_from(&self.meta.space, &y, start, out);
         }
         let shape: Vec<(usize, bool)> = self.axes.iter().zip(self.meta.space.params()).map(|(a, p)| (a.len(), p.period.is_some())).collect();
         let stride = crate::confidence::row_major_strides(&shape);
@@ -554,7 +620,6 @@ impl EigenspaceModel {
         let n = batch_len(m, queries.len(), out.len(), p)?;
         // Project and search chunk by chunk, in parallel; a query that cannot be normalised
         // leaves NaN poses, found afterwards so the error names the first such query.
-        let space = &self.meta.space;
         let rows = chunk_rows(n);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * p)).for_each(|(q, o)| {
             let mut y = vec![0f32; q.len() / m * l];
@@ -563,7 +628,7 @@ impl EigenspaceModel {
                 if c[0].is_nan() {
                     o.fill(f64::NAN);
                 } else {
-                    pose_of(&self.axes, space, self.index.nearest(c), o);
+                    self.pose_of_coords(c, o);
                 }
             }
         });
@@ -577,12 +642,12 @@ impl EigenspaceModel {
     fn predict_own_u8(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let (l, m, p) = (self.components(), self.mean.len(), self.meta.space.len());
         let n = batch_len(m, queries.len(), out.len(), p)?;
-        let (space, level) = (&self.meta.space, Level::detect());
+        let level = Level::detect();
         let search = |y: &[f32], o: &mut [f64]| {
             if y[0].is_nan() {
                 o.fill(f64::NAN);
             } else {
-                pose_of(&self.axes, space, self.index.nearest(y), o);
+                self.pose_of_coords(y, o);
             }
         };
         if n >= BATCH_FROM {

@@ -91,9 +91,13 @@ impl RefinedModel {
         meta.settings = serde_json::to_value(&settings).expect("plain struct serialises");
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
         let surface = Surface::new(&meta.space, &axes, &k64, l, settings.interpolant)?;
-        let start_poses = surface.grid_poses(settings.params.per_cell);
-        let start_shape = surface.grid_shape(settings.params.per_cell);
         let d = axes.len();
+        // A manifold kept as its knots starts its searches from the training views themselves
+        // (one coarse point per knot); a lattice's, from per_cell points per knot interval.
+        let continuous = !crate::manifold::dense_lattice(d);
+        let per_cell = if continuous { 1 } else { settings.params.per_cell };
+        let start_poses = surface.grid_poses(per_cell);
+        let start_shape = surface.grid_shape(per_cell);
         let b64: Vec<f64> = background.iter().map(|&v| v as f64).collect();
         let bg_surface = Surface::new(&meta.space, &axes, &b64, l, settings.interpolant)?;
         let n_start = start_poses.len() / d;
@@ -117,7 +121,7 @@ impl RefinedModel {
             .line_parts()
             .filter(|&(at, period, ..)| step > 0.0 && period.unwrap_or(at[at.len() - 1] - at[0]) / step <= MAX_LATTICE as f64)
             .map(|(at, period, values, slopes, dim)| lattice::Lattice::new(at, period, values, slopes, dim, ls, step));
-        let tree = if lattice.is_none() { CoarseTree::new(&surface, &meta.space, &axes, ls, TREE_STEP * step) } else { None };
+        let tree = if lattice.is_none() && !continuous { CoarseTree::new(&surface, &meta.space, &axes, ls, TREE_STEP * step) } else { None };
         // Only the clean coarse scan reads the boxes; the lattice and the tree replace it.
         let scanned = lattice.is_none() && tree.is_none();
         let start_boxes = if scanned { crate::kernels::scan::boxes(&start_points, n_start, box_split(l)) } else { Vec::new() };
@@ -197,6 +201,12 @@ impl RefinedModel {
     /// Number of knots (training views on the grid).
     pub fn knots_len(&self) -> usize {
         self.knots.len() / self.components()
+    }
+
+    /// Whether the manifold is kept as its knots and searched continuously from the training
+    /// views ([`crate::manifold::dense_lattice`]): more than two pose parameters.
+    pub(crate) fn continuous(&self) -> bool {
+        !crate::manifold::dense_lattice(self.axes.len())
     }
 
     /// Number of coarse start points.

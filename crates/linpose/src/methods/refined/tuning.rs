@@ -173,33 +173,12 @@ pub(crate) const START_RATIO: f32 = 2.0;
 /// 0.39, 12 0.43 and 0.44.
 pub(crate) const BOX_SPLIT: usize = 8;
 
-/// Most Levenberg-Marquardt iterations from a start. Not tuned.
-pub(crate) const MAX_ITER: usize = 8;
-
-/// A Levenberg-Marquardt step below this many degrees ends the clean search: a fiftieth of the
-/// reporting lattice, which the pose is snapped to anyway. Not compared with other values.
-pub(crate) const STEP_TOL: f64 = 1e-2;
-
-/// The same for the noisy match, whose iteration converges only linearly (Kaufman's Jacobian
+/// [`crate::manifold::tuning::STEP_TOL`] for the noisy match, whose iteration converges only linearly (Kaufman's Jacobian
 /// leaves out part of the gain's and offset's dependence on the pose). Chosen on the
 /// comparison's unseen views (2026-11-21): against 0.01 a third fewer Jacobian evaluations (twin
 /// +-5%: 12.4 -> 8.3 a query), the errors moving by -0.001 to +0.37 degrees (twin +-10% 16.52
 /// -> 16.89); 0.1 took twin +-5% to 14.03, near the eigenspace's 14.43.
 pub(crate) const AFFINE_STEP_TOL: f64 = 5e-2;
-
-/// Levenberg-Marquardt's damping: it starts at this fraction of the normal matrix's largest
-/// diagonal entry, grows by [`DAMPING_UP`] after a failed step and shrinks by [`DAMPING_DOWN`]
-/// (to at least [`DAMPING_MIN`]) after a successful one, with at most [`DAMPING_TRIES`] tries a
-/// step. Customary values, not tuned.
-pub(crate) const DAMPING_START: f64 = 1e-3;
-/// See [`DAMPING_START`].
-pub(crate) const DAMPING_UP: f64 = 4.0;
-/// See [`DAMPING_START`].
-pub(crate) const DAMPING_DOWN: f64 = 3.0;
-/// See [`DAMPING_START`].
-pub(crate) const DAMPING_MIN: f64 = 1e-12;
-/// See [`DAMPING_START`].
-pub(crate) const DAMPING_TRIES: usize = 12;
 
 /// Most lattice poses of a one-parameter model searched exactly ([`super::search::lattice`]:
 /// 720 at 0.5 degrees on a turntable): its cost grows with the lattice, the local search's does

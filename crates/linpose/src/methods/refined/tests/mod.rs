@@ -4,6 +4,7 @@
 mod choices;
 mod clean_search;
 mod fitting;
+mod knots;
 mod manifold;
 mod noisy_match;
 mod queries;

@@ -1,5 +1,8 @@
 //! End-to-end tests of the eigenspace method on synthetic images: smooth functions of the pose,
-//! made here (tests read no data from outside the repository).
+//! made here (tests read no data from outside the repository). `knots.rs`: three and four pose
+//! parameters, the manifold kept as its knots.
+
+pub(crate) mod knots;
 
 use super::*;
 use crate::image_io::{ColorMode, ImageSpec};
@@ -24,6 +27,46 @@ pub(crate) fn image(elev: f64, azim: f64) -> Vec<f32> {
         }
     }
     f
+}
+
+/// [`image`] with a third pose parameter, a roll (degrees): a horizontal band that moves up with
+/// it, its brightness along the azimuth turning with the roll and the azimuth; and a fourth, a
+/// light (degrees): the background's brightness rises with it from the left. Smooth in all four.
+pub(crate) fn image4(elev: f64, azim: f64, roll: f64, light: f64) -> Vec<f32> {
+    let (a, r, g) = (azim.to_radians(), roll.to_radians(), light / 60.0);
+    let mut f = image(elev, azim);
+    for j in 0..H {
+        for i in 0..W {
+            let u = i as f64 / W as f64 * std::f64::consts::TAU;
+            let v = j as f64 / H as f64;
+            let band = (-(v - 0.5 - 0.3 * r).powi(2) / 0.05).exp() * (0.6 + 0.4 * (u - a + 2.0 * r).cos());
+            f[j * W + i] += (0.3 * band + 0.1 * g * (1.0 - u / std::f64::consts::TAU)) as f32;
+        }
+    }
+    f
+}
+
+/// The data set of every combination of `axes` (each parameter's values, the last fastest), of
+/// `image4`'s parameters (elevation, azimuth, roll and, with four axes, light; azimuth
+/// circular), named by their values.
+pub(crate) fn grid_of(axes: &[Vec<f64>]) -> Dataset {
+    let names = ["elevation", "azimuth", "roll", "light"];
+    let params = (0..axes.len()).map(|j| if j == 1 { Param::circular(names[j], 360.0) } else { Param::linear(names[j]) }).collect();
+    let space = PoseSpace::new(params).unwrap();
+    let n: usize = axes.iter().map(Vec::len).product();
+    let (mut poses, mut images, mut f) = (Vec::new(), Vec::new(), Vec::new());
+    for mut k in 0..n {
+        let mut p = vec![0.0; axes.len()];
+        for j in (0..axes.len()).rev() {
+            p[j] = axes[j][k % axes[j].len()];
+            k /= axes[j].len();
+        }
+        let q = [p[0], p[1], *p.get(2).unwrap_or(&0.0), *p.get(3).unwrap_or(&0.0)];
+        f.extend(image4(q[0], q[1], q[2], q[3]));
+        images.push(format!("{}.png", p.iter().map(|v| v.to_string()).collect::<Vec<_>>().join("_")));
+        poses.extend(p);
+    }
+    Dataset::from_features(Manifest::new(".", space, images, poses).unwrap(), spec(), f).unwrap()
 }
 
 fn spec() -> ImageSpec {
