@@ -33,12 +33,14 @@
 //!
 //! With more than two pose parameters, where the method keeps its manifold as its knots
 //! ([`crate::manifold::dense_lattice`]) and a climb on a lattice would take many steps of
-//! 3^D - 1 poses each in K dimensions, the scan grid is the knots themselves, and a basin's
-//! distance is the look's at the pose the method's own search finds in it: the estimate's at the
-//! estimate, the nearest rival's at the method's search from the rival's knot (the method's
-//! Levenberg-Marquardt, in its own L coordinates), the others' at their knot. The look still
-//! says which basin; the method places the pose within it, and the look's distances are taken
-//! there.
+//! 3^D - 1 poses each in K dimensions, the scan is over the knots themselves, and each climb is
+//! Levenberg-Marquardt on the distance from the same start, its end rounded to the lattice of
+//! [`STEP_DEG`]. Between knots, the surface in K = N - 1 dimensions interpolates the views' fine
+//! detail poorly where the knots are far apart (on a rendered duck with knots 12 to 20 degrees
+//! apart, a view's distance at its own pose came to twice its distance at a training view 20
+//! degrees off), so a basin the look finds where the method's own search has none (the method,
+//! started there, slides back to its estimate) does not move the estimate: it only lowers its
+//! confidence. With fewer parameters the basin's pose then stands.
 //!
 //! `predict` and `estimate` take the same steps, so the estimate `predict` gives is the first
 //! hypothesis `estimate` gives. The method's own search still places the pose within its
@@ -105,6 +107,12 @@ pub(crate) const PER_CELL: usize = 2;
 /// The lattice (degrees) the basins are climbed on. Not tuned: the eigenspace's manifold step.
 pub(crate) const STEP_DEG: f64 = 0.5;
 
+/// The step (degrees) below which the second look's Levenberg-Marquardt in a basin ends (more
+/// than two pose parameters, where it replaces the climb on the lattice of [`STEP_DEG`]): a fifth
+/// of that lattice, since the look compares basins' distances and reports no pose. A smaller
+/// step costs iterations of 4^D K products each. Not tuned.
+pub(crate) const STEP_TOL_LOOK: f64 = STEP_DEG / 5.0;
+
 /// What a model records of its second look (in its settings).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SecondLookSettings {
@@ -151,8 +159,9 @@ pub(crate) struct SecondLook {
     scan_shape: Vec<(usize, bool)>,
     scan_poses: Vec<f64>,
     scan_cols: Vec<f32>,
-    /// Unit weights (K) for that kernel.
+    /// Unit weights (K) for that kernel, and in f64 for Levenberg-Marquardt.
     ones: Vec<f32>,
+    ones64: Vec<f64>,
 }
 
 /// Per-thread buffers of [`SecondLook::apply`].
@@ -172,6 +181,8 @@ struct Scratch {
     z32: Vec<f32>,
     dist32: Vec<f32>,
     dist: Vec<f64>,
+    /// Levenberg-Marquardt's scratch ((D + 2) K).
+    buf: Vec<f64>,
 }
 
 /// One query as the method was given it.
@@ -240,7 +251,22 @@ impl SecondLook {
         }
         let mean_proj = basis.chunks_exact(mb).map(|u| u.iter().zip(&mean).map(|(&a, &b)| a as f64 * b as f64).sum()).collect();
         let proj = Projector::new(&basis, mb);
-        Ok(SecondLook { settings, binning, space, mean, mean_proj, basis, proj, knots, surface, scan_shape, scan_poses, scan_cols, ones: vec![1.0; k] })
+        Ok(SecondLook {
+            settings,
+            binning,
+            space,
+            mean,
+            mean_proj,
+            basis,
+            proj,
+            knots,
+            surface,
+            scan_shape,
+            scan_poses,
+            scan_cols,
+            ones: vec![1.0; k],
+            ones64: vec![1.0; k],
+        })
     }
 
     /// What the model records of it.
@@ -387,60 +413,53 @@ impl SecondLook {
         out
     }
 
-    /// [`Self::basins`] on a manifold kept as its knots (see the module doc): the estimate's
-    /// distance at `pose`, the nearest rival's at the pose `refine` (the method's search in a
-    /// basin) finds from its knot, the others' at their knot. Also whether the second basin's
-    /// pose is the method's own (its search ended in that basin).
-    fn basins_continuous(&self, s: &mut Scratch, q: Query<'_>, pose: &[f64], refine: &impl Fn(&[f32], &[f64], &mut [f64])) -> (Vec<(Vec<f64>, f64)>, bool) {
+    /// [`Self::basins`] on a manifold kept as its knots (see the module doc): the same basins,
+    /// the scan over the knots, each climb replaced by Levenberg-Marquardt on the distance to the
+    /// surface from the same start ([`Surface::refine_to`]), its end rounded to the lattice.
+    fn basins_continuous(&self, s: &mut Scratch, pose: &[f64]) -> Vec<(Vec<f64>, f64)> {
         let (k, d) = (self.settings.components, self.space.len());
-        let Scratch { features, z, z32, dist32, dist, .. } = s;
-        let mut f = vec![0.0; k];
-        let mut at = |p: &[f64]| {
-            let mut t = p.to_vec();
-            self.surface.clamp(&mut t);
-            self.surface.eval(&t, &mut f, None);
-            f.iter().zip(z.iter()).map(|(&a, &b)| (a - b) * (a - b)).sum::<f64>()
-        };
-        let mut out = vec![(pose.to_vec(), at(pose))];
-        let mut refined = false;
+        let Scratch { z, z32, dist32, dist, buf, .. } = s;
         z32.clear();
         z32.extend(z.iter().map(|&v| v as f32));
         dist32.resize(self.scan_poses.len() / d.max(1), 0.0);
         sq_dist(Level::detect(), &self.scan_cols, z32, &self.ones, dist32);
         dist.clear();
         dist.extend(dist32.iter().map(|&v| v as f64));
+        buf.resize((d + 2) * k, 0.0);
+        let (z32, ones) = (&*z32, &self.ones64);
+        let mut descend = |t: &mut [f64]| {
+            self.surface.clamp(t);
+            let least = self.surface.refine_to(z32, ones, t, buf, STEP_TOL_LOOK);
+            // Its pose on the lattice of STEP_DEG, where the climbs of fewer parameters end.
+            self.surface.round_to_lattice(t, STEP_DEG);
+            least
+        };
+        let mut t = pose.to_vec();
+        let own = descend(&mut t);
+        let mut out = vec![(pose.to_vec(), own)];
         let mut minima = grid_minima(&self.scan_shape, dist);
         minima.sort_by(|&a, &b| dist[a].total_cmp(&dist[b]));
         for j in minima {
             if out.len() == MAX_HYPOTHESES {
                 break;
             }
-            let start = self.pose_of(&self.scan_poses[j * d..(j + 1) * d]);
+            let start = &self.scan_poses[j * d..(j + 1) * d];
             let far = |p: &[f64], out: &[(Vec<f64>, f64)]| out.iter().all(|o| self.space.error_deg(&o.0, p) >= GROSS_DEG);
-            if !far(&start, &out) {
+            if !far(&self.pose_of(start), &out) {
                 continue;
             }
             if out.len() == 1 {
-                let x: &[f32] = match q {
-                    Query::F32(x) => x,
-                    Query::U8(x) => {
-                        features.clear();
-                        features.extend(x.iter().map(|&v| v as f32 / 255.0));
-                        features
-                    }
-                };
-                let mut p = start.clone();
-                refine(x, &start, &mut p);
+                let mut t = start.to_vec();
+                let dj = descend(&mut t);
+                let p = self.pose_of(&t);
                 if far(&p, &out) {
-                    let dp = at(&p);
-                    out.push((p, dp));
-                    refined = true;
-                    continue;
+                    out.push((p, dj));
                 }
+            } else {
+                out.push((self.pose_of(start), dist[j]));
             }
-            out.push((start, dist[j]));
         }
-        (out, refined)
+        out
     }
 
     /// The second look over a batch (`queries` of `m` features each) whose method's estimates
@@ -466,16 +485,13 @@ impl SecondLook {
             if pose[0].is_nan() || !self.coords(q, s) {
                 return None;
             }
-            let (mut basins, refined) = if continuous { self.basins_continuous(s, q, pose, &refine) } else { (self.basins(s, pose), false) };
+            let mut basins = if continuous { self.basins_continuous(s, pose) } else { self.basins(s, pose) };
             let dist: Vec<f64> = basins.iter().map(|b| b.1).collect();
             let unexplained = (self.settings.held_out > 0.0).then_some(self.settings.held_out);
             let score = posterior(&dist, self.settings.floor, self.settings.effective_dims, unexplained);
             // The most probable basin; the method's own on a tie.
-            let w = (1..basins.len()).fold(0, |w, j| if score[j] > score[w] { j } else { w });
-            if w == 1 && refined {
-                // The method's own pose in that basin, found already.
-                pose.copy_from_slice(&basins[w].0);
-            } else if w != 0 {
+            let mut w = (1..basins.len()).fold(0, |w, j| if score[j] > score[w] { j } else { w });
+            if w != 0 {
                 // The method searches again in the nearer basin; where its own metric has
                 // no least there (it slides back towards the first estimate), the basin's
                 // pose stands.
@@ -491,8 +507,16 @@ impl SecondLook {
                 refine(features, &basins[w].0, &mut p);
                 if self.space.error_deg(&p, &basins[w].0) < GROSS_DEG {
                     basins[w].0 = p;
+                    pose.copy_from_slice(&basins[w].0);
+                } else if continuous {
+                    // On a manifold kept as its knots the look's surface interpolates the views'
+                    // detail poorly between knots, and a basin its metric finds where the
+                    // method's finds none is taken for that: the estimate stays, its score
+                    // says how much the look doubts it.
+                    w = 0;
+                } else {
+                    pose.copy_from_slice(&basins[w].0);
                 }
-                pose.copy_from_slice(&basins[w].0);
             }
             let top = top?;
             let mut hyps: Vec<Hypothesis> = basins.into_iter().zip(score).map(|((pose, distance), score)| Hypothesis { pose, score, distance }).collect();

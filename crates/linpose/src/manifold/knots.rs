@@ -1,32 +1,34 @@
 //! The coarse candidates of a continuous search on a manifold kept as its knots
-//! ([`super::dense_lattice`]): the training views nearest to a query in the eigenspace, from
-//! which Levenberg-Marquardt on the surface through them finds its pose.
+//! ([`super::dense_lattice`]): the surface through the training views at a few points per knot
+//! interval (the training views among them), the nearest of them to a query in the eigenspace,
+//! from which Levenberg-Marquardt on the surface finds its pose.
 //!
-//! The knots are indexed by a k-d tree ([`super::kdtree`]) or, for few of them or beyond the
-//! tree's dimensions, searched by brute force. A query's starts are its nearest knot and the
-//! knots within a ratio of that squared distance, nearest first, less any next to a nearer start
-//! on the training grid (one knot step along every axis: the two share a basin). Everything
-//! here grows with the training views, N L numbers and N D poses.
+//! The points are indexed by a k-d tree ([`super::kdtree`]) or, for few of them or beyond the
+//! tree's dimensions, searched by brute force. A query's starts are its nearest point and the
+//! points within a ratio of that squared distance, nearest first, less any next to a nearer start
+//! on their grid (one step along every axis: the two share a basin). Everything here grows with
+//! the training views: P^D points of `dim` values and D poses per view, for P points per knot
+//! interval.
 
 use super::kdtree::{KdTree, MAX_DIM};
-use crate::pose::PoseSpace;
+use super::surface::Surface;
 
-/// Knots from which the tree serves (below, brute force: a few hundred products). Not tuned:
+/// Points from which the tree serves (below, brute force: a few hundred products). Not tuned:
 /// the eigenspace's own rule for its nearest-point search (`methods::eigenspace::search`).
 const TREE_FROM: usize = 64;
 
-/// The knots of a manifold indexed for a query's starts.
+/// The coarse points of a manifold kept as its knots, indexed for a query's starts.
 #[derive(Debug, Clone)]
 pub(crate) struct KnotStarts {
-    /// Coordinates used, the first `dim` of each knot.
+    /// Coordinates used, the first `dim` of each point.
     dim: usize,
-    /// The k-d tree over the knots, or None for brute force over `points`.
+    /// The k-d tree over the points, or None for brute force over `points`.
     tree: Option<KdTree>,
-    /// The knots' first `dim` coordinates (N x dim), for brute force (empty with a tree).
+    /// The points' first `dim` coordinates (row-major), for brute force (empty with a tree).
     points: Vec<f32>,
-    /// Knots along each axis and whether the axis is circular.
+    /// Points along each axis and whether the axis is circular.
     shape: Vec<(usize, bool)>,
-    /// The knots' poses (N x D, row-major over the grid, last parameter fastest), in the
+    /// The points' poses (D each, row-major over their grid, last parameter fastest), in the
     /// surface's domain.
     poses: Vec<f64>,
 }
@@ -39,33 +41,31 @@ pub(crate) struct StartScratch {
 }
 
 impl KnotStarts {
-    /// The knots `knots` (N x `l`, row-major over the grid `axes` of `space`, last parameter
-    /// fastest) indexed on their first `dim` coordinates; by a tree when `tree` allows and there
-    /// are enough of them.
-    pub(crate) fn new(knots: &[f32], l: usize, dim: usize, axes: &[Vec<f64>], space: &PoseSpace, tree: bool) -> KnotStarts {
-        let n = knots.len() / l.max(1);
+    /// The surface's points at `per_cell` points per knot interval along each axis
+    /// ([`Surface::grid_poses`]; the knots themselves for 1), indexed on their first `dim`
+    /// coordinates; by a tree when `tree` allows and there are enough of them.
+    pub(crate) fn new(surface: &Surface, dim: usize, per_cell: usize, tree: bool) -> KnotStarts {
+        let (l, d) = (surface.dim, surface.params());
         let dim = dim.clamp(1, l.max(1));
-        let points: Vec<f32> = knots.chunks_exact(l).flat_map(|k| k[..dim].iter().copied()).collect();
-        let shape: Vec<(usize, bool)> = axes.iter().zip(space.params()).map(|(a, p)| (a.len(), p.period.is_some())).collect();
-        let d = axes.len();
-        let mut poses = vec![0.0; n * d];
-        for (k, pose) in poses.chunks_exact_mut(d).enumerate() {
-            let mut rest = k;
-            for j in (0..d).rev() {
-                pose[j] = axes[j][rest % axes[j].len()];
-                rest /= axes[j].len();
-            }
+        let poses = surface.grid_poses(per_cell);
+        let shape = surface.grid_shape(per_cell);
+        let n = poses.len() / d.max(1);
+        let mut points = Vec::with_capacity(n * dim);
+        let mut f = vec![0.0; dim];
+        for t in poses.chunks_exact(d) {
+            surface.eval(t, &mut f, None);
+            points.extend(f.iter().map(|&v| v as f32));
         }
         let (tree, points) = if tree && dim <= MAX_DIM && n >= TREE_FROM { (Some(KdTree::new(&points, dim)), Vec::new()) } else { (None, points) };
         KnotStarts { dim, tree, points, shape, poses }
     }
 
-    /// Whether the knots are searched by a k-d tree.
+    /// Whether the points are searched by a k-d tree.
     pub(crate) fn has_tree(&self) -> bool {
         self.tree.is_some()
     }
 
-    /// The pose of knot `k` (D values, in the surface's domain).
+    /// The pose of point `k` (D values, in the surface's domain).
     pub(crate) fn pose(&self, k: usize) -> &[f64] {
         let d = self.shape.len();
         &self.poses[k * d..(k + 1) * d]
@@ -76,10 +76,10 @@ impl KnotStarts {
         self.tree.as_ref().map_or(self.points.len() * 4, KdTree::bytes) + self.poses.len() * 8
     }
 
-    /// The starts of query `y` (its first `dim` coordinates count) into `out`: the nearest knot,
-    /// then the knots within `ratio` times its squared distance, nearest first (ties to the lower
-    /// index), each unless it is next to a start already kept on the training grid; at most
-    /// `max`. A query with a NaN coordinate gets knot 0.
+    /// The starts of query `y` (its first `dim` coordinates count) into `out`: the nearest
+    /// point, then the points within `ratio` times its squared distance, nearest first (ties to
+    /// the lower index), each unless it is next to a start already kept on their grid; at most
+    /// `max`. A query with a NaN coordinate gets point 0.
     pub(crate) fn starts(&self, y: &[f32], ratio: f32, max: usize, s: &mut StartScratch, out: &mut Vec<usize>) {
         out.clear();
         let q = &y[..self.dim];
@@ -117,7 +117,7 @@ impl KnotStarts {
         }
     }
 
-    /// Whether knots `i` and `j` are at most one knot apart along every axis.
+    /// Whether points `i` and `j` are at most one step apart along every axis of their grid.
     fn adjacent(&self, mut i: usize, mut j: usize) -> bool {
         for &(n, circular) in self.shape.iter().rev() {
             let gap = (i % n).abs_diff(j % n);
@@ -133,7 +133,7 @@ impl KnotStarts {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Param;
+    use crate::{Param, PoseSpace};
 
     /// A 3 x 4 x 6 grid of knots (the last axis circular) whose coordinates are their poses: the
     /// tree's starts are brute force's, the nearest knot comes first, and no two starts are
@@ -151,7 +151,9 @@ mod tests {
                 }
             }
         }
-        let (brute, tree) = (KnotStarts::new(&knots, 4, 4, &axes, &space, false), KnotStarts::new(&knots, 4, 4, &axes, &space, true));
+        let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
+        let surface = Surface::new(&space, &axes, &k64, 4, crate::manifold::Interpolant::Spline).unwrap();
+        let (brute, tree) = (KnotStarts::new(&surface, 4, 1, false), KnotStarts::new(&surface, 4, 1, true));
         assert!(!brute.has_tree() && tree.has_tree());
         let (mut s, mut a, mut b) = (StartScratch::default(), Vec::new(), Vec::new());
         for q in [[1.0f32, 2.0, 39.0, 1.0], [14.0, 26.0, -30.0, 20.0], [5.0, 5.0, 0.0, 0.0]] {

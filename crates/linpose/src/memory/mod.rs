@@ -43,10 +43,10 @@
 //!   234.5 GiB in memory.
 //! - Eigenspace: the images, then the larger of the PCA, 8 N M (an f64 transposed copy) + 36 N^2
 //!   (the Gram matrix and its eigendecomposition) + 16 M L, and the manifold, 8 M L + 24 P L
-//!   (P resampled points).
+//!   (P resampled points; with more than two pose parameters, kept as its knots, P = 2^D N).
 //! - Refined: binned copies (4 N M (1/4 + 1/16) when the factor is chosen) + 5.5 N M + 7.5 N M
 //!   / b^2 (the held-out fits' copies at the finest factor b) + 40 N^2 + 2 KiB P (lattice
-//!   searches).
+//!   searches; P = 2^D N with more than two pose parameters).
 //! - Many objects (in memory only): the objects' images, a concatenated copy (4 N M), the
 //!   recogniser (universal: 8 N M + 36 N^2; linear: 32 N^2, G with its factor and inverse), and,
 //!   as many at once as there are threads, the largest object's pose model fit.

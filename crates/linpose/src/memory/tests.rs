@@ -149,6 +149,23 @@ fn the_lattice_is_the_resampled_manifold() {
     assert_eq!(Job::for_manifest(&m, spec, find("linear").unwrap(), &Settings::new()).unwrap().lattice, 0);
 }
 
+/// With more than two pose parameters the manifold is kept as its knots: 2^3 points per training
+/// view for the methods, 4^3 for the recognisers' resampling, whatever the pose ranges.
+#[test]
+fn three_parameters_count_points_per_training_view() {
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0), Param::linear("roll")]).unwrap();
+    let poses: Vec<f64> =
+        (0..3).flat_map(|e| (0..30).flat_map(move |a| (0..4).flat_map(move |r| [32.0 + 18.0 * e as f64, 12.0 * a as f64, -30.0 + 20.0 * r as f64]))).collect();
+    let m = Manifest::new(".", space, (0..360).map(|i| format!("{i}.png")).collect(), poses).unwrap();
+    assert_eq!(lattice_points(&m, 0.5), 8 * 360);
+    let spec = ImageSpec { width: 8, height: 8, color: ColorMode::Gray };
+    for method in ["eigenspace", "refined"] {
+        assert_eq!(Job::for_manifest(&m, spec, find(method).unwrap(), &Settings::new()).unwrap().lattice, 8 * 360);
+    }
+    let objects = Job::for_objects(&[m.clone(), m], spec, find("eigenspace").unwrap(), &Settings::new(), &RecognizerParams::default()).unwrap();
+    assert_eq!(objects.lattice, 64 * 360);
+}
+
 /// The case that started it (issue 36): 100,800 images of 160 x 120 with a fixed ridge on a
 /// machine of 24 GB, about 23 GiB available: streamed, in under 2 GiB.
 #[test]

@@ -121,3 +121,38 @@ fn the_nearer_object_is_the_one_every_object_measured_in_full_gives() {
     // Most views named as another object have a nearer one (their own, at least).
     assert!(found > n * (k - 1) / 2, "{found} of {}", n * (k - 1));
 }
+
+/// Objects of three pose parameters: each manifold resampled at a few points per knot interval
+/// (not every 0.5 degrees), the views between training views recognised with their poses, and
+/// the model file read back alike.
+#[test]
+fn objects_of_three_pose_parameters_are_recognised_with_their_poses() {
+    use crate::methods::eigenspace::tests::knots::{between3, train3};
+    use crate::{Dataset, EigenspaceParams, ObjectSet};
+    // A second object: the first's images mirrored left to right.
+    let mirrored = |d: &Dataset| {
+        let w = d.spec().width as usize;
+        let f = d.features().chunks_exact(w).flat_map(|row| row.iter().rev().copied()).collect();
+        Dataset::from_features(d.manifest().clone(), d.spec(), f).unwrap()
+    };
+    let train = train3(20);
+    let objects = ObjectSet::new(vec!["a".into(), "b".into()], vec![train.clone(), mirrored(&train)]).unwrap();
+    let model = ObjectModel::fit(&objects, &RecognizerParams::default(), &EigenspaceParams::default().components(12).into()).unwrap();
+    // 4 x 18 x 5 knots, 4 points a knot interval: 13 x 72 x 17 points an object.
+    let storage = model.recognizer_storage();
+    assert!(storage.terms.contains(&("N_dense".to_string(), 2 * 13 * 72 * 17)), "{storage:?}");
+    let test = between3();
+    let queries: Vec<f32> = test.features().iter().copied().chain(mirrored(&test).features().iter().copied()).collect();
+    let est = model.estimate(&queries, 2).unwrap();
+    let n = test.len();
+    for (q, e) in est.iter().enumerate() {
+        assert_eq!(e.recognition.object, Some(q / n), "view {q}: {:?}", e.recognition);
+        let pose = &e.pose.as_ref().unwrap().pose;
+        let err = test.space().error_deg(test.pose(q % n), pose);
+        assert!(err <= 1.0, "view {q}: pose {pose:?}, error {err}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("objects.safetensors");
+    crate::model_file::save_objects(&model, &path).unwrap();
+    assert_eq!(crate::model_file::load_objects(&path).unwrap().estimate(&queries, 2).unwrap(), est);
+}

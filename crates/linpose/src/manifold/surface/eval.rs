@@ -114,7 +114,7 @@ impl Surface {
 
 /// One corner's term of [`Surface::eval`]: its values `c` (at least `f.len()`) times `weight`
 /// into `f`, and times each `gw[k]` into the Jacobian rows when asked for; one pass over `c`
-/// (D = 1 and 2 spelled out so the loop vectorises).
+/// (D = 1 to 3 spelled out so the loop vectorises).
 #[inline(always)]
 fn corner_term(c: &[f32], d: usize, weight: f64, gw: &[f64; 8], f: &mut [f64], jac: Option<&mut [f64]>) {
     let lo = f.len();
@@ -136,6 +136,18 @@ fn corner_term(c: &[f32], d: usize, weight: f64, gw: &[f64; 8], f: &mut [f64], j
                 *v += weight * x;
                 *a += gw[0] * x;
                 *b += gw[1] * x;
+            })
+        }
+        3 => {
+            // One pass for the value and the three rows (each sum in the general loop's order).
+            let (g0, rest) = g.split_at_mut(lo);
+            let (g1, g2) = rest.split_at_mut(lo);
+            f.iter_mut().zip(g0).zip(g1).zip(&mut g2[..lo]).zip(c).for_each(|((((v, a), b), e), &x)| {
+                let x = x as f64;
+                *v += weight * x;
+                *a += gw[0] * x;
+                *b += gw[1] * x;
+                *e += gw[2] * x;
             })
         }
         _ => {

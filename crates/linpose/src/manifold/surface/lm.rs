@@ -11,6 +11,11 @@ impl Surface {
     /// distance reached, with `t` moved to where it is reached. `buf` holds at least (D + 2) L
     /// values of scratch.
     pub(crate) fn refine(&self, y: &[f32], wt: &[f64], t: &mut [f64], buf: &mut [f64]) -> f64 {
+        self.refine_to(y, wt, t, buf, STEP_TOL)
+    }
+
+    /// [`Surface::refine`] ending at a step below `tol` degrees.
+    pub(crate) fn refine_to(&self, y: &[f32], wt: &[f64], t: &mut [f64], buf: &mut [f64], tol: f64) -> f64 {
         let (d, l) = (self.params(), self.dim);
         let (f, rest) = buf.split_at_mut(l);
         let (jac, rest) = rest.split_at_mut(d * l);
@@ -34,7 +39,7 @@ impl Surface {
             if mu < 0.0 {
                 mu = DAMPING_START * (0..d).map(|a| h[a][a]).fold(0.0, f64::max).max(f64::MIN_POSITIVE);
             }
-            let Some(c) = self.damped_step(Normal { h: &h, grad: &g }, &mut mu, t, cost, STEP_TOL, |cand| {
+            let Some(c) = self.damped_step(Normal { h: &h, grad: &g }, &mut mu, t, cost, tol, |cand| {
                 self.eval(cand, ftry, None);
                 dist(ftry)
             }) else {
@@ -133,6 +138,16 @@ impl Surface {
 }
 
 impl Surface {
+    /// Moves `t` to the nearest point of the lattice of `step` degrees anchored at the first
+    /// knot of each axis (kept in the domain), without evaluating anything.
+    pub(crate) fn round_to_lattice(&self, t: &mut [f64], step: f64) {
+        for (j, v) in t.iter_mut().enumerate() {
+            let lo = self.splines[j].span().0;
+            *v = lo + ((*v - lo) / step).round() * step;
+        }
+        self.clamp(t);
+    }
+
     /// Moves `t` to the closest to `y` (distances weighted by `wt`) of the 2^D points around it on the lattice of `step`
     /// degrees anchored at the first knot of each axis (kept in the domain); returns its squared
     /// distance. `f` holds L values of scratch.

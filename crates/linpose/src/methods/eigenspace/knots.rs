@@ -1,19 +1,20 @@
 //! The eigenspace's manifold kept as its knots, for more pose parameters than a dense lattice
 //! serves ([`crate::manifold::dense_lattice`]): the training views' coordinates (N x L) and the
 //! tensor-product spline through them (the surface the dense lattice would have resampled,
-//! [`Surface`]), searched continuously. A query's starts are the training views nearest to it in
-//! the eigenspace ([`KnotStarts`]: the nearest, and those within
-//! [`KNOT_START_RATIO`] of its squared distance and not next to a nearer one on the training
-//! grid, at most [`KNOT_STARTS`]); from each, Levenberg-Marquardt on the distance to the surface
+//! [`Surface`]), searched continuously. A query's starts are the points of the surface at
+//! [`KNOT_START_PER_CELL`] points per knot interval (the training views among them) nearest to
+//! it in the eigenspace ([`KnotStarts`]: the nearest, and those within [`KNOT_START_RATIO`] of
+//! its squared distance and not next to a nearer one on their grid, at most [`KNOT_STARTS`]);
+//! from each, Levenberg-Marquardt on the distance to the surface
 //! ([`Surface::refine`]); the least end, snapped to the lattice of `manifold_step` degrees
 //! anchored at each parameter's first training value ([`Surface::snap`]), is the pose: the pose
 //! the dense lattice would report where the search finds the right basin. Storage and time grow
-//! with the training views: N L knots in the file, the surface's 2^D N L values and slopes
-//! derived when loaded, a tree over the knots.
+//! with the training views: N L knots in the file, the surface's 2^D N L values and slopes and
+//! the start points with their tree derived when loaded.
 
 use crate::manifold::knots::{KnotStarts, StartScratch};
 use crate::manifold::surface::{Interpolant, Surface};
-use crate::manifold::tuning::{KNOT_STARTS, KNOT_START_RATIO};
+use crate::manifold::tuning::{KNOT_STARTS, KNOT_START_PER_CELL, KNOT_START_RATIO};
 use crate::pose::{wrap_positive, PoseSpace};
 use crate::Result;
 use std::cell::RefCell;
@@ -47,7 +48,7 @@ impl KnotSearch {
     pub(crate) fn new(space: &PoseSpace, axes: &[Vec<f64>], knots: &[f32], l: usize, step: f64, tree: bool) -> Result<KnotSearch> {
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
         let surface = Surface::new(space, axes, &k64, l, Interpolant::Spline)?;
-        let starts = KnotStarts::new(knots, l, l, axes, space, tree);
+        let starts = KnotStarts::new(&surface, l, KNOT_START_PER_CELL, tree);
         Ok(KnotSearch { surface, starts, step, ones: vec![1.0; l] })
     }
 
@@ -56,7 +57,7 @@ impl KnotSearch {
         self.starts.has_tree()
     }
 
-    /// Bytes held beside the knots: the surface's values and slopes, the starts' index.
+    /// Bytes held beside the knots: the surface's values and slopes, the start points.
     pub(crate) fn bytes(&self) -> usize {
         self.surface.len() * 4 + self.starts.bytes()
     }

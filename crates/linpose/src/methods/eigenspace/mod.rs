@@ -11,7 +11,7 @@
 //! 4. a query is scaled to unit energy, projected (L dot products of length M) and given the pose
 //!    of the nearest manifold point (`search.rs`, a k-d tree or brute force).
 //!
-//! With more than two pose parameters ([`crate::manifold::dense_lattice`]) the manifold is not
+//! With more than two pose parameters (`manifold::dense_lattice`) the manifold is not
 //! resampled: it is kept as its knots, the training views' coordinates, and searched
 //! continuously from the nearest of them (`knots.rs`), so that the model and its training time
 //! grow with the training views rather than with a lattice of (range / step)^K points.

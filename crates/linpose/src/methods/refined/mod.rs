@@ -45,10 +45,12 @@
 //!    floor (a fraction of their mean) bounds the trust in any one; nu is the query's own noise
 //!    per coordinate, its residual beyond the training views' over the M - L_s coordinates it
 //!    spreads over for isotropic noise. With one pose parameter the search is exact over every
-//!    pose of the reporting lattice; with more, reported on a lattice, it starts from a k-d tree
-//!    over the surface on a coarser lattice and climbs the reporting one; otherwise
-//!    Levenberg-Marquardt runs from the closest coarse surface points and its end is snapped to
-//!    the lattice.
+//!    pose of the reporting lattice; with two, reported on a lattice, it starts from a k-d tree
+//!    over the surface on a coarser lattice and climbs the reporting one; otherwise (more than
+//!    two, whose manifold is kept as its knots, `manifold::dense_lattice`: no lattice
+//!    is resampled) Levenberg-Marquardt runs from the closest coarse surface points (two per
+//!    knot interval along each axis with more than two parameters) and its end is snapped to
+//!    the lattice; the noisy match likewise.
 //! 4. **Noisy match** (`noisy/`). Uniform noise clipped to [0, 1] is not zero-mean:
 //!    it brightens a dark background by about a / 4 and adds energy, a silhouette-shaped change
 //!    in the leading, most trusted coordinates that a plain distance takes for a change of pose.

@@ -92,10 +92,11 @@ impl RefinedModel {
         let k64: Vec<f64> = knots.iter().map(|&v| v as f64).collect();
         let surface = Surface::new(&meta.space, &axes, &k64, l, settings.interpolant)?;
         let d = axes.len();
-        // A manifold kept as its knots starts its searches from the training views themselves
-        // (one coarse point per knot); a lattice's, from per_cell points per knot interval.
+        // A manifold kept as its knots starts its searches from the surface at
+        // KNOT_START_PER_CELL points per knot interval, as the eigenspace's does; a lattice's
+        // continuous fallback from per_cell points per knot interval.
         let continuous = !crate::manifold::dense_lattice(d);
-        let per_cell = if continuous { 1 } else { settings.params.per_cell };
+        let per_cell = if continuous { crate::manifold::tuning::KNOT_START_PER_CELL } else { settings.params.per_cell };
         let start_poses = surface.grid_poses(per_cell);
         let start_shape = surface.grid_shape(per_cell);
         let b64: Vec<f64> = background.iter().map(|&v| v as f64).collect();

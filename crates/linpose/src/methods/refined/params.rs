@@ -58,7 +58,9 @@ impl RefinedParams {
         self
     }
 
-    /// Coarse points per knot interval along each axis.
+    /// Coarse points per knot interval along each axis, where a local search serves from a
+    /// grid of coarse points (one or two pose parameters; with more, the manifold is kept as its
+    /// knots and the coarse points are fixed at two per knot interval).
     pub fn per_cell(mut self, k: usize) -> Self {
         self.per_cell = k;
         self

@@ -69,13 +69,14 @@ fn the_knots_model_grows_with_the_training_views_not_with_a_lattice() {
             (train.len(), model.model_bytes(), model.model_bytes() - fixed)
         })
         .collect();
-    // The manifold's part: the knots, their positions, the surface and the tree, per view alike.
+    // The manifold's part: the knots, their positions, the surface, the coarse points (about 2^3
+    // a view) with their poses and tree: about the same per view whatever N (the tree's leaves
+    // and the linear axes' ends vary a little), under 30 L numbers.
     let per_view: Vec<f64> = sizes.iter().map(|&(n, _, part)| part as f64 / n as f64).collect();
     for w in per_view.windows(2) {
-        assert!((w[1] / w[0] - 1.0).abs() < 0.1, "{sizes:?}");
+        assert!((w[1] / w[0] - 1.0).abs() < 0.2, "{sizes:?}");
     }
-    // 2^3 values and slopes per knot, the knot and its tree: 12 L numbers or less a view.
-    assert!(per_view.iter().all(|&b| b <= 12.0 * 12.0 * 4.0), "{per_view:?}");
+    assert!(per_view.iter().all(|&b| b <= 30.0 * 12.0 * 4.0), "{per_view:?}");
     // The lattice of 0.5 degrees over the same ranges would hold 61 x 720 x 121 points of 12.
     assert!(sizes.iter().all(|s| s.1 < 61 * 720 * 121 * 12 * 4 / 100), "{sizes:?}");
 }
@@ -141,3 +142,4 @@ fn three_parameters_give_confident_hypotheses_and_8_bit_poses() {
 
 /// The flagging threshold.
 const FLAG: f64 = crate::confidence::FLAG_BELOW;
+

@@ -11,7 +11,7 @@
 //! 1 / (sigma_l^2 + floor + nu) (nu the query's pixel noise per coordinate), as the fit chose on
 //! held-out views under simulated noise.
 //!
-//! With two or more pose parameters reported on a lattice, the starts are the [`NoisyTree`]'s
+//! With two pose parameters reported on a lattice, the starts are the [`NoisyTree`]'s
 //! nearest point and, within a ratio of its distance, the nearest of another basin, and from each
 //! the climb on the reporting lattice; otherwise the [`NoiseScan`] of the coarse points gives the
 //! starts of Levenberg-Marquardt, whose best end is snapped to the lattice.
@@ -97,7 +97,7 @@ impl RefinedModel {
     /// per pose, in the first `noise_components` coordinates, weighted by
     /// 1 / (sigma_l^2 + floor + nu) when `noise_weighted`.
     ///
-    /// With a [`NoisyTree`] (two or more parameters reported on a lattice) the starts are its
+    /// With a [`NoisyTree`] (two parameters reported on a lattice) the starts are its
     /// nearest point and, within twice its distance, the nearest of another basin; from each
     /// [`Surface::climb_pair`](super::surface::Surface::climb_pair) walks the reporting lattice on the affine match, and the closer
     /// end is the pose. Otherwise the coarse scan ([`NoiseScan`]) gives the starts of

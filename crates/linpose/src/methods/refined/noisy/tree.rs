@@ -1,10 +1,10 @@
-//! The noisy tree: the starts of a noisy query's search on a manifold of two or more parameters.
+//! The noisy tree: the starts of a noisy query's search on a manifold of two parameters.
 
 use crate::methods::refined::scratch::SEARCH_SCRATCH;
 use crate::manifold::surface::Surface;
 use crate::methods::refined::tuning::{SECOND_BASIN_APART, SECOND_BASIN_RATIO};
 
-/// The start of a noisy query's search on a manifold of two or more parameters reported on a
+/// The start of a noisy query's search on a manifold of two parameters reported on a
 /// lattice (beside a [`CoarseTree`](crate::methods::refined::search::CoarseTree), on its poses): a k-d tree over the surface points
 /// m(t) = f(t) + c (the mean added back) of the noisy match's coordinates, scaled by the
 /// square roots of its weights of nu = 0, with their part along `dir` removed and scaled to unit

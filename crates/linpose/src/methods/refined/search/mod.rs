@@ -3,11 +3,13 @@
 //!
 //! - One pose parameter reported on a lattice (a turntable): the exact least over every lattice
 //!   pose ([`lattice`]), without a local search.
-//! - Two or more, reported on a lattice: the nearest point of the coarse tree ([`CoarseTree`]:
+//! - Two, reported on a lattice: the nearest point of the coarse tree ([`CoarseTree`]:
 //!   the surface on a lattice of [`crate::methods::refined::tuning::TREE_STEP`] reporting steps,
 //!   in the coordinates weighted for nu = 0), then the climb on the reporting lattice with the
 //!   query's own weights.
-//! - Otherwise (a continuous estimate, or a lattice too large for those): the distance to every
+//! - Otherwise (more than two parameters, whose manifold is kept as its knots and whose coarse
+//!   points are the surface at two points per knot interval; a continuous estimate; or a lattice
+//!   too large for those): the distance to every
 //!   coarse surface point (by bounding boxes of points, which rule most of them out on the leading
 //!   coordinates first), Levenberg-Marquardt in the pose from the distinct closest ones (a start
 //!   next to a closer one on the coarse grid shares its basin), and the best end snapped to the
@@ -77,7 +79,7 @@ impl RefinedModel {
 impl RefinedModel {
     /// The pose (degrees, circular values in [0, period)) of a clean query's coordinates `y`
     /// into `out`, its weights 1 / (sigma_l^2 + floor + nu) for noise `nu` per coordinate: on a
-    /// one-parameter lattice the lattice search, with two or more parameters on a lattice the
+    /// one-parameter lattice the lattice search, with two parameters on a lattice the
     /// coarse tree's nearest point and the climb, else Levenberg-Marquardt from the distinct
     /// closest coarse points, snapped to the lattice.
     pub(crate) fn pose_of_clean(&self, y: &[f32], nu: f64, out: &mut [f64]) {

@@ -1,9 +1,9 @@
-//! The coarse tree: the start of a clean query's search on a manifold of two or more parameters.
+//! The coarse tree: the start of a clean query's search on a manifold of two parameters.
 
 use crate::manifold::surface::Surface;
 use crate::methods::refined::tuning::MAX_TREE_POSES;
 
-/// The start of a clean query's search on a manifold of two or more parameters reported on a
+/// The start of a clean query's search on a manifold of two parameters reported on a
 /// lattice: a k-d tree over the surface at every pose of the lattice of twice the reporting
 /// step, in the search's L_s coordinates. A clean query's coordinates are scaled by the weights
 /// of nu = 0, so the tree's nearest point is the closest such pose in that metric; from it

@@ -22,8 +22,9 @@ fn three_parameters_start_from_the_training_views_and_interpolate() {
     let model = RefinedParams::default().fit(&train).unwrap();
     assert!(model.continuous() && model.tree.is_none() && model.lattice.is_none() && model.noisy_tree.is_none());
     assert_eq!(model.settings().knot_shape, vec![4, 18, 5]);
-    // One coarse point a knot: the training views themselves.
-    assert_eq!((model.start_len(), model.knots_len()), (train.len(), train.len()));
+    // The coarse points: the surface at two points per knot interval along each axis (the knots
+    // among them), 2^3 a training view but for the ends of the linear axes.
+    assert_eq!((model.start_len(), model.knots_len()), (7 * 36 * 9, train.len()));
     let e = errors_of(&model.predict(train.features()).unwrap(), &train);
     assert!(e.iter().all(|&v| v == 0.0), "{e:?}");
     let test = between3();
@@ -98,3 +99,4 @@ fn four_parameters_train_and_predict() {
     let back = crate::model_file::load(&path).unwrap();
     assert_eq!(back.predict(test.features()).unwrap(), model.predict(test.features()).unwrap());
 }
+
