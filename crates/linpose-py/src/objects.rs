@@ -109,21 +109,21 @@ impl Objects {
     /// The model file's bytes.
     fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
         let model = &self.inner;
-        let bytes = py.detach(|| model_file::objects_to_bytes(model)).map_err(py_err)?;
+        let bytes = py.detach(|| model.to_bytes()).map_err(py_err)?;
         Ok(PyBytes::new(py, &bytes))
     }
 
     /// The model of a many-object model file's bytes.
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Objects> {
-        let inner = py.detach(|| model_file::objects_from_bytes(Path::new("<bytes>"), data)).map_err(py_err)?;
+        let inner = py.detach(|| ObjectModel::from_bytes(Path::new("<bytes>"), data)).map_err(py_err)?;
         Ok(Objects { inner })
     }
 
     /// Writes the model file (atomically); returns its size in bytes.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<u64> {
         let model = &self.inner;
-        py.detach(|| model_file::save_objects(model, &path)).map_err(py_err)
+        py.detach(|| model.save(&path)).map_err(py_err)
     }
 
     /// The objects' names, in the order of their indices.
@@ -335,7 +335,7 @@ pub(crate) fn fit_objects(
 /// Reads a many-object model file.
 #[pyfunction]
 pub(crate) fn load_objects(py: Python<'_>, path: PathBuf) -> PyResult<Objects> {
-    let inner = py.detach(|| model_file::load_objects(&path)).map_err(py_err)?;
+    let inner = py.detach(|| ObjectModel::load(&path)).map_err(py_err)?;
     Ok(Objects { inner })
 }
 

@@ -12,7 +12,7 @@ use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-pub use crate::pixel_noise::add_uniform_noise;
+use crate::pixel_noise::add_uniform_noise;
 
 /// One evaluated sample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -208,14 +208,9 @@ pub struct EvalReport {
     pub samples: Vec<SampleResult>,
 }
 
-/// Estimates every sample of `data` with `model`, with uniform noise of +-`noise` added to the
-/// queries (0 for none) from `seed`, with the confidence of [`EvalOptions::new`].
-pub fn evaluate(model: &dyn PoseModel, data: &Dataset, noise: f64, seed: u64) -> Result<EvalReport> {
-    evaluate_with(model, data, &EvalOptions::new(noise, seed))
-}
-
-/// Estimates every sample of `data` with `model` as `opt` says.
-pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Result<EvalReport> {
+/// Estimates every sample of `data` with `model` as `opt` says (`EvalOptions::new(noise, seed)`:
+/// uniform noise of +-`noise` added to the queries, 0 for none, from `seed`).
+pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Result<EvalReport> {
     let (noise, seed) = (opt.noise, opt.seed);
     if !(opt.flag_below.is_finite() && (0.0..=1.0).contains(&opt.flag_below)) {
         return Err(Error::invalid("flag threshold", opt.flag_below, "must be a confidence in [0, 1]"));

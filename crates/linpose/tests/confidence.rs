@@ -8,7 +8,7 @@ use linpose::confidence::{FLAG_BELOW, GROSS_DEG};
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
-use linpose::{model_file, AnyModel, Dataset, Estimate, Param, PoseModel, PoseSpace, TrainSelection, METHODS};
+use linpose::{AnyModel, Dataset, Estimate, Param, PoseModel, PoseSpace, TrainSelection, METHODS};
 use std::path::Path;
 
 fn turntable(object: &str) -> (Dataset, Dataset) {
@@ -143,8 +143,8 @@ fn a_model_read_back_from_its_file_gives_the_same_hypotheses() {
     for method in METHODS {
         let model = method.default_spec().fit(&train).unwrap();
         let path = dir.path().join(format!("{}.safetensors", method.name));
-        model_file::save(&model, &path).unwrap();
-        let back = model_file::load(&path).unwrap();
+        model.save(&path).unwrap();
+        let back = AnyModel::load(&path).unwrap();
         let (a, b) = (model.estimate(unseen.features(), 4).unwrap(), back.estimate(unseen.features(), 4).unwrap());
         for (i, (x, y)) in a.iter().zip(&b).enumerate() {
             assert_eq!(x, y, "{}: view {i}", method.name);

@@ -105,15 +105,14 @@ fn a_written_data_set_reads_back_as_the_rendered_one() {
     assert_eq!(read.poses(), made.poses());
     assert_eq!(read.features(), made.features());
     assert_eq!(read.space().params()[1].period, Some(360.0));
-    // Its 8-bit pixels, read whole or into a caller's buffer, are the features' levels; a buffer
+    // Its 8-bit pixels, read into a caller's buffer, are the features' levels; a buffer
     // of the wrong size is refused.
     let manifest = Manifest::open(&out, None).unwrap();
-    let (spec, pixels) = linpose::dataset::load_gray8(&manifest, &|_| {}).unwrap().expect("8-bit images");
-    assert!(pixels.iter().zip(read.features()).all(|(&p, &f)| (p as f32 / 255.0 - f).abs() < 1e-6));
-    let (_, row0) = linpose::dataset::first_gray8(&manifest).unwrap().unwrap();
-    let mut into = vec![0u8; pixels.len()];
+    let (spec, row0) = linpose::dataset::first_gray8(&manifest).unwrap().expect("8-bit images");
+    let mut into = vec![0u8; read.features().len()];
     assert!(linpose::dataset::load_gray8_into(&manifest, spec, &row0, &mut into, &|_| {}).unwrap());
-    assert_eq!(into, pixels);
+    assert!(into.iter().zip(read.features()).all(|(&p, &f)| (p as f32 / 255.0 - f).abs() < 1e-6));
+    assert_eq!(&into[..row0.len()], &row0[..]);
     let e = linpose::dataset::load_gray8_into(&manifest, spec, &row0, &mut into[1..], &|_| {}).unwrap_err().to_string();
     assert!(e.contains("15 images of 3072 values"), "{e}");
     // Nothing but the data set is left beside it.

@@ -22,7 +22,7 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
     if a.unknown.is_some() {
         anyhow::bail!("--unknown: {} holds one object's pose model; the option is for a many-object model", a.model.display());
     }
-    let model = linpose::model_file::load(&a.model)?;
+    let model = linpose::AnyModel::load(&a.model)?;
     if let linpose::Source::Many(c) = linpose::Source::open(&a.data.data, a.data.object)? {
         anyhow::bail!(
             "{}: the data set holds {} objects ({}), but {} holds one object's pose model; train a many-object model on it, or give one object's data",
@@ -38,7 +38,7 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
     }
     let opt = linpose::EvalOptions { top: a.top as usize, flag_below: a.flag_below, ..linpose::EvalOptions::new(a.noise, a.seed) };
-    let r = linpose::evaluate_with(&model, &data, &opt)?;
+    let r = linpose::evaluate(&model, &data, &opt)?;
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
     print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{}: {}", x.image, x.reason)));
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");

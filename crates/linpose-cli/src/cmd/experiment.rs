@@ -220,7 +220,7 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("the normalisation study on {name}"))?;
             bar.finish_and_clear();
             for m in &r.models {
-                linpose::model_file::save(m, &tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
+                m.save(&tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
             }
             // Every view kept (8-bit where exact) for the recognition study across the objects.
             let mask = data.manifest().training_mask(&TrainSelection::Step(params.train_step))?;

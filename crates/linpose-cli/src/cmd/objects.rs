@@ -119,7 +119,7 @@ pub(crate) fn train(
     }
     bar.finish_and_clear();
     let fit_s = t1.elapsed().as_secs_f64();
-    let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
+    let file_bytes = model.save(out).context("writing the model")?;
     let summary = TrainSummary {
         recognizer: model.kind().name(),
         method: model.method_name().unwrap_or(linpose::model_file::NO_POSES),
@@ -249,7 +249,7 @@ const UNKNOWN: &str = "unknown";
 
 /// `eval` with a many-object model.
 pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
-    let model = linpose::model_file::load_objects(&a.model)?;
+    let model = linpose::recognize::ObjectModel::load(&a.model)?;
     let model = match &a.unknown {
         Some(u) => model.with_unknown(parse_unknown(u)?)?,
         None => model,
@@ -429,7 +429,7 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
             a.model.display()
         );
     }
-    let model = linpose::model_file::load_objects(&a.model)?;
+    let model = linpose::recognize::ObjectModel::load(&a.model)?;
     let (spec, space) = (model.spec(), model.space());
     let m = spec.features();
     let context = format!("the size of the model's training images ({})", a.model.display());

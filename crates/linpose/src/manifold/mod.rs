@@ -16,7 +16,8 @@ pub(crate) mod spline;
 pub(crate) mod surface;
 mod tuning;
 
-pub use surface::{Interpolant, INTERPOLANTS};
+pub use surface::Interpolant;
+pub(crate) use surface::INTERPOLANTS;
 
 /// Queries projected and searched together by one rayon task: at most 128 (a 128 x 19,200 block
 /// of queries against the basis stays in cache), at least 8, and small enough that a batch gives

@@ -95,7 +95,7 @@
 //!
 //! # Available memory
 //!
-//! [`available`]: the smallest of `/proc/meminfo`'s `MemAvailable` and the control groups'
+//! `available`: the smallest of `/proc/meminfo`'s `MemAvailable` and the control groups'
 //! limits less their usage; a plan uses `tuning::USABLE_FRACTION` of it. A budget
 //! ([`Limit::Budget`], `--memory-budget`) replaces it. Where nothing can be read
 //! ([`Limit::Unknown`]), the in-memory path is taken unchecked, as before planning existed.
@@ -108,9 +108,10 @@ pub(crate) mod tuning;
 pub use crate::error::format_bytes;
 pub use crate::error::{Remedy, StreamChange};
 pub use estimate::Estimate;
-pub use system::{available, parse_size, Available};
+pub(crate) use system::available;
+pub use system::{parse_size, Available};
 
-use crate::image_io::{ColorMode, ImageSpec};
+use crate::image_io::ImageSpec;
 use crate::manifest::Manifest;
 use crate::manifold::grid as manifold;
 use crate::methods::linear::ridge::RidgeRule;
@@ -198,7 +199,7 @@ impl Job {
         })
     }
 
-    /// The images of `manifest`, of size `spec` ([`first_image_spec`]): N, M, K and the pose
+    /// The images of `manifest`, of size `spec` ([`Manifest::first_image_spec`]): N, M, K and the pose
     /// lattice the method resamples (eigenspace) or reports on (refined) from its poses.
     pub fn for_manifest(manifest: &Manifest, spec: ImageSpec, method: &'static Method, settings: &Settings) -> Result<Self> {
         let job = Job::new(manifest.len(), spec.features(), manifest.space().encoded_len(), method, settings)?.channels(spec.color.channels());
@@ -235,7 +236,7 @@ impl Job {
     }
 
     /// Whether the normalisation is chosen on held-out training views first
-    /// ([`crate::stage_choice`]): a normalised copy of each fold's views besides the images'.
+    /// ([`crate::MethodSpec::fit_with_stage`]): a normalised copy of each fold's views besides the images'.
     pub fn choosing_stage(mut self, yes: bool) -> Self {
         self.choose_stage = yes;
         self.normalize |= yes;
@@ -323,15 +324,6 @@ impl Job {
     }
 }
 
-/// The size of the first image of `manifest`, read from its header (no pixel is decoded): what
-/// [`Job::for_manifest`] needs, before the images are read.
-pub fn first_image_spec(manifest: &Manifest, color: ColorMode) -> Result<ImageSpec> {
-    let path = manifest.image_path(0);
-    let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-    let (width, height) = crate::image_io::dimensions(&path, &bytes)?;
-    Ok(ImageSpec { width, height, color })
-}
-
 /// Points of the lattice every `step` degrees over the range of each pose parameter of
 /// `manifest` (its period when circular), as the eigenspace resamples its manifold; capped at
 /// the most points a manifold may have.
@@ -401,7 +393,7 @@ impl Blocker {
 pub enum Limit {
     /// A budget in bytes, given by the user: used whole.
     Budget(u64),
-    /// What the machine has available ([`available`]): `USABLE_FRACTION` of it is used.
+    /// What the machine has available: `USABLE_FRACTION` of it is used.
     Available(Available),
     /// Nothing could be read (not Linux): no path is refused.
     Unknown,

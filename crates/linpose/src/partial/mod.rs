@@ -197,7 +197,7 @@ impl Partial {
         if manifest.is_empty() {
             return Err(Error::Dataset { path: manifest.root().to_path_buf(), message: "no training images".into() });
         }
-        Partial::new(method, settings, manifest, crate::memory::first_image_spec(manifest, color)?)
+        Partial::new(method, settings, manifest, manifest.first_image_spec(color)?)
     }
 
     fn empty_of(header: Header, method: &'static Method, params: Params, poses: Vec<f64>, source: String) -> Self {

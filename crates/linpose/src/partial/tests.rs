@@ -254,9 +254,9 @@ fn files_are_told_apart_from_models() {
     let d = duck("40", "0:355:5", 16, 12);
     let p = shards(&LINEAR, &tiny(), &d, 1).pop().unwrap();
     let bytes = p.to_bytes().unwrap();
-    let e = crate::model_file::from_bytes(Path::new("p.safetensors"), &bytes).unwrap_err().to_string();
+    let e = crate::AnyModel::from_bytes(Path::new("p.safetensors"), &bytes).unwrap_err().to_string();
     assert!(e.contains("linpose merge"), "{e}");
-    let model = crate::model_file::to_bytes(&p.finish().unwrap()).unwrap();
+    let model = p.finish().unwrap().to_bytes().unwrap();
     let e = Partial::from_bytes(Path::new("m.safetensors"), &model).unwrap_err().to_string();
     assert!(e.contains("not a file of partial training statistics"), "{e}");
 }

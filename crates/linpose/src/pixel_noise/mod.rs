@@ -19,6 +19,7 @@
 
 mod uniform;
 
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub use uniform::add_uniform_noise;
 #[cfg(test)]
 mod tests;

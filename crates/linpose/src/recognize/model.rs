@@ -236,7 +236,7 @@ impl ObjectModel {
     }
 
     /// As [`ObjectModel::fit_with`], behind the normalisation `rule` decides: fixed, or chosen
-    /// on the objects' held-out training views ([`crate::stage_choice`]: every object's pose
+    /// on the objects' held-out training views ([`crate::MethodSpec::fit_with_stage`]: every object's pose
     /// model fitted without its held-out views, their errors pooled over the objects, for each of
     /// off, brightness, geometry and all behind one stage fitted on every object's views). The
     /// settings record the decision ([`ObjectSettings::stage_choice`]).

@@ -425,7 +425,8 @@ impl Estimator for LinearParams {
         &METHOD
     }
 
-    /// The closed form of [`leave_one_out`], for uncentred models.
+    /// The exact leave-one-out estimates in closed form (docs/method.md, one factorisation), for
+    /// uncentred models: at ridge 0 the paper's model's LOO error.
     fn leave_one_out(&self, train: &Dataset) -> Option<Result<Vec<f64>>> {
         (!self.center).then(|| leave_one_out(self, train))
     }
@@ -676,7 +677,7 @@ impl PoseModel for LinearModel {
 /// The exact leave-one-out estimates of the linear model with `params` on its own training set
 /// (docs/method.md, closed form, one factorisation): row i is the pose (degrees) that the model
 /// fitted without sample i gives sample i. At ridge 0 this is the paper's model's LOO error.
-pub fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>> {
+pub(crate) fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>> {
     params.validate()?;
     if params.center {
         return Err(Error::invalid("center", true, "the closed-form leave-one-out error is for uncentred models"));

@@ -106,7 +106,8 @@ pub(crate) mod select;
 pub(crate) use method::METHOD;
 pub use model::RefinedModel;
 pub use params::{RefinedParams, RefinedSettings};
-pub use crate::manifold::{Interpolant, INTERPOLANTS};
+pub use crate::manifold::Interpolant;
+pub(crate) use crate::manifold::INTERPOLANTS;
 
 pub(crate) use fit::Views;
 
