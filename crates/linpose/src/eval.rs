@@ -23,8 +23,12 @@ pub struct SampleResult {
     pub r#true: Vec<f64>,
     /// Estimated pose (degrees).
     pub estimated: Vec<f64>,
-    /// Pose error (degrees).
+    /// Pose error (degrees; [`crate::PoseSpace::error_deg`]).
     pub error_deg: f64,
+    /// Each parameter's own error (degrees, in the order of the report's `params`;
+    /// [`crate::PoseSpace::param_errors_deg`]).
+    #[serde(default)]
+    pub param_errors_deg: Vec<f64>,
     /// Whether the pose is one of the model's training poses.
     pub seen: bool,
     /// The model's confidence in the estimate, in [0, 1] (absent when not asked for).
@@ -190,6 +194,12 @@ pub struct EvalReport {
     pub all: ErrorSummary,
     /// Errors over the samples whose pose is not a training pose (absent when all are seen).
     pub unseen: Option<ErrorSummary>,
+    /// Each parameter's own errors over all samples, in the order of `params`.
+    #[serde(default)]
+    pub param_all: Vec<ErrorSummary>,
+    /// Each parameter's own errors over the unseen samples (absent when all are seen).
+    #[serde(default)]
+    pub param_unseen: Option<Vec<ErrorSummary>>,
     /// Hypotheses kept per sample (0: no confidence asked for).
     pub top: usize,
     /// The confidence under which a sample is flagged.
@@ -288,6 +298,7 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
                 r#true: truth.to_vec(),
                 estimated: e.to_vec(),
                 error_deg: meta.space.error_deg(truth, e),
+                param_errors_deg: meta.space.param_errors_deg(truth, e),
                 seen: meta.is_seen(truth),
                 confidence: h.map(|h| h.confidence),
                 flagged: h.map(|h| h.flagged(opt.flag_below)),
@@ -315,6 +326,8 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
         predict_s,
         all: ErrorSummary::of(&all_e).expect("a data set has samples"),
         unseen: ErrorSummary::of(&unseen_e),
+        param_all: per_param(samples.iter(), p).expect("a data set has samples"),
+        param_unseen: per_param(samples.iter().filter(|s| !s.seen), p),
         top: opt.top,
         flag_below: opt.flag_below,
         flagged_share: confidence.as_ref().map(|c| c.flagged_share),
@@ -322,6 +335,11 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
         confidence,
         samples,
     })
+}
+
+/// Each parameter's error summary over `samples` (`None` when there are none).
+fn per_param<'a>(samples: impl Iterator<Item = &'a SampleResult> + Clone, p: usize) -> Option<Vec<ErrorSummary>> {
+    (0..p).map(|j| ErrorSummary::of(&samples.clone().map(|s| s.param_errors_deg[j]).collect::<Vec<_>>())).collect()
 }
 
 fn names(space: &crate::pose::PoseSpace) -> Vec<String> {

@@ -49,6 +49,17 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
         Some(u) => line("unseen", u),
         None => println!("unseen   (every sample is a training view)"),
     }
+    // With three or more parameters the error above is over the camera's placement (the rotation
+    // angle with a roll); each parameter's own difference follows, a light's among them.
+    if r.params.len() >= 3 {
+        let (over, per) = match &r.param_unseen {
+            Some(u) => ("unseen", u),
+            None => ("all", &r.param_all),
+        };
+        for (name, s) in r.params.iter().zip(per) {
+            line(&format!("{over} {name}"), s);
+        }
+    }
     println!("errors in degrees; model {} bytes; estimation {:.4} s", r.model_bytes, r.predict_s);
     if let Some(c) = &r.confidence {
         println!(
