@@ -89,6 +89,7 @@ pub mod recognize;
 pub mod render;
 pub(crate) mod second_look;
 pub(crate) mod stage_choice;
+pub(crate) mod tuning;
 
 pub use catalog::{Catalog, ObjectSet, Source};
 pub use confidence::{Estimate, Hypothesis};

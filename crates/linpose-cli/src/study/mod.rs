@@ -10,6 +10,7 @@
 
 pub(crate) mod normalization;
 pub(crate) mod recognition;
+pub(crate) mod tuning;
 
 use linpose::dataset::Dataset;
 use linpose::eval::{evaluate, ConfidenceSummary, EvalOptions};

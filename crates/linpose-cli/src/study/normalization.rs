@@ -14,12 +14,8 @@ use linpose::normalize::{NormalizeParams, Normalizer};
 use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 
+use super::tuning::REGISTERED_COST;
 use super::StudyParams;
-
-/// The largest share of accuracy on registered views the stage may cost and still be
-/// recommended (0.10: the normalised unseen mean at most 1.1 times the plain one). Not tuned: the
-/// bar issue 33 set, a cost a user who needs unregistered queries would accept.
-pub(crate) const REGISTERED_COST: f64 = 0.10;
 
 /// One method with and without the stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

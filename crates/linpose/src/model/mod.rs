@@ -12,6 +12,7 @@ mod method;
 mod normalized;
 pub(crate) mod split;
 mod tensor;
+mod tuning;
 
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
 pub use normalized::Normalized;

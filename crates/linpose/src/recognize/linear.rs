@@ -14,7 +14,7 @@
 //! out a single view would leave its near twins (the other side of a symmetric object) in the
 //! fit and understate how far a fresh view lands.
 
-use super::universal::NEIGHBOUR;
+use super::tuning::{NEIGHBOUR, SINGULAR_RIDGE};
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::linalg::mat_from_rows;
@@ -27,12 +27,6 @@ use crate::Result;
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::Mat;
 use rayon::prelude::*;
-
-/// The ridge, relative to the largest diagonal entry of G times N, that a singular G (repeated
-/// views) is solved with: ten times the pivot below which the Gram factorisation refuses a
-/// system as singular (`GramSystem::factor`), so the fit is the minimum-norm one to about that
-/// relative precision. Numerical, not tuned.
-const SINGULAR_RIDGE: f64 = 1e-12;
 
 /// A fitted linear recogniser: K coefficient images.
 #[derive(Debug, Clone)]

@@ -63,6 +63,7 @@
 mod linear;
 mod model;
 mod own;
+mod tuning;
 mod universal;
 
 #[cfg(test)]

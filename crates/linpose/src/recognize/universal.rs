@@ -9,6 +9,7 @@
 //! from the object's other knots, at its own pose (every other knot held out along each axis,
 //! then the others: `manifold::folds::both_folds`), what calibrates the unknown-object threshold.
 
+use super::tuning::{GROUP, NEIGHBOUR, PREFIX, SEGMENT};
 use super::RecognizerParams;
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
@@ -56,23 +57,6 @@ pub(crate) struct Universal {
     group_centres: Vec<f32>,
     group_radii: Vec<f64>,
 }
-
-/// Manifold points per segment of the pruned search: 16 points 0.5 degrees apart are an
-/// 8-degree arc, short enough for a tight sphere. Not tuned: the answer is exact whatever its
-/// value; only the speed depends on it.
-const SEGMENT: usize = 16;
-
-/// Coordinates of a query computed first when its distance to one object's manifold only
-/// matters under a bound ([`Universal::own_distances_under`]): with the first q coordinates y' and
-/// the energy R^2 left past them, a point p of a segment of centre c and radius r lies at least
-/// sqrt((||y' - c'|| - r)^2 + (R - ||p''||)^2) away, p'' its coordinates past q. Not tuned: the
-/// answer is exact whatever its value; only the speed depends on it.
-const PREFIX: usize = 4;
-
-/// Segments per group of the pruned search's first level (256 points): a query's bounds are
-/// computed for every group, then for the segments of the groups within reach. Not tuned, as
-/// [`SEGMENT`].
-const GROUP: usize = 16;
 
 /// A search's working space, reused from query to query.
 #[derive(Default)]
@@ -561,20 +545,6 @@ pub(crate) fn nearest_other(coords: &[f64], l: usize, residuals: Option<&[f64]>)
         })
         .collect()
 }
-
-/// Which nearest other view calibrates a model fitted without poses ([`nearest_other`]): the
-/// second, that is, each view is held out together with its nearest other view (the linear
-/// recogniser holds the same views out: `linear.rs`). A view held out of views sampled along a
-/// turntable has two neighbours about one step away, one on each side, while a fresh view between
-/// two training views lies about half a step from the nearer: the nearest and the second nearest
-/// both measure the step. But a view can have a near-duplicate among the others (the `twin`'s
-/// back looks like its front; a view listed twice), and then the nearest measures nothing: held
-/// out alone, every unseen view of the rendered `twin` (5 built-in objects at elevation 40,
-/// trained every 10 degrees, views 5 degrees off) was reported unknown, 36 of its 36. Held out
-/// with its nearest, one duplicate per view is survived; more repeats than that (an object of
-/// three identical sides) would call for a larger value. Not tuned on figures: the smallest value
-/// the twin's one duplicate per view requires.
-pub(crate) const NEIGHBOUR: usize = 2;
 
 /// Each training view's distance to its object's manifold interpolated from the other knots (the
 /// same splines), at the view's own pose, over both folds of every axis with enough knots; empty

@@ -33,6 +33,7 @@ mod params;
 pub mod random;
 mod raster;
 pub mod synth;
+mod tuning;
 
 pub use grid::Grid;
 pub use jitter::{Jitter, ViewJitter};

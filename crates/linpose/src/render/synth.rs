@@ -6,6 +6,7 @@
 //! is ever left at OUT: everything is written into a temporary folder beside it, which is renamed
 //! to OUT once complete (and removed on error). OUT must not exist yet or be an empty folder.
 
+use super::tuning::CHUNK;
 use super::{Grid, Jitter, Mesh, RenderParams, Renderer};
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
@@ -20,8 +21,6 @@ use std::path::{Path, PathBuf};
 
 /// Most images one data set may have (the manifest's row limit).
 pub const MAX_IMAGES: usize = crate::manifest::MAX_ROWS;
-/// Images rendered and written per parallel chunk.
-const CHUNK: usize = 256;
 
 /// The poses of a data set: every elevation, and for each every azimuth (elevation-major), with
 /// their image names.

@@ -47,6 +47,7 @@
 //! ```
 
 pub(crate) mod search;
+mod tuning;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};

@@ -33,6 +33,7 @@
 pub mod normal;
 pub mod ridge;
 pub(crate) mod stream;
+mod tuning;
 
 use crate::dataset::Dataset;
 use crate::kernels::{combine::{combine_rows, Centred}, dot_u8::dots, AlignedF32, Level};
@@ -49,6 +50,7 @@ use faer::linalg::solvers::{DenseSolveCore, Llt, Solve};
 use faer::{Mat, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use tuning::LOO_SAMPLE;
 
 /// The linear model in the method registry.
 pub(crate) static METHOD: Method = Method {
@@ -144,12 +146,6 @@ impl LinearParams {
         Ok(())
     }
 }
-
-/// Most training rows whose leave-one-out residuals measure the pairs' spread
-/// ([`GramSystem::pair_spread`]): each costs a solve with the Gram matrix's factor (N^2), so the
-/// spread costs at most 256 N^2 beside the fit's N^3 / 3. The RMS of 256 residuals is within
-/// about 5% (one standard error) of that of all. Not tuned.
-pub(crate) const LOO_SAMPLE: usize = 256;
 
 /// The training set's encoded poses P (N x K, row-major).
 pub(crate) fn encoded_poses(train: &Dataset) -> Vec<f64> {

@@ -16,9 +16,9 @@
 //! here too; the settings the method chooses itself on held-out training views (L, the metric,
 //! the interpolant, the binning factor, the noisy match, the noise threshold) are not constants.
 //! The pixel-noise estimate's own sampling (every 8th row, a first pass of a quarter of them) is
-//! documented with the estimator, [`crate::pixel_noise`]. Constants fixed by the maths or the
-//! hardware (the 7 products per knot of the lattice search, SIMD lane counts, array sizes) stay
-//! beside their code.
+//! in the estimator's tuning file ([`crate::pixel_noise`]'s `tuning.rs`). Constants fixed by the
+//! maths or the hardware (the 7 products per knot of the lattice search, SIMD lane counts, array
+//! sizes) stay beside their code.
 
 // ---------------------------------------------------------------------------------------------
 // The parameters' defaults and bounds
