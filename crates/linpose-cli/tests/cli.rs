@@ -372,6 +372,57 @@ fn synth_jitters_each_view_and_records_it() {
 }
 
 #[test]
+fn synth_steps_through_roll_and_light() {
+    let d = Dir::new();
+    let base = ["synth", "--object", "cap", "--size", "48x36", "--azimuth", "0:90:45", "--elevation", "40"];
+    let with =
+        |out: &'static str, extra: &[&'static str]| -> Vec<&'static str> { base.iter().copied().chain(["--out", out]).chain(extra.iter().copied()).collect() };
+    d.ok(&with("plain", &[]));
+    d.ok(&with("zero", &["--roll", "0"]));
+    d.ok(&with("both", &["--roll", "-20:20:20", "--light", "0:300:60"]));
+    let csv = |dir: &str| std::fs::read_to_string(d.path(&format!("{dir}/poses.csv"))).unwrap();
+    let toml = |dir: &str| std::fs::read_to_string(d.path(&format!("{dir}/dataset.toml"))).unwrap();
+    assert_eq!(csv("plain").lines().next(), Some("image,elevation,azimuth"));
+    assert_eq!(toml("plain"), "azimuth = { period = 360 }\nelevation = { linear = true }\n");
+    // 3 azimuths x 3 rolls x 6 lights, the columns in their fixed order.
+    let both = csv("both");
+    assert_eq!(both.lines().count(), 1 + 3 * 3 * 6);
+    assert!(both.starts_with("image,elevation,azimuth,roll,light\ne040.0_a000.0_r-20.0_l000.0.png,40,0,-20,0\n"), "{both}");
+    assert!(both.lines().all(|l| l.split(',').count() == 5));
+    assert_eq!(toml("both"), "azimuth = { period = 360 }\nelevation = { linear = true }\nroll = { linear = true }\nlight = { period = 360 }\n");
+    // Roll 0 is no roll, byte for byte.
+    for line in csv("plain").lines().skip(1) {
+        let name = line.split(',').next().unwrap();
+        let rolled = name.replace(".png", "_r000.0.png");
+        assert_eq!(std::fs::read(d.path(&format!("plain/{name}"))).unwrap(), std::fs::read(d.path(&format!("zero/{rolled}"))).unwrap(), "{name}");
+    }
+    // A bad spec names the flag and the value, and nothing is written.
+    d.fails(&with("bad", &["--roll", "0:10:0"]), &["--roll 0:10:0", "STEP must be positive"]);
+    d.fails(&with("bad", &["--light", "0:x:10"]), &["--light 0:x:10", "STOP"]);
+    d.fails(&with("bad", &["--roll", "0:999999:1", "--light", "0:999999:1"]), &["3 azimuths x 1000000 rolls x 1000000 lights", "at most"]);
+    assert!(!d.path("bad").exists());
+    // A negative START follows its flag as it is.
+    d.ok(&[
+        "synth",
+        "--object",
+        "cap",
+        "--size",
+        "16x12",
+        "--azimuth",
+        "-10:10:10",
+        "--elevation",
+        "-20",
+        "--roll",
+        "-90",
+        "--light",
+        "-45",
+        "--out",
+        "negative",
+    ]);
+    assert!(csv("negative").contains("\ne-20.0_a-10.0_r-90.0_l-45.0.png,-20,-10,-90,-45\n"), "{}", csv("negative"));
+}
+
+#[test]
 fn normalized_models_take_jittered_views_and_name_the_images_they_refuse() {
     let d = Dir::new();
     let synth = |out: &'static str, extra: &[&'static str]| {
