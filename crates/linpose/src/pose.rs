@@ -250,7 +250,7 @@ enum Geometry {
 /// direction towards the camera) at (elevation, azimuth, roll), as the renderer (`crate::render`)
 /// places it: the turntable turns the object by Rz(-azimuth), the camera at the elevation sees
 /// right = y, up = (-sin a, 0, cos a), towards it (cos a, 0, sin a), and the roll turns the
-/// camera about its optical axis.
+/// camera about its optical axis (a positive roll turns the image counter-clockwise).
 fn camera_rotation(elevation: f64, azimuth: f64, roll: f64) -> [[f64; 3]; 3] {
     let (se, ce) = elevation.to_radians().sin_cos();
     let (sa, ca) = azimuth.to_radians().sin_cos();
@@ -258,7 +258,8 @@ fn camera_rotation(elevation: f64, azimuth: f64, roll: f64) -> [[f64; 3]; 3] {
     // Turntable, object to world: rows (ca, sa, 0), (-sa, ca, 0), (0, 0, 1).
     let turn = [[ca, sa, 0.0], [-sa, ca, 0.0], [0.0, 0.0, 1.0]];
     let view = [[0.0, 1.0, 0.0], [-se, 0.0, ce], [ce, 0.0, se]];
-    let roll = [[cr, sr, 0.0], [-sr, cr, 0.0], [0.0, 0.0, 1.0]];
+    // A positive roll turns the image counter-clockwise (the camera's axes clockwise).
+    let roll = [[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]];
     mat_mul(&roll, &mat_mul(&view, &turn))
 }
 
@@ -385,10 +386,11 @@ mod tests {
         assert_eq!(s.error_deg(&[40.0, 50.0, 5.0], &[40.0, 50.0, 5.0]), 0.0);
         // Half a turn of the turntable is 180 degrees.
         assert_abs_diff_eq!(s.error_deg(&[40.0, 0.0, 0.0], &[40.0, 180.0, 0.0]), 180.0, epsilon = 1e-9);
-        // Seen from straight above, a turntable turn and a roll turn the image about the same
-        // axis: 10 degrees more of the one and 10 less of the other is the same view.
-        assert_abs_diff_eq!(s.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, -10.0]), 0.0, epsilon = 1e-9);
-        assert_abs_diff_eq!(s.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, 10.0]), 20.0, epsilon = 1e-9);
+        // Seen from straight above, a turntable turn (the image clockwise) and a roll (the image
+        // counter-clockwise) turn the image about the same axis: 10 degrees more of each is the
+        // same view (tests/render.rs checks this on rendered images).
+        assert_abs_diff_eq!(s.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, 10.0]), 0.0, epsilon = 1e-9);
+        assert_abs_diff_eq!(s.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, -10.0]), 20.0, epsilon = 1e-9);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{dataset, write_dataset, PoseGrid};
 use linpose::render::{objects, render, Grid, Mesh, RenderParams};
-use linpose::{Dataset, Manifest};
+use linpose::{Dataset, Manifest, Param, PoseSpace};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -231,4 +231,28 @@ fn roll_and_light_are_pose_columns_and_each_view_renders_with_its_own() {
     assert_eq!(ten.len(), 10_000_000);
     let err = ten.with_light(big).unwrap_err().to_string();
     assert!(err.contains("1 elevations x 1000000 azimuths x 10 rolls x 1000000 lights") && err.contains("at most 10000000"), "{err}");
+}
+
+/// The pose error's rotation (`PoseSpace::error_deg` with elevation, azimuth and roll) turns the
+/// camera the way the renderer does: seen from straight above, a turntable turn of 10 degrees and
+/// a roll of 10 degrees cancel, so the two views show the same silhouette (the light, fixed in
+/// the world, shades them differently), and the error calls them 0 apart; the roll the other way
+/// is 20 degrees off and shows another silhouette.
+#[test]
+fn rotation_error_follows_the_renderers_roll() {
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0), Param::linear("roll")]).unwrap();
+    let mesh = objects::builtin("duck").unwrap();
+    let params = RenderParams::default().width(64).height(64);
+    let mask = |a: f64, r: f64| -> Vec<bool> {
+        let p = params.clone().camera(params.get_camera().clone().roll(r));
+        render(&mesh, a, 90.0, &p).unwrap().pixels().map(|p| p.0[0] > 0).collect()
+    };
+    let differ = |x: &[bool], y: &[bool]| x.iter().zip(y).filter(|(a, b)| a != b).count();
+    let base = mask(10.0, 0.0);
+    let (same, other) = (mask(20.0, 10.0), mask(20.0, -10.0));
+    assert!(space.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, 10.0]) < 1e-9);
+    assert!((space.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, -10.0]) - 20.0).abs() < 1e-9);
+    let area = base.iter().filter(|&&b| b).count();
+    assert!(differ(&base, &same) <= area / 50, "{} of {area} pixels differ", differ(&base, &same));
+    assert!(differ(&base, &other) > area / 10, "{} of {area} pixels differ", differ(&base, &other));
 }
