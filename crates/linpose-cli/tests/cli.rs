@@ -520,3 +520,46 @@ fn tiff_data_set_trains_the_png_model_and_jpeg_queries_estimate_alike() {
     assert!(diff.abs() < 2.0, "PNG {png}, JPEG {jpg}");
     assert!((png - 50.0).abs() < 10.0, "PNG estimate {png}");
 }
+
+/// Four pose parameters end to end: a set with roll and light trains, predicts and evaluates; the
+/// error is the camera's rotation angle, the light apart, and every parameter's own error is in
+/// eval's JSON and printed under the table.
+#[test]
+fn four_parameters_train_predict_and_evaluate() {
+    let d = Dir::new();
+    let grid = ["--size", "32x24", "--azimuth", "0:340:20", "--elevation", "30:50:20", "--roll", "-20:20:20", "--light", "0:240:120"];
+    let mut synth = vec!["synth", "--object", "cap", "--out", "set"];
+    synth.extend(grid);
+    d.ok(&synth);
+    d.ok(&["train", "--data", "set", "--method", "linear", "--ridge", "1e-3", "--no-normalize", "--out", "m.safetensors"]);
+    let out = d.ok(&["eval", "--model", "m.safetensors", "--data", "set", "--json", "e.json"]);
+    for name in ["elevation", "azimuth", "roll", "light"] {
+        assert!(out.contains(&format!("all {name}")), "{out}");
+    }
+    let e: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path("e.json")).unwrap()).unwrap();
+    assert_eq!(e["params"], serde_json::json!(["elevation", "azimuth", "roll", "light"]));
+    assert_eq!(e["param_all"].as_array().unwrap().len(), 4);
+    let space = linpose::PoseSpace::new(vec![
+        linpose::Param::linear("elevation"),
+        linpose::Param::circular("azimuth", 360.0),
+        linpose::Param::linear("roll"),
+        linpose::Param::circular("light", 360.0),
+    ])
+    .unwrap();
+    let samples = e["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 18 * 2 * 3 * 3);
+    for s in samples {
+        let v = |k: &str| s[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect::<Vec<_>>();
+        let (t, est) = (v("true"), v("estimated"));
+        assert!((s["error_deg"].as_f64().unwrap() - space.error_deg(&t, &est)).abs() < 1e-9);
+        assert_eq!(v("param_errors_deg"), space.param_errors_deg(&t, &est));
+    }
+    // predict gives the four parameters of a view.
+    let p: serde_json::Value =
+        serde_json::from_str(d.ok(&["predict", "--model", "m.safetensors", "--json", "set/e030.0_a000.0_r-20.0_l000.0.png"]).trim()).unwrap();
+    let pose = p["pose"].as_object().unwrap();
+    assert_eq!(pose.len(), 4);
+    let got = [pose["elevation"].as_f64().unwrap(), pose["azimuth"].as_f64().unwrap(), pose["roll"].as_f64().unwrap(), pose["light"].as_f64().unwrap()];
+    // A training view, fitted by the ridge's least squares: near its pose.
+    assert!(space.error_deg(&[30.0, 0.0, -20.0, 0.0], &got) < 5.0, "{got:?}");
+}
