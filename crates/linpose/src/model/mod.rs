@@ -7,10 +7,13 @@
 //! settings, Table 1 storage terms, how a model file is read back) is described by the method
 //! itself: see [`Method`] and the registry [`crate::methods::METHODS`].
 
+pub(crate) mod footprint;
 mod method;
 mod normalized;
+pub(crate) mod partial_fit;
 pub(crate) mod split;
 mod tensor;
+mod tuning;
 
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
 pub use normalized::Normalized;

@@ -30,9 +30,11 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-pub mod normal;
+mod footprint;
+mod partial;
 pub mod ridge;
 pub(crate) mod stream;
+mod tuning;
 
 use crate::dataset::Dataset;
 use crate::kernels::{combine::{combine_rows, Centred}, dot_u8::dots, AlignedF32, Level};
@@ -71,7 +73,9 @@ pub(crate) static METHOD: Method = Method {
     ],
     params: |s| Ok(LinearParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(LinearModel::from_parts(meta, t)?)),
+    footprint: |s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?)),
     stream: Some(stream::fit_streamed),
+    partial: Some(|s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?))),
 };
 
 /// Parameters of the linear model. The default is exactly the paper's: no ridge, no centring.
