@@ -370,3 +370,9 @@ pub(crate) fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
 pub(crate) fn methods() -> Vec<(&'static str, &'static str, Vec<(&'static str, &'static str, &'static str)>)> {
     linpose::METHODS.iter().map(|m| (m.name, m.summary, m.options.iter().map(|o| (o.name, o.value, o.help)).collect())).collect()
 }
+
+/// The names of the methods that fit from partial statistics merged over shards (`linpose.dask`).
+#[pyfunction]
+pub(crate) fn merging_methods() -> Vec<&'static str> {
+    linpose::METHODS.iter().filter(|m| m.merges()).map(|m| m.name).collect()
+}

@@ -139,7 +139,7 @@ impl Objects {
         self.inner.labels().map(|l| serde_json::to_string(l).expect("the labels serialise"))
     }
 
-    /// The recogniser's name (`universal` or `linear`).
+    /// The recogniser's name (one of `recognizers()`).
     #[getter]
     fn recognizer(&self) -> &'static str {
         self.inner.kind().name
@@ -214,6 +214,12 @@ impl Objects {
             s.height
         )
     }
+}
+
+/// The recognisers: `(name, summary)`, the default first.
+#[pyfunction]
+pub(crate) fn recognizers() -> Vec<(&'static str, &'static str)> {
+    linpose::recognize::RECOGNIZERS.iter().map(|r| (r.name, r.summary)).collect()
 }
 
 /// Fits a many-object model on the images `x` (rows of `height` x `width` pixels) of the objects
