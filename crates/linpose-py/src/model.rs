@@ -130,7 +130,7 @@ pub(crate) fn check_rows(x: &Pixels<'_>, spec: ImageSpec) -> PyResult<usize> {
 /// The method named `method` and its `settings` (name, value), checked: an unknown method is a
 /// `ValueError` listing the methods, a setting the method cannot read one with its message.
 pub(crate) fn method_of(method: &str, settings: Vec<(String, String)>) -> PyResult<(&'static Method, Settings, MethodSpec)> {
-    let method = linpose::methods::find(method).ok_or_else(|| {
+    let method = linpose::Method::from_name(method).ok().ok_or_else(|| {
         let names: Vec<&str> = linpose::METHODS.iter().map(|m| m.name).collect();
         PyValueError::new_err(format!("unknown method {method:?} (methods: {})", names.join(", ")))
     })?;
@@ -369,4 +369,10 @@ pub(crate) fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
 #[allow(clippy::type_complexity)]
 pub(crate) fn methods() -> Vec<(&'static str, &'static str, Vec<(&'static str, &'static str, &'static str)>)> {
     linpose::METHODS.iter().map(|m| (m.name, m.summary, m.options.iter().map(|o| (o.name, o.value, o.help)).collect())).collect()
+}
+
+/// The names of the methods that fit from partial statistics merged over shards (`linpose.dask`).
+#[pyfunction]
+pub(crate) fn merging_methods() -> Vec<&'static str> {
+    linpose::METHODS.iter().filter(|m| m.merges()).map(|m| m.name).collect()
 }

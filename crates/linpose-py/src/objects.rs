@@ -8,7 +8,7 @@ use crate::arrays::{pixels, Pixels};
 use crate::model::{array2, check_rows, method_of, space, stage};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::recognize::{Labels, ObjectModel, Recognition, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{Labels, ObjectModel, Recognition, Recognizer, RecognizerParams, Unknown};
 use linpose::{model_file, Dataset, ObjectSet, Param, PoseSpace};
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -139,10 +139,10 @@ impl Objects {
         self.inner.labels().map(|l| serde_json::to_string(l).expect("the labels serialise"))
     }
 
-    /// The recogniser's name (`universal` or `linear`).
+    /// The recogniser's name (one of `recognizers()`).
     #[getter]
     fn recognizer(&self) -> &'static str {
-        self.inner.kind().name()
+        self.inner.kind().name
     }
 
     /// The pose method's name, `None` for a model fitted without poses.
@@ -207,13 +207,19 @@ impl Objects {
         let s = self.inner.spec();
         format!(
             "<linpose objects: {} recogniser, {} pose models, {} objects of {}x{}>",
-            self.inner.kind().name(),
+            self.inner.kind().name,
             self.inner.method_name().unwrap_or("no"),
             self.inner.names().len(),
             s.width,
             s.height
         )
     }
+}
+
+/// The recognisers: `(name, summary)`, the default first.
+#[pyfunction]
+pub(crate) fn recognizers() -> Vec<(&'static str, &'static str)> {
+    linpose::recognize::RECOGNIZERS.iter().map(|r| (r.name, r.summary)).collect()
 }
 
 /// Fits a many-object model on the images `x` (rows of `height` x `width` pixels) of the objects
@@ -263,7 +269,7 @@ pub(crate) fn fit_objects(
     } else {
         Unknown::Threshold(unknown.extract::<f64>().map_err(|_| PyValueError::new_err("unknown: expected 'calibrated', None (off) or a positive distance"))?)
     };
-    let rp = RecognizerParams::new(RecognizerKind::from_name(recognizer).map_err(py_err)?).components(components).manifold_step(manifold_step).unknown(unknown);
+    let rp = RecognizerParams::new(Recognizer::from_name(recognizer).map_err(py_err)?).components(components).manifold_step(manifold_step).unknown(unknown);
     let normalize = stage(normalize)?;
     let x = pixels(x, "X")?;
     let (n, m) = x.shape();

@@ -80,6 +80,7 @@ pub mod memory;
 pub mod methods;
 pub mod model;
 pub mod model_file;
+pub(crate) mod normal_equations;
 pub mod normalize;
 pub mod partial;
 pub(crate) mod pixel_noise;

@@ -8,7 +8,7 @@
 
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::normalize::{NormalizeParams, Rejection};
-use linpose::recognize::{Labels, ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{Labels, ObjectModel, RecognizerParams, Unknown, RECOGNIZERS};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
 use linpose::{model_file, AnyModel, Dataset, EigenspaceParams, LinearParams, MethodSpec, ObjectSet, Param, PoseModel, PoseSpace, TrainSelection};
@@ -58,7 +58,7 @@ fn eigenspace() -> MethodSpec {
 #[test]
 fn every_recogniser_tells_the_builtin_objects_apart_and_reproduces_its_training_views() {
     let (all, train) = builtins();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let model = ObjectModel::fit(train, &RecognizerParams::new(kind).unknown(Unknown::Off), &eigenspace()).unwrap();
         // Identity: a training view is a knot of its object's manifold (universal) or has its
         // one-hot target as outputs (linear): distance 0 up to f32 serving.
@@ -201,7 +201,7 @@ fn each_left_out(fit: impl Fn(&ObjectSet) -> ObjectModel, mut inspect: impl FnMu
 
 #[test]
 fn every_recogniser_with_its_second_stage_reports_each_object_left_out_unknown() {
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let (mut by_second, mut by_nearer) = (0, 0);
         let fit = |known: &ObjectSet| ObjectModel::fit(known, &RecognizerParams::new(kind), &eigenspace()).unwrap();
         let (rejected, left, false_rejected, unseen) = each_left_out(fit, |rec| {
@@ -216,7 +216,7 @@ fn every_recogniser_with_its_second_stage_reports_each_object_left_out_unknown()
         });
         println!(
             "{}: {rejected} of {left} views of the object left out reported unknown ({by_second} by the second stage, {by_nearer} of them nearer another object's own manifold); {false_rejected} of {unseen} unseen views of the known objects",
-            kind.name()
+            kind.name
         );
         assert!(rejected as f64 >= 0.95 * left as f64, "{kind:?}: {rejected} of {left} views of objects left out reported unknown");
         assert!(false_rejected as f64 <= 0.02 * unseen as f64, "{kind:?}: {false_rejected} of {unseen} unseen views of known objects reported unknown");
@@ -265,7 +265,7 @@ fn an_object_of_a_single_training_view_is_recognised_without_a_second_stage() {
         all.objects().iter().enumerate().map(|(k, d)| (0..d.len()).map(|i| if k == 0 { i == 0 } else { d.pose(i)[1] % 10.0 == 0.0 }).collect()).collect();
     let train = all.subset(&masks).unwrap();
     let linear: MethodSpec = LinearParams::default().into();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let model = ObjectModel::fit(&train, &RecognizerParams::new(kind), &linear).unwrap();
         let own = &model.settings().own;
         assert_eq!(own.components[0], 0, "{kind:?}");
@@ -307,7 +307,7 @@ fn moved(img: &[f32], dx: isize, dy: isize) -> Option<Vec<f32>> {
 #[test]
 fn behind_the_stage_a_view_moved_by_whole_pixels_gets_the_same_object_and_pose_and_the_file_keeps_it() {
     let (all, train) = builtins();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let params = RecognizerParams::new(kind);
         let model = ObjectModel::fit_normalized(train, &params, &eigenspace(), NormalizeParams::geometry(), &|_| {}).unwrap();
         let stage = model.stage().expect("a stage");
@@ -333,7 +333,7 @@ fn behind_the_stage_a_view_moved_by_whole_pixels_gets_the_same_object_and_pose_a
         let right = est.iter().zip(&truth).filter(|(e, &k)| e.recognition.object == Some(k)).count();
         assert!(right as f64 >= 0.97 * truth.len() as f64, "{kind:?}: {right} of {} recognised", truth.len());
         // The model file keeps the stage, and the answers with it.
-        let path = std::env::temp_dir().join(format!("linpose-recognize-normalize-{}-{}.safetensors", std::process::id(), kind.name()));
+        let path = std::env::temp_dir().join(format!("linpose-recognize-normalize-{}-{}.safetensors", std::process::id(), kind.name));
         model.save(&path).unwrap();
         let back = ObjectModel::load(&path);
         std::fs::remove_file(&path).ok();
@@ -395,7 +395,7 @@ fn posed_by_place(set: &ObjectSet) -> ObjectSet {
 #[test]
 fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
     let (all, train) = builtins();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let params = RecognizerParams::new(kind);
         let model = ObjectModel::fit_views(train, &params).unwrap();
         assert!(model.space().is_none() && model.method_name().is_none() && model.pose_model(0).is_none());
@@ -417,7 +417,7 @@ fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
             }
         }
         let (seen_ok, seen, unseen_ok, unknown, unseen) = rates(&model, all, all.names());
-        println!("{}, without poses: {unseen_ok} of {unseen} unseen views recognised, {unknown} reported unknown", kind.name());
+        println!("{}, without poses: {unseen_ok} of {unseen} unseen views recognised, {unknown} reported unknown", kind.name);
         assert_eq!(seen_ok, seen, "{kind:?}");
         assert!(unseen_ok as f64 >= 0.97 * unseen as f64, "{kind:?}: {unseen_ok} of {unseen} unseen views recognised");
         // Estimates carry the object and no pose; the model file keeps it so.
@@ -432,12 +432,12 @@ fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
 
 #[test]
 fn without_poses_objects_left_out_are_reported_unknown() {
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let fit = |known: &ObjectSet| ObjectModel::fit_views(known, &RecognizerParams::new(kind)).unwrap();
         let (rejected, left, false_rejected, unseen) = each_left_out(fit, |_| {});
         println!(
             "{}, without poses: {rejected} of {left} views of the object left out reported unknown; {false_rejected} of {unseen} unseen views of the known objects",
-            kind.name()
+            kind.name
         );
         assert!(rejected as f64 >= 0.95 * left as f64, "{kind:?}: {rejected} of {left} views of objects left out reported unknown");
         assert!(false_rejected as f64 <= 0.02 * unseen as f64, "{kind:?}: {false_rejected} of {unseen} unseen views of known objects reported unknown");

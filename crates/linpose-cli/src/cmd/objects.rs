@@ -9,7 +9,7 @@ use crate::common::{progress, write_json};
 use crate::queries::{eight_bit_as_features, read_one};
 use anyhow::Context;
 use linpose::normalize::{NormalizeParams, StageChoice, StageRule};
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{ObjectModel, Recognizer, RecognizerParams, Unknown};
 use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -19,8 +19,10 @@ use std::time::Instant;
 
 /// The options of `train` that only a many-object data set takes, with the flag that gave each.
 pub(crate) fn recognizer_params(a: &TrainArgs) -> anyhow::Result<RecognizerParams> {
-    let kind = RecognizerKind::from_name(a.recognizer.as_deref().unwrap_or("universal")).map_err(|e| anyhow::anyhow!("--recognizer: {e}"))?;
-    let mut p = RecognizerParams::new(kind).unknown(parse_unknown(a.unknown.as_deref().unwrap_or("calibrated"))?);
+    let mut p = RecognizerParams::default().unknown(parse_unknown(a.unknown.as_deref().unwrap_or("calibrated"))?);
+    if let Some(name) = &a.recognizer {
+        p.kind = Recognizer::from_name(name).map_err(|e| anyhow::anyhow!("--recognizer: {e}"))?;
+    }
     if let Some(l) = a.recognizer_components {
         p = p.components(l);
     }
@@ -121,7 +123,7 @@ pub(crate) fn train(
     let fit_s = t1.elapsed().as_secs_f64();
     let file_bytes = model.save(out).context("writing the model")?;
     let summary = TrainSummary {
-        recognizer: model.kind().name(),
+        recognizer: model.kind().name,
         method: model.method_name().unwrap_or(linpose::model_file::NO_POSES),
         data: a.data.data.display().to_string(),
         objects: model.names(),
@@ -345,7 +347,7 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     let errors = |v: &[&Sample]| ErrorSummary::of(&v.iter().filter(|s| right(s)).filter_map(|s| s.error_deg).collect::<Vec<f64>>());
     let pose = PoseErrors { all: errors(&known), unseen: errors(&known_unseen) };
     let report = Report {
-        recognizer: model.kind().name(),
+        recognizer: model.kind().name,
         method: model.method_name().unwrap_or(linpose::model_file::NO_POSES).to_string(),
         objects: names.to_vec(),
         n_eval: samples.len(),

@@ -14,7 +14,7 @@ pub(crate) mod pca;
 pub(crate) mod projector;
 pub(crate) mod spline;
 pub(crate) mod surface;
-mod tuning;
+pub(crate) mod tuning;
 
 pub use surface::Interpolant;
 pub(crate) use surface::INTERPOLANTS;

@@ -8,8 +8,10 @@
 //! itself: see [`Method`] and the registry [`crate::methods::METHODS`].
 
 pub(crate) mod file;
+pub(crate) mod footprint;
 mod method;
 mod normalized;
+pub(crate) mod partial_fit;
 pub(crate) mod split;
 mod tensor;
 mod tuning;

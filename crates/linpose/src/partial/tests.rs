@@ -3,8 +3,9 @@
 
 use super::*;
 use crate::manifold::pca::{self, Dimension};
-use crate::methods::eigenspace::EigenspaceModel;
-use crate::methods::linear::LinearModel;
+use crate::methods::eigenspace::{EigenspaceModel, EigenspaceParams, METHOD as EIGENSPACE};
+use crate::methods::linear::ridge::RidgeRule;
+use crate::methods::linear::{LinearModel, LinearParams, METHOD as LINEAR};
 use crate::model::{Estimator, PoseModel};
 use crate::render::synth::{dataset, PoseGrid};
 use crate::render::{objects, Grid, RenderParams};

@@ -27,8 +27,8 @@ fn parameters_are_checked_and_named() {
     assert!(e.contains("manifold step"), "{e}");
     let e = RecognizerParams::default().unknown(Unknown::Threshold(f64::NAN)).validate().unwrap_err().to_string();
     assert!(e.contains("unknown threshold"), "{e}");
-    assert_eq!(RecognizerKind::from_name("linear").unwrap(), RecognizerKind::Linear);
-    let e = RecognizerKind::from_name("svm").unwrap_err().to_string();
+    assert!(std::ptr::eq(Recognizer::from_name("linear").unwrap(), &linear::RECOGNIZER));
+    let e = Recognizer::from_name("svm").unwrap_err().to_string();
     assert!(e.contains("universal, linear"), "{e}");
 }
 
@@ -120,4 +120,17 @@ fn the_nearer_object_is_the_one_every_object_measured_in_full_gives() {
     }
     // Most views named as another object have a nearer one (their own, at least).
     assert!(found > n * (k - 1) / 2, "{found} of {}", n * (k - 1));
+}
+
+#[test]
+fn recognisers_are_listed_once_each() {
+    for (i, r) in RECOGNIZERS.iter().enumerate() {
+        assert!(RECOGNIZERS[..i].iter().all(|o| o.name != r.name), "{} twice", r.name);
+        assert!(std::ptr::eq(find(r.name).unwrap(), *r));
+        // Parameters name their recogniser by its name, and read it back.
+        let p = RecognizerParams::new(r);
+        let back: RecognizerParams = serde_json::from_str(&serde_json::to_string(&p).unwrap()).unwrap();
+        assert!(std::ptr::eq(back.kind, *r));
+    }
+    assert!(serde_json::from_str::<RecognizerParams>(&serde_json::to_string(&RecognizerParams::default()).unwrap().replace("universal", "svm")).is_err());
 }

@@ -1,4 +1,8 @@
-//! The recognisers' tuning constants: for each, what it trades and how its value was set.
+//! The recognisers' tuning constants, each with what it trades and how it was set: the universal
+//! recogniser's search and calibration, the linear recogniser's singular ridge, and what the
+//! linear recogniser's fit costs in memory for the memory plan ([`crate::memory`], whose
+//! documentation tables the measurements; the universal eigenspace's PCA and manifold cost what
+//! the eigenspace's do: `crate::manifold::tuning`).
 
 /// Manifold points per segment of the universal recogniser's pruned search: 16 points 0.5
 /// degrees apart are an 8-degree arc, short enough for a tight sphere. Not tuned: the answer is
@@ -36,3 +40,8 @@ pub(crate) const NEIGHBOUR: usize = 2;
 /// factorisation refuses a system as singular (`GramSystem::factor`), so the fit is the
 /// minimum-norm one to about that relative precision. Numerical, not tuned.
 pub(crate) const SINGULAR_RIDGE: f64 = 1e-12;
+
+/// Bytes per N^2 of the linear recogniser of many objects: G, its shifted copy and factor (as
+/// the linear model's `GRAM_SYSTEM_BYTES`) and the factor's inverse (another N x N), read from
+/// the code; measured within 10% above on three objects of 1,440 images.
+pub(crate) const LINEAR_RECOGNIZER_BYTES: f64 = 32.0;

@@ -10,7 +10,7 @@
 //! then the others: `manifold::folds::both_folds`), what calibrates the unknown-object threshold.
 
 use super::tuning::{GROUP, NEIGHBOUR, PREFIX, SEGMENT};
-use super::RecognizerParams;
+use super::{Fitted, Recognition, Recognize, Recognizer, RecognizerParams};
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::kernels::{dispatch, Level};
@@ -20,10 +20,45 @@ use crate::manifold::grid::{Grid, Manifold};
 use crate::manifold::pca::{self, Dimension};
 use crate::manifold::projector::{unit_coords, Projector};
 use crate::manifold::surface::Surface;
+use crate::manifold::tuning::{EVD_SYSTEM_BYTES, MANIFOLD_VALUE_BYTES};
 use crate::manifold::Interpolant;
+use crate::model::footprint::{system, Parts, Sizes};
 use crate::model::{Tensor, TensorSet};
 use crate::{Error, Result};
 use rayon::prelude::*;
+use std::sync::Arc;
+
+/// The universal eigenspace in the recogniser registry.
+pub(crate) static RECOGNIZER: Recognizer = Recognizer {
+    name: "universal",
+    summary: "Murase & Nayar's universal eigenspace of every object's training views, the nearest object manifold",
+    storage: "N_dense L + M L + M + K (M L_k + M) + N_own L_k",
+    fit: |objects, all, params, views_only| {
+        let fit = Universal::fit(objects, all, params, views_only)?;
+        let components = fit.model.components();
+        Ok(Fitted { model: Arc::new(fit.model), components, energy_kept: fit.energy_kept, held_out: fit.held_out })
+    },
+    load: |t, objects, m, components| {
+        if components == 0 {
+            return Err(t.error("damaged object model: a universal eigenspace of 0 dimensions"));
+        }
+        Ok(Arc::new(Universal::from_parts(t, "recognizer.", objects, m, components)?))
+    },
+    footprint,
+};
+
+/// What fitting allocates, for the memory plan; bytes, with N images of all objects, M features,
+/// L dimensions and P points of each object's manifold: a concatenated f64 transposed copy of
+/// the images (8 N M), the PCA's Gram matrix and eigendecomposition (36 N^2) and the eigenspace
+/// with every object's manifold (16 M L + 24 P L per object).
+fn footprint(s: &Sizes, objects: usize, params: &RecognizerParams) -> Parts {
+    let (t, m) = (s.n as f64, s.m as f64);
+    let l = params.components.min(s.n.saturating_sub(1)).min(s.m).max(1) as f64;
+    Parts::default()
+        .add(8.0 * t * m, "the images' f64 transposed copy")
+        .add(system(t, EVD_SYSTEM_BYTES), format!("N x N Gram of all {} images and its eigendecomposition", s.n))
+        .add(16.0 * m * l + MANIFOLD_VALUE_BYTES * (s.lattice * objects) as f64 * l, "the universal eigenspace")
+}
 
 /// A fitted universal eigenspace with every object's manifold in it.
 #[derive(Debug, Clone)]
@@ -464,6 +499,36 @@ impl Universal {
             return Err(t.error("the universal eigenspace holds non-finite values"));
         }
         Universal::new(basis, mean, points).map_err(|e| t.error(e.to_string()))
+    }
+}
+
+/// The universal eigenspace as a recogniser (its inherent methods do the work: its own
+/// eigenspaces, [`super::own`], use them too).
+impl Recognize for Universal {
+    fn distances(&self, queries: &[f32], out: &mut [f64]) {
+        Universal::distances(self, queries, out)
+    }
+
+    /// The nearest two objects by [`Universal::nearest_two`]'s search, not every distance.
+    fn recognize(&self, queries: &[f32], n: usize, thresholds: &[f64]) -> Result<Vec<Recognition>> {
+        let mut near = vec![(0, 0.0, 0.0); n];
+        self.nearest_two(queries, &mut near);
+        if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
+            return Err(crate::model::unscalable_query(i));
+        }
+        Ok(near.into_iter().map(|(k, d1, d2)| Recognition::from_nearest(k, d1, d2, thresholds)).collect())
+    }
+
+    fn stored_numbers(&self) -> usize {
+        self.numbers()
+    }
+
+    fn storage_terms(&self) -> Vec<(&'static str, usize)> {
+        vec![("N_dense", self.manifold_len()), ("L", self.components())]
+    }
+
+    fn arrays(&self) -> Vec<Tensor> {
+        self.tensors("recognizer.")
     }
 }
 

@@ -46,6 +46,8 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
+mod footprint;
+mod partial;
 pub(crate) mod search;
 mod tuning;
 
@@ -78,7 +80,9 @@ pub(crate) static METHOD: Method = Method {
     ],
     params: |s| Ok(EigenspaceParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(EigenspaceModel::from_parts(meta, t)?)),
+    footprint: |s| Ok(std::sync::Arc::new(EigenspaceParams::from_settings(s)?)),
     stream: None,
+    partial: Some(|s| Ok(std::sync::Arc::new(EigenspaceParams::from_settings(s)?))),
 };
 
 /// Parameters of the parametric eigenspace. The default: 20 components (Murase & Nayar used 8 to

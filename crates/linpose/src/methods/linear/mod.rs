@@ -30,7 +30,8 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-pub mod normal;
+mod footprint;
+mod partial;
 pub mod ridge;
 pub(crate) mod stream;
 mod tuning;
@@ -73,7 +74,9 @@ pub(crate) static METHOD: Method = Method {
     ],
     params: |s| Ok(LinearParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(LinearModel::from_parts(meta, t)?)),
+    footprint: |s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?)),
     stream: Some(stream::fit_streamed),
+    partial: Some(|s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?))),
 };
 
 /// Parameters of the linear model. The default is exactly the paper's: no ridge, no centring.

@@ -90,6 +90,7 @@
 //! `tests/`.
 
 mod fit;
+mod footprint;
 mod lm;
 mod basin;
 mod method;
