@@ -8,7 +8,7 @@ use std::path::Path;
 linpose_fuzz::target!(bytes: body);
 
 fn body(bytes: &[u8]) {
-    if let Ok(model) = linpose::model_file::from_bytes(Path::new("fuzz.safetensors"), bytes) {
+    if let Ok(model) = linpose::AnyModel::from_bytes(Path::new("fuzz.safetensors"), bytes) {
         let m = model.meta().spec.features();
         if m <= 1 << 16 {
             let q: Vec<f32> = (0..m).map(|i| (i % 7) as f32 / 7.0).collect();

@@ -12,6 +12,7 @@ mod plan;
 mod queries;
 mod report;
 mod study;
+mod tuning;
 
 /// Pose estimation from appearance: Okatani & Deguchi's linear model and Murase & Nayar's
 /// parametric eigenspace, with a turntable renderer to make data anywhere.

@@ -7,7 +7,7 @@
 use crate::args::method::as_flag;
 use crate::args::TrainArgs;
 use linpose::image_io::ImageSpec;
-use linpose::memory::{first_image_spec, format_bytes, Job, Limit, Path, Plan, Remedy, StreamChange};
+use linpose::memory::{format_bytes, Job, Limit, Path, Plan, Remedy, StreamChange};
 use linpose::normalize::StageRule;
 use linpose::recognize::RecognizerParams;
 use linpose::{Catalog, Manifest, Method};
@@ -54,7 +54,7 @@ fn limit(a: &TrainArgs) -> Limit {
 
 /// Plans training on the images of `manifest` (one object); [`say`] tells which path.
 pub(crate) fn plan_one(a: &TrainArgs, manifest: &Manifest, method: &'static Method, stage: StageRule) -> anyhow::Result<Plan> {
-    let spec = first_image_spec(manifest, a.color.into())?;
+    let spec = manifest.first_image_spec(a.color.into())?;
     let job = Job::for_manifest(manifest, spec, method, &a.settings.settings)
         .map_err(as_flag)?
         .normalized(stage.normalises())
@@ -75,7 +75,7 @@ pub(crate) fn say(plan: &Plan) {
 /// Plans training on a catalog of many objects (in memory); [`say`] tells which path.
 pub(crate) fn plan_objects(a: &TrainArgs, catalog: &Catalog, method: &'static Method, params: &RecognizerParams, stage: StageRule) -> anyhow::Result<Plan> {
     let first = catalog.manifests().first().ok_or_else(|| anyhow::anyhow!("{}: no object to train on", a.data.data.display()))?;
-    let spec = first_image_spec(first, a.color.into())?;
+    let spec = first.first_image_spec(a.color.into())?;
     let job = Job::for_objects(catalog.manifests(), spec, method, &a.settings.settings, params)
         .map_err(as_flag)?
         .normalized(stage.normalises())

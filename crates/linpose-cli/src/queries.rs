@@ -1,11 +1,9 @@
 //! Reading query images in batches and reporting the ones the model's normalisation refuses:
 //! what `predict` and `eval` do for one model and for many objects alike.
 
+pub(crate) use crate::tuning::BATCH;
 use linpose::image_io::{read_query, QueryImage};
 use std::path::Path;
-
-/// Images decoded and estimated per batch: bounds memory whatever the number of images.
-pub(crate) const BATCH: usize = 512;
 
 /// Refused images listed by name on the terminal; the JSON has them all.
 const REFUSED_SHOWN: usize = 5;

@@ -372,6 +372,57 @@ fn synth_jitters_each_view_and_records_it() {
 }
 
 #[test]
+fn synth_steps_through_roll_and_light() {
+    let d = Dir::new();
+    let base = ["synth", "--object", "cap", "--size", "48x36", "--azimuth", "0:90:45", "--elevation", "40"];
+    let with =
+        |out: &'static str, extra: &[&'static str]| -> Vec<&'static str> { base.iter().copied().chain(["--out", out]).chain(extra.iter().copied()).collect() };
+    d.ok(&with("plain", &[]));
+    d.ok(&with("zero", &["--roll", "0"]));
+    d.ok(&with("both", &["--roll", "-20:20:20", "--light", "0:300:60"]));
+    let csv = |dir: &str| std::fs::read_to_string(d.path(&format!("{dir}/poses.csv"))).unwrap();
+    let toml = |dir: &str| std::fs::read_to_string(d.path(&format!("{dir}/dataset.toml"))).unwrap();
+    assert_eq!(csv("plain").lines().next(), Some("image,elevation,azimuth"));
+    assert_eq!(toml("plain"), "azimuth = { period = 360 }\nelevation = { linear = true }\n");
+    // 3 azimuths x 3 rolls x 6 lights, the columns in their fixed order.
+    let both = csv("both");
+    assert_eq!(both.lines().count(), 1 + 3 * 3 * 6);
+    assert!(both.starts_with("image,elevation,azimuth,roll,light\ne040.0_a000.0_r-20.0_l000.0.png,40,0,-20,0\n"), "{both}");
+    assert!(both.lines().all(|l| l.split(',').count() == 5));
+    assert_eq!(toml("both"), "azimuth = { period = 360 }\nelevation = { linear = true }\nroll = { linear = true }\nlight = { period = 360 }\n");
+    // Roll 0 is no roll, byte for byte.
+    for line in csv("plain").lines().skip(1) {
+        let name = line.split(',').next().unwrap();
+        let rolled = name.replace(".png", "_r000.0.png");
+        assert_eq!(std::fs::read(d.path(&format!("plain/{name}"))).unwrap(), std::fs::read(d.path(&format!("zero/{rolled}"))).unwrap(), "{name}");
+    }
+    // A bad spec names the flag and the value, and nothing is written.
+    d.fails(&with("bad", &["--roll", "0:10:0"]), &["--roll 0:10:0", "STEP must be positive"]);
+    d.fails(&with("bad", &["--light", "0:x:10"]), &["--light 0:x:10", "STOP"]);
+    d.fails(&with("bad", &["--roll", "0:999999:1", "--light", "0:999999:1"]), &["3 azimuths x 1000000 rolls x 1000000 lights", "at most"]);
+    assert!(!d.path("bad").exists());
+    // A negative START follows its flag as it is.
+    d.ok(&[
+        "synth",
+        "--object",
+        "cap",
+        "--size",
+        "16x12",
+        "--azimuth",
+        "-10:10:10",
+        "--elevation",
+        "-20",
+        "--roll",
+        "-90",
+        "--light",
+        "-45",
+        "--out",
+        "negative",
+    ]);
+    assert!(csv("negative").contains("\ne-20.0_a-10.0_r-90.0_l-45.0.png,-20,-10,-90,-45\n"), "{}", csv("negative"));
+}
+
+#[test]
 fn normalized_models_take_jittered_views_and_name_the_images_they_refuse() {
     let d = Dir::new();
     let synth = |out: &'static str, extra: &[&'static str]| {
@@ -468,4 +519,47 @@ fn tiff_data_set_trains_the_png_model_and_jpeg_queries_estimate_alike() {
     eprintln!("azimuth of the unseen view: PNG {png:.3}, JPEG {jpg:.3}");
     assert!(diff.abs() < 2.0, "PNG {png}, JPEG {jpg}");
     assert!((png - 50.0).abs() < 10.0, "PNG estimate {png}");
+}
+
+/// Four pose parameters end to end: a set with roll and light trains, predicts and evaluates; the
+/// error is the camera's rotation angle, the light apart, and every parameter's own error is in
+/// eval's JSON and printed under the table.
+#[test]
+fn four_parameters_train_predict_and_evaluate() {
+    let d = Dir::new();
+    let grid = ["--size", "32x24", "--azimuth", "0:340:20", "--elevation", "30:50:20", "--roll", "-20:20:20", "--light", "0:240:120"];
+    let mut synth = vec!["synth", "--object", "cap", "--out", "set"];
+    synth.extend(grid);
+    d.ok(&synth);
+    d.ok(&["train", "--data", "set", "--method", "linear", "--ridge", "1e-3", "--no-normalize", "--out", "m.safetensors"]);
+    let out = d.ok(&["eval", "--model", "m.safetensors", "--data", "set", "--json", "e.json"]);
+    for name in ["elevation", "azimuth", "roll", "light"] {
+        assert!(out.contains(&format!("all {name}")), "{out}");
+    }
+    let e: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path("e.json")).unwrap()).unwrap();
+    assert_eq!(e["params"], serde_json::json!(["elevation", "azimuth", "roll", "light"]));
+    assert_eq!(e["param_all"].as_array().unwrap().len(), 4);
+    let space = linpose::PoseSpace::new(vec![
+        linpose::Param::linear("elevation"),
+        linpose::Param::circular("azimuth", 360.0),
+        linpose::Param::linear("roll"),
+        linpose::Param::circular("light", 360.0),
+    ])
+    .unwrap();
+    let samples = e["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 18 * 2 * 3 * 3);
+    for s in samples {
+        let v = |k: &str| s[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect::<Vec<_>>();
+        let (t, est) = (v("true"), v("estimated"));
+        assert!((s["error_deg"].as_f64().unwrap() - space.error_deg(&t, &est)).abs() < 1e-9);
+        assert_eq!(v("param_errors_deg"), space.param_errors_deg(&t, &est));
+    }
+    // predict gives the four parameters of a view.
+    let p: serde_json::Value =
+        serde_json::from_str(d.ok(&["predict", "--model", "m.safetensors", "--json", "set/e030.0_a000.0_r-20.0_l000.0.png"]).trim()).unwrap();
+    let pose = p["pose"].as_object().unwrap();
+    assert_eq!(pose.len(), 4);
+    let got = [pose["elevation"].as_f64().unwrap(), pose["azimuth"].as_f64().unwrap(), pose["roll"].as_f64().unwrap(), pose["light"].as_f64().unwrap()];
+    // A training view, fitted by the ridge's least squares: near its pose.
+    assert!(space.error_deg(&[30.0, 0.0, -20.0, 0.0], &got) < 5.0, "{got:?}");
 }

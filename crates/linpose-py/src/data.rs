@@ -18,21 +18,21 @@ use std::path::{Path, PathBuf};
 type Params = Vec<(String, Option<f64>)>;
 
 /// Renders a turntable data set in memory, as `linpose synth` writes it: `(images (n, h, w)
-/// uint8, poses (n, 2) degrees, params)`, poses elevation-major over `elevation` and
-/// `azimuth` (`START:STOP:STEP` degrees). The arguments come grouped from the package's
-/// `linpose.synth` (which documents them): `source` = `(object, random, mesh)`, `poses` =
-/// `(azimuth, elevation)`, `look` = `(size, perspective, specular)`, `jitter` = `(shift, scale,
-/// exposure)` or None, and its seed.
+/// uint8, poses (n, K) degrees, params)`, poses elevation-major over `elevation`, `azimuth` and,
+/// when given, `roll` and `light` (`START:STOP:STEP` degrees). The arguments come grouped from
+/// the package's `linpose.synth` (which documents them): `source` = `(object, random, mesh)`,
+/// `poses` = `(azimuth, elevation, roll, light)`, `look` = `(size, perspective, specular)`,
+/// `jitter` = `(shift, scale, exposure)` or None, and its seed.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 pub(crate) fn synth<'py>(
     py: Python<'py>,
     source: (Option<String>, Option<u64>, Option<PathBuf>),
-    poses: (String, String),
+    poses: (String, String, Option<String>, Option<String>),
     look: ((u32, u32), bool, f64),
     jitter: (Option<(f64, f64, f64)>, u64),
 ) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, numpy::PyArray2<f64>>, Params)> {
-    let ((object, random, mesh), (azimuth, elevation), (size, perspective, specular), (jitter, jitter_seed)) = (source, poses, look, jitter);
+    let ((object, random, mesh), (azimuth, elevation, roll, light), (size, perspective, specular), (jitter, jitter_seed)) = (source, poses, look, jitter);
     let (object, azimuth, elevation) = (object.as_deref(), azimuth.as_str(), elevation.as_str());
     let mesh: Mesh = match (object, random, &mesh) {
         (Some(name), None, None) => objects::builtin(name).map_err(py_err)?,
@@ -41,6 +41,12 @@ pub(crate) fn synth<'py>(
         _ => return Err(PyValueError::new_err("give one of object (a built-in name), random (a seed) or mesh (an OBJ file)")),
     };
     let mut grid = PoseGrid::new(Grid::parse("elevation", elevation).map_err(py_err)?, Grid::parse("azimuth", azimuth).map_err(py_err)?).map_err(py_err)?;
+    if let Some(spec) = &roll {
+        grid = grid.with_roll(Grid::parse("roll", spec).map_err(py_err)?).map_err(py_err)?;
+    }
+    if let Some(spec) = &light {
+        grid = grid.with_light(Grid::parse("light", spec).map_err(py_err)?).map_err(py_err)?;
+    }
     if let Some((shift, scale, exposure)) = jitter {
         let j = Jitter::parse(&format!("{shift},{scale},{exposure}"), jitter_seed).map_err(py_err)?;
         grid = grid.with_jitter(j).map_err(py_err)?;
@@ -56,7 +62,7 @@ pub(crate) fn synth<'py>(
     let pixels = py.detach(|| render_u8(&mesh, &grid, &params, &|_| {})).map_err(py_err)?;
     let n = grid.len();
     let images = PyArray1::from_vec(py, pixels).reshape([n, h as usize, w as usize])?;
-    let poses = array2(py, manifest.poses().to_vec(), n, 2)?;
+    let poses = array2(py, manifest.poses().to_vec(), n, manifest.space().len())?;
     Ok((images, poses, manifest.space().params().iter().map(|p| (p.name.clone(), p.period)).collect()))
 }
 

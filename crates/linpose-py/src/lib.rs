@@ -37,6 +37,8 @@ fn _linpose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load, m)?)?;
     m.add_function(wrap_pyfunction!(model::methods, m)?)?;
+    m.add_function(wrap_pyfunction!(model::merging_methods, m)?)?;
+    m.add_function(wrap_pyfunction!(objects::recognizers, m)?)?;
     m.add_class::<objects::Objects>()?;
     m.add_function(wrap_pyfunction!(objects::fit_objects, m)?)?;
     m.add_function(wrap_pyfunction!(objects::load_objects, m)?)?;

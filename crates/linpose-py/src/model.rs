@@ -7,7 +7,7 @@ use crate::arrays::{pixels, Pixels};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::normalize::{NormalizeParams, StageRule};
-use linpose::{model_file, AnyModel, Dataset, Method, MethodSpec, Param, PoseModel, PoseSpace, Settings};
+use linpose::{AnyModel, Dataset, Method, MethodSpec, Param, PoseModel, PoseSpace, Settings};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -130,7 +130,7 @@ pub(crate) fn check_rows(x: &Pixels<'_>, spec: ImageSpec) -> PyResult<usize> {
 /// The method named `method` and its `settings` (name, value), checked: an unknown method is a
 /// `ValueError` listing the methods, a setting the method cannot read one with its message.
 pub(crate) fn method_of(method: &str, settings: Vec<(String, String)>) -> PyResult<(&'static Method, Settings, MethodSpec)> {
-    let method = linpose::methods::find(method).ok_or_else(|| {
+    let method = linpose::Method::from_name(method).ok().ok_or_else(|| {
         let names: Vec<&str> = linpose::METHODS.iter().map(|m| m.name).collect();
         PyValueError::new_err(format!("unknown method {method:?} (methods: {})", names.join(", ")))
     })?;
@@ -197,21 +197,21 @@ impl Model {
     /// The model file's bytes.
     fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
         let model = &self.inner;
-        let bytes = py.detach(|| model_file::to_bytes(model)).map_err(py_err)?;
+        let bytes = py.detach(|| model.to_bytes()).map_err(py_err)?;
         Ok(PyBytes::new(py, &bytes))
     }
 
     /// The model of a model file's bytes.
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Model> {
-        let inner = py.detach(|| model_file::from_bytes(Path::new("<bytes>"), data)).map_err(py_err)?;
+        let inner = py.detach(|| AnyModel::from_bytes(Path::new("<bytes>"), data)).map_err(py_err)?;
         Ok(Model { inner })
     }
 
     /// Writes the model file (atomically); returns its size in bytes.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<u64> {
         let model = &self.inner;
-        py.detach(|| model_file::save(model, &path)).map_err(py_err)
+        py.detach(|| model.save(&path)).map_err(py_err)
     }
 
     /// The method's name.
@@ -351,7 +351,7 @@ pub(crate) fn fit(
                 Ok(pixels) => Dataset::from_u8(image, pixels, space, poses)?,
                 Err(features) => Dataset::new(image, features, space, poses)?,
             };
-            linpose::stage_choice::fit(&spec, &data, stage)
+            spec.fit_with_stage(&data, stage)
         })
         .map_err(py_err)?;
     Ok(Model { inner })
@@ -360,7 +360,7 @@ pub(crate) fn fit(
 /// Reads a model file.
 #[pyfunction]
 pub(crate) fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
-    let inner = py.detach(|| model_file::load(&path)).map_err(py_err)?;
+    let inner = py.detach(|| AnyModel::load(&path)).map_err(py_err)?;
     Ok(Model { inner })
 }
 
@@ -369,4 +369,10 @@ pub(crate) fn load(py: Python<'_>, path: PathBuf) -> PyResult<Model> {
 #[allow(clippy::type_complexity)]
 pub(crate) fn methods() -> Vec<(&'static str, &'static str, Vec<(&'static str, &'static str, &'static str)>)> {
     linpose::METHODS.iter().map(|m| (m.name, m.summary, m.options.iter().map(|o| (o.name, o.value, o.help)).collect())).collect()
+}
+
+/// The names of the methods that fit from partial statistics merged over shards (`linpose.dask`).
+#[pyfunction]
+pub(crate) fn merging_methods() -> Vec<&'static str> {
+    linpose::METHODS.iter().filter(|m| m.merges()).map(|m| m.name).collect()
 }

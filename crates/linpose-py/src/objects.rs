@@ -8,7 +8,7 @@ use crate::arrays::{pixels, Pixels};
 use crate::model::{array2, check_rows, method_of, space, stage};
 use crate::py_err;
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::recognize::{Labels, ObjectModel, Recognition, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{Labels, ObjectModel, Recognition, Recognizer, RecognizerParams, Unknown};
 use linpose::{model_file, Dataset, ObjectSet, Param, PoseSpace};
 use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -109,21 +109,21 @@ impl Objects {
     /// The model file's bytes.
     fn to_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
         let model = &self.inner;
-        let bytes = py.detach(|| model_file::objects_to_bytes(model)).map_err(py_err)?;
+        let bytes = py.detach(|| model.to_bytes()).map_err(py_err)?;
         Ok(PyBytes::new(py, &bytes))
     }
 
     /// The model of a many-object model file's bytes.
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Objects> {
-        let inner = py.detach(|| model_file::objects_from_bytes(Path::new("<bytes>"), data)).map_err(py_err)?;
+        let inner = py.detach(|| ObjectModel::from_bytes(Path::new("<bytes>"), data)).map_err(py_err)?;
         Ok(Objects { inner })
     }
 
     /// Writes the model file (atomically); returns its size in bytes.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<u64> {
         let model = &self.inner;
-        py.detach(|| model_file::save_objects(model, &path)).map_err(py_err)
+        py.detach(|| model.save(&path)).map_err(py_err)
     }
 
     /// The objects' names, in the order of their indices.
@@ -139,10 +139,10 @@ impl Objects {
         self.inner.labels().map(|l| serde_json::to_string(l).expect("the labels serialise"))
     }
 
-    /// The recogniser's name (`universal` or `linear`).
+    /// The recogniser's name (one of `recognizers()`).
     #[getter]
     fn recognizer(&self) -> &'static str {
-        self.inner.kind().name()
+        self.inner.kind().name
     }
 
     /// The pose method's name, `None` for a model fitted without poses.
@@ -207,13 +207,19 @@ impl Objects {
         let s = self.inner.spec();
         format!(
             "<linpose objects: {} recogniser, {} pose models, {} objects of {}x{}>",
-            self.inner.kind().name(),
+            self.inner.kind().name,
             self.inner.method_name().unwrap_or("no"),
             self.inner.names().len(),
             s.width,
             s.height
         )
     }
+}
+
+/// The recognisers: `(name, summary)`, the default first.
+#[pyfunction]
+pub(crate) fn recognizers() -> Vec<(&'static str, &'static str)> {
+    linpose::recognize::RECOGNIZERS.iter().map(|r| (r.name, r.summary)).collect()
 }
 
 /// Fits a many-object model on the images `x` (rows of `height` x `width` pixels) of the objects
@@ -263,7 +269,7 @@ pub(crate) fn fit_objects(
     } else {
         Unknown::Threshold(unknown.extract::<f64>().map_err(|_| PyValueError::new_err("unknown: expected 'calibrated', None (off) or a positive distance"))?)
     };
-    let rp = RecognizerParams::new(RecognizerKind::from_name(recognizer).map_err(py_err)?).components(components).manifold_step(manifold_step).unknown(unknown);
+    let rp = RecognizerParams::new(Recognizer::from_name(recognizer).map_err(py_err)?).components(components).manifold_step(manifold_step).unknown(unknown);
     let normalize = stage(normalize)?;
     let x = pixels(x, "X")?;
     let (n, m) = x.shape();
@@ -335,7 +341,7 @@ pub(crate) fn fit_objects(
 /// Reads a many-object model file.
 #[pyfunction]
 pub(crate) fn load_objects(py: Python<'_>, path: PathBuf) -> PyResult<Objects> {
-    let inner = py.detach(|| model_file::load_objects(&path)).map_err(py_err)?;
+    let inner = py.detach(|| ObjectModel::load(&path)).map_err(py_err)?;
     Ok(Objects { inner })
 }
 

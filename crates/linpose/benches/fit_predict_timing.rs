@@ -72,7 +72,7 @@ fn main() -> Res<()> {
     let mask = manifest.training_mask(&TrainSelection::Step(step))?;
     let data = Dataset::load(manifest, ColorMode::Gray, &|_| {})?;
     let train = data.subset(&mask)?;
-    let spec = linpose::methods::find(&method).ok_or("unknown method")?.spec(&Settings::new())?;
+    let spec = linpose::Method::from_name(&method)?.spec(&Settings::new())?;
     let pixels: Vec<u8> = data.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
     let train_pixels: Vec<u8> = train.features().iter().map(|&v| (v * 255.0).round() as u8).collect();
     let (m, k) = (data.n_features(), data.space().len());

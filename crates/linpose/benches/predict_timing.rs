@@ -26,10 +26,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = dir.ok_or("usage: predict_timing DIR [--object O] [--noise A] [--reps R] [--u8] MODEL...")?;
     let data = Dataset::load(Manifest::open(&dir, object)?, ColorMode::Gray, &|_| {})?;
     let mut queries = data.features().to_vec();
-    linpose::eval::add_uniform_noise(&mut queries, data.n_features(), noise, 0)?;
+    linpose::bench::add_uniform_noise(&mut queries, data.n_features(), noise, 0)?;
     let pixels: Vec<u8> = if u8 { queries.iter().map(|&v| (v * 255.0).round().clamp(0.0, 255.0) as u8).collect() } else { vec![] };
     let mut out = vec![0.0; data.len() * data.space().len()];
-    let loaded: Vec<_> = models.iter().map(|p| linpose::model_file::load(p)).collect::<Result<_, _>>()?;
+    let loaded: Vec<_> = models.iter().map(|p| linpose::AnyModel::load(p)).collect::<Result<_, _>>()?;
     let mut times = vec![vec![]; loaded.len()];
     for _ in 0..reps {
         for (m, t) in loaded.iter().zip(&mut times) {

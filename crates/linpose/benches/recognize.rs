@@ -8,7 +8,7 @@
 //!
 //! cargo bench -p linpose --bench recognize
 use criterion::{criterion_group, criterion_main, Criterion};
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{ObjectModel, RecognizerParams, Unknown, RECOGNIZERS};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
 use linpose::{Dataset, EigenspaceParams, MethodSpec, ObjectSet};
@@ -31,7 +31,7 @@ fn bench(c: &mut Criterion) {
     let pose: MethodSpec = EigenspaceParams::default().into();
     let m = set.spec().features();
     let query = set.object(57).row(13).to_vec();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let params = RecognizerParams::new(kind);
         let t = Instant::now();
         let model = ObjectModel::fit(&set, &params, &pose).unwrap();
@@ -40,15 +40,15 @@ fn bench(c: &mut Criterion) {
         let terms: Vec<String> = s.terms.iter().map(|(k, v)| format!("{k} = {v}")).collect();
         println!(
             "{}: {} objects x 36 views of {m} pixels: fit {whole:.2} s with eigenspace pose models; recogniser {} = {} numbers ({}), {} bytes; whole model {} bytes",
-            kind.name(),
+            kind.name,
             OBJECTS,
-            kind.storage(),
+            kind.storage,
             s.numbers,
             terms.join(", "),
             model.recognizer_bytes(),
             model.model_bytes()
         );
-        let mut g = c.benchmark_group(format!("{} recogniser, 100 objects", kind.name()));
+        let mut g = c.benchmark_group(format!("{} recogniser, 100 objects", kind.name));
         g.sample_size(50);
         g.bench_function("one query: distances to every object", |b| b.iter(|| model.distances(black_box(&query)).unwrap()));
         g.bench_function("one query: recognition", |b| b.iter(|| model.recognize(black_box(&query)).unwrap()));

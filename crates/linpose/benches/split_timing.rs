@@ -48,7 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (m, k) = (data.n_features(), data.space().len());
     let mut json = Vec::new();
     for method in ["linear", "eigenspace", "refined"] {
-        let model = linpose::methods::find(method).ok_or("unknown method")?.spec(&Settings::new())?.fit(&train)?;
+        let model = linpose::Method::from_name(method)?.spec(&Settings::new())?.fit(&train)?;
         let mut row = Vec::new();
         for &n in &sizes {
             let batch: Vec<u8> = pixels.iter().copied().cycle().take(n * m).collect();

@@ -9,6 +9,7 @@ pub use crate::kernels::peak::{fma_flops_f64, read_seconds, vnni_gram_flops};
 pub use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
 pub use crate::linalg::{gram, gram_f32, par, transpose_features};
 pub use crate::methods::eigenspace::search::NearestIndex;
+pub use crate::pixel_noise::add_uniform_noise;
 
 /// The refined eigenspace's coarse-scan kernels (`crate::kernels::scan`), each at the detected
 /// level.

@@ -70,23 +70,9 @@ use serde::{Deserialize, Serialize};
 /// failure; not tuned.
 pub const GROSS_DEG: f64 = 20.0;
 
-/// The confidence under which an estimate is flagged. What it trades: raising it flags more
-/// views, gross or not; lowering it lets more gross errors through unflagged. Chosen on
-/// development data only, the procedural zoo's seeds 0-19 and 20-99 on a turntable trained every
-/// 10 degrees (`bench/zoo.py`): the smallest of 0.5, 0.55, 0.6, 0.7, 0.8, 0.9 and 0.95 that flags
-/// at least 90% of the unseen views' gross errors of both the eigenspace and the refined method
-/// on each set. Re-measured with the second look of ee18c9a: at 0.55 the eigenspace caught 89.8%
-/// of the gross errors of seeds 20-99 (7.6% of their unseen views flagged); at 0.6, 92.7%
-/// (refined 94.4%), flagging 8.9% of their views, and every one of seeds 0-19, flagging 4.3%.
-/// The rendered `twin` (the paper's grid every 9 degrees) is development data too, but no
-/// threshold under 1 flags 90% of its gross errors: over a tenth of them have confidence 1
-/// (docs/confidence.md, "Where it fails"). The zoo's held-out seeds report it (BENCHMARKS.md).
-pub const FLAG_BELOW: f64 = 0.6;
+pub use crate::tuning::confidence::FLAG_BELOW;
 
-/// Most hypotheses a model considers for one query (the best first): the confidence is the
-/// estimate's share of the probability among these. More would cost a climb each (the refined method)
-/// and shift little probability: alternatives beyond the best few score near 0. Not tuned.
-pub(crate) const MAX_HYPOTHESES: usize = 8;
+pub(crate) use crate::tuning::confidence::MAX_HYPOTHESES;
 
 /// One pose a model considered for a query.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -190,17 +190,6 @@ impl Dataset {
 
 pub use crate::kernels::Rows;
 
-/// The images of `manifest` as 8-bit gray values, read in parallel, when every one is 8-bit
-/// (colour turned gray as the reader does): the spec and `manifest.len()` rows of pixels, which
-/// [`Dataset::from_pixels`] turns into the data set [`Dataset::load`] reads. `None` when an image
-/// is not 8-bit (16-bit, say): then read the features with [`Dataset::load`]. Sizes are checked
-/// against the first image, and memory is refused before allocation, as `load` does.
-pub fn load_gray8(manifest: &Manifest, progress: &(dyn Fn(u64) + Sync)) -> Result<Option<(ImageSpec, Vec<u8>)>> {
-    let Some((spec, row0)) = first_gray8(manifest)? else { return Ok(None) };
-    let mut pixels = alloc_rows(manifest, spec)?;
-    Ok(load_gray8_into(manifest, spec, &row0, &mut pixels, progress)?.then_some((spec, pixels)))
-}
-
 /// The first image of `manifest` when it is 8-bit gray (colour turned gray): its size and
 /// pixels, where [`load_gray8_into`] starts; `None` when it is not.
 pub fn first_gray8(manifest: &Manifest) -> Result<Option<(ImageSpec, Vec<u8>)>> {
@@ -210,9 +199,11 @@ pub fn first_gray8(manifest: &Manifest) -> Result<Option<(ImageSpec, Vec<u8>)>> 
     Ok(Some((ImageSpec { width: w, height: h, color: ColorMode::Gray }, row0)))
 }
 
-/// [`load_gray8`] into a buffer the caller holds (`out`: `manifest.len()` rows of
-/// `spec.features()`, as a caller's array allocator lays them out), after [`first_gray8`] gave
-/// `spec` and `row0`: false, with `out` partly written, when an image is not 8-bit.
+/// The images of `manifest` as 8-bit gray values (colour turned gray as the reader does), read in
+/// parallel into a buffer the caller holds (`out`: `manifest.len()` rows of `spec.features()`, as
+/// a caller's array allocator lays them out), after [`first_gray8`] gave `spec` and `row0`: false,
+/// with `out` partly written, when an image is not 8-bit (16-bit, say: then read the features
+/// with [`Dataset::load`]). Sizes are checked against the first image.
 pub fn load_gray8_into(manifest: &Manifest, spec: ImageSpec, row0: &[u8], out: &mut [u8], progress: &(dyn Fn(u64) + Sync)) -> Result<bool> {
     use crate::image_io::{read_query, QueryImage};
     use std::sync::atomic::{AtomicBool, Ordering};

@@ -12,7 +12,7 @@ use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-pub use crate::pixel_noise::add_uniform_noise;
+use crate::pixel_noise::add_uniform_noise;
 
 /// One evaluated sample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -23,8 +23,12 @@ pub struct SampleResult {
     pub r#true: Vec<f64>,
     /// Estimated pose (degrees).
     pub estimated: Vec<f64>,
-    /// Pose error (degrees).
+    /// Pose error (degrees; [`crate::PoseSpace::error_deg`]).
     pub error_deg: f64,
+    /// Each parameter's own error (degrees, in the order of the report's `params`;
+    /// [`crate::PoseSpace::param_errors_deg`]).
+    #[serde(default)]
+    pub param_errors_deg: Vec<f64>,
     /// Whether the pose is one of the model's training poses.
     pub seen: bool,
     /// The model's confidence in the estimate, in [0, 1] (absent when not asked for).
@@ -190,6 +194,12 @@ pub struct EvalReport {
     pub all: ErrorSummary,
     /// Errors over the samples whose pose is not a training pose (absent when all are seen).
     pub unseen: Option<ErrorSummary>,
+    /// Each parameter's own errors over all samples, in the order of `params`.
+    #[serde(default)]
+    pub param_all: Vec<ErrorSummary>,
+    /// Each parameter's own errors over the unseen samples (absent when all are seen).
+    #[serde(default)]
+    pub param_unseen: Option<Vec<ErrorSummary>>,
     /// Hypotheses kept per sample (0: no confidence asked for).
     pub top: usize,
     /// The confidence under which a sample is flagged.
@@ -208,14 +218,9 @@ pub struct EvalReport {
     pub samples: Vec<SampleResult>,
 }
 
-/// Estimates every sample of `data` with `model`, with uniform noise of +-`noise` added to the
-/// queries (0 for none) from `seed`, with the confidence of [`EvalOptions::new`].
-pub fn evaluate(model: &dyn PoseModel, data: &Dataset, noise: f64, seed: u64) -> Result<EvalReport> {
-    evaluate_with(model, data, &EvalOptions::new(noise, seed))
-}
-
-/// Estimates every sample of `data` with `model` as `opt` says.
-pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Result<EvalReport> {
+/// Estimates every sample of `data` with `model` as `opt` says (`EvalOptions::new(noise, seed)`:
+/// uniform noise of +-`noise` added to the queries, 0 for none, from `seed`).
+pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Result<EvalReport> {
     let (noise, seed) = (opt.noise, opt.seed);
     if !(opt.flag_below.is_finite() && (0.0..=1.0).contains(&opt.flag_below)) {
         return Err(Error::invalid("flag threshold", opt.flag_below, "must be a confidence in [0, 1]"));
@@ -293,6 +298,7 @@ pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -
                 r#true: truth.to_vec(),
                 estimated: e.to_vec(),
                 error_deg: meta.space.error_deg(truth, e),
+                param_errors_deg: meta.space.param_errors_deg(truth, e),
                 seen: meta.is_seen(truth),
                 confidence: h.map(|h| h.confidence),
                 flagged: h.map(|h| h.flagged(opt.flag_below)),
@@ -320,6 +326,8 @@ pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -
         predict_s,
         all: ErrorSummary::of(&all_e).expect("a data set has samples"),
         unseen: ErrorSummary::of(&unseen_e),
+        param_all: per_param(samples.iter(), p).expect("a data set has samples"),
+        param_unseen: per_param(samples.iter().filter(|s| !s.seen), p),
         top: opt.top,
         flag_below: opt.flag_below,
         flagged_share: confidence.as_ref().map(|c| c.flagged_share),
@@ -327,6 +335,11 @@ pub fn evaluate_with(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -
         confidence,
         samples,
     })
+}
+
+/// Each parameter's error summary over `samples` (`None` when there are none).
+fn per_param<'a>(samples: impl Iterator<Item = &'a SampleResult> + Clone, p: usize) -> Option<Vec<ErrorSummary>> {
+    (0..p).map(|j| ErrorSummary::of(&samples.clone().map(|s| s.param_errors_deg[j]).collect::<Vec<_>>())).collect()
 }
 
 fn names(space: &crate::pose::PoseSpace) -> Vec<String> {

@@ -27,8 +27,9 @@
 /// N^2.
 pub(crate) const HEAP_MATRIX_BYTES: u64 = 32 << 20;
 
-/// Buffers of at most this many bytes stay on ordinary pages (see the module doc).
-pub(crate) const HUGE_MIN_BYTES: usize = HEAP_MATRIX_BYTES as usize;
+use crate::tuning::huge::HUGE_MIN_BYTES;
+// Only buffers that are always fresh mappings are advised (see the module doc).
+const _: () = assert!(HUGE_MIN_BYTES == HEAP_MATRIX_BYTES as usize);
 
 /// The huge page size the buffer aligns to (x86-64's 2 MiB).
 const HUGE_PAGE: usize = 2 << 20;

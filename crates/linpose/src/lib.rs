@@ -48,7 +48,7 @@
 //!   streaming need, against the memory there is, and which to take.
 //! - **Evaluation**: [`evaluate`] estimates every view of a data set, optionally under pixel
 //!   noise, and measures the pose error ([`PoseSpace::error_deg`]) over all and unseen views, and
-//!   how well the confidence flags the gross errors ([`evaluate_with`], [`EvalOptions`]).
+//!   how well the confidence flags the gross errors ([`evaluate`], [`EvalOptions`]).
 //! - **The renderer** (cargo feature `render`, off by default): `render` makes turntable data sets
 //!   of built-in objects, meshes or procedural objects (`render::objects::random`, a zoo to
 //!   measure robustness on).
@@ -80,6 +80,7 @@ pub mod memory;
 pub mod methods;
 pub mod model;
 pub mod model_file;
+pub(crate) mod normal_equations;
 pub mod normalize;
 pub mod partial;
 pub(crate) mod pixel_noise;
@@ -88,13 +89,14 @@ pub mod recognize;
 #[cfg(feature = "render")]
 pub mod render;
 pub(crate) mod second_look;
-pub mod stage_choice;
+pub(crate) mod stage_choice;
+pub(crate) mod tuning;
 
 pub use catalog::{Catalog, ObjectSet, Source};
 pub use confidence::{Estimate, Hypothesis};
 pub use dataset::Dataset;
 pub use error::{Error, Result};
-pub use eval::{evaluate, evaluate_with, EvalOptions, EvalReport};
+pub use eval::{evaluate, EvalOptions, EvalReport};
 pub use manifest::{Manifest, TrainSelection};
 pub use methods::eigenspace::{EigenspaceModel, EigenspaceParams};
 pub use methods::linear::ridge::RidgeRule;

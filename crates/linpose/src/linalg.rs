@@ -1,6 +1,7 @@
 //! Dense linear-algebra building blocks shared by the estimators (on faer), and the f32 kernels
 //! that serve queries.
 
+use crate::tuning::linalg::ENERGY_BLOCK;
 use faer::{Mat, MatRef, Par};
 
 /// The parallelism faer uses: rayon's global pool.
@@ -106,8 +107,6 @@ pub(crate) fn mat_from_rows(data: &[f64], n: usize, k: usize) -> Mat<f64> {
 /// f32 lanes of [`energy`]'s running sums: four independent chains of 16 (one AVX-512 vector
 /// each), so neither the dependent adds nor the vector width bound the loop.
 const ENERGY_LANES: usize = 64;
-/// Values per block of [`energy`] (32 a lane), each block's lane sums added into f64.
-const ENERGY_BLOCK: usize = 2048;
 
 /// The f32 lane sums `s` in f64, in eight independent chains (a vector of f64) then their sum.
 #[inline(always)]

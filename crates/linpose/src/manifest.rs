@@ -12,6 +12,7 @@
 //!   its 72 views 0..71 (5 degrees apart); COIL-100 names them by degree (0..355). When any view
 //!   number of the object exceeds 71 the numbers are degrees, otherwise views 5 degrees apart.
 
+use crate::image_io::{ColorMode, ImageSpec};
 use crate::pose::{Param, PoseSpace};
 use crate::{Error, Result};
 use std::collections::{HashMap, HashSet};
@@ -30,6 +31,16 @@ pub struct Manifest {
 }
 
 impl Manifest {
+    /// The size of the first image, read from its header (no pixel is decoded), with `color`:
+    /// what the memory plan ([`crate::memory::Job::for_manifest`]) needs before the images are
+    /// read.
+    pub fn first_image_spec(&self, color: ColorMode) -> Result<ImageSpec> {
+        let path = self.image_path(0);
+        let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+        let (width, height) = crate::image_io::dimensions(&path, &bytes)?;
+        Ok(ImageSpec { width, height, color })
+    }
+
     /// Builds a manifest from parts, checking that every pose is finite and has one value per
     /// parameter.
     pub fn new(root: impl Into<PathBuf>, space: PoseSpace, images: Vec<String>, poses: Vec<f64>) -> Result<Self> {

@@ -7,7 +7,7 @@
 //!
 //! ```
 //! use linpose::image_io::{ColorMode, ImageSpec};
-//! use linpose::{model_file, Dataset, EigenspaceParams, Estimator, Param, PoseModel, PoseSpace};
+//! use linpose::{AnyModel, Dataset, EigenspaceParams, Estimator, Param, PoseModel, PoseSpace};
 //!
 //! // Eight 4x4 views of a turntable.
 //! let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)])?;
@@ -18,15 +18,15 @@
 //! let model = EigenspaceParams::default().components(3).fit(&data)?;
 //!
 //! let path = std::env::temp_dir().join(format!("linpose-doc-{}.safetensors", std::process::id()));
-//! model_file::save(&model, &path)?;
-//! let back = model_file::load(&path)?; // any method's model, as an AnyModel
+//! model.save(&path)?;
+//! let back = AnyModel::load(&path)?; // any method's model
 //! std::fs::remove_file(&path).ok();
 //! assert_eq!(back.meta().method, "eigenspace");
 //! assert_eq!(back.predict(data.row(2))?, model.predict(data.row(2))?);
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-use crate::atomic::write_atomic;
+use crate::model::file::{save_bytes, write_parts};
 use crate::model::{AnyModel, ModelMeta, PoseModel, Tensor, TensorData, TensorSet};
 use crate::recognize::{ObjectModel, ObjectSettings};
 use crate::{Error, Result};
@@ -35,28 +35,48 @@ use safetensors::SafeTensors;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// The model file format version this linpose writes and reads. Files of another version are
-/// refused with a message that says to retrain: the format has no compatibility layer.
-pub const FORMAT_VERSION: u32 = 7;
+pub use crate::model::file::FORMAT_VERSION;
+pub(crate) use crate::model::file::{write_parts_to, DataRef, TensorRef};
 
-/// Serialises a model to safetensors bytes.
-///
-/// The header is written here rather than by `safetensors::serialize`, whose metadata map is a
-/// `HashMap`: its order, and so the file's bytes, would change from run to run. Here the
-/// metadata keys are sorted and the tensors laid out as safetensors does (by decreasing
-/// alignment, then name), so the same model always gives the same bytes.
-pub fn to_bytes(model: &dyn PoseModel) -> Result<Vec<u8>> {
-    let mut meta = BTreeMap::new();
-    meta.insert("method", model.meta().method.clone());
-    meta.insert("linpose.meta", serde_json::to_string(model.meta()).expect("meta serialises"));
-    write_parts(meta, model.tensors())
+impl ObjectModel {
+    /// The model's file bytes (safetensors): the recogniser's arrays (`recognizer.*`), each
+    /// object's pose model's arrays under `object.K.`, and in the metadata `kind = objects` with
+    /// `linpose.objects`: the names, the recogniser's settings and each pose model's metadata.
+    pub fn to_bytes(&self) -> Result<Vec<u8>> {
+        objects_to_bytes(self)
+    }
+
+    /// Writes the model file atomically (temporary name, then rename): its size in bytes.
+    pub fn save(&self, path: &Path) -> Result<u64> {
+        save_bytes(&self.to_bytes()?, path)
+    }
+
+    /// Reads a many-object model file written by [`ObjectModel::save`].
+    pub fn load(path: &Path) -> Result<ObjectModel> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        objects_from_bytes(path, &bytes)
+    }
+
+    /// Parses many-object model file bytes (`path` names them in errors).
+    pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
+        objects_from_bytes(path, bytes)
+    }
 }
 
-/// Serialises a many-object model ([`ObjectModel`]) to safetensors bytes: the recogniser's
-/// arrays (`recognizer.*`), each object's pose model's arrays under `object.K.`, and in the
-/// metadata `kind = objects` with `linpose.objects`: the names, the recogniser's settings and
-/// each pose model's metadata.
-pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
+impl AnyModel {
+    /// Reads a pose model file written by [`PoseModel::save`]: any method's model.
+    pub fn load(path: &Path) -> Result<AnyModel> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        from_bytes(path, &bytes)
+    }
+
+    /// Parses pose model file bytes (`path` names them in errors).
+    pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
+        from_bytes(path, bytes)
+    }
+}
+
+fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
     let header = ObjectsHeader {
         names: model.names().to_vec(),
         settings: model.settings().clone(),
@@ -80,7 +100,7 @@ pub fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
 const OBJECTS_KIND: &str = "objects";
 
 /// The `kind` metadata of a file of partial training statistics (`crate::partial`), which
-/// [`load`] refuses with a message that says how to make a model of it.
+/// [`AnyModel::load`] refuses with a message that says how to make a model of it.
 pub(crate) const PARTIAL_KIND: &str = "partial";
 
 /// The `method` of a many-object model fitted without poses (no pose models), in its file's
@@ -106,120 +126,7 @@ struct ObjectsHeader {
     labels: Option<crate::recognize::Labels>,
 }
 
-/// The file's bytes: the `meta` entries with the format and its version, then the tensors.
-fn write_parts(meta: BTreeMap<&str, String>, tensors: Vec<Tensor>) -> Result<Vec<u8>> {
-    let refs: Vec<TensorRef<'_>> = tensors
-        .iter()
-        .map(|t| TensorRef {
-            name: t.name.clone(),
-            shape: t.shape.clone(),
-            data: match &t.data {
-                TensorData::F32(v) => DataRef::F32(v),
-                TensorData::F64(v) => DataRef::F64(v),
-            },
-        })
-        .collect();
-    let mut out = Vec::new();
-    write_parts_to(meta, refs, &mut out).map_err(|e| Error::Numerical(format!("serialising: {e}")))?;
-    Ok(out)
-}
-
-/// A named array whose values are borrowed, for [`write_parts_to`].
-pub(crate) struct TensorRef<'a> {
-    pub name: String,
-    pub shape: Vec<usize>,
-    pub data: DataRef<'a>,
-}
-
-/// Borrowed values of a [`TensorRef`].
-pub(crate) enum DataRef<'a> {
-    F32(&'a [f32]),
-    F64(&'a [f64]),
-    /// This many f64 values, which the function writes (little-endian) when the file is written.
-    F64With(usize, &'a dyn Fn(&mut dyn std::io::Write) -> std::io::Result<()>),
-}
-
-/// Writes [`write_parts`]'s bytes to `w` without a copy of the values: the header, then each
-/// tensor's values in chunks (what a large file, such as partial statistics, needs).
-pub(crate) fn write_parts_to(mut meta: BTreeMap<&str, String>, mut tensors: Vec<TensorRef<'_>>, w: &mut dyn std::io::Write) -> std::io::Result<()> {
-    let dtype = |t: &TensorRef<'_>| match t.data {
-        DataRef::F32(_) => Dtype::F32,
-        DataRef::F64(_) | DataRef::F64With(..) => Dtype::F64,
-    };
-    tensors.sort_by(|a, b| dtype(b).cmp(&dtype(a)).then_with(|| a.name.cmp(&b.name)));
-    meta.insert("format", "linpose".to_string());
-    meta.insert("format_version", FORMAT_VERSION.to_string());
-    let mut header = format!("{{\"__metadata__\":{}", json(&meta));
-    let mut offset = 0;
-    for t in &tensors {
-        let bytes = match t.data {
-            DataRef::F32(v) => v.len() * 4,
-            DataRef::F64(v) => v.len() * 8,
-            DataRef::F64With(n, _) => n * 8,
-        };
-        let n: usize = t.shape.iter().product();
-        if n * dtype(t).bitsize() / 8 != bytes {
-            return Err(std::io::Error::other(format!("tensor '{}' has shape {:?} but {bytes} bytes", t.name, t.shape)));
-        }
-        header.push_str(&format!(
-            ",{}:{{\"dtype\":{},\"shape\":{},\"data_offsets\":[{offset},{}]}}",
-            json(&t.name),
-            json(&dtype(t)),
-            json(&t.shape),
-            offset + bytes
-        ));
-        offset += bytes;
-    }
-    header.push('}');
-    // safetensors pads the header with spaces to a multiple of 8 bytes (alignment of the data).
-    while header.len() % 8 != 0 {
-        header.push(' ');
-    }
-    w.write_all(&(header.len() as u64).to_le_bytes())?;
-    w.write_all(header.as_bytes())?;
-    let mut buf = Vec::with_capacity(1 << 16);
-    for t in &tensors {
-        match t.data {
-            DataRef::F32(v) => {
-                for c in v.chunks(1 << 13) {
-                    buf.clear();
-                    buf.extend(c.iter().flat_map(|x| x.to_le_bytes()));
-                    w.write_all(&buf)?;
-                }
-            }
-            DataRef::F64(v) => {
-                for c in v.chunks(1 << 13) {
-                    buf.clear();
-                    buf.extend(c.iter().flat_map(|x| x.to_le_bytes()));
-                    w.write_all(&buf)?;
-                }
-            }
-            DataRef::F64With(_, write) => write(w)?,
-        }
-    }
-    Ok(())
-}
-
-/// A plain value as compact JSON.
-fn json<T: serde::Serialize + ?Sized>(v: &T) -> String {
-    serde_json::to_string(v).expect("plain values serialise")
-}
-
-/// Writes a model file atomically (temporary name, then rename).
-pub fn save(model: &dyn PoseModel, path: &Path) -> Result<u64> {
-    let bytes = to_bytes(model)?;
-    write_atomic(path, &bytes)?;
-    Ok(bytes.len() as u64)
-}
-
-/// Reads a model file written by [`save`].
-pub fn load(path: &Path) -> Result<AnyModel> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    from_bytes(path, &bytes)
-}
-
-/// Parses model file bytes (`path` names them in errors).
-pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
+fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     let (meta, tensors) = read_parts(path, bytes)?;
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
     if meta.get("kind").map(String::as_str) == Some(PARTIAL_KIND) {
@@ -229,7 +136,7 @@ pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     }
     if meta.get("kind").map(String::as_str) == Some(OBJECTS_KIND) {
         return Err(err(
-            "this model file holds several objects (a recogniser and each object's pose model), not one object's pose model: `linpose predict` and `eval` read it, in Python `linpose.load` (an ObjectRecognizer), in Rust model_file::load_objects"
+            "this model file holds several objects (a recogniser and each object's pose model), not one object's pose model: `linpose predict` and `eval` read it, in Python `linpose.load` (an ObjectRecognizer), in Rust ObjectModel::load"
                 .into(),
         ));
     }
@@ -253,25 +160,11 @@ fn pose_model(mut meta: ModelMeta, tensors: &TensorSet) -> Result<AnyModel> {
     })
 }
 
-/// Writes a many-object model file atomically ([`objects_to_bytes`]).
-pub fn save_objects(model: &ObjectModel, path: &Path) -> Result<u64> {
-    let bytes = objects_to_bytes(model)?;
-    write_atomic(path, &bytes)?;
-    Ok(bytes.len() as u64)
-}
-
-/// Reads a many-object model file written by [`save_objects`].
-pub fn load_objects(path: &Path) -> Result<ObjectModel> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    objects_from_bytes(path, &bytes)
-}
-
-/// Parses many-object model file bytes (`path` names them in errors).
-pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
+fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
     let (meta, tensors) = read_parts(path, bytes)?;
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
     if meta.get("kind").map(String::as_str) != Some(OBJECTS_KIND) {
-        return Err(err("this model file holds one object's pose model, not several objects' (read it with model_file::load)".into()));
+        return Err(err("this model file holds one object's pose model, not several objects' (read it with AnyModel::load)".into()));
     }
     let json = meta.get("linpose.objects").ok_or_else(|| err("model file has no linpose.objects".into()))?;
     let header: ObjectsHeader = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
@@ -299,8 +192,8 @@ pub fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
     )
 }
 
-/// Whether the model file at `path` holds several objects ([`load_objects`]) rather than one
-/// pose model ([`load`]); reads only its header.
+/// Whether the model file at `path` holds several objects ([`ObjectModel::load`]) rather than one
+/// pose model ([`AnyModel::load`]); reads only its header.
 pub fn holds_objects(path: &Path) -> Result<bool> {
     use std::io::Read;
     let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
@@ -317,8 +210,8 @@ pub fn holds_objects(path: &Path) -> Result<bool> {
     Ok(v.get("__metadata__").and_then(|m| m.get("kind")).and_then(|k| k.as_str()) == Some(OBJECTS_KIND))
 }
 
-/// Whether model file bytes hold several objects ([`objects_from_bytes`]) rather than one pose
-/// model ([`from_bytes`]); false for bytes that are no safetensors file (reading them says why).
+/// Whether model file bytes hold several objects ([`ObjectModel::from_bytes`]) rather than one pose
+/// model ([`AnyModel::from_bytes`]); false for bytes that are no safetensors file (reading them says why).
 pub fn bytes_hold_objects(bytes: &[u8]) -> bool {
     SafeTensors::read_metadata(bytes).ok().and_then(|(_, h)| h.metadata().as_ref().and_then(|m| m.get("kind").cloned())).as_deref() == Some(OBJECTS_KIND)
 }

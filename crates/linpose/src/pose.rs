@@ -151,31 +151,49 @@ impl PoseSpace {
         }
     }
 
-    /// Whether this is the paper's two-angle case: exactly `elevation` and a circular `azimuth`.
-    fn sphere_indices(&self) -> Option<(usize, usize)> {
-        if self.len() != 2 {
-            return None;
+    /// The parameters that place the camera around the object, by name: a linear `elevation`, an
+    /// `azimuth` of period 360 and, when present, a `roll` (linear, or of period 360).
+    fn geometry(&self) -> Geometry {
+        let (Some(ie), Some(ia)) = (self.index_of("elevation"), self.index_of("azimuth")) else { return Geometry::None };
+        if self.params[ia].period != Some(360.0) || self.params[ie].period.is_some() {
+            return Geometry::None;
         }
-        let ie = self.index_of("elevation")?;
-        let ia = self.index_of("azimuth")?;
-        (self.params[ia].period == Some(360.0) && self.params[ie].period.is_none()).then_some((ie, ia))
+        match self.index_of("roll") {
+            Some(ir) if matches!(self.params[ir].period, None | Some(360.0)) => Geometry::Rotation(ie, ia, ir),
+            Some(_) => Geometry::None,
+            None => Geometry::Sphere(ie, ia),
+        }
     }
 
-    /// The pose error (docs/method.md), in degrees: for (elevation, azimuth) the angle between the two
-    /// viewing directions on the sphere; otherwise the largest difference over parameters, wrapped
-    /// for circular ones (so a lone circular parameter gives its wrapped difference).
+    /// The pose error (docs/method.md), in degrees:
+    /// - with `elevation`, `azimuth` and `roll`: the angle of the rotation that takes the camera's
+    ///   true orientation to its estimated one (the geodesic distance on SO(3));
+    /// - with `elevation` and `azimuth` (the paper's case): the angle between the two viewing
+    ///   directions on the sphere;
+    /// - otherwise the largest difference over parameters, wrapped for circular ones (so a lone
+    ///   circular parameter gives its wrapped difference).
+    ///
+    /// In the first two cases the other parameters (a light's azimuth, say) are not part of it:
+    /// each has its own difference ([`PoseSpace::param_errors_deg`]).
     pub fn error_deg(&self, truth: &[f64], est: &[f64]) -> f64 {
-        if let Some((ie, ia)) = self.sphere_indices() {
-            return sphere_angle_deg(truth[ie], truth[ia], est[ie], est[ia]);
+        match self.geometry() {
+            Geometry::Rotation(ie, ia, ir) => rotation_angle_deg([truth[ie], truth[ia], truth[ir]], [est[ie], est[ia], est[ir]]),
+            Geometry::Sphere(ie, ia) => sphere_angle_deg(truth[ie], truth[ia], est[ie], est[ia]),
+            Geometry::None => self.param_errors(truth, est).fold(0.0, f64::max),
         }
-        self.params
-            .iter()
-            .zip(truth.iter().zip(est))
-            .map(|(p, (&a, &b))| match p.period {
-                Some(t) => wrapped_diff(a, b, t),
-                None => (a - b).abs(),
-            })
-            .fold(0.0, f64::max)
+    }
+
+    /// Each parameter's own error in degrees, in order: the absolute difference, wrapped into
+    /// [0, T / 2] for a circular parameter of period T.
+    pub fn param_errors_deg(&self, truth: &[f64], est: &[f64]) -> Vec<f64> {
+        self.param_errors(truth, est).collect()
+    }
+
+    fn param_errors<'a>(&'a self, truth: &'a [f64], est: &'a [f64]) -> impl Iterator<Item = f64> + 'a {
+        self.params.iter().zip(truth.iter().zip(est)).map(|(p, (&a, &b))| match p.period {
+            Some(t) => wrapped_diff(a, b, t),
+            None => (a - b).abs(),
+        })
     }
 
     /// Whether two poses coincide (circular parameters compared modulo their period), within
@@ -217,6 +235,54 @@ pub(crate) fn sphere_angle_deg(elev1: f64, azim1: f64, elev2: f64, azim2: f64) -
     let cross = [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2], p[0] * q[1] - p[1] * q[0]];
     let s = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
     let c = p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+    s.atan2(c).to_degrees()
+}
+
+/// Which of a pose space's parameters place the camera ([`PoseSpace::error_deg`]): indices of
+/// elevation, azimuth and roll.
+enum Geometry {
+    Rotation(usize, usize, usize),
+    Sphere(usize, usize),
+    None,
+}
+
+/// The camera's orientation in the object's frame (rows: the image's right, the image's up, the
+/// direction towards the camera) at (elevation, azimuth, roll), as the renderer (`crate::render`)
+/// places it: the turntable turns the object by Rz(-azimuth), the camera at the elevation sees
+/// right = y, up = (-sin a, 0, cos a), towards it (cos a, 0, sin a), and the roll turns the
+/// camera about its optical axis (a positive roll turns the image counter-clockwise).
+fn camera_rotation(elevation: f64, azimuth: f64, roll: f64) -> [[f64; 3]; 3] {
+    let (se, ce) = elevation.to_radians().sin_cos();
+    let (sa, ca) = azimuth.to_radians().sin_cos();
+    let (sr, cr) = roll.to_radians().sin_cos();
+    // Turntable, object to world: rows (ca, sa, 0), (-sa, ca, 0), (0, 0, 1).
+    let turn = [[ca, sa, 0.0], [-sa, ca, 0.0], [0.0, 0.0, 1.0]];
+    let view = [[0.0, 1.0, 0.0], [-se, 0.0, ce], [ce, 0.0, se]];
+    // A positive roll turns the image counter-clockwise (the camera's axes clockwise).
+    let roll = [[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]];
+    mat_mul(&roll, &mat_mul(&view, &turn))
+}
+
+fn mat_mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut out = [[0.0; 3]; 3];
+    for (i, row) in out.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    out
+}
+
+/// The angle in degrees of the rotation between the camera orientations of two (elevation,
+/// azimuth, roll) poses: for D = R1 R2^T, atan2(|axis part|, (trace(D) - 1) / 2), where the axis
+/// part is half the skew-symmetric part's vector (sin of the angle times the axis), accurate for
+/// small angles where acos((trace - 1) / 2) loses half the digits.
+pub(crate) fn rotation_angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (r1, r2) = (camera_rotation(a[0], a[1], a[2]), camera_rotation(b[0], b[1], b[2]));
+    let d = |i: usize, j: usize| (0..3).map(|k| r1[i][k] * r2[j][k]).sum::<f64>();
+    let v = [d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1)];
+    let s = 0.5 * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let c = 0.5 * (d(0, 0) + d(1, 1) + d(2, 2) - 1.0);
     s.atan2(c).to_degrees()
 }
 
@@ -270,6 +336,7 @@ pub(crate) fn percentile_sorted(sorted: &[f64], q: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use approx::assert_abs_diff_eq;
     use proptest::prelude::*;
 
     fn paper_space() -> PoseSpace {
@@ -291,6 +358,50 @@ mod tests {
         // At the pole azimuth does not matter.
         assert!(sphere_angle_deg(90.0, 0.0, 90.0, 123.0) < 1e-6);
         assert!((sphere_angle_deg(0.0, 359.0, 0.0, 1.0) - 2.0).abs() < 1e-9);
+    }
+
+    fn rotation_space(extra: &[Param]) -> PoseSpace {
+        let mut p = vec![Param::linear("elevation"), Param::circular("azimuth", 360.0), Param::linear("roll")];
+        p.extend(extra.iter().cloned());
+        PoseSpace::new(p).unwrap()
+    }
+
+    #[test]
+    fn rotation_error_identities() {
+        let s = rotation_space(&[]);
+        // A pure roll of 10 degrees is 10 degrees, at any elevation and azimuth.
+        for (e, a) in [(0.0, 0.0), (32.0, 354.0), (77.0, 123.0), (-45.0, 10.0)] {
+            assert_abs_diff_eq!(s.error_deg(&[e, a, -30.0], &[e, a, -20.0]), 10.0, epsilon = 1e-9);
+            // A turntable turn of 10 degrees is 10 degrees at any elevation and roll (the
+            // viewing directions' angle shrinks with cos(elevation); the rotation's does not).
+            for r in [-30.0, 0.0, 20.0] {
+                assert_abs_diff_eq!(s.error_deg(&[e, a, r], &[e, a + 10.0, r]), 10.0, epsilon = 1e-9);
+                assert_abs_diff_eq!(s.error_deg(&[e, a, r], &[e, a + 350.0, r]), 10.0, epsilon = 1e-9);
+            }
+            // An elevation change at roll 0 is the viewing directions' angle.
+            assert_abs_diff_eq!(s.error_deg(&[e, a, 0.0], &[e + 9.0, a, 0.0]), 9.0, epsilon = 1e-9);
+        }
+        // Small angles keep their digits; a pose is 0 from itself.
+        assert_abs_diff_eq!(s.error_deg(&[40.0, 50.0, 5.0], &[40.0, 50.0, 5.0 + 1e-7]), 1e-7, epsilon = 1e-13);
+        assert_eq!(s.error_deg(&[40.0, 50.0, 5.0], &[40.0, 50.0, 5.0]), 0.0);
+        // Half a turn of the turntable is 180 degrees.
+        assert_abs_diff_eq!(s.error_deg(&[40.0, 0.0, 0.0], &[40.0, 180.0, 0.0]), 180.0, epsilon = 1e-9);
+        // Seen from straight above, a turntable turn (the image clockwise) and a roll (the image
+        // counter-clockwise) turn the image about the same axis: 10 degrees more of each is the
+        // same view (tests/render.rs checks this on rendered images).
+        assert_abs_diff_eq!(s.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, 10.0]), 0.0, epsilon = 1e-9);
+        assert_abs_diff_eq!(s.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, -10.0]), 20.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn light_is_apart_from_the_rotation_error() {
+        let s = rotation_space(&[Param::circular("light", 360.0)]);
+        let (t, e) = ([40.0, 50.0, 0.0, 350.0], [40.0, 50.0, 10.0, 20.0]);
+        assert_abs_diff_eq!(s.error_deg(&t, &e), 10.0, epsilon = 1e-9);
+        assert_eq!(s.param_errors_deg(&t, &e), vec![0.0, 0.0, 10.0, 30.0]);
+        // The paper's two angles with a light: the viewing directions' angle, the light apart.
+        let s = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0), Param::circular("light", 360.0)]).unwrap();
+        assert_abs_diff_eq!(s.error_deg(&[0.0, 0.0, 0.0], &[0.0, 10.0, 90.0]), 10.0, epsilon = 1e-9);
     }
 
     #[test]
@@ -322,6 +433,18 @@ mod tests {
             prop_assert!((dec[0] - a).abs() < 1e-9);
             prop_assert!((0.0..360.0).contains(&dec[1]));
             prop_assert!(wrapped_diff(dec[1], e, 360.0) < 1e-9);
+        }
+
+        #[test]
+        fn rotation_error_is_symmetric_and_a_metric(e1 in -90.0f64..90.0, a1 in 0.0f64..360.0, r1 in -60.0f64..60.0, e2 in -90.0f64..90.0, a2 in 0.0f64..360.0, r2 in -60.0f64..60.0, e3 in -90.0f64..90.0, a3 in 0.0f64..360.0, r3 in -60.0f64..60.0) {
+            let s = rotation_space(&[]);
+            let (p, q, w) = ([e1, a1, r1], [e2, a2, r2], [e3, a3, r3]);
+            let d = s.error_deg(&p, &q);
+            prop_assert!((d - s.error_deg(&q, &p)).abs() < 1e-9);
+            prop_assert!((0.0..=180.0 + 1e-9).contains(&d));
+            prop_assert!(d <= s.error_deg(&p, &w) + s.error_deg(&w, &q) + 1e-9);
+            // Never more than the sum of the parameters' own differences.
+            prop_assert!(d <= s.param_errors_deg(&p, &q).iter().sum::<f64>() + 1e-9);
         }
 
         #[test]

@@ -63,55 +63,11 @@ use crate::manifold::projector::Projector;
 use crate::manifold::surface::{Interpolant, Surface};
 use crate::model::{split, Tensor, TensorSet};
 use crate::pose::{wrap_positive, PoseSpace};
+pub(crate) use crate::tuning::second_look::SECOND_LOOK_BIN;
+use crate::tuning::second_look::{PER_CELL, STEP_DEG, STEP_TOL_LOOK, UNSEEN_SHARE};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-
-/// The binning factor of the second look's images (smaller where the binned images would have fewer
-/// pixels than there are training views, or fewer than 3 x 3). What it trades: a coarser binning
-/// stores and projects b^2 times fewer numbers but blurs a small mark into its surroundings.
-/// Measured on the procedural zoo's development seeds 0-19 (a turntable every 10 degrees, 128 x
-/// 96), with all N - 1 components: gross errors (over 20 degrees) among the 720 unseen views 13
-/// unbinned, 11 binned by 2, 10 by 4, where the eigenspace's 20 components make 48. Re-measured at
-/// 75b89f7 with the factor switched, on seeds 20-99 (`bench/zoo.py`, 2,880 unseen views; gross
-/// errors of the eigenspace / the refined method): 222 / 215 unbinned, 200 / 197 by 2, 177 / 177 by
-/// 4, and the best factor for each object would make 175 / 174, so a per-model choice has nothing
-/// to win there. A mark of a few pixels wants the finer look: on the rendered `twin` (the paper's
-/// grid every 9 degrees, 160 x 120) the gross errors among its 1538 unseen views are 30 / 26
-/// unbinned, 52 / 70 by 2 and 63 / 69 by 4, and its unseen mean error 1.28 / 0.97 degrees unbinned
-/// against 2.69 / 2.78 by 4, but unbinned the look stores and projects 17 times the numbers (218
-/// components of 19,200 pixels, against 204 of 1,200). Kept at 4 for every model: a choice per
-/// model would need a held-out measure that tells such an object apart, and the one tried for the
-/// look's interpolant, the held-out flip count, was too noisy (docs/confidence.md).
-pub(crate) const SECOND_LOOK_BIN: usize = 4;
-
-/// The share of the held-out training views' mean squared distance to the surface that a fresh
-/// view between training views is expected at (D_h in the module doc). What it trades: a larger
-/// share widens the posterior, flagging more views (gross or not); a smaller one trusts small
-/// gaps between basins, letting more gross errors through unflagged. Chosen on development data
-/// only, the procedural zoo's seeds 0-19 (a turntable every 10 degrees, `bench/zoo.py`): the
-/// largest power of two that flags at most 5% of their 720 unseen views, with every one of the
-/// 10 gross errors flagged at each share tried (flagged: 11.5% at 1, 6.8% at 1/4, 5.1% at 1/8,
-/// 4.3% at 1/16). On the rendered `twin` (the paper's grid every 9 degrees), also development
-/// data, no share meets both (at 1/16: 15.9% flagged, 47.6% of its gross errors). A held-out view
-/// lies twice as far from its neighbours as a fresh one; its distance measured 7 to 109 times
-/// (median about 40) an unseen view's at its true pose on those seeds. Held-out seeds report it
-/// (BENCHMARKS.md).
-pub(crate) const UNSEEN_SHARE: f64 = 1.0 / 16.0;
-
-/// Scan points per knot interval along each axis, where the basins start: a basin narrower than
-/// half a knot interval can be missed. Not tuned. With more than two pose parameters the scan is
-/// the knots themselves (one point per knot: 2^D fewer), as the method's own starts are.
-pub(crate) const PER_CELL: usize = 2;
-
-/// The lattice (degrees) the basins are climbed on. Not tuned: the eigenspace's manifold step.
-pub(crate) const STEP_DEG: f64 = 0.5;
-
-/// The step (degrees) below which the second look's Levenberg-Marquardt in a basin ends (more
-/// than two pose parameters, where it replaces the climb on the lattice of [`STEP_DEG`]): a fifth
-/// of that lattice, since the look compares basins' distances and reports no pose. A smaller
-/// step costs iterations of 4^D K products each. Not tuned.
-pub(crate) const STEP_TOL_LOOK: f64 = STEP_DEG / 5.0;
 
 /// What a model records of its second look (in its settings).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

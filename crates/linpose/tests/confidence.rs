@@ -8,7 +8,7 @@ use linpose::confidence::{FLAG_BELOW, GROSS_DEG};
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
-use linpose::{model_file, AnyModel, Dataset, Estimate, Param, PoseModel, PoseSpace, TrainSelection, METHODS};
+use linpose::{AnyModel, Dataset, Estimate, Param, PoseModel, PoseSpace, TrainSelection, METHODS};
 use std::path::Path;
 
 fn turntable(object: &str) -> (Dataset, Dataset) {
@@ -59,7 +59,7 @@ fn symmetric_turntable() -> (Dataset, Dataset) {
 fn a_symmetric_object_gets_two_hypotheses_half_a_turn_apart_and_a_low_confidence() {
     let (train, unseen) = symmetric_turntable();
     for name in ["eigenspace", "refined"] {
-        let model = linpose::methods::find(name).unwrap().default_spec().fit(&train).unwrap();
+        let model = linpose::Method::from_name(name).unwrap().default_spec().fit(&train).unwrap();
         for (e, i) in estimates(&model, &unseen, 3).iter().zip(0..) {
             assert!(e.hypotheses.len() >= 2, "{name}: view {i}: {e:?}");
             let gap = azimuth_gap(e.hypotheses[0].pose[0], e.hypotheses[1].pose[0]);
@@ -77,7 +77,7 @@ fn the_second_look_tells_the_twins_front_from_its_back_and_trusts_the_duck() {
     let (twin_train, twin) = turntable("twin");
     let (duck_train, duck) = turntable("duck");
     for name in ["eigenspace", "refined"] {
-        let spec = linpose::methods::find(name).unwrap().default_spec();
+        let spec = linpose::Method::from_name(name).unwrap().default_spec();
         // The twin: front and back alike but for a small mark, which the L eigenimages of most
         // energy barely hold. Most views still have a rival half a turn away, but the second
         // look, in every component of the training views, picks the right side.
@@ -113,7 +113,7 @@ fn an_image_unlike_every_training_view_is_not_trusted() {
     let moved: Vec<f32> = unseen.features().chunks_exact(w).flat_map(|row| std::iter::repeat_n(0.0, 6).chain(row[..w - 6].iter().copied())).collect();
     assert_eq!(moved.len(), unseen.len() * m);
     for name in ["eigenspace", "refined"] {
-        let model = linpose::methods::find(name).unwrap().default_spec().fit(&train).unwrap();
+        let model = linpose::Method::from_name(name).unwrap().default_spec().fit(&train).unwrap();
         for (e, i) in model.estimate(&moved, 3).unwrap().iter().zip(0..) {
             assert!(e.confidence < 0.01, "{name}: moved view {i}: {e:?}");
             // What is left is that none of the poses explains the image.
@@ -125,7 +125,7 @@ fn an_image_unlike_every_training_view_is_not_trusted() {
 
 #[test]
 fn the_linear_model_trusts_the_duck_more_than_the_twin() {
-    let spec = linpose::methods::find("linear").unwrap().default_spec();
+    let spec = linpose::Method::from_name("linear").unwrap().default_spec();
     let mean_confidence = |object: &str| {
         let (train, unseen) = turntable(object);
         let est = estimates(&spec.fit(&train).unwrap(), &unseen, 3);
@@ -143,8 +143,8 @@ fn a_model_read_back_from_its_file_gives_the_same_hypotheses() {
     for method in METHODS {
         let model = method.default_spec().fit(&train).unwrap();
         let path = dir.path().join(format!("{}.safetensors", method.name));
-        model_file::save(&model, &path).unwrap();
-        let back = model_file::load(&path).unwrap();
+        model.save(&path).unwrap();
+        let back = AnyModel::load(&path).unwrap();
         let (a, b) = (model.estimate(unseen.features(), 4).unwrap(), back.estimate(unseen.features(), 4).unwrap());
         for (i, (x, y)) in a.iter().zip(&b).enumerate() {
             assert_eq!(x, y, "{}: view {i}", method.name);

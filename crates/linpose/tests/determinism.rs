@@ -44,9 +44,9 @@ type Fit<'a> = &'a (dyn Fn(&Dataset) -> Vec<u8> + Sync);
 fn models_are_byte_identical_across_thread_counts() {
     let data = paper_sized();
     let fits: [(&str, Fit); 3] = [
-        ("linear", &|d| linpose::model_file::to_bytes(&LinearParams::default().fit(d).unwrap()).unwrap()),
-        ("linear, ridge and centred", &|d| linpose::model_file::to_bytes(&LinearParams::default().ridge(1e-3).center(true).fit(d).unwrap()).unwrap()),
-        ("eigenspace", &|d| linpose::model_file::to_bytes(&EigenspaceParams::default().manifold_step(1.0).fit(d).unwrap()).unwrap()),
+        ("linear", &|d| LinearParams::default().fit(d).unwrap().to_bytes().unwrap()),
+        ("linear, ridge and centred", &|d| LinearParams::default().ridge(1e-3).center(true).fit(d).unwrap().to_bytes().unwrap()),
+        ("eigenspace", &|d| EigenspaceParams::default().manifold_step(1.0).fit(d).unwrap().to_bytes().unwrap()),
     ];
     for (name, fit) in fits {
         let one = in_pool(1, || fit(&data));
@@ -55,7 +55,7 @@ fn models_are_byte_identical_across_thread_counts() {
         assert!(one == two, "{name}: 1 thread and 2 threads give different model files");
         assert!(one == eight, "{name}: 1 thread and 8 threads give different model files");
         // And the estimates of a model do not depend on the threads either.
-        let model = linpose::model_file::from_bytes(std::path::Path::new(name), &one).unwrap();
+        let model = linpose::AnyModel::from_bytes(std::path::Path::new(name), &one).unwrap();
         let e1 = in_pool(1, || model.predict(data.features()).unwrap());
         let e2 = in_pool(2, || model.predict(data.features()).unwrap());
         assert!(e1.iter().zip(&e2).all(|(a, b)| a.to_bits() == b.to_bits()), "{name}: estimates differ across thread counts");

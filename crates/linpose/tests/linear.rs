@@ -5,7 +5,6 @@
 //! leave ample margin over machine epsilon (2.2e-16) times that condition number.
 
 use linpose::image_io::{ColorMode, ImageSpec};
-use linpose::methods::linear::leave_one_out;
 use linpose::{Dataset, Estimator, LinearParams, Manifest, Param, PoseModel, PoseSpace};
 
 /// Smooth synthetic images of an elevation and a turntable angle: two Gaussian blobs circling
@@ -134,7 +133,7 @@ fn centred_model_reproduces_labels_and_has_an_intercept() {
 fn closed_form_leave_one_out_equals_refitting() {
     let data = synthetic(12, &[20.0, 40.0], 9, 7);
     for params in [LinearParams::default(), LinearParams::default().ridge(0.5)] {
-        let loo = leave_one_out(&params, &data).unwrap();
+        let loo = params.leave_one_out(&data).unwrap().unwrap();
         for i in [0, 5, 17] {
             let mask: Vec<bool> = (0..data.len()).map(|j| j != i).collect();
             let model = params.fit(&data.subset(&mask).unwrap()).unwrap();
@@ -222,8 +221,8 @@ fn model_file_round_trip_keeps_the_estimates() {
     let model = LinearParams::default().fit(&data).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.safetensors");
-    linpose::model_file::save(&model, &path).unwrap();
-    let back = linpose::model_file::load(&path).unwrap();
+    model.save(&path).unwrap();
+    let back = linpose::AnyModel::load(&path).unwrap();
     assert_eq!(back.meta(), model.meta());
     assert_eq!(back.predict(data.features()).unwrap(), model.predict(data.features()).unwrap());
     assert_eq!(back.model_bytes(), model.model_bytes());
@@ -240,7 +239,7 @@ fn loo_rule_picks_the_minimum_of_its_curve_and_agrees_with_refitting() {
     // The chosen lambda's LOO error, recomputed by the independent closed form of leave_one_out
     // (itself tested against refitting), is the selection's and no worse than lambda = 0's.
     let mean_loo = |params: &LinearParams| {
-        let est = leave_one_out(params, &data).unwrap();
+        let est = params.leave_one_out(&data).unwrap().unwrap();
         (0..data.len()).map(|i| data.space().error_deg(data.pose(i), &est[i * 2..i * 2 + 2])).sum::<f64>() / data.len() as f64
     };
     let at_chosen = mean_loo(&LinearParams::default().ridge(lambda));
@@ -262,7 +261,7 @@ fn noise_aware_training_beats_the_exact_fit_under_clipped_noise() {
     let train = data.subset(&mask).unwrap();
     let plain = LinearParams::default().fit(&train).unwrap();
     let aware = LinearParams::default().ridge_rule(RidgeRule::Noise(0.1)).fit(&train).unwrap();
-    let unseen = |m: &dyn PoseModel| linpose::evaluate(m, &data, 0.1, 7).unwrap().unseen.unwrap().mean_deg;
+    let unseen = |m: &dyn PoseModel| linpose::evaluate(m, &data, &linpose::EvalOptions::new(0.1, 7)).unwrap().unseen.unwrap().mean_deg;
     let (p, a) = (unseen(&plain), unseen(&aware));
     assert!(a < 0.8 * p, "noise-aware {a} vs plain {p}");
 }

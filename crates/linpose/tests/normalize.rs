@@ -6,7 +6,7 @@ use linpose::model::Normalized;
 use linpose::normalize::{NormalizeParams, Normalizer};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, Jitter, RenderParams};
-use linpose::{model_file, Dataset, EigenspaceParams, Error, MethodSpec, PoseModel, TrainSelection};
+use linpose::{AnyModel, Dataset, EigenspaceParams, Error, MethodSpec, PoseModel, TrainSelection};
 use std::path::Path;
 
 /// The duck every 5 degrees of azimuth at 80 x 60, registered, and the same views jittered.
@@ -20,7 +20,7 @@ fn duck(jitter: Option<Jitter>) -> Dataset {
 }
 
 fn unseen_mean(model: &dyn PoseModel, data: &Dataset) -> f64 {
-    let r = linpose::evaluate(model, data, 0.0, 0).unwrap();
+    let r = linpose::evaluate(model, data, &linpose::EvalOptions::new(0.0, 0)).unwrap();
     r.unseen.unwrap().mean_deg
 }
 
@@ -39,8 +39,8 @@ fn jittered_views_come_back_to_the_training_frame_and_the_model_file_keeps_the_s
     assert!(jit <= 1.5 * reg + 0.1, "normalised: registered {reg}, jittered {jit}");
 
     let path = std::env::temp_dir().join(format!("linpose-normalize-{}.safetensors", std::process::id()));
-    model_file::save(&model, &path).unwrap();
-    let back = model_file::load(&path).unwrap();
+    model.save(&path).unwrap();
+    let back = AnyModel::load(&path).unwrap();
     std::fs::remove_file(&path).ok();
     assert_eq!(back.meta(), model.meta());
     assert!(back.meta().normalize.is_some());
@@ -121,7 +121,7 @@ fn training_chooses_the_stage_on_held_out_views_and_the_model_file_keeps_the_cho
     let full = duck(None);
     let train = full.subset(&full.manifest().training_mask(&TrainSelection::Step(10.0)).unwrap()).unwrap();
     let spec: MethodSpec = EigenspaceParams::default().components(8).into();
-    let model = linpose::stage_choice::fit(&spec, &train, StageRule::Auto).unwrap();
+    let model = spec.fit_with_stage(&train, StageRule::Auto).unwrap();
     let choice = model.meta().stage_choice.clone().expect("the choice is recorded");
     assert_eq!((choice.rule.as_str(), choice.held_out_views, choice.scores.len()), ("auto", 36, 4));
     assert_eq!(model.meta().normalize.is_some(), choice.chosen != "off", "{choice:?}");
@@ -132,12 +132,12 @@ fn training_chooses_the_stage_on_held_out_views_and_the_model_file_keeps_the_cho
     let first = choice.scores.iter().find(|s| s.pooled_deg.is_some_and(|m| m <= bound)).unwrap();
     assert_eq!(first.stage, choice.chosen);
     let path = std::env::temp_dir().join(format!("linpose-choice-{}.safetensors", std::process::id()));
-    model_file::save(&model, &path).unwrap();
-    let back = model_file::load(&path).unwrap();
+    model.save(&path).unwrap();
+    let back = AnyModel::load(&path).unwrap();
     std::fs::remove_file(&path).ok();
     assert_eq!(back.meta(), model.meta());
     // Fixed, it is as asked, and recorded so.
-    let off = linpose::stage_choice::fit(&spec, &train, StageRule::Fixed(NormalizeParams::OFF)).unwrap();
+    let off = spec.fit_with_stage(&train, StageRule::Fixed(NormalizeParams::OFF)).unwrap();
     assert!(off.meta().normalize.is_none());
     assert_eq!(off.meta().stage_choice.as_ref().unwrap().rule, "off");
 }

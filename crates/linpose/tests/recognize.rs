@@ -8,10 +8,10 @@
 
 use linpose::image_io::{ColorMode, ImageSpec};
 use linpose::normalize::{NormalizeParams, Rejection};
-use linpose::recognize::{Labels, ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{Labels, ObjectModel, RecognizerParams, Unknown, RECOGNIZERS};
 use linpose::render::synth::{dataset, PoseGrid};
 use linpose::render::{objects, Grid, RenderParams};
-use linpose::{model_file, Dataset, EigenspaceParams, LinearParams, MethodSpec, ObjectSet, Param, PoseModel, PoseSpace, TrainSelection};
+use linpose::{model_file, AnyModel, Dataset, EigenspaceParams, LinearParams, MethodSpec, ObjectSet, Param, PoseModel, PoseSpace, TrainSelection};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -58,7 +58,7 @@ fn eigenspace() -> MethodSpec {
 #[test]
 fn every_recogniser_tells_the_builtin_objects_apart_and_reproduces_its_training_views() {
     let (all, train) = builtins();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let model = ObjectModel::fit(train, &RecognizerParams::new(kind).unknown(Unknown::Off), &eigenspace()).unwrap();
         // Identity: a training view is a knot of its object's manifold (universal) or has its
         // one-hot target as outputs (linear): distance 0 up to f32 serving.
@@ -102,10 +102,10 @@ fn recognised_views_get_their_objects_pose_and_the_model_file_keeps_everything()
         assert!(err < 3.0 || ["twin", "column"].contains(&all.names()[k].as_str()), "object {k} view {i}: pose error {err}");
     }
     let path = std::env::temp_dir().join(format!("linpose-recognize-{}.safetensors", std::process::id()));
-    model_file::save_objects(&model, &path).unwrap();
+    model.save(&path).unwrap();
     assert!(model_file::holds_objects(&path).unwrap());
-    let back = model_file::load_objects(&path).unwrap();
-    let e = model_file::load(&path).unwrap_err().to_string();
+    let back = ObjectModel::load(&path).unwrap();
+    let e = AnyModel::load(&path).unwrap_err().to_string();
     std::fs::remove_file(&path).ok();
     assert!(e.contains("several objects"), "{e}");
     assert_eq!(back.names(), model.names());
@@ -146,24 +146,24 @@ fn the_model_file_keeps_the_callers_labels_and_writes_none_without_them() {
     let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
     let k = model.names().len();
     // Without labels the file says nothing of them, as before they existed.
-    let plain = model_file::objects_to_bytes(&model).unwrap();
+    let plain = model.to_bytes().unwrap();
     assert!(objects_header(&plain).get("labels").is_none());
-    assert!(model_file::objects_from_bytes(Path::new("m"), &plain).unwrap().labels().is_none());
+    assert!(ObjectModel::from_bytes(Path::new("m"), &plain).unwrap().labels().is_none());
     // Numbers stay numbers through the file.
     let labels = Labels { values: (0..k).map(|i| serde_json::json!(10 * i + 3)).collect(), unknown: serde_json::json!(-1), kind: "int64".into() };
     let e = model.clone().with_labels(Labels { values: labels.values[1..].to_vec(), ..labels.clone() }).unwrap_err().to_string();
     assert!(e.contains(&format!("one label per object ({k} objects)")), "{e}");
     let labelled = model.with_labels(labels.clone()).unwrap();
-    let bytes = model_file::objects_to_bytes(&labelled).unwrap();
+    let bytes = labelled.to_bytes().unwrap();
     assert_eq!(objects_header(&bytes)["labels"]["values"][1], serde_json::json!(13));
-    let back = model_file::objects_from_bytes(Path::new("m"), &bytes).unwrap();
+    let back = ObjectModel::from_bytes(Path::new("m"), &bytes).unwrap();
     assert_eq!(back.labels(), Some(&labels));
     assert_eq!(back.names(), labelled.names());
     // A file whose labels do not match its objects is refused as damaged.
     let bad = with_objects_header(&bytes, |o| {
         o["labels"]["values"].as_array_mut().unwrap().pop();
     });
-    let e = model_file::objects_from_bytes(Path::new("m"), &bad).unwrap_err().to_string();
+    let e = ObjectModel::from_bytes(Path::new("m"), &bad).unwrap_err().to_string();
     assert!(e.contains(&format!("damaged object model: {} labels for {k} objects", k - 1)), "{e}");
 }
 
@@ -172,11 +172,11 @@ fn a_model_file_without_the_second_stage_is_damaged() {
     let (_, train) = builtins();
     let model = ObjectModel::fit(train, &RecognizerParams::default(), &eigenspace()).unwrap();
     // Every file of this format records the second stage: one without `own` is refused, named.
-    let bytes = model_file::objects_to_bytes(&model).unwrap();
+    let bytes = model.to_bytes().unwrap();
     let cut = with_objects_header(&bytes, |o| {
         assert!(o["settings"].as_object_mut().unwrap().remove("own").is_some());
     });
-    let e = model_file::objects_from_bytes(Path::new("cut.safetensors"), &cut).unwrap_err().to_string();
+    let e = ObjectModel::from_bytes(Path::new("cut.safetensors"), &cut).unwrap_err().to_string();
     assert!(e.contains("cut.safetensors") && e.contains("own"), "{e}");
 }
 
@@ -201,7 +201,7 @@ fn each_left_out(fit: impl Fn(&ObjectSet) -> ObjectModel, mut inspect: impl FnMu
 
 #[test]
 fn every_recogniser_with_its_second_stage_reports_each_object_left_out_unknown() {
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let (mut by_second, mut by_nearer) = (0, 0);
         let fit = |known: &ObjectSet| ObjectModel::fit(known, &RecognizerParams::new(kind), &eigenspace()).unwrap();
         let (rejected, left, false_rejected, unseen) = each_left_out(fit, |rec| {
@@ -216,7 +216,7 @@ fn every_recogniser_with_its_second_stage_reports_each_object_left_out_unknown()
         });
         println!(
             "{}: {rejected} of {left} views of the object left out reported unknown ({by_second} by the second stage, {by_nearer} of them nearer another object's own manifold); {false_rejected} of {unseen} unseen views of the known objects",
-            kind.name()
+            kind.name
         );
         assert!(rejected as f64 >= 0.95 * left as f64, "{kind:?}: {rejected} of {left} views of objects left out reported unknown");
         assert!(false_rejected as f64 <= 0.02 * unseen as f64, "{kind:?}: {false_rejected} of {unseen} unseen views of known objects reported unknown");
@@ -265,7 +265,7 @@ fn an_object_of_a_single_training_view_is_recognised_without_a_second_stage() {
         all.objects().iter().enumerate().map(|(k, d)| (0..d.len()).map(|i| if k == 0 { i == 0 } else { d.pose(i)[1] % 10.0 == 0.0 }).collect()).collect();
     let train = all.subset(&masks).unwrap();
     let linear: MethodSpec = LinearParams::default().into();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let model = ObjectModel::fit(&train, &RecognizerParams::new(kind), &linear).unwrap();
         let own = &model.settings().own;
         assert_eq!(own.components[0], 0, "{kind:?}");
@@ -274,7 +274,7 @@ fn an_object_of_a_single_training_view_is_recognised_without_a_second_stage() {
         // Its training view is recognised, unmeasured by a second stage; the file keeps that.
         let r = &model.recognize(all.object(0).row(0)).unwrap()[0];
         assert_eq!((r.object, r.own_distance), (Some(0), None), "{kind:?}");
-        let back = model_file::objects_from_bytes(Path::new("m"), &model_file::objects_to_bytes(&model).unwrap()).unwrap();
+        let back = ObjectModel::from_bytes(Path::new("m"), &model.to_bytes().unwrap()).unwrap();
         assert_eq!(back.settings(), model.settings());
         assert_eq!(back.recognize(all.object(0).features()).unwrap(), model.recognize(all.object(0).features()).unwrap());
     }
@@ -307,7 +307,7 @@ fn moved(img: &[f32], dx: isize, dy: isize) -> Option<Vec<f32>> {
 #[test]
 fn behind_the_stage_a_view_moved_by_whole_pixels_gets_the_same_object_and_pose_and_the_file_keeps_it() {
     let (all, train) = builtins();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let params = RecognizerParams::new(kind);
         let model = ObjectModel::fit_normalized(train, &params, &eigenspace(), NormalizeParams::geometry(), &|_| {}).unwrap();
         let stage = model.stage().expect("a stage");
@@ -333,9 +333,9 @@ fn behind_the_stage_a_view_moved_by_whole_pixels_gets_the_same_object_and_pose_a
         let right = est.iter().zip(&truth).filter(|(e, &k)| e.recognition.object == Some(k)).count();
         assert!(right as f64 >= 0.97 * truth.len() as f64, "{kind:?}: {right} of {} recognised", truth.len());
         // The model file keeps the stage, and the answers with it.
-        let path = std::env::temp_dir().join(format!("linpose-recognize-normalize-{}-{}.safetensors", std::process::id(), kind.name()));
-        model_file::save_objects(&model, &path).unwrap();
-        let back = model_file::load_objects(&path);
+        let path = std::env::temp_dir().join(format!("linpose-recognize-normalize-{}-{}.safetensors", std::process::id(), kind.name));
+        model.save(&path).unwrap();
+        let back = ObjectModel::load(&path);
         std::fs::remove_file(&path).ok();
         let back = back.unwrap();
         assert_eq!(back.stage(), model.stage());
@@ -395,7 +395,7 @@ fn posed_by_place(set: &ObjectSet) -> ObjectSet {
 #[test]
 fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
     let (all, train) = builtins();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let params = RecognizerParams::new(kind);
         let model = ObjectModel::fit_views(train, &params).unwrap();
         assert!(model.space().is_none() && model.method_name().is_none() && model.pose_model(0).is_none());
@@ -417,14 +417,14 @@ fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
             }
         }
         let (seen_ok, seen, unseen_ok, unknown, unseen) = rates(&model, all, all.names());
-        println!("{}, without poses: {unseen_ok} of {unseen} unseen views recognised, {unknown} reported unknown", kind.name());
+        println!("{}, without poses: {unseen_ok} of {unseen} unseen views recognised, {unknown} reported unknown", kind.name);
         assert_eq!(seen_ok, seen, "{kind:?}");
         assert!(unseen_ok as f64 >= 0.97 * unseen as f64, "{kind:?}: {unseen_ok} of {unseen} unseen views recognised");
         // Estimates carry the object and no pose; the model file keeps it so.
         let est = model.estimate(all.object(2).features(), 1).unwrap();
         assert!(est.iter().all(|e| e.pose.is_none()));
-        let bytes = model_file::objects_to_bytes(&model).unwrap();
-        let back = model_file::objects_from_bytes(Path::new("views.safetensors"), &bytes).unwrap();
+        let bytes = model.to_bytes().unwrap();
+        let back = ObjectModel::from_bytes(Path::new("views.safetensors"), &bytes).unwrap();
         assert_eq!((back.settings(), back.spec(), back.space()), (model.settings(), model.spec(), None));
         assert_eq!(back.estimate(all.object(2).features(), 1).unwrap(), est);
     }
@@ -432,12 +432,12 @@ fn without_poses_the_training_views_recognise_alone_whatever_their_order() {
 
 #[test]
 fn without_poses_objects_left_out_are_reported_unknown() {
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let fit = |known: &ObjectSet| ObjectModel::fit_views(known, &RecognizerParams::new(kind)).unwrap();
         let (rejected, left, false_rejected, unseen) = each_left_out(fit, |_| {});
         println!(
             "{}, without poses: {rejected} of {left} views of the object left out reported unknown; {false_rejected} of {unseen} unseen views of the known objects",
-            kind.name()
+            kind.name
         );
         assert!(rejected as f64 >= 0.95 * left as f64, "{kind:?}: {rejected} of {left} views of objects left out reported unknown");
         assert!(false_rejected as f64 <= 0.02 * unseen as f64, "{kind:?}: {false_rejected} of {unseen} unseen views of known objects reported unknown");

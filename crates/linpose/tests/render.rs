@@ -7,7 +7,7 @@
 use linpose::image_io::ColorMode;
 use linpose::render::synth::{dataset, write_dataset, PoseGrid};
 use linpose::render::{objects, render, Grid, Mesh, RenderParams};
-use linpose::{Dataset, Manifest};
+use linpose::{Dataset, Manifest, Param, PoseSpace};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -105,15 +105,14 @@ fn a_written_data_set_reads_back_as_the_rendered_one() {
     assert_eq!(read.poses(), made.poses());
     assert_eq!(read.features(), made.features());
     assert_eq!(read.space().params()[1].period, Some(360.0));
-    // Its 8-bit pixels, read whole or into a caller's buffer, are the features' levels; a buffer
+    // Its 8-bit pixels, read into a caller's buffer, are the features' levels; a buffer
     // of the wrong size is refused.
     let manifest = Manifest::open(&out, None).unwrap();
-    let (spec, pixels) = linpose::dataset::load_gray8(&manifest, &|_| {}).unwrap().expect("8-bit images");
-    assert!(pixels.iter().zip(read.features()).all(|(&p, &f)| (p as f32 / 255.0 - f).abs() < 1e-6));
-    let (_, row0) = linpose::dataset::first_gray8(&manifest).unwrap().unwrap();
-    let mut into = vec![0u8; pixels.len()];
+    let (spec, row0) = linpose::dataset::first_gray8(&manifest).unwrap().expect("8-bit images");
+    let mut into = vec![0u8; read.features().len()];
     assert!(linpose::dataset::load_gray8_into(&manifest, spec, &row0, &mut into, &|_| {}).unwrap());
-    assert_eq!(into, pixels);
+    assert!(into.iter().zip(read.features()).all(|(&p, &f)| (p as f32 / 255.0 - f).abs() < 1e-6));
+    assert_eq!(&into[..row0.len()], &row0[..]);
     let e = linpose::dataset::load_gray8_into(&manifest, spec, &row0, &mut into[1..], &|_| {}).unwrap_err().to_string();
     assert!(e.contains("15 images of 3072 values"), "{e}");
     // Nothing but the data set is left beside it.
@@ -179,4 +178,81 @@ fn obj_files_render_and_bad_ones_are_named() {
         let err = Mesh::from_obj(&path).unwrap_err().to_string();
         assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
     }
+}
+
+#[test]
+fn roll_and_light_are_pose_columns_and_each_view_renders_with_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("duck");
+    let (el, az) = (Grid::parse("elevation", "40").unwrap(), Grid::parse("azimuth", "0:10:10").unwrap());
+    let grid = PoseGrid::new(el.clone(), az.clone())
+        .unwrap()
+        .with_roll(Grid::parse("roll", "-30:30:30").unwrap())
+        .unwrap()
+        .with_light(Grid::parse("light", "0:270:90").unwrap())
+        .unwrap();
+    assert_eq!((grid.len(), grid.names()), (24, vec!["elevation", "azimuth", "roll", "light"]));
+    let mesh = objects::builtin("duck").unwrap();
+    let params = RenderParams::default().width(32).height(24);
+    assert_eq!(write_dataset(&mesh, &grid, &params, &out, &|_| {}).unwrap(), 24);
+    // Columns in their fixed order, the last varying fastest; names carry every value.
+    let csv = std::fs::read_to_string(out.join("poses.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 1 + 24);
+    assert_eq!(rows[0], "image,elevation,azimuth,roll,light");
+    assert_eq!(rows[1], "e040.0_a000.0_r-30.0_l000.0.png,40,0,-30,0");
+    assert_eq!(rows[2], "e040.0_a000.0_r-30.0_l090.0.png,40,0,-30,90");
+    assert_eq!(rows[5], "e040.0_a000.0_r000.0_l000.0.png,40,0,0,0");
+    assert_eq!(rows[24], "e040.0_a010.0_r030.0_l270.0.png,40,10,30,270");
+    // A light grid round the whole turn is circular, a partial roll linear.
+    let toml = std::fs::read_to_string(out.join("dataset.toml")).unwrap();
+    assert_eq!(toml, "azimuth = { period = 360 }\nelevation = { linear = true }\nroll = { linear = true }\nlight = { period = 360 }\n");
+    let read = Dataset::load(Manifest::open(&out, None).unwrap(), ColorMode::Gray, &|_| {}).unwrap();
+    let periods: Vec<Option<f64>> = read.space().params().iter().map(|p| p.period).collect();
+    assert_eq!(periods, vec![None, Some(360.0), None, Some(360.0)]);
+    // Every image is the renderer's at its roll and light.
+    for i in 0..grid.len() {
+        let [e, a, r, l]: [f64; 4] = read.pose(i).try_into().unwrap();
+        let p = params.clone().camera(params.get_camera().clone().roll(r)).light(params.get_light().clone().azimuth_deg(l));
+        let got: Vec<u8> = read.row(i).iter().map(|&v| (v * 255.0).round() as u8).collect();
+        assert_eq!(&got, render(&mesh, a, e, &p).unwrap().as_raw(), "view {i} at {:?}", read.pose(i));
+    }
+    // A grid without roll or light writes the two columns and files it always did.
+    let plain = PoseGrid::new(el.clone(), az.clone()).unwrap();
+    assert!(plain.poses_csv().starts_with("image,elevation,azimuth\ne040.0_a000.0.png,40,0\n"));
+    assert_eq!(plain.dataset_toml(), linpose::render::synth::DATASET_TOML);
+    let full_roll = PoseGrid::new(el.clone(), az.clone()).unwrap().with_roll(Grid::parse("roll", "0:350:10").unwrap()).unwrap();
+    assert!(full_roll.dataset_toml().ends_with("roll = { period = 360 }\n"));
+    // The count of views is the product of the grids, refused past the limit with every size named.
+    let big = Grid::parse("azimuth", "0:999999:1").unwrap();
+    let err = PoseGrid::new(Grid::parse("elevation", "0:10:1").unwrap(), big.clone()).unwrap_err().to_string();
+    assert!(err.contains("11 elevations x 1000000 azimuths") && err.contains("11000000 images"), "{err}");
+    let ten = PoseGrid::new(el, big.clone()).unwrap().with_roll(Grid::parse("roll", "0:9:1").unwrap()).unwrap();
+    assert_eq!(ten.len(), 10_000_000);
+    let err = ten.with_light(big).unwrap_err().to_string();
+    assert!(err.contains("1 elevations x 1000000 azimuths x 10 rolls x 1000000 lights") && err.contains("at most 10000000"), "{err}");
+}
+
+/// The pose error's rotation (`PoseSpace::error_deg` with elevation, azimuth and roll) turns the
+/// camera the way the renderer does: seen from straight above, a turntable turn of 10 degrees and
+/// a roll of 10 degrees cancel, so the two views show the same silhouette (the light, fixed in
+/// the world, shades them differently), and the error calls them 0 apart; the roll the other way
+/// is 20 degrees off and shows another silhouette.
+#[test]
+fn rotation_error_follows_the_renderers_roll() {
+    let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0), Param::linear("roll")]).unwrap();
+    let mesh = objects::builtin("duck").unwrap();
+    let params = RenderParams::default().width(64).height(64);
+    let mask = |a: f64, r: f64| -> Vec<bool> {
+        let p = params.clone().camera(params.get_camera().clone().roll(r));
+        render(&mesh, a, 90.0, &p).unwrap().pixels().map(|p| p.0[0] > 0).collect()
+    };
+    let differ = |x: &[bool], y: &[bool]| x.iter().zip(y).filter(|(a, b)| a != b).count();
+    let base = mask(10.0, 0.0);
+    let (same, other) = (mask(20.0, 10.0), mask(20.0, -10.0));
+    assert!(space.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, 10.0]) < 1e-9);
+    assert!((space.error_deg(&[90.0, 10.0, 0.0], &[90.0, 20.0, -10.0]) - 20.0).abs() < 1e-9);
+    let area = base.iter().filter(|&&b| b).count();
+    assert!(differ(&base, &same) <= area / 50, "{} of {area} pixels differ", differ(&base, &same));
+    assert!(differ(&base, &other) > area / 10, "{} of {area} pixels differ", differ(&base, &other));
 }

@@ -21,7 +21,7 @@ fn linear_model_estimates_the_rendered_duck_within_a_degree() {
     let train = full.subset(&mask).unwrap();
     assert_eq!(train.len(), 222);
     let model = LinearParams::default().fit(&train).unwrap();
-    let report = evaluate(&model, &full, 0.0, 0).unwrap();
+    let report = evaluate(&model, &full, &linpose::EvalOptions::new(0.0, 0)).unwrap();
     let unseen = report.unseen.expect("1538 poses are not training poses");
     eprintln!("duck, linear model: all {:?}\nunseen {:?}", report.all, unseen);
     assert_eq!(unseen.n, 1538);

@@ -85,7 +85,7 @@ pub(crate) fn method_names() -> clap::builder::PossibleValuesParser {
 
 /// The method called `name` (one of [`method_names`]).
 pub(crate) fn method(name: &str) -> &'static Method {
-    linpose::methods::find(name).expect("clap checked the name against the registry")
+    linpose::Method::from_name(name).expect("clap checked the name against the registry")
 }
 
 /// A library error about a setting, said as the flag that gave it.

@@ -53,9 +53,7 @@ pub(crate) struct TrainArgs {
     /// Use the images as they are: no normalisation stage (as `--normalize off`).
     #[arg(long)]
     pub no_normalize: bool,
-    /// With a data set of many objects: how a query's object is told, `universal` (Murase &
-    /// Nayar's universal eigenspace, the nearest object manifold) or `linear` (the paper's
-    /// linear model with one-hot object targets). Default: universal.
+    /// With a data set of many objects: how a query's object is told (default: the first listed).
     #[arg(long, value_name = "NAME", value_parser = recognizer_names())]
     pub recognizer: Option<String>,
     /// With many objects: dimensions of the universal eigenspace (default 20), and at most those
@@ -78,7 +76,7 @@ pub(crate) struct TrainArgs {
     /// Sum only shard I of N of the training statistics (a run of images, or with fewer images
     /// than pixels a run of pixels of every image) into the file --partial names, for
     /// `linpose merge` to add up with the other shards' into the model: training split across
-    /// processes or machines. The linear model and the eigenspace.
+    /// processes or machines. With a method that can (an error names them).
     #[arg(long, value_name = "I/N", requires = "partial")]
     pub shard: Option<ShardArg>,
     /// The partial statistics file --shard writes (safetensors).
@@ -160,7 +158,8 @@ pub(crate) fn parse_budget(text: &str) -> Result<u64, String> {
     linpose::memory::parse_size(text).map_err(|e| e.to_string())
 }
 
-/// The recognisers' names, from the library's list, for `--recognizer`.
+/// The recognisers' names, from the library's registry, as clap's possible values, each with its
+/// summary.
 fn recognizer_names() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(linpose::recognize::RecognizerKind::ALL.map(|k| k.name()))
+    clap::builder::PossibleValuesParser::new(linpose::recognize::RECOGNIZERS.iter().map(|r| clap::builder::PossibleValue::new(r.name).help(r.summary)))
 }

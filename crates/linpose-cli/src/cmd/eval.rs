@@ -22,7 +22,7 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
     if a.unknown.is_some() {
         anyhow::bail!("--unknown: {} holds one object's pose model; the option is for a many-object model", a.model.display());
     }
-    let model = linpose::model_file::load(&a.model)?;
+    let model = linpose::AnyModel::load(&a.model)?;
     if let linpose::Source::Many(c) = linpose::Source::open(&a.data.data, a.data.object)? {
         anyhow::bail!(
             "{}: the data set holds {} objects ({}), but {} holds one object's pose model; train a many-object model on it, or give one object's data",
@@ -38,7 +38,7 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
         anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
     }
     let opt = linpose::EvalOptions { top: a.top as usize, flag_below: a.flag_below, ..linpose::EvalOptions::new(a.noise, a.seed) };
-    let r = linpose::evaluate_with(&model, &data, &opt)?;
+    let r = linpose::evaluate(&model, &data, &opt)?;
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
     print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{}: {}", x.image, x.reason)));
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
@@ -48,6 +48,17 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
     match &r.unseen {
         Some(u) => line("unseen", u),
         None => println!("unseen   (every sample is a training view)"),
+    }
+    // With three or more parameters the error above is over the camera's placement (the rotation
+    // angle with a roll); each parameter's own difference follows, a light's among them.
+    if r.params.len() >= 3 {
+        let (over, per) = match &r.param_unseen {
+            Some(u) => ("unseen", u),
+            None => ("all", &r.param_all),
+        };
+        for (name, s) in r.params.iter().zip(per) {
+            line(&format!("{over} {name}"), s);
+        }
     }
     println!("errors in degrees; model {} bytes; estimation {:.4} s", r.model_bytes, r.predict_s);
     if let Some(c) = &r.confidence {

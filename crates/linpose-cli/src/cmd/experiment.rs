@@ -1,5 +1,6 @@
 //! `linpose experiment`: the paper's study, run and reported (the main job).
 
+use super::tuning::{COARSE_STEP, JITTER_EXPOSURE, JITTER_SCALE, JITTER_SHIFT_PER_WIDTH, SIZE_STEPS};
 use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
 use crate::study::recognition::{self, RecognitionStudy};
@@ -13,23 +14,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Arguments of `linpose experiment`.
-/// The jitter of the normalisation study's views (built-in objects): a shift of up to 8 pixels
-/// in a 160-pixel-wide frame (scaled with the frame), a scale of 0.9 to 1.1 and an exposure of 0.8
-/// to 1.2, what issue 33 asks normalisation to undo. Not tuned.
-const JITTER_SHIFT_PER_WIDTH: f64 = 8.0 / 160.0;
-/// See [`JITTER_SHIFT_PER_WIDTH`].
-const JITTER_SCALE: f64 = 0.1;
-/// See [`JITTER_SHIFT_PER_WIDTH`].
-const JITTER_EXPOSURE: f64 = 0.2;
-
-/// The training steps of the default size sweep (`--full`: 6, 9, 12, 18, 27): 6 stays, where the
-/// eigenspace's and the refined method's errors rise again (the report's overtraining finding).
-const SIZE_STEPS: [f64; 4] = [6.0, 9.0, 18.0, 27.0];
-/// The step (degrees, on each axis) of the coarser grid the default study measures its two
-/// slowest measures on, where a sample of the views tells the same: the normalisation's jittered
-/// views and the objects left out of recognition (`--full`: the paper's grid, 3).
-const COARSE_STEP: f64 = 12.0;
-
 #[derive(clap::Args, Debug)]
 pub(crate) struct ExperimentArgs {
     /// Run the study on your own data set instead of the built-in objects (repeatable): a
@@ -220,7 +204,7 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
                 .with_context(|| format!("the normalisation study on {name}"))?;
             bar.finish_and_clear();
             for m in &r.models {
-                linpose::model_file::save(m, &tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
+                m.save(&tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
             }
             // Every view kept (8-bit where exact) for the recognition study across the objects.
             let mask = data.manifest().training_mask(&TrainSelection::Step(params.train_step))?;

@@ -7,3 +7,4 @@ pub(crate) mod predict;
 pub(crate) mod shard;
 pub(crate) mod synth;
 pub(crate) mod train;
+mod tuning;

@@ -9,7 +9,7 @@ use crate::common::{progress, write_json};
 use crate::queries::{eight_bit_as_features, read_one};
 use anyhow::Context;
 use linpose::normalize::{NormalizeParams, StageChoice, StageRule};
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams, Unknown};
+use linpose::recognize::{ObjectModel, Recognizer, RecognizerParams, Unknown};
 use linpose::{Catalog, ErrorSummary, ObjectSet, PoseModel, Source};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -19,8 +19,10 @@ use std::time::Instant;
 
 /// The options of `train` that only a many-object data set takes, with the flag that gave each.
 pub(crate) fn recognizer_params(a: &TrainArgs) -> anyhow::Result<RecognizerParams> {
-    let kind = RecognizerKind::from_name(a.recognizer.as_deref().unwrap_or("universal")).map_err(|e| anyhow::anyhow!("--recognizer: {e}"))?;
-    let mut p = RecognizerParams::new(kind).unknown(parse_unknown(a.unknown.as_deref().unwrap_or("calibrated"))?);
+    let mut p = RecognizerParams::default().unknown(parse_unknown(a.unknown.as_deref().unwrap_or("calibrated"))?);
+    if let Some(name) = &a.recognizer {
+        p.kind = Recognizer::from_name(name).map_err(|e| anyhow::anyhow!("--recognizer: {e}"))?;
+    }
     if let Some(l) = a.recognizer_components {
         p = p.components(l);
     }
@@ -119,9 +121,9 @@ pub(crate) fn train(
     }
     bar.finish_and_clear();
     let fit_s = t1.elapsed().as_secs_f64();
-    let file_bytes = linpose::model_file::save_objects(&model, out).context("writing the model")?;
+    let file_bytes = model.save(out).context("writing the model")?;
     let summary = TrainSummary {
-        recognizer: model.kind().name(),
+        recognizer: model.kind().name,
         method: model.method_name().unwrap_or(linpose::model_file::NO_POSES),
         data: a.data.data.display().to_string(),
         objects: model.names(),
@@ -249,7 +251,7 @@ const UNKNOWN: &str = "unknown";
 
 /// `eval` with a many-object model.
 pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
-    let model = linpose::model_file::load_objects(&a.model)?;
+    let model = linpose::recognize::ObjectModel::load(&a.model)?;
     let model = match &a.unknown {
         Some(u) => model.with_unknown(parse_unknown(u)?)?,
         None => model,
@@ -345,7 +347,7 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     let errors = |v: &[&Sample]| ErrorSummary::of(&v.iter().filter(|s| right(s)).filter_map(|s| s.error_deg).collect::<Vec<f64>>());
     let pose = PoseErrors { all: errors(&known), unseen: errors(&known_unseen) };
     let report = Report {
-        recognizer: model.kind().name(),
+        recognizer: model.kind().name,
         method: model.method_name().unwrap_or(linpose::model_file::NO_POSES).to_string(),
         objects: names.to_vec(),
         n_eval: samples.len(),
@@ -429,7 +431,7 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
             a.model.display()
         );
     }
-    let model = linpose::model_file::load_objects(&a.model)?;
+    let model = linpose::recognize::ObjectModel::load(&a.model)?;
     let (spec, space) = (model.spec(), model.space());
     let m = spec.features();
     let context = format!("the size of the model's training images ({})", a.model.display());

@@ -70,7 +70,7 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
     if linpose::model_file::holds_objects(&a.model)? {
         return crate::cmd::objects::predict(a, &expand(&query_paths(a)?)?);
     }
-    let model = linpose::model_file::load(&a.model)?;
+    let model = linpose::AnyModel::load(&a.model)?;
     let meta = model.meta();
     let (spec, space) = (meta.spec, &meta.space);
     let m = spec.features();

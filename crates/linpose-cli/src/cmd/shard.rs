@@ -141,7 +141,7 @@ pub(crate) fn merge(a: &MergeArgs) -> anyhow::Result<()> {
     let t1 = Instant::now();
     let model = total.finish()?;
     let fit_s = t1.elapsed().as_secs_f64();
-    let file_bytes = linpose::model_file::save(&model, &a.out).context("writing the model")?;
+    let file_bytes = model.save(&a.out).context("writing the model")?;
     let meta = model.meta();
     eprintln!(
         "merged {} partial statistics in {merge_s:.3} s and fitted {} on {} images of {}x{} in {fit_s:.3} s; model {} bytes -> {}",

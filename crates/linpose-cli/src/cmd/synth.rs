@@ -1,11 +1,11 @@
 //! `linpose synth`: render a built-in object, a generated one or an OBJ mesh on a turntable grid of poses and write
 //! the data set (poses.csv, dataset.toml and PNG images).
 
-use anyhow::bail;
-use indicatif::{ProgressBar, ProgressStyle};
+use crate::common::progress;
+use anyhow::{bail, Context};
 use linpose::render::synth::{write_dataset, PoseGrid};
 use linpose::render::{objects, Camera, Grid, Jitter, Light, Mesh, RenderParams};
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `linpose synth`.
@@ -24,11 +24,20 @@ pub(crate) struct SynthArgs {
     #[arg(long, value_name = "DIR", required_unless_present = "list")]
     pub out: Option<PathBuf>,
     /// Azimuths (turntable angles), degrees.
-    #[arg(long, value_name = "START:STOP:STEP", default_value = "0:327:3")]
+    #[arg(long, value_name = "START:STOP:STEP", default_value = "0:327:3", allow_hyphen_values = true)]
     pub azimuth: String,
     /// Elevations of the camera above the turntable plane, degrees.
-    #[arg(long, value_name = "START:STOP:STEP", default_value = "32:77:3")]
+    #[arg(long, value_name = "START:STOP:STEP", default_value = "32:77:3", allow_hyphen_values = true)]
     pub elevation: String,
+    /// Rolls of the camera about its optical axis, degrees (the image turned counter-clockwise):
+    /// every pose at every roll, a `roll` column in poses.csv. None by default.
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
+    pub roll: Option<String>,
+    /// Azimuths of the light around the turntable's vertical axis, degrees (the camera at 0; by
+    /// default the light stays at 35): every pose under every light, a `light` column in
+    /// poses.csv. The shading changes, the silhouette does not.
+    #[arg(long, value_name = "START:STOP:STEP", allow_hyphen_values = true)]
+    pub light: Option<String>,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, value_name = "WxH", default_value = "160x120")]
     pub size: String,
@@ -81,7 +90,13 @@ pub(crate) fn run(args: &SynthArgs) -> anyhow::Result<()> {
     if let Some(seed) = args.random {
         writeln!(stdout, "{name}: {}", objects::random_kind(seed).description)?;
     }
-    let mut grid = PoseGrid::new(Grid::parse("elevation", &args.elevation)?, Grid::parse("azimuth", &args.azimuth)?)?;
+    let mut grid = PoseGrid::new(parse_grid("elevation", &args.elevation)?, parse_grid("azimuth", &args.azimuth)?)?;
+    if let Some(spec) = &args.roll {
+        grid = grid.with_roll(parse_grid("roll", spec)?)?;
+    }
+    if let Some(spec) = &args.light {
+        grid = grid.with_light(parse_grid("light", spec)?)?;
+    }
     if let Some(spec) = &args.jitter {
         grid = grid.with_jitter(Jitter::parse(spec, args.jitter_seed)?)?;
     }
@@ -90,19 +105,18 @@ pub(crate) fn run(args: &SynthArgs) -> anyhow::Result<()> {
     let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular)).background(args.background);
     params.validate()?;
 
-    let bar = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(grid.len() as u64);
-        bar.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} images, {eta} left").expect("valid template"));
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = progress(grid.len() as u64, "rendering images");
     // The library's errors name the folder or file at fault.
     let n = write_dataset(&mesh, &grid, &params, out, &|k| bar.inc(k))?;
     bar.finish_and_clear();
     let also = if grid.jitter().is_some() { ", jitter.csv" } else { "" };
     writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv{also} to {}", out.display())?;
     Ok(())
+}
+
+/// The grid of `--NAME SPEC`; an error names the flag and the value.
+fn parse_grid(name: &'static str, spec: &str) -> anyhow::Result<Grid> {
+    Grid::parse(name, spec).with_context(|| format!("--{name} {spec}"))
 }
 
 /// `160x120` to (160, 120).

@@ -104,12 +104,12 @@ pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
         let load_s = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let model = match off {
-            Some(why) => linpose::stage_choice::fit_chosen(&spec, &train, StageChoice::off(why))?,
-            None => linpose::stage_choice::fit(&spec, &train, rule)?,
+            Some(why) => spec.fit_with_choice(&train, StageChoice::off(why))?,
+            None => spec.fit_with_stage(&train, rule)?,
         };
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
-    let file_bytes = linpose::model_file::save(&model, out).context("writing the model")?;
+    let file_bytes = model.save(out).context("writing the model")?;
     report(a, Trained { out, model: &model, load_s, fit_s, file_bytes, how }, &plan)
 }
 

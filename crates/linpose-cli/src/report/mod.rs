@@ -224,7 +224,7 @@ pub(crate) fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, S
 
 /// The methods of the study as the registry describes them (a name it does not know is skipped).
 fn described(info: &StudyInfo) -> Vec<&'static Method> {
-    info.methods.iter().filter_map(|m| linpose::methods::find(m)).collect()
+    info.methods.iter().filter_map(|m| linpose::Method::from_name(m).ok()).collect()
 }
 
 /// "a (x), b (y), ..." for the methods with a value, smallest first.

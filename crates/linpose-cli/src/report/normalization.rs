@@ -3,7 +3,7 @@
 
 use super::doc::Block;
 use super::f;
-use crate::study::normalization::REGISTERED_COST;
+use crate::study::tuning::REGISTERED_COST;
 use crate::study::ObjectResult;
 
 /// The section: a table and, per method, whether to normalise.

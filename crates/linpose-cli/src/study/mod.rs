@@ -10,9 +10,10 @@
 
 pub(crate) mod normalization;
 pub(crate) mod recognition;
+pub(crate) mod tuning;
 
 use linpose::dataset::Dataset;
-use linpose::eval::{evaluate, evaluate_with, ConfidenceSummary, EvalOptions};
+use linpose::eval::{evaluate, ConfidenceSummary, EvalOptions};
 use linpose::manifest::TrainSelection;
 use linpose::model::MethodSpec;
 use linpose::model::{AnyModel, PoseModel};
@@ -271,7 +272,7 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
         let fit_s = t0.elapsed().as_secs_f64();
         for &noise in &p.noise {
             progress(&format!("{name}: {} eval, noise {noise}", method.name()));
-            let r = evaluate(&model, data, noise, p.seed)?;
+            let r = evaluate(&model, data, &EvalOptions::new(noise, p.seed))?;
             let per_query_us = r.predict_s / r.n_eval as f64 * 1e6;
             if noise == 0.0 {
                 table1.push(table1_row(&model, per_query_us));
@@ -324,7 +325,7 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
                 Err(linpose::Error::InvalidParameter { .. }) | Err(linpose::Error::Dataset { .. }) => continue,
                 Err(e) => return Err(e),
             };
-            let r = evaluate_with(&model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, p.seed) })?;
+            let r = evaluate(&model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, p.seed) })?;
             let loo_mean_deg = loo_mean(method, &train)?;
             sweep.push(SweepPoint {
                 method: r.method,

@@ -6,7 +6,7 @@
 //! accuracy on registered views, and says what it buys on the jittered ones.
 
 use linpose::dataset::Dataset;
-use linpose::eval::{evaluate_with, EvalOptions};
+use linpose::eval::{evaluate, EvalOptions};
 use linpose::manifest::TrainSelection;
 use linpose::model::Normalized;
 use linpose::model::{AnyModel, PoseModel};
@@ -14,12 +14,8 @@ use linpose::normalize::{NormalizeParams, Normalizer};
 use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 
+use super::tuning::REGISTERED_COST;
 use super::StudyParams;
-
-/// The largest share of accuracy on registered views the stage may cost and still be
-/// recommended (0.10: the normalised unseen mean at most 1.1 times the plain one). Not tuned: the
-/// bar issue 33 set, a cost a user who needs unregistered queries would accept.
-pub(crate) const REGISTERED_COST: f64 = 0.10;
 
 /// One method with and without the stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -46,7 +42,7 @@ pub(crate) struct NormalizationRow {
 /// The unseen mean error of `model` on `data` (no confidence asked), and how many views were
 /// refused.
 fn unseen_mean(model: &AnyModel, data: &Dataset, seed: u64) -> Result<(f64, usize)> {
-    let r = evaluate_with(model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, seed) })?;
+    let r = evaluate(model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, seed) })?;
     Ok((r.unseen.map_or(r.all.mean_deg, |u| u.mean_deg), r.rejected.len()))
 }
 

@@ -8,7 +8,7 @@ use linpose::catalog::ObjectSet;
 use linpose::dataset::Dataset;
 use linpose::manifest::TrainSelection;
 use linpose::model::{AnyModel, PoseModel};
-use linpose::recognize::{ObjectModel, RecognizerKind, RecognizerParams};
+use linpose::recognize::{ObjectModel, RecognizerParams, RECOGNIZERS};
 use linpose::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -101,9 +101,9 @@ pub(crate) fn run(
         }
     };
     let mut rows = Vec::new();
-    for kind in RecognizerKind::ALL {
+    for &kind in RECOGNIZERS {
         let params = RecognizerParams::new(kind);
-        progress(&format!("recognition: {}", kind.name()));
+        progress(&format!("recognition: {}", kind.name));
         let t = Instant::now();
         let first = poses.first().ok_or_else(|| Error::invalid("methods", 0, "the recognition study needs a pose method"))?;
         let model = ObjectModel::from_pose_models(train, &params, first.clone())?;
@@ -142,7 +142,7 @@ pub(crate) fn run(
         let s = model.recognizer_storage();
         let terms: Vec<String> = s.terms.iter().map(|(n, v)| format!("{n} = {v}")).collect();
         rows.push(RecognitionRow {
-            recognizer: kind.name().into(),
+            recognizer: kind.name.into(),
             recognized_all: ok_all as f64 / n_all.max(1) as f64,
             recognized_unseen: ok_unseen as f64 / n_unseen.max(1) as f64,
             false_rejections: rejected as f64 / n_unseen.max(1) as f64,
@@ -151,7 +151,7 @@ pub(crate) fn run(
             pose_unseen: poses.iter().zip(&sums).map(|(p, e)| (p[0].meta().method.clone(), e.0 / e.1.max(1) as f64)).collect(),
             fit_s,
             per_query_us: rec_s / n_all.max(1) as f64 * 1e6,
-            storage: format!("{} = {} ({})", kind.storage(), s.numbers, terms.join(", ")),
+            storage: format!("{} = {} ({})", kind.storage, s.numbers, terms.join(", ")),
             bytes: model.recognizer_bytes(),
         });
     }
@@ -169,7 +169,7 @@ fn left_out(
 ) -> Result<(Option<f64>, Option<f64>)> {
     let (mut rej, mut n, mut false_rej, mut n_known) = (0, 0, 0, 0);
     for out in 0..train.len() {
-        progress(&format!("recognition: {} without {}", params.kind.name(), train.names()[out]));
+        progress(&format!("recognition: {} without {}", params.kind.name, train.names()[out]));
         let keep: Vec<String> = train.names().iter().enumerate().filter(|&(o, _)| o != out).map(|(_, s)| s.clone()).collect();
         let sub = train.select(&keep)?;
         // The kept objects' pose models are those already fitted (the recogniser alone decides

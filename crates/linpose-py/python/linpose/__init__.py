@@ -75,6 +75,8 @@ def synth(
     mesh: Optional[PathLike] = None,
     azimuth: str = "0:327:3",
     elevation: str = "32:77:3",
+    roll: Optional[str] = None,
+    light: Optional[str] = None,
     size: Tuple[int, int] = (160, 120),
     perspective: bool = False,
     specular: float = 0.0,
@@ -85,16 +87,22 @@ def synth(
 
     Give one of ``object`` (a built-in: ``duck``, ``pot``, ``cap``, ``twin``, ``column``, ...),
     ``random`` (the seed of a generated object) or ``mesh`` (a Wavefront OBJ file). Poses are
-    every ``elevation`` for every ``azimuth`` (``"START:STOP:STEP"`` degrees); ``size`` is
-    (width, height); ``jitter=(shift, scale, exposure)`` moves, scales and brightens each view
-    at random (up to ``shift`` pixels, ``1 +- scale``, ``1 +- exposure``) from ``jitter_seed``.
+    every ``elevation`` for every ``azimuth`` (``"START:STOP:STEP"`` degrees) and, when given,
+    every ``roll`` (the camera turned about its optical axis, the image counter-clockwise) and
+    every ``light`` (the light's azimuth around the turntable's axis, the camera at 0; 35 when
+    not given), as ``linpose synth --roll/--light``; ``size`` is (width, height);
+    ``jitter=(shift, scale, exposure)`` moves, scales and brightens each view at random (up to
+    ``shift`` pixels, ``1 +- scale``, ``1 +- exposure``) from ``jitter_seed``. The images are
+    held in memory: n x width x height bytes.
 
-    Returns ``(images, poses, params)``: ``uint8`` images (n, height, width), poses (n, 2) in
-    degrees (elevation, azimuth) and the parameters ``[("elevation", None), ("azimuth", 360.0)]``.
+    Returns ``(images, poses, params)``: ``uint8`` images (n, height, width), poses (n, K) in
+    degrees (elevation, azimuth, then roll and light when given) and the parameters, e.g.
+    ``[("elevation", None), ("azimuth", 360.0)]``; roll and light are circular (period 360)
+    when their grid goes round a whole turn, linear (``None``) otherwise.
     """
     return _linpose.synth(
         (object, random, None if mesh is None else os.fspath(mesh)),
-        (azimuth, elevation),
+        (azimuth, elevation, roll, light),
         (tuple(size), perspective, float(specular)),
         (None if jitter is None else tuple(float(v) for v in jitter), jitter_seed),
     )

@@ -41,9 +41,8 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
 
     Parameters
     ----------
-    recognizer : {"universal", "linear"}, default="universal"
-        Murase & Nayar's universal eigenspace of every object's views (the nearest manifold), or
-        the paper's minimum-norm linear model with one-hot object targets.
+    recognizer : {recognizers}, default="universal"
+        How an image's object is told: {recognizer_summaries}.
     components : int, default=20
         Dimensions of the universal eigenspace (and at most of each object's own), capped at the
         number of training images less one.
@@ -238,6 +237,14 @@ class ObjectRecognizer(CoreModel, ClassifierMixin, BaseEstimator):
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
+
+
+# The recognisers in the documentation, as the registry lists them.
+if ObjectRecognizer.__doc__:
+    ObjectRecognizer.__doc__ = ObjectRecognizer.__doc__.replace(
+        "{recognizers}", "{" + ", ".join(f'"{n}"' for n, _ in _linpose.recognizers()) + "}"
+    ).replace("{recognizer_summaries}", "; ".join(f'"{n}", {s}' for n, s in _linpose.recognizers()))
+
 
 def _unknown_label(classes: np.ndarray, given: Any) -> Any:
     """The label for none of the known objects: ``given``, checked to be of the labels' kind and

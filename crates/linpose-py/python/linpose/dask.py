@@ -33,6 +33,9 @@ __all__ = ["fit"]
 
 log = logging.getLogger("linpose.dask")
 
+# The methods that fit from merged partial statistics, from the library's registry.
+_MERGING = tuple(_linpose.merging_methods())
+
 
 class _Fit:
     """What the tasks of one fit read: the method, its settings and the training set (image
@@ -173,7 +176,8 @@ def fit(
         Their poses in degrees.
     client : distributed.Client, default=None
         The cluster's client; by default the current one (``distributed.get_client()``).
-    method : {"linear", "eigenspace"}, default="linear"
+    method : {merging}, default="linear"
+        A method that fits from merged partial statistics.
     params : list of names or (name, period) pairs, default=None
         The pose parameters, as for the estimators (``"azimuth"`` circular, other names linear;
         default ``azimuth`` for one column, ``elevation, azimuth`` for two).
@@ -208,8 +212,8 @@ def fit(
     client = _client(client)
     if "normalize" in settings:
         raise ValueError("normalize: the normalisation stage is fitted in one process only (linpose.LinearPose(normalize=...).fit)")
-    if method not in ("linear", "eigenspace"):
-        raise ValueError(f"method={method!r}: a distributed fit sums the statistics of the linear model or the eigenspace ('linear', 'eigenspace')")
+    if method not in _MERGING:
+        raise ValueError(f"method={method!r}: a distributed fit sums partial statistics, which these methods merge: {_MERGING}")
     paths = [os.fspath(p) for p in paths]
     for p in paths:
         if not isinstance(p, str):
@@ -277,3 +281,8 @@ def fit(
     del level
     data = model.result()
     return from_model(_linpose.Model.from_bytes(data))
+
+
+# The methods in fit's documentation, as the registry lists them.
+if fit.__doc__:
+    fit.__doc__ = fit.__doc__.replace("{merging}", "{" + ", ".join(f'"{m}"' for m in _MERGING) + "}")

@@ -11,6 +11,7 @@
 //! adding ±0), so every path skips such steps, and the weights they would have read. That is
 //! exact, not an approximation: the sums are the bits of the dense ones (tested).
 
+use super::tuning::dot_u8::{BATCH_GROUP, PIXEL_CHUNK};
 use super::{dispatch, Level};
 
 /// Pixels per vector step.
@@ -56,12 +57,6 @@ const AVX2_IMAGES: usize = 3;
 const AVX2_ROWS: usize = 4;
 const _: () = assert!(BATCH_IMAGES.is_multiple_of(AVX2_IMAGES));
 
-/// Images per cache block of [`dots_batch`]: the weights are read from the outer caches once per
-/// this many images.
-pub(crate) const BATCH_GROUP: usize = 32 * BATCH_IMAGES;
-/// Pixels per cache block of [`dots_batch`]: a block of 20 weight rows (30 KiB) stays in the L1
-/// cache while the images' block passes over it.
-pub(crate) const PIXEL_CHUNK: usize = 384;
 // A cache block's steps fit the u32 masks of nonzero steps.
 const _: () = assert!(PIXEL_CHUNK.is_multiple_of(LANES) && PIXEL_CHUNK / LANES <= 32);
 

@@ -24,28 +24,10 @@
 
 use super::gram8::gram_levels;
 use super::syrk::{bands_into_matrix, tile, zero_bands, Band, GROUP};
+use super::tuning::gram::{BAND, COLS, KC, MAX_CHUNKS, MIN_PANELS, PARTIALS_BYTES};
 use super::Level;
 use faer::Mat;
 use rayon::prelude::*;
-
-/// Reduction steps per packed panel: a tile's 24 rows (24 KiB) stay in L1 while the columns
-/// stream past; a panel of 224 rows (230 KiB) and the partial Gram it updates (350 KiB) stay in
-/// L2, and for N = 2000 an item's rows (24 KiB) and columns (192 KiB) do.
-pub(crate) const KC: usize = 128;
-/// Rows of C per band (a multiple of 24, so that tiles start on the band's groups). Small
-/// items balance the threads at the end of each panel's fork-join, and the bands store less
-/// above the diagonal, so that for N = 2000 two partial Grams fit [`PARTIALS_BYTES`] (each
-/// thread then updates its own partial). Chosen by timing 24, 48, 96 and 192 rows at N = 222
-/// and 2000 (M = 19,200), alternated.
-const BAND: usize = 24;
-/// Most columns of C per work item.
-pub(crate) const COLS: usize = 192;
-/// Most partial Grams.
-pub(crate) const MAX_CHUNKS: usize = 8;
-/// Fewest panels per partial Gram.
-pub(crate) const MIN_PANELS: usize = 4;
-/// Most memory the partial Grams beyond the first may take together.
-pub(crate) const PARTIALS_BYTES: usize = 16 << 20;
 
 /// Rows of C computed for n rows of X: n padded with zero rows to whole groups.
 fn padded8(n: usize) -> usize {

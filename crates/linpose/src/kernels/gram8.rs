@@ -26,6 +26,7 @@
 
 use super::levels::{residuals, S8, SCALE_CROSS, SCALE_PAIRS};
 use super::syrk::{padded, SyrkAcc, GROUP16, KCP_MAX, KCQ_MAX};
+use super::tuning::gram8::{MAX_CHUNKS8, SMALL};
 use super::Level;
 use crate::kernels::Rows as Rows8;
 use faer::Mat;
@@ -43,8 +44,6 @@ fn kc8(n: usize) -> usize {
     }
 }
 
-/// Most rows (padded) that take the shorter panels of [`kc8`].
-const SMALL: usize = 480;
 const _: () = assert!(1024 / 2 <= KCP_MAX && 1024 / 4 <= KCQ_MAX);
 
 /// Pixels per packing chunk: one 16 x 16 block of quads (64 bytes a row).
@@ -71,10 +70,6 @@ fn gram_rows8(x: Rows8, n: usize, m: usize) -> Option<Mat<f64>> {
     }
     gram_levels_with(x, n, m, || SyrkAcc::new(n), Level::detect())
 }
-
-/// Most partial Grams: with two, each of two threads sums one with no fork-join per panel;
-/// chosen by timing one, two and four at N = 222, M = 19,200 on two cores (two were fastest).
-const MAX_CHUNKS8: usize = 2;
 
 /// How many partial Grams (runs of consecutive panels) the 8-bit Gram sums: a function of n
 /// and m only (never of the thread count), so the bits are too. At least 4 panels each, and

@@ -36,6 +36,7 @@ mod rows;
 pub(crate) mod scan;
 pub(crate) mod surface;
 pub(crate) mod syrk;
+mod tuning;
 
 pub(crate) use isa::{dispatch, Isa, Level};
 pub use rows::Rows;

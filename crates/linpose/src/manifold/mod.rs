@@ -22,7 +22,8 @@ pub(crate) mod spline;
 pub(crate) mod surface;
 pub(crate) mod tuning;
 
-pub use surface::{Interpolant, INTERPOLANTS};
+pub use surface::Interpolant;
+pub(crate) use surface::INTERPOLANTS;
 
 /// Whether a manifold over `params` pose parameters is resampled on a dense lattice of poses
 /// (every parameter every few tenths of a degree: the eigenspace's manifold points, the refined

@@ -18,14 +18,12 @@
 //! Every path gives the bits it gave in each method before they shared it: the same kernels on
 //! the same rows with the same batch shapes.
 
+pub(crate) use super::tuning::{BATCH_FROM, U8_BATCH};
 use crate::kernels::{dot_q, dot_u8, dot_w, AlignedF32, Level};
 use crate::model::split;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
 use std::ops::Range;
-
-/// From this many 8-bit images on, a product takes the batch kernel.
-pub(crate) const BATCH_FROM: usize = 8;
 
 /// The buffers of [`Projector::planes_products`]: each plane's products and its sum of squares.
 pub(crate) struct PlaneBuffers<'a> {
@@ -202,10 +200,6 @@ pub(crate) fn unit_coords(energy: f64, mean_proj: &[f32], y: &mut [f32]) -> Opti
     y.iter_mut().zip(mean_proj).for_each(|(v, &c)| *v = *v * inv - c);
     Some(norm)
 }
-
-/// Most 8-bit queries per parallel task of a batch (a multiple of the kernels' blocks: 6 images
-/// in `dot_u8::dots_batch`, 16 in `dot_q::dots_batch`).
-pub(crate) const U8_BATCH: usize = 192;
 
 /// 8-bit queries per parallel task for a batch of `n` (8 or more): whole blocks of `block`
 /// images, at most [`U8_BATCH`], and small enough that every thread gets two tasks.

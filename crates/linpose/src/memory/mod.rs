@@ -14,42 +14,32 @@
 //! # The paths
 //!
 //! - [`Path::InMemory`]: every image decoded into one f32 array (N x M), then the method's fit.
-//! - [`Path::Streamed`]: the linear model's streamed fit (`methods::linear::stream`): for N <= M it
-//!   loads the set and fits through the N x N Gram matrix (what the in-memory path needs); for
-//!   N > M it accumulates X^T X (M x M) block by block, whatever N. It takes a fixed ridge,
-//!   uncentred, one object, no normalisation: the leave-one-out and noise-level rules (the
-//!   latter fits expected noisy views beside the clean ones) and the rest need the set in
-//!   memory.
+//! - [`Path::Streamed`]: the method's streamed fit ([`Method::fit_streamed`], a method that has
+//!   one), with settings it streams with: one object, no normalisation, and none of the
+//!   method's settings that need the set in memory (the linear model's streamed fit takes a
+//!   fixed ridge, uncentred: for N <= M it loads the set and fits through the N x N Gram matrix,
+//!   for N > M it accumulates X^T X, M x M, block by block, whatever N).
 //!
-//! # The estimates (bytes; N images, M features, K encoded pose values, L eigenimages)
+//! # The estimates (bytes; N images, M features)
 //!
 //! Read from what the code allocates, the coefficients that the code alone does not settle
-//! measured (`tuning` says which, and how); every estimate adds `tuning::OVERHEAD_BYTES` and
-//! `tuning::THREAD_FEATURE_BYTES` per thread and feature, and every N x N system one more
-//! N x N matrix when that is under glibc's largest mmap threshold
-//! (`tuning::HEAP_MATRIX_BYTES`: freed, it may stay on the heap).
+//! measured (each module's tuning file says which, and how). Every estimate adds
+//! `tuning::OVERHEAD_BYTES` for the process and `tuning::THREAD_FEATURE_BYTES` per thread and
+//! feature, and every N x N system one more N x N matrix when that is under glibc's largest
+//! mmap threshold (`crate::huge::HEAP_MATRIX_BYTES`: freed, it may stay on the heap).
 //!
 //! - Images: 4 N M (f32), twice with normalisation (the normalised copy), three times when the
 //!   normalisation is chosen on held-out views (each fold's views, normalised).
-//! - Linear, in memory: 24 N^2 (G, G + lambda I, its Cholesky factor; f64) + 2 KiB N. With
-//!   `ridge auto`: 38 N^2 (G and its eigendecomposition). With a noise level A > 0 the fit also
-//!   holds each view's expected noisy version, 2N rows: 4 (2N) M + 24 (2N)^2. With `noise-level
-//!   auto`: the larger of that and 8 N^2 + 4 N M / channels (an image plane copied while G is
-//!   held).
-//! - Linear, streamed, N > M: 4 M'(M' + 192) (X^T X's lower triangle in bands, then the lower
-//!   half of the M x M matrix it is copied into and factored in place; M' = M padded to 48) +
-//!   2 x 1024 x 5 M (two blocks of images, f32 and 8-bit) + 10 KiB M' (packed panels) + 48 M K.
-//!   For N <= M: as in memory (it loads the set). 100,800 images of 160 x 120: 1.8 GiB against
-//!   234.5 GiB in memory.
-//! - Eigenspace: the images, then the larger of the PCA, 8 N M (an f64 transposed copy) + 36 N^2
-//!   (the Gram matrix and its eigendecomposition) + 16 M L, and the manifold, 8 M L + 24 P L
-//!   (P resampled points; with more than two pose parameters, kept as its knots, P = 2^D N).
-//! - Refined: binned copies (4 N M (1/4 + 1/16) when the factor is chosen) + 5.5 N M + 7.5 N M
-//!   / b^2 (the held-out fits' copies at the finest factor b) + 40 N^2 + 2 KiB P (lattice
-//!   searches; P = 2^D N with more than two pose parameters).
+//! - The method's fit beside them, in memory and streamed: what the method says of its fit, from
+//!   N, M, the encoded pose values, the settings and the pose lattice it resamples or searches
+//!   (with more than two pose parameters, kept as its knots: 2^D points per training view;
+//!   `crate::model::footprint`; each method's `footprint.rs` gives its formulas: the linear
+//!   model's 24 N^2 + 2 KiB N in memory, and streamed with N > M about 4 M^2, so 100,800 images
+//!   of 160 x 120 need 1.8 GiB streamed against 234.5 GiB in memory).
 //! - Many objects (in memory only): the objects' images, a concatenated copy (4 N M), the
-//!   recogniser (universal: 8 N M + 36 N^2; linear: 32 N^2, G with its factor and inverse), and,
-//!   as many at once as there are threads, the largest object's pose model fit.
+//!   recogniser's fit, which the recogniser says itself ([`crate::recognize::Recognizer`]:
+//!   the universal eigenspace's PCA, the linear recogniser's system), and, as many at once as
+//!   there are threads, the largest object's pose model fit.
 //!
 //! # Measured
 //!
@@ -95,7 +85,7 @@
 //!
 //! # Available memory
 //!
-//! [`available`]: the smallest of `/proc/meminfo`'s `MemAvailable` and the control groups'
+//! `available`: the smallest of `/proc/meminfo`'s `MemAvailable` and the control groups'
 //! limits less their usage; a plan uses `tuning::USABLE_FRACTION` of it. A budget
 //! ([`Limit::Budget`], `--memory-budget`) replaces it. Where nothing can be read
 //! ([`Limit::Unknown`]), the in-memory path is taken unchecked, as before planning existed.
@@ -108,16 +98,18 @@ pub(crate) mod tuning;
 pub use crate::error::format_bytes;
 pub use crate::error::{Remedy, StreamChange};
 pub use estimate::Estimate;
-pub use system::{available, parse_size, Available};
+pub(crate) use system::available;
+pub use system::{parse_size, Available};
 
-use crate::image_io::{ColorMode, ImageSpec};
+use crate::image_io::ImageSpec;
 use crate::manifest::Manifest;
 use crate::manifold::grid as manifold;
-use crate::methods::linear::ridge::RidgeRule;
+use crate::model::footprint::{Footprint, Sizes, StreamBlock};
 use crate::model::{Method, Settings};
-use crate::recognize::{RecognizerKind, RecognizerParams};
-use crate::{EigenspaceParams, Error, LinearParams, RefinedParams, Result};
-use tuning::{LATTICE_STEP, USABLE_FRACTION};
+use crate::recognize::RecognizerParams;
+use crate::{Error, Result};
+use std::sync::Arc;
+use tuning::USABLE_FRACTION;
 
 /// A way of fitting a training set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -138,21 +130,12 @@ impl Path {
     }
 }
 
-/// A method's parameters, as far as memory goes.
-#[derive(Debug, Clone, Copy)]
-enum Params {
-    Linear(LinearParams),
-    Eigenspace(EigenspaceParams),
-    Refined(RefinedParams),
-}
-
 /// Many objects: how many, the largest one's training images, the recogniser.
 #[derive(Debug, Clone, Copy)]
 struct Objects {
     count: usize,
     largest: usize,
-    recognizer: RecognizerKind,
-    components: usize,
+    recognizer: RecognizerParams,
 }
 
 /// What is to be trained, as far as memory goes: the sizes, the method and its settings.
@@ -163,10 +146,11 @@ pub struct Job {
     k: usize,
     channels: usize,
     method: &'static Method,
-    params: Params,
+    /// The method's fit with its settings, as far as memory goes.
+    fit: Arc<dyn Footprint>,
     normalize: bool,
     choose_stage: bool,
-    /// Points of the pose lattice the method resamples or searches (eigenspace, refined).
+    /// Points of the pose lattice the method resamples or searches (0 for a method without one).
     lattice: usize,
     objects: Option<Objects>,
     threads: usize,
@@ -177,19 +161,13 @@ impl Job {
     /// encoded pose values, fitted by `method` with `settings` (refused as the method refuses
     /// them). No pose lattice ([`Job::lattice`]) and the rayon pool's threads.
     pub fn new(n: usize, m: usize, k: usize, method: &'static Method, settings: &Settings) -> Result<Self> {
-        let params = match method.name {
-            "linear" => Params::Linear(LinearParams::from_settings(settings)?),
-            "eigenspace" => Params::Eigenspace(EigenspaceParams::from_settings(settings)?),
-            "refined" => Params::Refined(RefinedParams::from_settings(settings)?),
-            other => return Err(Error::invalid("method", other, "has no memory estimate")),
-        };
         Ok(Job {
             n,
             m,
             k,
             channels: 1,
             method,
-            params,
+            fit: (method.footprint)(settings)?,
             normalize: false,
             choose_stage: false,
             lattice: 0,
@@ -198,11 +176,11 @@ impl Job {
         })
     }
 
-    /// The images of `manifest`, of size `spec` ([`first_image_spec`]): N, M, K and the pose
-    /// lattice the method resamples (eigenspace) or reports on (refined) from its poses.
+    /// The images of `manifest`, of size `spec` ([`Manifest::first_image_spec`]): N, M, K and,
+    /// from its poses, the pose lattice the method resamples or reports on, if it has one.
     pub fn for_manifest(manifest: &Manifest, spec: ImageSpec, method: &'static Method, settings: &Settings) -> Result<Self> {
         let job = Job::new(manifest.len(), spec.features(), manifest.space().encoded_len(), method, settings)?.channels(spec.color.channels());
-        let step = job.lattice_step();
+        let step = job.fit.lattice_step();
         Ok(job.lattice(step.map_or(0, |s| lattice_points(manifest, s))))
     }
 
@@ -213,12 +191,7 @@ impl Job {
         let mut job = Job::for_manifest(first, spec, method, settings)?;
         job.n = manifests.iter().map(Manifest::len).sum();
         job.lattice = job.lattice.max(recogniser_points(first, recognizer.manifold_step));
-        job.objects = Some(Objects {
-            count: manifests.len(),
-            largest: manifests.iter().map(Manifest::len).max().unwrap_or(0),
-            recognizer: recognizer.kind,
-            components: recognizer.components,
-        });
+        job.objects = Some(Objects { count: manifests.len(), largest: manifests.iter().map(Manifest::len).max().unwrap_or(0), recognizer: *recognizer });
         Ok(job)
     }
 
@@ -235,7 +208,7 @@ impl Job {
     }
 
     /// Whether the normalisation is chosen on held-out training views first
-    /// ([`crate::stage_choice`]): a normalised copy of each fold's views besides the images'.
+    /// ([`crate::MethodSpec::fit_with_stage`]): a normalised copy of each fold's views besides the images'.
     pub fn choosing_stage(mut self, yes: bool) -> Self {
         self.choose_stage = yes;
         self.normalize |= yes;
@@ -265,14 +238,9 @@ impl Job {
         self.m
     }
 
-    /// The lattice step of the method: the eigenspace's manifold step, the refined method's
-    /// resolution (or [`LATTICE_STEP`] when continuous); none for the linear model.
-    fn lattice_step(&self) -> Option<f64> {
-        match self.params {
-            Params::Linear(_) => None,
-            Params::Eigenspace(p) => Some(p.step()),
-            Params::Refined(p) => Some(if p.resolution > 0.0 { p.resolution } else { LATTICE_STEP }),
-        }
+    /// The sizes the method's fit depends on.
+    fn sizes(&self) -> Sizes {
+        Sizes { n: self.n, m: self.m, k: self.k, channels: self.channels, lattice: self.lattice }
     }
 
     /// The same job with `n` images (objects scaled alike).
@@ -296,40 +264,23 @@ impl Job {
         if self.normalize {
             return Some(Blocker::Normalize);
         }
-        match self.params {
-            Params::Linear(p) if p.rule() == RidgeRule::Loo => Some(Blocker::RidgeAuto),
-            // The noise rule fits expected noisy views beside the clean ones (or estimates the
-            // noise from the images): in memory.
-            Params::Linear(p) if matches!(p.rule(), RidgeRule::NoiseAuto | RidgeRule::Noise(_)) => Some(Blocker::NoiseAuto),
-            Params::Linear(p) if p.is_centered() => Some(Blocker::Center),
-            _ => None,
-        }
+        self.fit.stream_block().map(Blocker::Setting)
     }
 
-    /// The job as the streamed path could take it, with `blocker` removed (a fixed ridge, no
-    /// centring, no normalisation); None when nothing the user can change would let it stream.
-    fn unblocked(&self, blocker: Blocker) -> Option<Job> {
+    /// The job as the streamed path could take it, with `blocker` removed (no normalisation, the
+    /// method's setting changed); None when nothing the user can change would let it stream.
+    fn unblocked(&self, blocker: &Blocker) -> Option<Job> {
         let mut j = self.clone();
-        match (blocker, &mut j.params) {
-            (Blocker::Normalize, _) => j.normalize = false,
-            (Blocker::RidgeAuto | Blocker::NoiseAuto, Params::Linear(p)) => *p = LinearParams::default().center(p.is_centered()),
-            (Blocker::Center, Params::Linear(p)) => *p = p.center(false),
-            _ => return None,
+        match blocker {
+            Blocker::Normalize => j.normalize = false,
+            Blocker::Setting(b) => j.fit = b.unblocked.clone(),
+            Blocker::Method | Blocker::Objects => return None,
         }
         match j.stream_blocker() {
             None => Some(j),
-            Some(b) => j.unblocked(b),
+            Some(b) => j.unblocked(&b),
         }
     }
-}
-
-/// The size of the first image of `manifest`, read from its header (no pixel is decoded): what
-/// [`Job::for_manifest`] needs, before the images are read.
-pub fn first_image_spec(manifest: &Manifest, color: ColorMode) -> Result<ImageSpec> {
-    let path = manifest.image_path(0);
-    let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
-    let (width, height) = crate::image_io::dimensions(&path, &bytes)?;
-    Ok(ImageSpec { width, height, color })
 }
 
 /// Points of the lattice every `step` degrees over the range of each pose parameter of
@@ -371,48 +322,31 @@ fn knot_points(manifest: &Manifest, per: usize) -> usize {
 }
 
 /// Why the streamed path cannot take a job.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug)]
 enum Blocker {
+    /// The method does not stream.
     Method,
     Objects,
     Normalize,
-    RidgeAuto,
-    NoiseAuto,
-    Center,
+    /// One of the method's settings.
+    Setting(StreamBlock),
 }
 
 impl Blocker {
     /// In words, after "not streamed: ".
-    fn reason(self, job: &Job) -> String {
+    fn reason(&self, job: &Job) -> String {
         match self {
             Blocker::Method => format!("the {} method fits in memory only", job.method.name),
             Blocker::Objects => "a data set of many objects is fitted in memory".into(),
             Blocker::Normalize => "the normalisation is fitted in memory".into(),
-            Blocker::RidgeAuto => "ridge auto (leave-one-out) needs the training set in memory".into(),
-            Blocker::NoiseAuto => "the noise-level rule needs the training set in memory".into(),
-            Blocker::Center => "a streamed fit is uncentred".into(),
+            Blocker::Setting(b) => b.reason.into(),
         }
     }
 
     /// The error of a streamed fit asked for that cannot be.
     fn error(self, job: &Job) -> Error {
-        let value = match job.params {
-            Params::Linear(p) => match p.rule() {
-                RidgeRule::Noise(a) => a.to_string(),
-                _ => "auto".into(),
-            },
-            _ => "auto".into(),
-        };
-        let settings = |name: &str| Error::Setting {
-            method: job.method.name,
-            name: name.into(),
-            value: value.clone(),
-            reason: "a streamed fit takes a fixed ridge (0 for the exact fit): the leave-one-out and noise rules need the training set in memory".into(),
-        };
         match self {
-            Blocker::RidgeAuto => settings("ridge"),
-            Blocker::NoiseAuto => settings("noise-level"),
-            Blocker::Center => Error::invalid("center", true, "a streamed fit is uncentred (the paper's form)"),
+            Blocker::Setting(b) => b.error,
             b => Error::invalid("streaming", job.method.name, b.reason(job)),
         }
     }
@@ -423,7 +357,7 @@ impl Blocker {
 pub enum Limit {
     /// A budget in bytes, given by the user: used whole.
     Budget(u64),
-    /// What the machine has available ([`available`]): `USABLE_FRACTION` of it is used.
+    /// What the machine has available: `USABLE_FRACTION` of it is used.
     Available(Available),
     /// Nothing could be read (not Linux): no path is refused.
     Unknown,

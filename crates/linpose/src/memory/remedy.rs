@@ -12,11 +12,11 @@ pub(super) fn not_enough(job: &Job, plan: &Plan, blocker: Option<Blocker>) -> Er
     let force = plan.forced.then_some(plan.path);
     let size = |e: &Estimate| format!("{} ({})", format_bytes(e.bytes), e.what);
     let limit = plan.limit.describe();
-    let needs = match (force, &plan.streamed, blocker) {
+    let needs = match (force, &plan.streamed, &blocker) {
         (Some(path), _, _) => format!("{} (as asked) needs {}, more than {limit}", path.name(), size(plan.chosen())),
         (None, Some(s), _) => format!("in memory needs {} and streamed needs {}, both more than {limit}", size(&plan.in_memory), size(s)),
         (None, None, b) => {
-            let why = b.map(|b| format!("; not streamed: {}", b.reason(job))).unwrap_or_default();
+            let why = b.as_ref().map(|b| format!("; not streamed: {}", b.reason(job))).unwrap_or_default();
             format!("in memory needs {}, more than {limit}{why}", size(&plan.in_memory))
         }
     };
@@ -33,13 +33,11 @@ pub(super) fn not_enough(job: &Job, plan: &Plan, blocker: Option<Blocker>) -> Er
     if let Some(m) = largest(job.m, |m| least(&Job { m, ..job.clone() }) <= usable) {
         remedies.push(Remedy::SmallerImages { at_most: m });
     }
-    if let (Some(b), None | Some(Path::Streamed)) = (blocker, force) {
+    if let (Some(b), None | Some(Path::Streamed)) = (&blocker, force) {
         if let Some(j) = job.unblocked(b) {
             let bytes = estimate::streamed(&j).bytes;
             let change = match b {
-                Blocker::RidgeAuto => StreamChange::FixedRidge,
-                Blocker::NoiseAuto => StreamChange::FixedNoiseLevel,
-                Blocker::Center => StreamChange::NoCentring,
+                Blocker::Setting(s) => s.change,
                 _ => StreamChange::NoNormalization,
             };
             if bytes <= usable {

@@ -25,7 +25,7 @@ pub struct Available {
 
 /// The memory available to this process: the least of `MemAvailable` and what the cgroups'
 /// limits leave (see [`crate::memory`]); None when no figure can be read.
-pub fn available() -> Option<Available> {
+pub(crate) fn available() -> Option<Available> {
     let meminfo = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| meminfo_available(&t));
     let cgroup = std::fs::read_to_string("/proc/self/cgroup").ok().and_then(|t| cgroup_available(&t, Path::new("/sys/fs/cgroup")));
     match (meminfo, cgroup) {

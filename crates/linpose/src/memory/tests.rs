@@ -1,4 +1,5 @@
 use super::*;
+use crate::image_io::ColorMode;
 use crate::methods::find;
 use crate::{Param, PoseSpace};
 

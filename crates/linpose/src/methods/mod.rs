@@ -5,9 +5,13 @@
 //! - [`refined`]: the eigenspace's manifold searched continuously, beyond the paper.
 //!
 //! Each folder defines its parameters (an [`crate::Estimator`]), its fitted model (a
-//! [`crate::PoseModel`]) and its [`Method`] entry. A new method is a new folder and one word in
-//! the `registry!` line below: the command line, model files, the experiment and its report find
-//! it there.
+//! [`crate::PoseModel`]) and its [`Method`] entry: its name, summary, settings and Table 1
+//! storage, how a model file is read back, what its fit allocates (`footprint.rs`, the memory
+//! plan's estimate), and, where it has them, a fit from images streamed from disk and a fit from
+//! partial statistics (`partial.rs`). A new method is a new folder and one word in the
+//! `registry!` line below: the command line (`--method` and its settings' flags), model files,
+//! the memory plan, `train --shard` and `merge`, the experiment and its report, and the Python
+//! package's lists find it there.
 
 use crate::model::Method;
 
@@ -23,8 +27,15 @@ macro_rules! registry {
 registry!(linear, eigenspace, refined);
 
 /// The method called `name`.
-pub fn find(name: &str) -> Option<&'static Method> {
+pub(crate) fn find(name: &str) -> Option<&'static Method> {
     METHODS.iter().copied().find(|m| m.name == name)
+}
+
+impl Method {
+    /// The method called `name` (as in [`METHODS`]), or an error naming those there are.
+    pub fn from_name(name: &str) -> crate::Result<&'static Method> {
+        find(name).ok_or_else(|| crate::Error::invalid("method", name, format!("known methods: {}", names())))
+    }
 }
 
 /// The methods' names, comma-separated (for messages).

@@ -1,12 +1,15 @@
 //! A method as the registry knows it ([`Method`]): its name, what it is, its settings by name,
-//! its Table 1 storage formula, and how its models are read back from a file. And a method
-//! with its parameters, ready to fit ([`MethodSpec`]).
+//! its Table 1 storage formula, how its models are read back from a file, what its fit needs in
+//! memory, and whether it fits from streamed images or from partial statistics. And a method with its parameters, ready to
+//! fit ([`MethodSpec`]).
 //!
 //! Settings by name ([`Settings`]) are how a caller that holds no method's types (the command
 //! line, a report, a script) gives parameters: each method reads the names it declares
 //! ([`Method::options`]) and refuses any other, so a setting meant for another method is an
 //! error, not silently ignored.
 
+use super::footprint::Footprint;
+use super::partial_fit::PartialFit;
 use super::{AnyModel, Estimator, ModelMeta, PoseModel, TensorSet};
 use crate::dataset::Dataset;
 use crate::image_io::ColorMode;
@@ -40,6 +43,12 @@ pub struct MethodOption {
 /// progress)` to the model and a line saying how it was fitted.
 pub(crate) type StreamFit = fn(&Manifest, ColorMode, &Settings, &(dyn Fn(u64) + Sync)) -> Result<(AnyModel, String)>;
 
+/// Makes a method's fit from partial statistics ([`crate::partial`]) from its settings.
+pub(crate) type PartialFitOf = fn(&Settings) -> Result<Arc<dyn PartialFit>>;
+
+/// Makes a method's fit, as the memory plan ([`crate::memory`]) counts it, from its settings.
+pub(crate) type FootprintOf = fn(&Settings) -> Result<Arc<dyn Footprint>>;
+
 /// An estimation method: everything the rest of linpose needs to know of it. Each method's
 /// folder defines one, and [`crate::methods::METHODS`] lists them.
 #[derive(Debug)]
@@ -57,7 +66,12 @@ pub struct Method {
     pub options: &'static [MethodOption],
     pub(crate) params: fn(&Settings) -> Result<MethodSpec>,
     pub(crate) load: fn(ModelMeta, &TensorSet) -> Result<AnyModel>,
+    /// What its fit with these settings allocates, for the memory plan ([`crate::memory`]).
+    pub(crate) footprint: FootprintOf,
     pub(crate) stream: Option<StreamFit>,
+    /// Its fit with these settings from statistics summed over shards of the training set
+    /// ([`crate::partial`]), if it has one.
+    pub(crate) partial: Option<PartialFitOf>,
 }
 
 impl Method {
@@ -75,6 +89,12 @@ impl Method {
     /// Whether it can fit from images streamed from disk ([`Method::fit_streamed`]).
     pub fn streams(&self) -> bool {
         self.stream.is_some()
+    }
+
+    /// Whether it fits from partial statistics summed over shards of the training set and merged
+    /// ([`crate::partial`]).
+    pub fn merges(&self) -> bool {
+        self.partial.is_some()
     }
 
     /// Fits on the images of `manifest` read from disk in blocks, for training sets larger than

@@ -7,10 +7,14 @@
 //! settings, Table 1 storage terms, how a model file is read back) is described by the method
 //! itself: see [`Method`] and the registry [`crate::methods::METHODS`].
 
+pub(crate) mod file;
+pub(crate) mod footprint;
 mod method;
 mod normalized;
+pub(crate) mod partial_fit;
 pub(crate) mod split;
 mod tensor;
+mod tuning;
 
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
 pub use normalized::Normalized;
@@ -90,6 +94,18 @@ pub trait PoseModel: Any + Send + Sync + std::fmt::Debug {
     /// The named arrays written to a model file.
     fn tensors(&self) -> Vec<Tensor>;
 
+    /// The model's file bytes (safetensors: numpy's and PyTorch's loaders read the arrays as
+    /// they are; the metadata is in the header). The same model always gives the same bytes.
+    fn to_bytes(&self) -> Result<Vec<u8>> {
+        file::model_bytes(self)
+    }
+
+    /// Writes the model file atomically (temporary name, then rename): its size in bytes.
+    /// [`AnyModel::load`] reads it back.
+    fn save(&self, path: &std::path::Path) -> Result<u64> {
+        file::save_bytes(&self.to_bytes()?, path)
+    }
+
     /// For a model whose encoded estimate is linear in the pixels, its coefficient vectors: one
     /// row of M values per encoded parameter (the paper's Fig. 2). `None` for other models.
     fn coefficients(&self) -> Option<&[f64]> {
@@ -167,7 +183,7 @@ pub struct ModelMeta {
     /// ([`crate::normalize`]); `None`: images are used as they are.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normalize: Option<crate::normalize::Normalizer>,
-    /// How the normalisation was decided, when training decided it ([`crate::stage_choice`]):
+    /// How the normalisation was decided, when training decided it ([`crate::MethodSpec::fit_with_stage`]):
     /// chosen on held-out training views, or as the caller fixed it. `None` for a model fitted
     /// without a rule (a method's own `fit`).
     #[serde(default, skip_serializing_if = "Option::is_none")]

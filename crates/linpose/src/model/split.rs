@@ -21,11 +21,8 @@
 //! 0.06-0.47 ms a split call, and the batches just above the thresholds run slower split than
 //! whole (the same section, `--gap`).
 
+pub(crate) use super::tuning::{LOOK_SPLIT_FROM, SPLIT_FROM_PIXELS};
 use std::sync::OnceLock;
-
-/// Query pixels (images x pixels per image) from which an 8-bit batch is split across threads.
-/// 1.2 million: 72 COIL-20 images of 128 x 128 (1.18 million) run on the calling thread.
-pub(crate) const SPLIT_FROM_PIXELS: usize = 1_200_000;
 
 /// [`SPLIT_FROM_PIXELS`], or the value of `LINPOSE_SPLIT_FROM_PIXELS` where it is set (for
 /// measuring; read once).
@@ -38,16 +35,6 @@ fn split_from() -> usize {
 pub(crate) fn splits(n: usize, m: usize) -> bool {
     n.saturating_mul(m) >= split_from()
 }
-
-/// Queries from which a batch's second look (`second_look`) is split across threads.
-/// A second look costs 12-90 us a query (COIL-20 to the paper's grid, BENCHMARKS.md), so 8 of
-/// them are more work than the 72 COIL-20 images (about 0.08 ms of the linear model's products)
-/// at which [`SPLIT_FROM_PIXELS`] starts splitting: the same amount of work, not the same pixels.
-/// Measured on COIL-20 object 1 (BENCHMARKS.md, "Small batches", `bench/split_timing.py`, load
-/// 1-1.7): a 72-image batch, which the pixel rule keeps whole, took 0.91 -> 0.64 ms
-/// (eigenspace) and 0.74 -> 0.46 ms (refined) with its second look split; at 8 images the split
-/// costs the eigenspace 0.10 -> 0.11 ms, at 16 it pays (0.20 -> 0.19, refined 0.15 -> 0.12).
-pub(crate) const LOOK_SPLIT_FROM: usize = 8;
 
 /// Whether a batch of `n` second looks is split across threads: from [`LOOK_SPLIT_FROM`]
 /// queries, or as [`splits`] would where `LINPOSE_SPLIT_FROM_PIXELS` is set (for measuring).

@@ -1,6 +1,6 @@
 //! What a model records of how its normalisation was decided ([`StageChoice`]), and what a caller
 //! asks for ([`StageRule`]). The choice itself, on held-out training views, is made where the
-//! methods are known: [`crate::stage_choice`].
+//! methods are known: [`crate::MethodSpec::fit_with_stage`].
 
 use super::NormalizeParams;
 use serde::{Deserialize, Serialize};
@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum StageRule {
     /// Chosen on held-out training views among off, brightness, geometry and all
-    /// ([`crate::stage_choice`]).
+    /// ([`crate::MethodSpec::fit_with_stage`]).
     #[default]
     Auto,
     /// As given: [`NormalizeParams::OFF`] for none.

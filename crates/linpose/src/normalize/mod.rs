@@ -44,7 +44,7 @@
 //! naming it; in a query such a region is left out. `eval` counts refused images apart.
 //!
 //! Whether to normalise at all, and what, is chosen on held-out training views by
-//! [`crate::stage_choice`]; [`StageChoice`] is the record of it.
+//! [`crate::MethodSpec::fit_with_stage`]; [`StageChoice`] is the record of it.
 //!
 //! The stage is exact for a move by whole pixels: the moments are taken from the object's
 //! bounding box corner and the resampling's weights depend only on the position within a pixel,

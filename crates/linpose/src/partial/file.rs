@@ -10,13 +10,11 @@
 //!
 //! Written without a copy of the arrays (header, then each array in chunks) and atomically.
 
-use super::{Header, Params, Partial, Split, Stats};
+use super::{Header, Partial, Split, Stats};
 use crate::atomic::write_atomic_with;
-use crate::methods::eigenspace::{EigenspaceParams, METHOD as EIGENSPACE};
-use crate::methods::linear::normal::NormalEquations;
-use crate::methods::linear::{LinearParams, METHOD as LINEAR};
 use crate::model::{Settings, TensorData};
 use crate::model_file::{read_parts_except, write_parts_to, DataRef, TensorRef};
+use crate::normal_equations::NormalEquations;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -134,11 +132,11 @@ impl Partial {
         let file: FileHeader = serde_json::from_str(json).map_err(|e| err(format!("damaged header: {e}")))?;
         let h = file.header;
         let settings = h.settings.iter().fold(Settings::new(), |s, (k, v)| s.set(k.clone(), v.clone()));
-        let (method, params) = match h.method.as_str() {
-            "linear" => (&LINEAR, Params::Linear(LinearParams::from_settings(&settings)?)),
-            "eigenspace" => (&EIGENSPACE, Params::Eigenspace(EigenspaceParams::from_settings(&settings)?)),
-            other => return Err(err(format!("statistics of an unknown method '{other}'"))),
+        let (method, partial) = match crate::methods::find(&h.method).and_then(|m| Some((m, m.partial?))) {
+            Some(found) => found,
+            None => return Err(err(format!("statistics of an unknown method '{}'", h.method))),
         };
+        let fit = partial(&settings)?;
         let (n, m, k, np) = (h.n, h.spec.features(), h.space.encoded_len(), h.space.len());
         if h.spec.width == 0 || h.spec.height == 0 || h.spec.width as u64 * h.spec.height as u64 > crate::image_io::MAX_PIXELS || n == 0 {
             return Err(err(format!("damaged header: {} images of {}x{}", n, h.spec.width, h.spec.height)));
@@ -216,7 +214,7 @@ impl Partial {
         if let Some(t) = tensors.first() {
             return Err(err(format!("an unexpected tensor '{}' (for the runs held, {:?})", t.name, file.covered)));
         }
-        Ok(Partial { header: h, method, params, poses, covered, stats, source: path.display().to_string() })
+        Ok(Partial { header: h, method, fit, poses, covered, stats, source: path.display().to_string() })
     }
 }
 

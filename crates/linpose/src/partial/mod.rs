@@ -19,6 +19,10 @@
 //!   (W = X^T D) or the eigenimages (Xc^T V) are made of when finishing. A partial holds
 //!   4 N^2 bytes (the Gram matrix's lower triangle) and 4 N w bytes for its w pixels.
 //!
+//! Which methods fit so, and how each cuts a set, is the method's to say
+//! ([`Method::merges`]; its `partial.rs`): these statistics find the method by the name they
+//! record, and name none themselves.
+//!
 //! Each partial records what must agree to merge: the method and its settings, the image size,
 //! the pose parameters, the training set (a fingerprint of its image names and poses), and which
 //! images or pixels it covers; merging refuses a mismatch or an overlap by name, and finishing
@@ -26,41 +30,22 @@
 
 mod file;
 
+pub use crate::model::partial_fit::Split;
+
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
 use crate::linalg::mean_row;
 use crate::manifest::Manifest;
-use crate::methods::eigenspace::{EigenspaceParams, METHOD as EIGENSPACE};
-use crate::methods::linear::normal::NormalEquations;
-use crate::methods::linear::ridge::RidgeRule;
-use crate::methods::linear::stream::{accumulate_rows, disk_reader, solve_model, BLOCK};
-use crate::methods::linear::{LinearParams, METHOD as LINEAR};
+use crate::model::partial_fit::PartialFit;
 use crate::model::{AnyModel, Method, Settings};
+use crate::normal_equations::rows::{accumulate_rows, disk_reader, BLOCK};
+use crate::normal_equations::NormalEquations;
 use crate::pose::PoseSpace;
 use crate::{Error, Result};
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
-
-/// How a training set is cut into shards.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Split {
-    /// Shards of images: each sums X^T X and X^T P over its images.
-    Images,
-    /// Shards of pixels: each sums X X^T over its pixels of every image, and keeps them.
-    Pixels,
-}
-
-impl Split {
-    /// What a shard holds, in words.
-    pub fn unit(self) -> &'static str {
-        match self {
-            Split::Images => "images",
-            Split::Pixels => "pixels",
-        }
-    }
-}
+use std::sync::Arc;
 
 /// A shard's data for [`Partial::accumulate`].
 #[derive(Debug, Clone, Copy)]
@@ -79,13 +64,6 @@ pub enum Shard<'a> {
         /// Row-major N x w: image i's w pixels in row i.
         features: &'a [f32],
     },
-}
-
-/// The method's parameters.
-#[derive(Debug, Clone, Copy)]
-enum Params {
-    Linear(LinearParams),
-    Eigenspace(EigenspaceParams),
 }
 
 /// What two partials must share to merge (stored in a partial file's header).
@@ -134,7 +112,7 @@ enum Stats {
 /// let spec = ImageSpec { width: 6, height: 5, color: ColorMode::Gray };
 ///
 /// let settings = Settings::new().set("ridge", "1e-3");
-/// let mut a = Partial::new(linpose::methods::find("linear").unwrap(), &settings, &manifest, spec)?;
+/// let mut a = Partial::new(linpose::Method::from_name("linear")?, &settings, &manifest, spec)?;
 /// let mut b = a.empty();
 /// a.accumulate(Shard::Images { start: 0, features: &x[..25 * 30] })?;
 /// b.accumulate(Shard::Images { start: 25, features: &x[25 * 30..] })?;
@@ -149,7 +127,8 @@ enum Stats {
 pub struct Partial {
     header: Header,
     method: &'static Method,
-    params: Params,
+    /// The method's fit from the sums, with its settings.
+    fit: Arc<dyn PartialFit>,
     /// The training poses (N x parameters).
     poses: Vec<f64>,
     /// Images or pixels accumulated: sorted, disjoint ranges.
@@ -170,7 +149,8 @@ impl Partial {
     /// of `spec`. Errors name a method or setting that cannot be fitted from partial statistics.
     pub fn new(method: &'static Method, settings: &Settings, manifest: &Manifest, spec: ImageSpec) -> Result<Self> {
         let (n, m) = (manifest.len(), spec.features());
-        let (params, split) = plan(method, settings, n, m)?;
+        let fit = partial_fit(method, settings)?;
+        let split = fit.split(n, m)?;
         let mut sorted: Vec<(String, String)> = settings.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect();
         sorted.sort();
         let (root, names) = match split {
@@ -188,7 +168,7 @@ impl Partial {
             root,
             names,
         };
-        Ok(Partial::empty_of(header, method, params, manifest.poses().to_vec(), "partial statistics".into()))
+        Ok(Partial::empty_of(header, method, fit, manifest.poses().to_vec(), "partial statistics".into()))
     }
 
     /// [`Partial::new`] for the images of `manifest` read with `color`, their size taken from
@@ -197,21 +177,21 @@ impl Partial {
         if manifest.is_empty() {
             return Err(Error::Dataset { path: manifest.root().to_path_buf(), message: "no training images".into() });
         }
-        Partial::new(method, settings, manifest, crate::memory::first_image_spec(manifest, color)?)
+        Partial::new(method, settings, manifest, manifest.first_image_spec(color)?)
     }
 
-    fn empty_of(header: Header, method: &'static Method, params: Params, poses: Vec<f64>, source: String) -> Self {
+    fn empty_of(header: Header, method: &'static Method, fit: Arc<dyn PartialFit>, poses: Vec<f64>, source: String) -> Self {
         let (n, m, k) = (header.n, header.spec.features(), header.space.encoded_len());
         let stats = match header.split {
             Split::Images => Stats::Images(Box::new(NormalEquations::new(m, k))),
             Split::Pixels => Stats::Pixels { gram: vec![0.0; n * (n + 1) / 2], blocks: Vec::new() },
         };
-        Partial { header, method, params, poses, covered: Vec::new(), stats, source }
+        Partial { header, method, fit, poses, covered: Vec::new(), stats, source }
     }
 
     /// Empty statistics for the same fit (to accumulate another shard in).
     pub fn empty(&self) -> Self {
-        Partial::empty_of(self.header.clone(), self.method, self.params, self.poses.clone(), self.source.clone())
+        Partial::empty_of(self.header.clone(), self.method, self.fit.clone(), self.poses.clone(), self.source.clone())
     }
 
     /// How the training set is cut into shards.
@@ -300,8 +280,7 @@ impl Partial {
             }
             Stats::Pixels { gram, blocks } => {
                 let w = range.len();
-                let center = matches!(self.params, Params::Linear(p) if p.is_centered());
-                let mean = center.then(|| mean_row(features, n, w));
+                let mean = self.fit.centred().then(|| mean_row(features, n, w));
                 let g = crate::linalg::gram_f32(features, n, w, mean.as_deref());
                 add_lower(gram, &g);
                 blocks.push((start, features.to_vec()));
@@ -433,9 +412,9 @@ impl Partial {
         }
         let h = &self.header;
         let (n, m) = (h.n, h.spec.features());
-        match (self.stats, self.params) {
-            (Stats::Images(ne), Params::Linear(p)) => Ok(AnyModel::new(solve_model(*ne, &h.space, &self.poses, h.spec, p.ridge_lambda())?)),
-            (Stats::Pixels { gram, mut blocks }, params) => {
+        match self.stats {
+            Stats::Images(ne) => self.fit.fit_from_normal_equations(*ne, &h.space, &self.poses, h.spec),
+            Stats::Pixels { gram, mut blocks } => {
                 blocks.sort_by_key(|b| b.0);
                 let mut x = vec![0f32; n * m];
                 for (p0, cols) in &blocks {
@@ -449,12 +428,8 @@ impl Partial {
                 let train = Dataset::from_features(manifest, h.spec, x)?;
                 let g = unpack_lower(&gram, n);
                 drop(gram);
-                match params {
-                    Params::Linear(p) => Ok(AnyModel::new(p.fit_with_gram(&train, Some(g))?)),
-                    Params::Eigenspace(p) => Ok(AnyModel::new(p.fit_with_gram(&train, Some(g))?)),
-                }
+                self.fit.fit_from_gram(&train, g)
             }
-            (Stats::Images(_), Params::Eigenspace(_)) => unreachable!("the eigenspace is split by pixels"),
         }
     }
 
@@ -530,30 +505,14 @@ impl Partial {
     }
 }
 
-/// The method's parameters and how to split `n` images of `m` features for it.
-fn plan(method: &'static Method, settings: &Settings, n: usize, m: usize) -> Result<(Params, Split)> {
-    let err = |why: String| Error::invalid("method", method.name, why);
-    if std::ptr::eq(method, &LINEAR) {
-        let p = LinearParams::from_settings(settings)?;
-        if n <= m {
-            return Ok((Params::Linear(p), Split::Pixels));
-        }
-        if p.rule() != RidgeRule::Fixed {
-            return Err(err(format!(
-                "with more images than pixels ({n} > {m}) the linear model is summed over shards of images, which takes a fixed --ridge (0 for the minimum-norm least-squares fit): the leave-one-out and noise rules need the training set in memory"
-            )));
-        }
-        if p.is_centered() {
-            return Err(err(format!(
-                "with more images than pixels ({n} > {m}) the linear model is summed over shards of images, which is uncentred (the paper's form)"
-            )));
-        }
-        return Ok((Params::Linear(p), Split::Images));
-    }
-    if std::ptr::eq(method, &EIGENSPACE) {
-        return Ok((Params::Eigenspace(EigenspaceParams::from_settings(settings)?), Split::Pixels));
-    }
-    Err(err("fits in one process only; the linear model and the eigenspace fit from merged partial statistics".into()))
+/// The fit of `method` with `settings` from partial statistics; an error for a method that has
+/// none, naming those that have.
+fn partial_fit(method: &'static Method, settings: &Settings) -> Result<Arc<dyn PartialFit>> {
+    let fit = method.partial.ok_or_else(|| {
+        let merging: Vec<&str> = crate::methods::METHODS.iter().filter(|m| m.merges()).map(|m| m.name).collect();
+        Error::invalid("method", method.name, format!("fits in one process only; {} fit from merged partial statistics", merging.join(" and ")))
+    })?;
+    fit(settings)
 }
 
 /// Adds the lower triangle of the symmetric `g` to `packed` (row by row).

@@ -3,8 +3,9 @@
 
 use super::*;
 use crate::manifold::pca::{self, Dimension};
-use crate::methods::eigenspace::EigenspaceModel;
-use crate::methods::linear::LinearModel;
+use crate::methods::eigenspace::{EigenspaceModel, EigenspaceParams, METHOD as EIGENSPACE};
+use crate::methods::linear::ridge::RidgeRule;
+use crate::methods::linear::{LinearModel, LinearParams, METHOD as LINEAR};
 use crate::model::{Estimator, PoseModel};
 use crate::render::synth::{dataset, PoseGrid};
 use crate::render::{objects, Grid, RenderParams};
@@ -254,9 +255,9 @@ fn files_are_told_apart_from_models() {
     let d = duck("40", "0:355:5", 16, 12);
     let p = shards(&LINEAR, &tiny(), &d, 1).pop().unwrap();
     let bytes = p.to_bytes().unwrap();
-    let e = crate::model_file::from_bytes(Path::new("p.safetensors"), &bytes).unwrap_err().to_string();
+    let e = crate::AnyModel::from_bytes(Path::new("p.safetensors"), &bytes).unwrap_err().to_string();
     assert!(e.contains("linpose merge"), "{e}");
-    let model = crate::model_file::to_bytes(&p.finish().unwrap()).unwrap();
+    let model = p.finish().unwrap().to_bytes().unwrap();
     let e = Partial::from_bytes(Path::new("m.safetensors"), &model).unwrap_err().to_string();
     assert!(e.contains("not a file of partial training statistics"), "{e}");
 }

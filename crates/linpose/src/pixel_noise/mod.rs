@@ -17,19 +17,18 @@
 //! integers (the two agree to about 1e-6 relative). Each has an AVX-512 body ([`crate::kernels::noise`]) that
 //! performs the portable body's operations in the same order, so every build gives the same bits.
 
+mod tuning;
 mod uniform;
 
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub use uniform::add_uniform_noise;
 #[cfg(test)]
 mod tests;
 
 use crate::kernels::noise::{self, Image};
 use crate::kernels::Level;
-
-/// Rows sampled by [`pixel_noise`]: every this many. Fewer rows cost less and estimate the noise
-/// from fewer pixels (a 128-row image keeps 16). A tuning constant, not tuned: 8 since the
-/// estimate was introduced (2026-11-21).
-const NOISE_ROW_STEP: usize = 8;
+pub(crate) use tuning::FIRST_EVERY;
+use tuning::{FIRST_AT, NOISE_ROW_STEP};
 
 /// Immerkaer's fast estimate of the standard deviation of additive white noise in gray images
 /// (CVIU 64(2), 1996): the mean absolute response to the Laplacian-difference mask
@@ -157,15 +156,6 @@ enum Pass {
     First,
     Rest,
 }
-
-/// The first pass of a staged noise estimate takes every this many sampled rows (a quarter: a
-/// clean image settled there costs a quarter of the estimate; fewer rows would tell noise from
-/// detail less surely). Chosen with the refined method's stop level (its `tuning::NOISE_EARLY`,
-/// 2026-11-22); other fractions were not tried.
-pub(crate) const FIRST_EVERY: usize = 4;
-/// ... from this one (rows 17, 49, 81, 113 of a 128-row image: away from the top edge, which on a
-/// turntable is background). Not tuned.
-const FIRST_AT: usize = 2;
 
 impl Pass {
     /// Whether this pass sums sampled row `k`.

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 /// Adds uniform noise of +-`amplitude` (a fraction of full brightness) to every feature of every
 /// row and clips to [0, 1]. Row i draws from its own ChaCha8 stream of `seed`, so the result does
 /// not depend on the thread count.
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
 pub fn add_uniform_noise(features: &mut [f32], m: usize, amplitude: f64, seed: u64) -> Result<()> {
     if !(amplitude.is_finite() && (0.0..=1.0).contains(&amplitude)) {
         return Err(Error::invalid("noise", amplitude, "must be a fraction of full brightness in [0, 1] (0.05 = +-5%)"));

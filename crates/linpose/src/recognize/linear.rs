@@ -14,7 +14,8 @@
 //! out a single view would leave its near twins (the other side of a symmetric object) in the
 //! fit and understate how far a fresh view lands.
 
-use super::universal::NEIGHBOUR;
+use super::tuning::{LINEAR_RECOGNIZER_BYTES, NEIGHBOUR, SINGULAR_RIDGE};
+use super::{Fitted, Recognize, Recognizer, RecognizerParams};
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::linalg::mat_from_rows;
@@ -22,17 +23,32 @@ use crate::manifold::chunk_rows;
 use crate::manifold::grid::Grid;
 use crate::manifold::projector::Projector;
 use crate::methods::linear::GramSystem;
+use crate::model::footprint::{system, Parts, Sizes};
 use crate::model::{Tensor, TensorSet};
 use crate::Result;
 use faer::linalg::solvers::{DenseSolveCore, Solve};
 use faer::Mat;
 use rayon::prelude::*;
+use std::sync::Arc;
 
-/// The ridge, relative to the largest diagonal entry of G times N, that a singular G (repeated
-/// views) is solved with: ten times the pivot below which the Gram factorisation refuses a
-/// system as singular (`GramSystem::factor`), so the fit is the minimum-norm one to about that
-/// relative precision. Numerical, not tuned.
-const SINGULAR_RIDGE: f64 = 1e-12;
+/// The linear recogniser in the recogniser registry.
+pub(crate) static RECOGNIZER: Recognizer = Recognizer {
+    name: "linear",
+    summary: "the paper's minimum-norm linear model with one-hot object targets, the largest output",
+    storage: "M K + K (M L_k + M) + N_own L_k",
+    fit: |objects, all, _params, views_only| {
+        let (model, held_out) = LinearRecognizer::fit(objects, all, views_only)?;
+        Ok(Fitted { model: Arc::new(model), components: 0, energy_kept: 1.0, held_out })
+    },
+    load: |t, objects, m, _components| Ok(Arc::new(LinearRecognizer::from_parts(t, objects, m)?)),
+    footprint,
+};
+
+/// What fitting allocates, for the memory plan: the N x N system of all objects' images, with
+/// the factor's inverse (32 N^2).
+fn footprint(s: &Sizes, _objects: usize, _params: &RecognizerParams) -> Parts {
+    Parts::default().add(system(s.n as f64, LINEAR_RECOGNIZER_BYTES), format!("N x N Gram of all {} images and its inverse", s.n))
+}
 
 /// A fitted linear recogniser: K coefficient images.
 #[derive(Debug, Clone)]
@@ -122,8 +138,19 @@ impl LinearRecognizer {
         Ok((LinearRecognizer { proj: Projector::new(&w, m), k }, held_out))
     }
 
+    /// Reads back [`Recognize::arrays`] for `k` objects of `m` features.
+    pub(super) fn from_parts(t: &TensorSet, k: usize, m: usize) -> Result<Self> {
+        let w = t.f32("recognizer.weights", &[k, m])?;
+        if w.iter().any(|v| !v.is_finite()) {
+            return Err(t.error("the linear recogniser holds non-finite weights"));
+        }
+        Ok(LinearRecognizer { proj: Projector::new(&w, m), k })
+    }
+}
+
+impl Recognize for LinearRecognizer {
     /// Each query's distance to each object's one-hot outputs into `out` (rows of K).
-    pub(super) fn distances(&self, queries: &[f32], out: &mut [f64]) {
+    fn distances(&self, queries: &[f32], out: &mut [f64]) {
         let (k, m) = (self.k, self.proj.rows().len() / self.k);
         let rows = chunk_rows(queries.len() / m);
         queries.par_chunks(rows * m).zip(out.par_chunks_mut(rows * k)).for_each(|(q, o)| {
@@ -138,22 +165,13 @@ impl LinearRecognizer {
         });
     }
 
-    /// Numbers stored: M K.
-    pub(super) fn numbers(&self) -> usize {
+    /// M K.
+    fn stored_numbers(&self) -> usize {
         self.proj.rows().len()
     }
 
-    pub(super) fn tensors(&self) -> Vec<Tensor> {
+    fn arrays(&self) -> Vec<Tensor> {
         let m = self.proj.rows().len() / self.k;
         vec![Tensor::f32("recognizer.weights", vec![self.k, m], self.proj.rows().to_vec())]
-    }
-
-    /// Reads back [`LinearRecognizer::tensors`] for `k` objects of `m` features.
-    pub(super) fn from_parts(t: &TensorSet, k: usize, m: usize) -> Result<Self> {
-        let w = t.f32("recognizer.weights", &[k, m])?;
-        if w.iter().any(|v| !v.is_finite()) {
-            return Err(t.error("the linear recogniser holds non-finite weights"));
-        }
-        Ok(LinearRecognizer { proj: Projector::new(&w, m), k })
     }
 }

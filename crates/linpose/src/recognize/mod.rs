@@ -6,12 +6,13 @@
 //! model. Okatani & Deguchi's linear model takes over "after object recognition is completed".
 //! linpose does the whole job with any pose method:
 //!
-//! - a **recogniser** ([`RecognizerKind`]) scores a query against every object with a distance
-//!   (smaller: more like that object): [`RecognizerKind::Universal`], the distance to each
-//!   object's manifold in the universal eigenspace (`universal.rs`), or
-//!   [`RecognizerKind::Linear`], the paper's minimum-norm linear model with one-hot object
-//!   targets (through the same Gram matrix as the pose fit, one more solve), the distance of
-//!   its K outputs from each object's one-hot vector (`linear.rs`);
+//! - a **recogniser** ([`Recognizer`], listed in [`RECOGNIZERS`]) scores a query against every
+//!   object with a distance (smaller: more like that object): `universal`, the distance to each
+//!   object's manifold in the universal eigenspace (`universal.rs`), or `linear`, the paper's
+//!   minimum-norm linear model with one-hot object targets (through the same Gram matrix as the
+//!   pose fit, one more solve), the distance of its K outputs from each object's one-hot vector
+//!   (`linear.rs`). A new recogniser is a new file defining its [`Recognizer`] and one word in
+//!   the `registry!` line below;
 //! - **"none of these"**: the query is unknown when its distance to the nearest object exceeds
 //!   what that object's own held-out training views show ([`Unknown::Calibrated`]: the largest
 //!   distance of a training view to the object's model fitted without it, so a fresh view of a
@@ -51,7 +52,7 @@
 //! let object = |lobes: f64| Dataset::new(spec, poses.iter().flat_map(|&a| image(lobes, a)).collect(), space.clone(), poses.clone());
 //! let objects = ObjectSet::new(vec!["one".into(), "two".into()], vec![object(1.0)?, object(2.0)?])?;
 //!
-//! let pose = linpose::methods::find("eigenspace").unwrap().default_spec();
+//! let pose = linpose::Method::from_name("eigenspace")?.default_spec();
 //! let model = ObjectModel::fit(&objects, &RecognizerParams::default().components(6), &pose)?;
 //! let view: Vec<f32> = image(2.0, 123.0).collect(); // object "two", between training views
 //! let found = &model.estimate(&view, 1)?[0];
@@ -60,60 +61,148 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-mod linear;
 mod model;
 mod own;
-mod universal;
+mod tuning;
 
 #[cfg(test)]
 mod tests;
 
-pub use model::{Labels, ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
+macro_rules! registry {
+    ($($r:ident),+ $(,)?) => {
+        $(mod $r;)+
 
-use crate::{Error, Result};
-use serde::{Deserialize, Serialize};
-
-/// How a query's object is told.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum RecognizerKind {
-    /// Murase & Nayar: the universal eigenspace of every object's unit-energy training images,
-    /// each object's spline manifold resampled densely in it, the nearest manifold point.
-    Universal,
-    /// The paper's minimum-norm linear model with one-hot object targets: K coefficient images,
-    /// the largest output wins.
-    Linear,
+        /// Every recogniser linpose has, in the order the command line lists them; the first is
+        /// the default.
+        pub static RECOGNIZERS: &[&Recognizer] = &[$(&$r::RECOGNIZER),+];
+    };
 }
 
-impl RecognizerKind {
-    /// Every recogniser, in the order the command line lists them.
-    pub const ALL: [RecognizerKind; 2] = [RecognizerKind::Universal, RecognizerKind::Linear];
+registry!(universal, linear);
 
+pub use model::{Labels, ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
+
+use crate::catalog::ObjectSet;
+use crate::dataset::Dataset;
+use crate::model::footprint::{Parts, Sizes};
+use crate::model::{Tensor, TensorSet};
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Reads a fitted recogniser back from a model file's arrays: objects, features per image, and
+/// the dimensions its fit kept ([`Fitted::components`]).
+pub(crate) type LoadRecognizer = fn(&TensorSet, usize, usize, usize) -> Result<Arc<dyn Recognize>>;
+
+/// A recogniser, how a query's object is told, as the registry knows it: its name, what it is,
+/// its storage formula, and how it is fitted, read back from a model file and costed in memory.
+/// Each recogniser's file defines one, and [`RECOGNIZERS`] lists them.
+pub struct Recognizer {
     /// Its name on the command line and in model files.
-    pub fn name(self) -> &'static str {
-        match self {
-            RecognizerKind::Universal => "universal",
-            RecognizerKind::Linear => "linear",
-        }
-    }
+    pub name: &'static str,
+    /// What it is, in one line.
+    pub summary: &'static str,
+    /// Its storage in the paper's Table 1 terms, with the second stage's: each object's own
+    /// eigenimages and mean (K (M L_k + M), every L_k equal) and manifold points (N_own L_k).
+    pub storage: &'static str,
+    /// Fits it on the training views of every object, given also row after row in one data set
+    /// (object 0's first); with `views_only` (the last argument) without reading their poses.
+    pub(crate) fit: fn(&ObjectSet, &Dataset, &RecognizerParams, bool) -> Result<Fitted>,
+    /// Reads it back from a model file's arrays.
+    pub(crate) load: LoadRecognizer,
+    /// What its fit allocates, for the memory plan ([`crate::memory`]): all objects' images
+    /// (N, the lattice points of one object), the number of objects and the parameters.
+    pub(crate) footprint: fn(&Sizes, usize, &RecognizerParams) -> Parts,
+}
 
-    /// The recogniser of that name.
-    pub fn from_name(name: &str) -> Result<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == name).ok_or_else(|| {
-            let names: Vec<&str> = Self::ALL.iter().map(|k| k.name()).collect();
+impl std::fmt::Debug for Recognizer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_tuple("Recognizer").field(&self.name).finish()
+    }
+}
+
+impl PartialEq for Recognizer {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
+    }
+}
+
+impl Recognizer {
+    /// The recogniser called `name`, or an error naming those there are.
+    pub fn from_name(name: &str) -> Result<&'static Recognizer> {
+        find(name).ok_or_else(|| {
+            let names: Vec<&str> = RECOGNIZERS.iter().map(|r| r.name).collect();
             Error::invalid("recognizer", name, format!("known recognisers: {}", names.join(", ")))
         })
     }
+}
 
-    /// Its storage in the paper's Table 1 terms: the universal eigenspace stores its L
-    /// eigenimages and mean (M L + M) and every object's manifold points (N_dense L); the linear
-    /// recogniser K coefficient images (M K); either, for the second stage, each object's own
-    /// eigenimages and mean (K (M L_k + M), every L_k equal) and manifold points (N_own L_k).
-    pub fn storage(self) -> &'static str {
-        match self {
-            RecognizerKind::Universal => "N_dense L + M L + M + K (M L_k + M) + N_own L_k",
-            RecognizerKind::Linear => "M K + K (M L_k + M) + N_own L_k",
-        }
+/// The recogniser called `name`.
+pub(crate) fn find(name: &str) -> Option<&'static Recognizer> {
+    RECOGNIZERS.iter().copied().find(|r| r.name == name)
+}
+
+/// A recogniser as fitted ([`Recognizer`]'s `fit`): the model, the dimensions of its eigenspace
+/// and the fraction of the training energy they hold (0 and 1 for a recogniser without one), and
+/// per object its training views' held-out distances (empty for an object too sparse to hold
+/// views out).
+pub(crate) struct Fitted {
+    pub(crate) model: Arc<dyn Recognize>,
+    pub(crate) components: usize,
+    pub(crate) energy_kept: f64,
+    pub(crate) held_out: Vec<Vec<f64>>,
+}
+
+/// A fitted recogniser: what an [`ObjectModel`] asks of it.
+pub(crate) trait Recognize: std::fmt::Debug + Send + Sync {
+    /// Each query's distance to each object into `out` (rows of K, one per object).
+    fn distances(&self, queries: &[f32], out: &mut [f64]);
+
+    /// Which object each of the `n` queries shows, with the objects' `thresholds`: by default the
+    /// nearest by [`Recognize::distances`]. An error names a query whose distances are not finite
+    /// (it cannot be scaled to unit energy).
+    fn recognize(&self, queries: &[f32], n: usize, thresholds: &[f64]) -> Result<Vec<Recognition>> {
+        let k = thresholds.len();
+        let d = checked_distances(self, queries, n, k)?;
+        Ok(d.chunks_exact(k).map(|d| Recognition::from_distances(d, thresholds)).collect())
+    }
+
+    /// Numbers it stores (f32).
+    fn stored_numbers(&self) -> usize;
+
+    /// Its own terms of the paper's Table 1 storage with their values (before M, K and the
+    /// second stage's, which every recogniser shares).
+    fn storage_terms(&self) -> Vec<(&'static str, usize)> {
+        Vec::new()
+    }
+
+    /// Its arrays for a model file (names start with `recognizer.`).
+    fn arrays(&self) -> Vec<Tensor>;
+}
+
+/// The distances of `n` queries to `k` objects ([`Recognize::distances`]); an error names the
+/// first query with a distance that is not finite.
+pub(crate) fn checked_distances<R: Recognize + ?Sized>(r: &R, queries: &[f32], n: usize, k: usize) -> Result<Vec<f64>> {
+    let mut out = vec![0.0; n * k];
+    r.distances(queries, &mut out);
+    if let Some(i) = out.chunks_exact(k).position(|d| d.iter().any(|v| !v.is_finite())) {
+        return Err(crate::model::unscalable_query(i));
+    }
+    Ok(out)
+}
+
+/// A recogniser by its name in JSON (model files, summaries).
+mod by_name {
+    use super::Recognizer;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(r: &&'static Recognizer, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(r.name)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<&'static Recognizer, D::Error> {
+        let name = String::deserialize(d)?;
+        Recognizer::from_name(&name).map_err(serde::de::Error::custom)
     }
 }
 
@@ -137,8 +226,9 @@ pub enum Unknown {
 /// Parameters of a recogniser.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RecognizerParams {
-    /// Which recogniser.
-    pub kind: RecognizerKind,
+    /// Which recogniser (default: the first of [`RECOGNIZERS`], the universal eigenspace).
+    #[serde(with = "by_name")]
+    pub kind: &'static Recognizer,
     /// Dimensions of the universal eigenspace (default 20, as Murase & Nayar; capped at N - 1).
     pub components: usize,
     /// The manifolds' resampling step in the universal eigenspace (degrees, default 0.5). With
@@ -151,13 +241,13 @@ pub struct RecognizerParams {
 
 impl Default for RecognizerParams {
     fn default() -> Self {
-        RecognizerParams { kind: RecognizerKind::Universal, components: 20, manifold_step: 0.5, unknown: Unknown::Calibrated }
+        RecognizerParams { kind: RECOGNIZERS[0], components: 20, manifold_step: 0.5, unknown: Unknown::Calibrated }
     }
 }
 
 impl RecognizerParams {
     /// The recogniser `kind` with the other parameters' defaults.
-    pub fn new(kind: RecognizerKind) -> Self {
+    pub fn new(kind: &'static Recognizer) -> Self {
         RecognizerParams { kind, ..Self::default() }
     }
 

@@ -3,10 +3,8 @@
 //! objects' names; optionally behind one normalisation stage ([`crate::normalize`]) fitted on
 //! every object's training views, as Murase & Nayar segment and normalise before recognising.
 
-use super::linear::LinearRecognizer;
 use super::own::OwnSpaces;
-use super::universal::Universal;
-use super::{Recognition, RecognizerKind, RecognizerParams, Unknown};
+use super::{checked_distances, Recognition, Recognize, Recognizer, RecognizerParams, Unknown};
 use crate::catalog::ObjectSet;
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
@@ -18,13 +16,7 @@ use crate::{Error, Result};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
-
-/// A fitted recogniser.
-#[derive(Debug, Clone)]
-enum Recognizer {
-    Universal(Box<Universal>),
-    Linear(LinearRecognizer),
-}
+use std::sync::Arc;
 
 /// What an [`ObjectModel`] records about its recogniser: the parameters as given, what they
 /// resolved to, and what calibrated the thresholds.
@@ -99,7 +91,7 @@ pub struct ObjectModel {
     spec: ImageSpec,
     /// The pose parameters (`None`: fitted without poses, [`ObjectModel::fit_views`]).
     space: Option<PoseSpace>,
-    recognizer: Recognizer,
+    recognizer: Arc<dyn Recognize>,
     /// The second stage (`None` for a model file written before it).
     own: OwnSpaces,
     settings: ObjectSettings,
@@ -201,7 +193,7 @@ impl ObjectModel {
 
     /// The model of `objects` with its recogniser, second stage and settings, and `poses`; no
     /// normalisation stage.
-    fn fitted(objects: &ObjectSet, (recognizer, own, settings): (Recognizer, OwnSpaces, ObjectSettings), poses: Vec<AnyModel>) -> Self {
+    fn fitted(objects: &ObjectSet, (recognizer, own, settings): (Arc<dyn Recognize>, OwnSpaces, ObjectSettings), poses: Vec<AnyModel>) -> Self {
         ObjectModel {
             names: objects.names().to_vec(),
             spec: objects.spec(),
@@ -236,7 +228,7 @@ impl ObjectModel {
     }
 
     /// As [`ObjectModel::fit_with`], behind the normalisation `rule` decides: fixed, or chosen
-    /// on the objects' held-out training views ([`crate::stage_choice`]: every object's pose
+    /// on the objects' held-out training views ([`crate::MethodSpec::fit_with_stage`]: every object's pose
     /// model fitted without its held-out views, their errors pooled over the objects, for each of
     /// off, brightness, geometry and all behind one stage fitted on every object's views). The
     /// settings record the decision ([`ObjectSettings::stage_choice`]).
@@ -313,19 +305,10 @@ impl ObjectModel {
 
     /// The recogniser, the objects' own eigenspaces (the second stage) and their calibration.
     /// With `views_only`, each object's manifolds are its views' points ([`ObjectModel::fit_views`]).
-    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<(Recognizer, OwnSpaces, ObjectSettings)> {
+    fn fit_recognizer(objects: &ObjectSet, params: &RecognizerParams, views_only: bool) -> Result<(Arc<dyn Recognize>, OwnSpaces, ObjectSettings)> {
         let all = concatenate(objects)?;
-        let (recognizer, components, energy_kept, held_out) = match params.kind {
-            RecognizerKind::Universal => {
-                let fit = Universal::fit(objects, &all, params, views_only)?;
-                let l = fit.model.components();
-                (Recognizer::Universal(Box::new(fit.model)), l, fit.energy_kept, fit.held_out)
-            }
-            RecognizerKind::Linear => {
-                let (model, held_out) = LinearRecognizer::fit(objects, &all, views_only)?;
-                (Recognizer::Linear(model), 0, 1.0, held_out)
-            }
-        };
+        let fitted = (params.kind.fit)(objects, &all, params, views_only)?;
+        let (recognizer, components, energy_kept, held_out) = (fitted.model, fitted.components, fitted.energy_kept, fitted.held_out);
         drop(all);
         let own = OwnSpaces::fit(objects, params, views_only)?;
         let (held_out_max, held_out_median) = calibration(held_out);
@@ -384,7 +367,7 @@ impl ObjectModel {
     }
 
     /// The recogniser.
-    pub fn kind(&self) -> RecognizerKind {
+    pub fn kind(&self) -> &'static Recognizer {
         self.settings.params.kind
     }
 
@@ -423,17 +406,7 @@ impl ObjectModel {
 
     /// [`ObjectModel::distances`] of queries already prepared.
     fn distances_of(&self, queries: &[f32]) -> Result<Vec<f64>> {
-        let m = self.spec.features();
-        let n = queries.len() / m;
-        let mut out = vec![0.0; n * self.names.len()];
-        match &self.recognizer {
-            Recognizer::Universal(u) => u.distances(queries, &mut out),
-            Recognizer::Linear(l) => l.distances(queries, &mut out),
-        }
-        if let Some(i) = out.chunks_exact(self.names.len()).position(|d| d.iter().any(|v| !v.is_finite())) {
-            return Err(crate::model::unscalable_query(i));
-        }
-        Ok(out)
+        checked_distances(&*self.recognizer, queries, queries.len() / self.spec.features(), self.names.len())
     }
 
     /// Which object each query shows.
@@ -443,21 +416,7 @@ impl ObjectModel {
 
     /// [`ObjectModel::recognize`] of queries already prepared.
     fn recognize_of(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
-        let mut rec: Vec<Recognition> = match &self.recognizer {
-            Recognizer::Linear(_) => {
-                let d = self.distances_of(queries)?;
-                d.chunks_exact(self.names.len()).map(|d| Recognition::from_distances(d, &self.settings.thresholds)).collect()
-            }
-            Recognizer::Universal(u) => {
-                let m = self.spec.features();
-                let mut near = vec![(0, 0.0, 0.0); queries.len() / m];
-                u.nearest_two(queries, &mut near);
-                if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
-                    return Err(crate::model::unscalable_query(i));
-                }
-                near.into_iter().map(|(k, d1, d2)| Recognition::from_nearest(k, d1, d2, &self.settings.thresholds)).collect()
-            }
-        };
+        let mut rec = self.recognizer.recognize(queries, queries.len() / self.spec.features(), &self.settings.thresholds)?;
         self.check_own(queries, &mut rec);
         Ok(rec)
     }
@@ -559,10 +518,7 @@ impl ObjectModel {
 
     /// Bytes of the recogniser's numbers (f32).
     pub fn recognizer_bytes(&self) -> usize {
-        4 * (match &self.recognizer {
-            Recognizer::Universal(u) => u.numbers(),
-            Recognizer::Linear(l) => l.numbers(),
-        } + self.own_numbers())
+        4 * (self.recognizer.stored_numbers() + self.own_numbers())
     }
 
     /// Numbers the second stage stores.
@@ -570,25 +526,18 @@ impl ObjectModel {
         self.own.numbers()
     }
 
-    /// The recogniser's storage in the paper's Table 1 terms ([`RecognizerKind::storage`]).
+    /// The recogniser's storage in the paper's Table 1 terms ([`Recognizer::storage`]).
     pub fn recognizer_storage(&self) -> Storage {
         let (m, k) = (self.spec.features(), self.names.len());
         let (n_own, l_own) = (self.own.manifold_len(), self.own.max_components());
-        match &self.recognizer {
-            Recognizer::Universal(u) => {
-                let (n, l) = (u.manifold_len(), u.components());
-                Storage::new(&[("N_dense", n), ("L", l), ("M", m), ("K", k), ("N_own", n_own), ("L_k", l_own)], u.numbers() + self.own_numbers())
-            }
-            Recognizer::Linear(l) => Storage::new(&[("M", m), ("K", k), ("N_own", n_own), ("L_k", l_own)], l.numbers() + self.own_numbers()),
-        }
+        let mut terms = self.recognizer.storage_terms();
+        terms.extend([("M", m), ("K", k), ("N_own", n_own), ("L_k", l_own)]);
+        Storage::new(&terms, self.recognizer.stored_numbers() + self.own_numbers())
     }
 
     /// The recogniser's arrays for a model file (names start with `recognizer.`).
     pub(crate) fn recognizer_tensors(&self) -> Vec<Tensor> {
-        let mut t = match &self.recognizer {
-            Recognizer::Universal(u) => u.tensors("recognizer."),
-            Recognizer::Linear(l) => l.tensors(),
-        };
+        let mut t = self.recognizer.arrays();
         t.extend(self.own.tensors());
         t
     }
@@ -636,15 +585,7 @@ impl ObjectModel {
         if let Some(st) = &stage {
             st.check_spec(&spec).map_err(damaged)?;
         }
-        let recognizer = match settings.params.kind {
-            RecognizerKind::Universal => {
-                if settings.components == 0 {
-                    return Err(damaged("a universal eigenspace of 0 dimensions".into()));
-                }
-                Recognizer::Universal(Box::new(Universal::from_parts(t, "recognizer.", k, spec.features(), settings.components)?))
-            }
-            RecognizerKind::Linear => Recognizer::Linear(LinearRecognizer::from_parts(t, k, spec.features())?),
-        };
+        let recognizer = (settings.params.kind.load)(t, k, spec.features(), settings.components)?;
         let o = &settings.own;
         for v in [&o.held_out_max, &o.held_out_median, &o.thresholds] {
             if v.len() != k || v.iter().any(|x| x.is_nan() || *x < 0.0) {

@@ -27,8 +27,8 @@ fn parameters_are_checked_and_named() {
     assert!(e.contains("manifold step"), "{e}");
     let e = RecognizerParams::default().unknown(Unknown::Threshold(f64::NAN)).validate().unwrap_err().to_string();
     assert!(e.contains("unknown threshold"), "{e}");
-    assert_eq!(RecognizerKind::from_name("linear").unwrap(), RecognizerKind::Linear);
-    let e = RecognizerKind::from_name("svm").unwrap_err().to_string();
+    assert!(std::ptr::eq(Recognizer::from_name("linear").unwrap(), &linear::RECOGNIZER));
+    let e = Recognizer::from_name("svm").unwrap_err().to_string();
     assert!(e.contains("universal, linear"), "{e}");
 }
 
@@ -153,6 +153,19 @@ fn objects_of_three_pose_parameters_are_recognised_with_their_poses() {
     }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("objects.safetensors");
-    crate::model_file::save_objects(&model, &path).unwrap();
-    assert_eq!(crate::model_file::load_objects(&path).unwrap().estimate(&queries, 2).unwrap(), est);
+    model.save(&path).unwrap();
+    assert_eq!(ObjectModel::load(&path).unwrap().estimate(&queries, 2).unwrap(), est);
+}
+
+#[test]
+fn recognisers_are_listed_once_each() {
+    for (i, r) in RECOGNIZERS.iter().enumerate() {
+        assert!(RECOGNIZERS[..i].iter().all(|o| o.name != r.name), "{} twice", r.name);
+        assert!(std::ptr::eq(find(r.name).unwrap(), *r));
+        // Parameters name their recogniser by its name, and read it back.
+        let p = RecognizerParams::new(r);
+        let back: RecognizerParams = serde_json::from_str(&serde_json::to_string(&p).unwrap()).unwrap();
+        assert!(std::ptr::eq(back.kind, *r));
+    }
+    assert!(serde_json::from_str::<RecognizerParams>(&serde_json::to_string(&RecognizerParams::default()).unwrap().replace("universal", "svm")).is_err());
 }

@@ -12,7 +12,8 @@
 //! from the object's other knots, at its own pose (every other knot held out along each axis,
 //! then the others: `manifold::folds::both_folds`), what calibrates the unknown-object threshold.
 
-use super::RecognizerParams;
+use super::tuning::{GROUP, NEIGHBOUR, PREFIX, SEGMENT};
+use super::{Fitted, Recognition, Recognize, Recognizer, RecognizerParams};
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;
 use crate::kernels::{dispatch, Level};
@@ -22,10 +23,45 @@ use crate::manifold::grid::{Grid, Manifold};
 use crate::manifold::pca::{self, Dimension};
 use crate::manifold::projector::{unit_coords, Projector};
 use crate::manifold::surface::Surface;
+use crate::manifold::tuning::{EVD_SYSTEM_BYTES, MANIFOLD_VALUE_BYTES};
 use crate::manifold::Interpolant;
+use crate::model::footprint::{system, Parts, Sizes};
 use crate::model::{Tensor, TensorSet};
 use crate::{Error, Result};
 use rayon::prelude::*;
+use std::sync::Arc;
+
+/// The universal eigenspace in the recogniser registry.
+pub(crate) static RECOGNIZER: Recognizer = Recognizer {
+    name: "universal",
+    summary: "Murase & Nayar's universal eigenspace of every object's training views, the nearest object manifold",
+    storage: "N_dense L + M L + M + K (M L_k + M) + N_own L_k",
+    fit: |objects, all, params, views_only| {
+        let fit = Universal::fit(objects, all, params, views_only)?;
+        let components = fit.model.components();
+        Ok(Fitted { model: Arc::new(fit.model), components, energy_kept: fit.energy_kept, held_out: fit.held_out })
+    },
+    load: |t, objects, m, components| {
+        if components == 0 {
+            return Err(t.error("damaged object model: a universal eigenspace of 0 dimensions"));
+        }
+        Ok(Arc::new(Universal::from_parts(t, "recognizer.", objects, m, components)?))
+    },
+    footprint,
+};
+
+/// What fitting allocates, for the memory plan; bytes, with N images of all objects, M features,
+/// L dimensions and P points of each object's manifold: a concatenated f64 transposed copy of
+/// the images (8 N M), the PCA's Gram matrix and eigendecomposition (36 N^2) and the eigenspace
+/// with every object's manifold (16 M L + 24 P L per object).
+fn footprint(s: &Sizes, objects: usize, params: &RecognizerParams) -> Parts {
+    let (t, m) = (s.n as f64, s.m as f64);
+    let l = params.components.min(s.n.saturating_sub(1)).min(s.m).max(1) as f64;
+    Parts::default()
+        .add(8.0 * t * m, "the images' f64 transposed copy")
+        .add(system(t, EVD_SYSTEM_BYTES), format!("N x N Gram of all {} images and its eigendecomposition", s.n))
+        .add(16.0 * m * l + MANIFOLD_VALUE_BYTES * (s.lattice * objects) as f64 * l, "the universal eigenspace")
+}
 
 /// A fitted universal eigenspace with every object's manifold in it.
 #[derive(Debug, Clone)]
@@ -59,23 +95,6 @@ pub(crate) struct Universal {
     group_centres: Vec<f32>,
     group_radii: Vec<f64>,
 }
-
-/// Manifold points per segment of the pruned search: 16 points 0.5 degrees apart are an
-/// 8-degree arc, short enough for a tight sphere. Not tuned: the answer is exact whatever its
-/// value; only the speed depends on it.
-const SEGMENT: usize = 16;
-
-/// Coordinates of a query computed first when its distance to one object's manifold only
-/// matters under a bound ([`Universal::own_distances_under`]): with the first q coordinates y' and
-/// the energy R^2 left past them, a point p of a segment of centre c and radius r lies at least
-/// sqrt((||y' - c'|| - r)^2 + (R - ||p''||)^2) away, p'' its coordinates past q. Not tuned: the
-/// answer is exact whatever its value; only the speed depends on it.
-const PREFIX: usize = 4;
-
-/// Segments per group of the pruned search's first level (256 points): a query's bounds are
-/// computed for every group, then for the segments of the groups within reach. Not tuned, as
-/// [`SEGMENT`].
-const GROUP: usize = 16;
 
 /// A search's working space, reused from query to query.
 #[derive(Default)]
@@ -486,6 +505,36 @@ impl Universal {
     }
 }
 
+/// The universal eigenspace as a recogniser (its inherent methods do the work: its own
+/// eigenspaces, [`super::own`], use them too).
+impl Recognize for Universal {
+    fn distances(&self, queries: &[f32], out: &mut [f64]) {
+        Universal::distances(self, queries, out)
+    }
+
+    /// The nearest two objects by [`Universal::nearest_two`]'s search, not every distance.
+    fn recognize(&self, queries: &[f32], n: usize, thresholds: &[f64]) -> Result<Vec<Recognition>> {
+        let mut near = vec![(0, 0.0, 0.0); n];
+        self.nearest_two(queries, &mut near);
+        if let Some(i) = near.iter().position(|n| !n.1.is_finite()) {
+            return Err(crate::model::unscalable_query(i));
+        }
+        Ok(near.into_iter().map(|(k, d1, d2)| Recognition::from_nearest(k, d1, d2, thresholds)).collect())
+    }
+
+    fn stored_numbers(&self) -> usize {
+        self.numbers()
+    }
+
+    fn storage_terms(&self) -> Vec<(&'static str, usize)> {
+        vec![("N_dense", self.manifold_len()), ("L", self.components())]
+    }
+
+    fn arrays(&self) -> Vec<Tensor> {
+        self.tensors("recognizer.")
+    }
+}
+
 /// The least and largest norm of the rows of `l` coordinates in `rows`, each from coordinate
 /// `from` on.
 fn norm_range(rows: &[f32], l: usize, from: usize) -> (f64, f64) {
@@ -564,20 +613,6 @@ pub(crate) fn nearest_other(coords: &[f64], l: usize, residuals: Option<&[f64]>)
         })
         .collect()
 }
-
-/// Which nearest other view calibrates a model fitted without poses ([`nearest_other`]): the
-/// second, that is, each view is held out together with its nearest other view (the linear
-/// recogniser holds the same views out: `linear.rs`). A view held out of views sampled along a
-/// turntable has two neighbours about one step away, one on each side, while a fresh view between
-/// two training views lies about half a step from the nearer: the nearest and the second nearest
-/// both measure the step. But a view can have a near-duplicate among the others (the `twin`'s
-/// back looks like its front; a view listed twice), and then the nearest measures nothing: held
-/// out alone, every unseen view of the rendered `twin` (5 built-in objects at elevation 40,
-/// trained every 10 degrees, views 5 degrees off) was reported unknown, 36 of its 36. Held out
-/// with its nearest, one duplicate per view is survived; more repeats than that (an object of
-/// three identical sides) would call for a larger value. Not tuned on figures: the smallest value
-/// the twin's one duplicate per view requires.
-pub(crate) const NEIGHBOUR: usize = 2;
 
 /// Each training view's distance to its object's manifold interpolated from the other knots (the
 /// same splines), at the view's own pose, over both folds of every axis with enough knots; empty

@@ -88,6 +88,12 @@ impl Grid {
     pub fn values(&self) -> Vec<f64> {
         (0..self.count).map(|i| self.value(i)).collect()
     }
+
+    /// Whether the grid goes round a whole turn: one more step after its last value would reach
+    /// 360 degrees past its first (`0:354:6`, `0:350:10`; not `-30:30:10`, nor a single value).
+    pub(crate) fn covers_turn(&self) -> bool {
+        self.count as i128 * self.step as i128 >= 360 * 10i128.pow(self.decimals)
+    }
 }
 
 impl fmt::Display for Grid {
@@ -148,6 +154,17 @@ mod tests {
         assert_eq!(Grid::parse("elevation", "45").unwrap().values(), vec![45.0]);
         // STOP need not be on the grid: the last value is the last one not past it.
         assert_eq!(Grid::parse("azimuth", "0:10:3").unwrap().values(), vec![0.0, 3.0, 6.0, 9.0]);
+    }
+
+    #[test]
+    fn a_grid_covers_a_turn_when_one_more_step_closes_it() {
+        let covers = |spec: &str| Grid::parse("roll", spec).unwrap().covers_turn();
+        for spec in ["0:354:6", "0:350:10", "0:359:1", "0:359.9:0.1", "-180:179.5:0.5", "0:720:10"] {
+            assert!(covers(spec), "{spec}");
+        }
+        for spec in ["-30:30:10", "0:349:10", "0:359.8:0.1", "90", "0:180:10"] {
+            assert!(!covers(spec), "{spec}");
+        }
     }
 
     #[test]

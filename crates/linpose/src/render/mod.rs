@@ -4,8 +4,11 @@
 //! The object stands on a turntable that turns it by the azimuth e about the vertical (z) axis; a
 //! camera at elevation alpha above the turntable plane looks at its centre. In the object's own
 //! frame the camera then lies in the direction u = (cos alpha cos e, cos alpha sin e, sin alpha)
-//! of docs/method.md (the turntable turns clockwise seen from above). The light is fixed in the world:
-//! it does not turn with the object. Shading is Lambertian with an ambient term and an optional
+//! of docs/method.md (the turntable turns clockwise seen from above). The camera may also be
+//! rolled about its optical axis ([`Camera::roll`]), which turns the image and nothing else. The
+//! light is fixed in the world: it does not turn with the object; its azimuth ([`Light::azimuth_deg`])
+//! moves it around the turntable's vertical axis, which changes the shading and nothing else (a
+//! data set can step through it, `synth --light`). Shading is Lambertian with an ambient term and an optional
 //! Blinn-Phong highlight; the image is 8-bit gray on a black background. A camera offset moves
 //! the object in the frame and an exposure scales its brightness; [`jitter`] draws both, with a
 //! scale, per view, as a camera in a cell would see the views a turntable registers.
@@ -33,6 +36,7 @@ mod params;
 pub mod random;
 mod raster;
 pub mod synth;
+mod tuning;
 
 pub use grid::Grid;
 pub use jitter::{Jitter, ViewJitter};
@@ -98,9 +102,15 @@ impl Renderer {
 
         let (se, ce) = sin_cos_deg(azimuth_deg);
         let (sa, ca) = sin_cos_deg(elevation_deg);
-        // Camera frame in the world: towards the camera c, image up, image right = (0, 1, 0).
+        let (sr, cr) = sin_cos_deg(p.get_camera().get_roll());
+        // Camera frame in the world: towards the camera c; image up and image right, which
+        // without roll are (-sin alpha, 0, cos alpha) and (0, 1, 0), turned by the roll about c
+        // (up' = cos r up + sin r right, right' = cos r right - sin r up), so the image turns
+        // counter-clockwise. At roll 0 (sin 0 = 0 and cos 0 = 1 exactly) they are the unrolled
+        // vectors bit for bit.
         let c = [ca, 0.0, sa];
-        let up = [-sa, 0.0, ca];
+        let up = [-sa * cr, sr, ca * cr];
+        let right = [sa * sr, cr, -ca * sr];
         // Object to world: the turntable's rotation Rz(-e).
         let turn = |v: [f64; 3]| [ce * v[0] + se * v[1], ce * v[1] - se * v[0], v[2]];
         // Sample units per unit of the normalised (unit-sphere) object.
@@ -122,7 +132,7 @@ impl Renderer {
             let q = [(pos[0] - centre[0]) / radius, (pos[1] - centre[1]) / radius, (pos[2] - centre[2]) / radius];
             let wp = turn(q);
             let normal = turn(n);
-            let (xc, yc, zc) = (wp[1], mesh::dot(wp, up), mesh::dot(wp, c));
+            let (xc, yc, zc) = (mesh::dot(wp, right), mesh::dot(wp, up), mesh::dot(wp, c));
             let (x, y, facing) = match perspective {
                 None => (cx + scale * xc, cy - scale * yc, mesh::dot(normal, c)),
                 Some((d, f)) => {

@@ -18,17 +18,18 @@ pub enum Projection {
     },
 }
 
-/// The camera: its projection and how much of the frame the object takes.
+/// The camera: its projection, how much of the frame the object takes, and its roll.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Camera {
     projection: Projection,
     fill: f64,
     offset: [f64; 2],
+    roll: f64,
 }
 
 impl Default for Camera {
     fn default() -> Self {
-        Camera { projection: Projection::Orthographic, fill: 0.85, offset: [0.0, 0.0] }
+        Camera { projection: Projection::Orthographic, fill: 0.85, offset: [0.0, 0.0], roll: 0.0 }
     }
 }
 
@@ -61,6 +62,22 @@ impl Camera {
     pub fn offset(mut self, dx: f64, dy: f64) -> Self {
         self.offset = [dx, dy];
         self
+    }
+
+    /// Turns the camera by `deg` degrees about its optical axis (default 0): the object's image
+    /// turns by `deg` counter-clockwise about the image's centre, as a camera tilted sideways
+    /// sees it. The view is rendered with the turned camera (not an image turned afterwards), so
+    /// the framing holds at every roll: the object's bounding sphere stays in the frame, and the
+    /// corners show the background like the rest of the image. Shading does not change: the
+    /// camera turns about the line it looks along, so it sees the same lit surface.
+    pub fn roll(mut self, deg: f64) -> Self {
+        self.roll = deg;
+        self
+    }
+
+    /// The roll, degrees.
+    pub fn get_roll(&self) -> f64 {
+        self.roll
     }
 
     /// The image offset in pixels (right, down).
@@ -264,6 +281,9 @@ impl RenderParams {
         }
         if !(0.0..=1.0).contains(&self.background) {
             return Err(Error::invalid("background", self.background, "must be a brightness in [0, 1]"));
+        }
+        if !c.roll.is_finite() {
+            return Err(Error::invalid("roll", c.roll, "must be a finite number of degrees"));
         }
         if let Projection::Perspective { distance } = c.projection {
             if !(distance.is_finite() && distance >= 1.5) {

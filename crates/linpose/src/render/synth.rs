@@ -2,10 +2,12 @@
 //! the directory format (`OUT/poses.csv`, `OUT/dataset.toml` and PNG images beside them).
 //!
 //! Writing streams: images are rendered and encoded in parallel a chunk at a time and go straight
-//! to disk, so a data set of any size needs only a chunk's worth of memory. Nothing half-written
+//! to disk, and `poses.csv` and `jitter.csv` are written row by row, so a data set of any size (up
+//! to [`MAX_IMAGES`] views) needs only a chunk's worth of memory. Nothing half-written
 //! is ever left at OUT: everything is written into a temporary folder beside it, which is renamed
 //! to OUT once complete (and removed on error). OUT must not exist yet or be an empty folder.
 
+use super::tuning::CHUNK;
 use super::{Grid, Jitter, Mesh, RenderParams, Renderer};
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
@@ -16,39 +18,70 @@ use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use image::{ExtendedColorType, ImageEncoder};
 use rayon::prelude::*;
 use std::fs;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Most images one data set may have (the manifest's row limit).
 pub const MAX_IMAGES: usize = crate::manifest::MAX_ROWS;
-/// Images rendered and written per parallel chunk.
-const CHUNK: usize = 256;
 
-/// The poses of a data set: every elevation, and for each every azimuth (elevation-major), with
-/// their image names.
+/// The poses of a data set: the product of a grid of elevations, one of azimuths and, when given,
+/// one of rolls and one of light azimuths, in that order (elevation-major: the last parameter
+/// varies fastest), with their image names.
+///
+/// The poses' columns are `elevation`, `azimuth`, then `roll` and `light` when the grid has them.
+/// Roll turns the camera about its optical axis ([`super::Camera::roll`]); light is the world
+/// azimuth of the light ([`super::Light::azimuth_deg`]), its elevation and strength staying those
+/// of the render parameters.
 #[derive(Debug, Clone)]
 pub struct PoseGrid {
     elevation: Grid,
     azimuth: Grid,
+    roll: Option<Grid>,
+    light: Option<Grid>,
     jitter: Option<Jitter>,
 }
 
 impl PoseGrid {
     /// The product of two grids; refuses more than [`MAX_IMAGES`] poses.
     pub fn new(elevation: Grid, azimuth: Grid) -> Result<Self> {
-        let n = elevation.len() as u64 * azimuth.len() as u64;
-        if n > MAX_IMAGES as u64 {
-            return Err(Error::invalid(
-                "grid",
-                format!("{} elevations x {} azimuths", elevation.len(), azimuth.len()),
-                format!("{n} images; at most {MAX_IMAGES} are allowed"),
-            ));
-        }
-        Ok(PoseGrid { elevation, azimuth, jitter: None })
+        PoseGrid { elevation, azimuth, roll: None, light: None, jitter: None }.checked()
     }
 
     /// The paper's 16 x 110 = 1760 poses.
     pub fn paper() -> Self {
-        PoseGrid { elevation: Grid::paper_elevation(), azimuth: Grid::paper_azimuth(), jitter: None }
+        PoseGrid { elevation: Grid::paper_elevation(), azimuth: Grid::paper_azimuth(), roll: None, light: None, jitter: None }
+    }
+
+    /// Every pose also at every roll of `roll` (degrees, the camera turned about its optical
+    /// axis): a `roll` column after `azimuth`. Refuses more than [`MAX_IMAGES`] poses in all.
+    pub fn with_roll(mut self, roll: Grid) -> Result<Self> {
+        self.roll = Some(roll);
+        self.checked()
+    }
+
+    /// Every pose also under every light azimuth of `light` (degrees, world azimuth of the light):
+    /// a `light` column after `azimuth` (and `roll`). Refuses more than [`MAX_IMAGES`] poses in all.
+    pub fn with_light(mut self, light: Grid) -> Result<Self> {
+        self.light = Some(light);
+        self.checked()
+    }
+
+    /// Refuses a product of more than [`MAX_IMAGES`] poses, naming each grid's size.
+    fn checked(self) -> Result<Self> {
+        let n: u128 = self.axes().iter().map(|(_, g)| g.len() as u128).product();
+        if n > MAX_IMAGES as u128 {
+            let sizes: Vec<String> = self.axes().iter().map(|(name, g)| format!("{} {name}s", g.len())).collect();
+            return Err(Error::invalid("grid", sizes.join(" x "), format!("{n} images; at most {MAX_IMAGES} are allowed")));
+        }
+        Ok(self)
+    }
+
+    /// The grids with their parameters' names, in the poses' column order.
+    fn axes(&self) -> Vec<(&'static str, &Grid)> {
+        let mut axes = vec![("elevation", &self.elevation), ("azimuth", &self.azimuth)];
+        axes.extend(self.roll.as_ref().map(|g| ("roll", g)));
+        axes.extend(self.light.as_ref().map(|g| ("light", g)));
+        axes
     }
 
     /// Every view jittered by `jitter` (its own draw each, [`Jitter::view`]); the data set then
@@ -64,29 +97,52 @@ impl PoseGrid {
         self.jitter.as_ref()
     }
 
-    /// The render parameters of view `i`: `params`, jittered when the grid is.
+    /// Whether views differ in more than their pose on the turntable (roll, light or jitter), so
+    /// that each needs its own render parameters ([`PoseGrid::params_of`]).
+    fn per_view_params(&self) -> bool {
+        self.roll.is_some() || self.light.is_some() || self.jitter.is_some()
+    }
+
+    /// The render parameters of view `i`: `params` with the view's roll and light azimuth when
+    /// the grid has them, jittered when the grid is.
     pub fn params_of(&self, i: usize, params: &RenderParams) -> Result<RenderParams> {
-        match &self.jitter {
-            Some(j) => j.view(i).apply(params),
-            None => Ok(params.clone()),
+        let mut p = match &self.jitter {
+            Some(j) => j.view(i).apply(params)?,
+            None => params.clone(),
+        };
+        let [_, _, r, l] = self.index(i);
+        if let Some(g) = &self.roll {
+            p = p.clone().camera(p.get_camera().clone().roll(g.value(r)));
         }
+        if let Some(g) = &self.light {
+            p = p.clone().light(p.get_light().clone().azimuth_deg(g.value(l)));
+        }
+        Ok(p)
     }
 
     /// `jitter.csv`: header `image,dx,dy,scale,exposure` (pixels right and down, factors), one row
     /// per view, values printed so they read back exactly; None when not jittered.
     pub fn jitter_csv(&self) -> Option<String> {
-        let j = self.jitter.as_ref()?;
-        let mut s = String::from("image,dx,dy,scale,exposure\n");
+        self.jitter.as_ref()?;
+        let mut s = Vec::new();
+        self.write_jitter_csv(&mut s).expect("writing to memory");
+        Some(String::from_utf8(s).expect("ASCII"))
+    }
+
+    /// Writes `jitter.csv` row by row (nothing when not jittered).
+    fn write_jitter_csv(&self, w: &mut impl Write) -> std::io::Result<()> {
+        let Some(j) = &self.jitter else { return Ok(()) };
+        w.write_all(b"image,dx,dy,scale,exposure\n")?;
         for i in 0..self.len() {
             let v = j.view(i);
-            s.push_str(&format!("{},{},{},{},{}\n", self.image_name(i), v.dx, v.dy, v.scale, v.exposure));
+            writeln!(w, "{},{},{},{},{}", self.image_name(i), v.dx, v.dy, v.scale, v.exposure)?;
         }
-        Some(s)
+        Ok(())
     }
 
     /// Number of poses.
     pub fn len(&self) -> usize {
-        self.elevation.len() * self.azimuth.len()
+        self.axes().iter().map(|(_, g)| g.len()).product()
     }
 
     /// Whether there is no pose.
@@ -94,41 +150,118 @@ impl PoseGrid {
         self.len() == 0
     }
 
+    /// The index of pose `i` in each grid: elevation, azimuth, roll, light (0 for a grid not given).
+    fn index(&self, i: usize) -> [usize; 4] {
+        let (nr, nl) = (self.roll.as_ref().map_or(1, Grid::len), self.light.as_ref().map_or(1, Grid::len));
+        let na = self.azimuth.len();
+        let (l, rest) = (i % nl, i / nl);
+        let (r, rest) = (rest % nr, rest / nr);
+        [rest / na, rest % na, r, l]
+    }
+
     /// (elevation, azimuth) of pose `i`, degrees.
     pub fn pose(&self, i: usize) -> (f64, f64) {
-        let na = self.azimuth.len();
-        (self.elevation.value(i / na), self.azimuth.value(i % na))
+        let [e, a, _, _] = self.index(i);
+        (self.elevation.value(e), self.azimuth.value(a))
     }
 
-    /// Image file name of pose `i`: `e032.0_a000.0.png`, with as many decimals as the grids have
-    /// (at least one), so names are distinct and sort by pose.
+    /// The names of the poses' columns: `elevation`, `azimuth`, then `roll` and `light` when the
+    /// grid has them.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.axes().iter().map(|(name, _)| *name).collect()
+    }
+
+    /// The values of pose `i` in the column order of [`PoseGrid::names`], degrees.
+    pub fn values(&self, i: usize) -> Vec<f64> {
+        let [e, a, r, l] = self.index(i);
+        let mut v = vec![self.elevation.value(e), self.azimuth.value(a)];
+        v.extend(self.roll.as_ref().map(|g| g.value(r)));
+        v.extend(self.light.as_ref().map(|g| g.value(l)));
+        v
+    }
+
+    /// Image file name of pose `i`: `e032.0_a000.0.png`, then `_r-30.0` and `_l045.0` before
+    /// `.png` when the grid has rolls and lights, with as many decimals as the grids have (at
+    /// least one), so names are distinct and sort by pose (among values of one sign).
     pub fn image_name(&self, i: usize) -> String {
-        let (e, a) = self.pose(i);
-        let (de, da) = (self.elevation.decimals().max(1) as usize, self.azimuth.decimals().max(1) as usize);
-        format!("e{e:0w1$.de$}_a{a:0w2$.da$}.png", w1 = de + 4, w2 = da + 4)
+        let [e, a, r, l] = self.index(i);
+        let mut name = String::new();
+        let mut part = |prefix: &str, g: &Grid, k: usize| {
+            let d = g.decimals().max(1) as usize;
+            name.push_str(&format!("{prefix}{:0w$.d$}", g.value(k), w = d + 4));
+        };
+        part("e", &self.elevation, e);
+        part("_a", &self.azimuth, a);
+        if let Some(g) = &self.roll {
+            part("_r", g, r);
+        }
+        if let Some(g) = &self.light {
+            part("_l", g, l);
+        }
+        name.push_str(".png");
+        name
     }
 
-    /// The manifest of the data set at `root`: parameters `elevation` (linear) and `azimuth`
-    /// (period 360).
+    /// The pose parameters: `elevation` linear, `azimuth` circular with period 360; `roll` and
+    /// `light` circular with period 360 when their grid goes round a whole turn
+    /// ([`Grid`]: one more step after the last value reaches 360 degrees past the first), linear
+    /// otherwise (a partial range is an interval: nothing joins its ends).
+    pub fn params(&self) -> Vec<Param> {
+        let turn = |name: &str, g: &Grid| if g.covers_turn() { Param::circular(name, 360.0) } else { Param::linear(name) };
+        let mut params = vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)];
+        params.extend(self.roll.as_ref().map(|g| turn("roll", g)));
+        params.extend(self.light.as_ref().map(|g| turn("light", g)));
+        params
+    }
+
+    /// The pose space of [`PoseGrid::params`].
+    pub fn space(&self) -> Result<PoseSpace> {
+        PoseSpace::new(self.params())
+    }
+
+    /// The manifest of the data set at `root`, its space [`PoseGrid::space`].
     pub fn manifest(&self, root: &Path) -> Result<Manifest> {
-        let space = PoseSpace::new(vec![Param::linear("elevation"), Param::circular("azimuth", 360.0)])?;
         let images = (0..self.len()).map(|i| self.image_name(i)).collect();
-        let poses = (0..self.len()).flat_map(|i| <[f64; 2]>::from(self.pose(i))).collect();
-        Manifest::new(root, space, images, poses)
+        let poses = (0..self.len()).flat_map(|i| self.values(i)).collect();
+        Manifest::new(root, self.space()?, images, poses)
     }
 
-    /// `poses.csv`: header `image,elevation,azimuth`, values printed so they read back exactly.
+    /// `poses.csv`: header `image,elevation,azimuth` (then `,roll`, `,light`), values printed so
+    /// they read back exactly.
     pub fn poses_csv(&self) -> String {
-        let mut s = String::from("image,elevation,azimuth\n");
+        let mut s = Vec::new();
+        self.write_poses_csv(&mut s).expect("writing to memory");
+        String::from_utf8(s).expect("ASCII")
+    }
+
+    /// Writes `poses.csv` row by row.
+    fn write_poses_csv(&self, w: &mut impl Write) -> std::io::Result<()> {
+        writeln!(w, "image,{}", self.names().join(","))?;
         for i in 0..self.len() {
-            let (e, a) = self.pose(i);
-            s.push_str(&format!("{},{e},{a}\n", self.image_name(i)));
+            w.write_all(self.image_name(i).as_bytes())?;
+            for v in self.values(i) {
+                write!(w, ",{v}")?;
+            }
+            w.write_all(b"\n")?;
+        }
+        Ok(())
+    }
+
+    /// `dataset.toml`: each parameter's period (`{ period = 360 }`) or `{ linear = true }`, as
+    /// [`PoseGrid::space`] has it; [`DATASET_TOML`] without roll or light.
+    pub fn dataset_toml(&self) -> String {
+        let mut s = String::from(DATASET_TOML);
+        for p in &self.params()[2..] {
+            match p.period {
+                Some(t) => s.push_str(&format!("{} = {{ period = {t} }}\n", p.name)),
+                None => s.push_str(&format!("{} = {{ linear = true }}\n", p.name)),
+            }
         }
         s
     }
 }
 
-/// `dataset.toml` of a synthetic data set.
+/// `dataset.toml` of a synthetic data set of elevation and azimuth.
 pub const DATASET_TOML: &str = "azimuth = { period = 360 }\nelevation = { linear = true }\n";
 
 /// Renders every pose of `grid` into memory: a [`Dataset`] whose features are the 8-bit pixels
@@ -160,7 +293,7 @@ pub fn render_u8(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, progress: 
         || Renderer::new(params).expect("validated"),
         |r, (i, out)| {
             let (e, a) = grid.pose(i);
-            if grid.jitter.is_some() {
+            if grid.per_view_params() {
                 r.set_params(&grid.params_of(i, params)?)?;
             }
             r.render_into(mesh, a, e, out)?;
@@ -238,7 +371,7 @@ fn fill(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, dir: &Path, progres
                 || (Renderer::new(params).expect("validated"), vec![0u8; w as usize * h as usize]),
                 |(r, pixels), i| {
                     let (e, a) = grid.pose(i);
-                    if grid.jitter.is_some() {
+                    if grid.per_view_params() {
                         r.set_params(&grid.params_of(i, params)?)?;
                     }
                     r.render_into(mesh, a, e, pixels)?;
@@ -253,9 +386,10 @@ fn fill(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, dir: &Path, progres
         // The first failure in pose order, so the error is the same on every run.
         results.into_iter().collect::<Result<Vec<()>>>()?;
     }
-    if let Some(csv) = grid.jitter_csv() {
-        crate::atomic::write_atomic(&dir.join("jitter.csv"), csv.as_bytes())?;
+    // The tables go to disk row by row: their memory does not grow with the number of views.
+    if grid.jitter.is_some() {
+        crate::atomic::write_atomic_with(&dir.join("jitter.csv"), |w| grid.write_jitter_csv(w))?;
     }
-    crate::atomic::write_atomic(&dir.join("dataset.toml"), DATASET_TOML.as_bytes())?;
-    crate::atomic::write_atomic(&dir.join("poses.csv"), grid.poses_csv().as_bytes())
+    crate::atomic::write_atomic(&dir.join("dataset.toml"), grid.dataset_toml().as_bytes())?;
+    crate::atomic::write_atomic_with(&dir.join("poses.csv"), |w| grid.write_poses_csv(w))
 }

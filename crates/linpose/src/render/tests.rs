@@ -223,3 +223,79 @@ fn jitter_is_drawn_per_view_from_its_seed_within_its_bounds() {
     assert!(Jitter { scale: 0.2, ..j }.fits(&small()).unwrap_err().to_string().contains("fill"));
     assert!(j.fits(&small()).is_ok());
 }
+
+fn rolled(p: &RenderParams, deg: f64) -> RenderParams {
+    p.clone().camera(p.get_camera().clone().roll(deg))
+}
+
+#[test]
+fn roll_0_is_no_roll_and_a_whole_turn_of_roll_is_none_bit_for_bit() {
+    let m = duck();
+    for p in [small(), small().camera(Camera::perspective())] {
+        let base = render(&m, 40.0, 50.0, &p).unwrap();
+        assert_eq!(base, render(&m, 40.0, 50.0, &rolled(&p, 0.0)).unwrap());
+        assert_eq!(base, render(&m, 40.0, 50.0, &rolled(&p, 360.0)).unwrap());
+        assert_eq!(render(&m, 40.0, 50.0, &rolled(&p, 30.0)).unwrap(), render(&m, 40.0, 50.0, &rolled(&p, -330.0)).unwrap());
+        assert_ne!(base, render(&m, 40.0, 50.0, &rolled(&p, 30.0)).unwrap());
+    }
+    assert!(rolled(&small(), f64::INFINITY).validate().unwrap_err().to_string().contains("roll"));
+}
+
+#[test]
+fn a_quarter_roll_turns_a_square_image_a_quarter_turn_counter_clockwise() {
+    use image::imageops::{rotate180, rotate270, rotate90};
+    // A roll of 90 degrees maps the sample grid of a square image onto itself, so the rolled view
+    // is the unrolled one turned, up to the rounding of where vertices land: samples on a
+    // silhouette edge may flip (see the module doc for the tolerance; when this test was written
+    // none did).
+    let square = RenderParams::default().width(64).height(64);
+    let pot = objects::builtin("pot").unwrap();
+    for (m, a, e, p) in [(&duck(), 40.0, 50.0, square.clone()), (&pot, 200.0, 35.0, square.clone().camera(Camera::perspective()))] {
+        let base = render(m, a, e, &p).unwrap();
+        for (roll, turned) in [(90.0, rotate270(&base)), (180.0, rotate180(&base)), (-90.0, rotate90(&base))] {
+            let (n, max) = diff(&render(m, a, e, &rolled(&p, roll)).unwrap(), &turned, 1);
+            eprintln!("roll {roll}: {n} pixels differ from the turned image by more than 1 level (by up to {max})");
+            assert!(n <= 4 && max <= 64, "roll {roll}: {n} pixels differ by more than 1 level, by up to {max}");
+        }
+        // The test tells the directions apart: clockwise is far off.
+        let (n, _) = diff(&render(m, a, e, &rolled(&p, 90.0)).unwrap(), &rotate90(&base), 1);
+        assert!(n > 200, "a clockwise quarter turn differs in only {n} pixels");
+    }
+}
+
+#[test]
+fn any_roll_keeps_the_object_in_the_frame() {
+    // The bounding sphere is a disc about the image's centre, whatever the roll: the object
+    // covers about the same area and never reaches the border, and the corners are background.
+    let m = objects::builtin("column").unwrap();
+    let p = small();
+    let on = |g: &GrayImage| g.as_raw().iter().filter(|&&v| v > 0).count() as f64;
+    let base = on(&render(&m, 20.0, 40.0, &p).unwrap());
+    for roll in [30.0, 45.0, 90.0, 135.0, -60.0] {
+        let g = render(&m, 20.0, 40.0, &rolled(&p, roll)).unwrap();
+        let (w, h) = g.dimensions();
+        let border = (0..w).any(|x| g.get_pixel(x, 0)[0] > 0 || g.get_pixel(x, h - 1)[0] > 0)
+            || (0..h).any(|y| g.get_pixel(0, y)[0] > 0 || g.get_pixel(w - 1, y)[0] > 0);
+        assert!(!border, "roll {roll}: the object touches the border");
+        assert!((on(&g) / base - 1.0).abs() < 0.1, "roll {roll}: {} pixels against {base}", on(&g));
+    }
+}
+
+#[test]
+fn the_light_changes_the_shading_but_not_the_silhouette() {
+    // The pot's darkest albedo (0.25) under the ambient light alone (0.3) keeps even a pixel a
+    // quarter covered above 0, so the non-black pixels are the silhouette under every light.
+    let m = objects::builtin("pot").unwrap();
+    let mask = |g: &GrayImage| g.as_raw().iter().map(|&v| v > 0).collect::<Vec<bool>>();
+    for (a, e) in [(30.0, 45.0), (250.0, 70.0)] {
+        let base = render(&m, a, e, &small()).unwrap();
+        let object = mask(&base).iter().filter(|&&b| b).count();
+        assert_eq!(base, render(&m, a, e, &small().light(Light::default().azimuth_deg(35.0))).unwrap(), "35 is the default light");
+        for l in [0.0, 90.0, 180.0, 270.0] {
+            let lit = render(&m, a, e, &small().light(Light::default().azimuth_deg(l))).unwrap();
+            assert_eq!(mask(&lit), mask(&base), "light at {l}: the silhouette changed");
+            let (changed, _) = diff(&lit, &base, 8);
+            assert!(changed * 5 > object, "light at {l}: only {changed} of {object} pixels change by more than 8 levels");
+        }
+    }
+}

@@ -51,30 +51,34 @@ use crate::Result;
 use rayon::prelude::*;
 use tuning::{MARGIN, NOISE_LEVELS, NOISE_SEED, REFUSED_DEG};
 
-/// Fits `spec` on `train` behind the normalisation `rule` decides; the model's metadata records
-/// the decision ([`crate::ModelMeta::stage_choice`]).
-pub fn fit(spec: &MethodSpec, train: &Dataset, rule: StageRule) -> Result<AnyModel> {
-    let choice = match rule {
-        StageRule::Fixed(p) => StageChoice::fixed(p),
-        StageRule::Auto => choose(spec, train)?,
-    };
-    fit_chosen(spec, train, choice)
-}
-
-/// Fits `spec` on `train` behind the normalisation `choice` made, and records it.
-pub fn fit_chosen(spec: &MethodSpec, train: &Dataset, choice: StageChoice) -> Result<AnyModel> {
-    let params = choice.params();
-    if !params.is_on() {
-        return Ok(AnyModel::new(Normalized::recorded(None, spec.fit(train)?, Some(choice))));
+impl MethodSpec {
+    /// Fits on `train` behind the normalisation stage `rule` decides: a fixed stage, or
+    /// ([`StageRule::Auto`]) the one among off, brightness, geometry and all whose held-out
+    /// training views score best by clearly more than chance (docs/normalization.md says how).
+    /// The model's metadata records the decision ([`crate::ModelMeta::stage_choice`]).
+    pub fn fit_with_stage(&self, train: &Dataset, rule: StageRule) -> Result<AnyModel> {
+        let choice = match rule {
+            StageRule::Fixed(p) => StageChoice::fixed(p),
+            StageRule::Auto => choose(self, train)?,
+        };
+        self.fit_with_choice(train, choice)
     }
-    let stage = Normalizer::fit(train, params)?;
-    let data = stage.apply_dataset(train)?;
-    let inner = spec.fit(&data)?;
-    Ok(AnyModel::new(Normalized::recorded(Some(stage), inner, Some(choice))))
+
+    /// Fits on `train` behind the normalisation `choice` made, and records it.
+    pub fn fit_with_choice(&self, train: &Dataset, choice: StageChoice) -> Result<AnyModel> {
+        let params = choice.params();
+        if !params.is_on() {
+            return Ok(AnyModel::new(Normalized::recorded(None, self.fit(train)?, Some(choice))));
+        }
+        let stage = Normalizer::fit(train, params)?;
+        let data = stage.apply_dataset(train)?;
+        let inner = self.fit(&data)?;
+        Ok(AnyModel::new(Normalized::recorded(Some(stage), inner, Some(choice))))
+    }
 }
 
-/// Chooses the normalisation for `spec` on `train`'s held-out views (the [module doc](self)).
-pub fn choose(spec: &MethodSpec, train: &Dataset) -> Result<StageChoice> {
+/// Chooses the normalisation for `spec` on `train`'s held-out views (the module doc).
+pub(crate) fn choose(spec: &MethodSpec, train: &Dataset) -> Result<StageChoice> {
     choose_over(spec, &[train])
 }
 

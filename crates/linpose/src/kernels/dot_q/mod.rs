@@ -23,11 +23,11 @@
 //! back to [`super::dot_u8`]'s f32 products elsewhere. A step of 64 black pixels adds nothing and
 //! is skipped.
 
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
+pub use super::tuning::dot_q::DIGITS;
+pub(crate) use super::tuning::dot_q::{CHUNK, GROUP};
 use super::{dispatch, Level};
 
-/// Balanced base-256 digits per stored integer (the module doc says why 2, not 3).
-#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
-pub const DIGITS: usize = 2;
 /// Largest stored integer: [`DIGITS`] balanced base-256 digits of at most 127.
 pub(crate) const VMAX: i32 = 127 * ((1 << (8 * DIGITS)) - 1) / 255;
 // The integers and their digit sums fit i32 (and VMAX's formula) up to three digits.
@@ -258,11 +258,6 @@ pub(crate) struct Batch<'a> {
 
 /// Images per register block of [`dots_batch`]: a digit vector loaded serves this many images.
 pub(crate) const BLOCK: usize = 8;
-/// Steps (of 64 pixels) per cache block of [`dots_batch`]: the group's images' copies (16 KiB)
-/// stay in L1 while every row passes over them.
-pub(crate) const CHUNK: usize = 16;
-/// Register blocks per group of [`dots_batch`]: a row's digits, once in L1, serve this many.
-pub(crate) const GROUP: usize = 2;
 // A cache block's steps fit the u32 masks of nonzero steps.
 const _: () = assert!(CHUNK <= 32);
 

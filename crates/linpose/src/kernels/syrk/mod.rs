@@ -36,6 +36,9 @@ mod tile;
 #[cfg(target_arch = "x86_64")]
 mod vnni;
 
+use super::tuning::syrk::BAND;
+#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
+pub use super::tuning::syrk::{KC, KCP, KCQ};
 pub(crate) use pack::pack_rows;
 #[cfg_attr(not(feature = "bench"), allow(unused_imports, unreachable_pub))] // public through crate::bench
 pub use pack::{pack_columns, pack_pairs_u8, pack_quads_u8};
@@ -53,9 +56,6 @@ const MR: usize = 24;
 /// Rows of an 8-bit micro-tile (three groups of 16 i32 lanes); bands and padding are multiples
 /// of it so that both kernels tile every band.
 const MR16: usize = 48;
-/// Most rows of C per band (one rayon task): 192 rows x 256 steps of the band's micro-panels
-/// (384 KiB) stay in L2.
-const BAND: usize = 192;
 
 /// Rows per band for an n-row C: at least 8 bands so two to eight threads balance, at most BAND.
 fn band_rows(np: usize) -> usize {
@@ -75,13 +75,6 @@ pub(crate) const GROUP16: usize = 16;
 pub(crate) const KCP_MAX: usize = (i32::MAX as usize) / (2 * 255 * 255);
 /// Most step quads a cross panel may hold: an i32 lane sums 2 * 4 * 255 * 128 per quad.
 pub(crate) const KCQ_MAX: usize = (i32::MAX as usize) / (2 * 4 * 255 * 128);
-/// Step quads per cross panel used by streaming (1024 images).
-#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
-pub const KCQ: usize = 256;
-/// Step pairs per 8-bit panel used by streaming (1024 images): a band's micro-panels (384 KiB)
-/// stay in L2, a column group's (16 KiB) in L1.
-#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
-pub const KCP: usize = 512;
 
 /// One band of C's rows: `rows` rows from `r0`, columns `0..r0 + rows`, stored column by
 /// column (`buf[c * rows + r - r0]`).
@@ -350,10 +343,6 @@ fn band_update(band: &mut Band, panel: &[f64], kc: usize, level: Level) {
         }
     }
 }
-
-/// Reduction steps per packed f64 panel of the streaming X^T X (256 ran faster than 128).
-#[cfg_attr(not(feature = "bench"), allow(unreachable_pub))] // public through crate::bench
-pub const KC: usize = 256;
 
 #[cfg(test)]
 mod tests;

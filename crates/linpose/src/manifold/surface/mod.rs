@@ -53,7 +53,7 @@ pub enum Interpolant {
 }
 
 /// The interpolants the automatic choice scores, the spline first (it wins a tie).
-pub const INTERPOLANTS: &[Interpolant] = &[Interpolant::Spline, Interpolant::Local];
+pub(crate) const INTERPOLANTS: &[Interpolant] = &[Interpolant::Spline, Interpolant::Local];
 
 impl Interpolant {
     /// The curve of this interpolant through `knots` with `boundary` ([`Spline::new`] or

@@ -51,8 +51,11 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
+mod footprint;
+mod partial;
 mod knots;
 pub(crate) mod search;
+mod tuning;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};
@@ -84,7 +87,9 @@ pub(crate) static METHOD: Method = Method {
     ],
     params: |s| Ok(EigenspaceParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(EigenspaceModel::from_parts(meta, t)?)),
+    footprint: |s| Ok(std::sync::Arc::new(EigenspaceParams::from_settings(s)?)),
     stream: None,
+    partial: Some(|s| Ok(std::sync::Arc::new(EigenspaceParams::from_settings(s)?))),
 };
 
 /// Parameters of the parametric eigenspace. The default: 20 components (Murase & Nayar used 8 to

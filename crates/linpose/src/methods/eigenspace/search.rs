@@ -9,6 +9,7 @@
 use crate::manifold::kdtree::KdTree;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
+use super::tuning::AUTO_TREE_FROM;
 
 /// Largest eigenspace dimension a k-d tree is built for.
 pub(crate) const MAX_TREE_DIM: usize = crate::manifold::kdtree::MAX_DIM;
@@ -51,9 +52,6 @@ pub(crate) fn auto_kind(points: usize, dim: usize) -> SearchKind {
         SearchKind::Brute
     }
 }
-
-/// Manifold size from which `Auto` uses the k-d tree.
-const AUTO_TREE_FROM: usize = 64;
 
 /// Points padded to K coordinates, for brute force.
 #[derive(Debug, Clone)]

@@ -30,9 +30,11 @@
 //! # Ok::<(), linpose::Error>(())
 //! ```
 
-pub mod normal;
+mod footprint;
+mod partial;
 pub mod ridge;
 pub(crate) mod stream;
+mod tuning;
 
 use crate::dataset::Dataset;
 use crate::kernels::{combine::{combine_rows, Centred}, dot_u8::dots, AlignedF32, Level};
@@ -49,6 +51,7 @@ use faer::linalg::solvers::{DenseSolveCore, Llt, Solve};
 use faer::{Mat, Side};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use tuning::LOO_SAMPLE;
 
 /// The linear model in the method registry.
 pub(crate) static METHOD: Method = Method {
@@ -71,7 +74,9 @@ pub(crate) static METHOD: Method = Method {
     ],
     params: |s| Ok(LinearParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(LinearModel::from_parts(meta, t)?)),
+    footprint: |s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?)),
     stream: Some(stream::fit_streamed),
+    partial: Some(|s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?))),
 };
 
 /// Parameters of the linear model. The default is exactly the paper's: no ridge, no centring.
@@ -144,12 +149,6 @@ impl LinearParams {
         Ok(())
     }
 }
-
-/// Most training rows whose leave-one-out residuals measure the pairs' spread
-/// ([`GramSystem::pair_spread`]): each costs a solve with the Gram matrix's factor (N^2), so the
-/// spread costs at most 256 N^2 beside the fit's N^3 / 3. The RMS of 256 residuals is within
-/// about 5% (one standard error) of that of all. Not tuned.
-pub(crate) const LOO_SAMPLE: usize = 256;
 
 /// The training set's encoded poses P (N x K, row-major).
 pub(crate) fn encoded_poses(train: &Dataset) -> Vec<f64> {
@@ -425,7 +424,8 @@ impl Estimator for LinearParams {
         &METHOD
     }
 
-    /// The closed form of [`leave_one_out`], for uncentred models.
+    /// The exact leave-one-out estimates in closed form (docs/method.md, one factorisation), for
+    /// uncentred models: at ridge 0 the paper's model's LOO error.
     fn leave_one_out(&self, train: &Dataset) -> Option<Result<Vec<f64>>> {
         (!self.center).then(|| leave_one_out(self, train))
     }
@@ -676,7 +676,7 @@ impl PoseModel for LinearModel {
 /// The exact leave-one-out estimates of the linear model with `params` on its own training set
 /// (docs/method.md, closed form, one factorisation): row i is the pose (degrees) that the model
 /// fitted without sample i gives sample i. At ridge 0 this is the paper's model's LOO error.
-pub fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>> {
+pub(crate) fn leave_one_out(params: &LinearParams, train: &Dataset) -> Result<Vec<f64>> {
     params.validate()?;
     if params.center {
         return Err(Error::invalid("center", true, "the closed-form leave-one-out error is for uncentred models"));

@@ -13,29 +13,27 @@
 //!   blocks of images (1.7 GB in all for 160 x 120 images). With lambda > 0 this
 //!   is the same model as the in-memory ridge fit W = X^T (X X^T + lambda I)^{-1} P (the
 //!   push-through identity). With lambda = 0 it is the minimum-norm least-squares fit, pixels
-//!   that are zero in every image (a black background) weighted 0 ([`super::normal`]); pixels
+//!   that are zero in every image (a black background) weighted 0 ([`crate::normal_equations`]); pixels
 //!   that vary together still make X^T X singular, which is refused with the hint to add a ridge.
 //!   Centring is not offered on this path.
 //!
 //! On the least-squares path a reader thread decodes the next block while the current one is
-//! added to the normal equations ([`super::normal`], which says how 8-bit images are summed
-//! exactly in integers).
+//! added to the normal equations ([`crate::normal_equations`], which says how 8-bit images are
+//! summed exactly in integers).
 //!
 //! Blocks are summed in manifest order, each by the same SYRK kernels, so the
 //! result does not depend on the thread count.
 
 use crate::dataset::Dataset;
 use crate::image_io::{read_features, ColorMode, ImageSpec};
-use crate::kernels::levels::quantize;
-use crate::kernels::syrk::KCP;
 use crate::manifest::Manifest;
-use crate::methods::linear::normal::NormalEquations;
 use crate::methods::linear::ridge::RidgeRule;
 use crate::methods::linear::{LinearModel, LinearParams, METHOD};
 use crate::model::{AnyModel, Estimator, ModelMeta, Settings};
+use crate::normal_equations::rows::{accumulate_rows, disk_reader, BLOCK};
+use crate::normal_equations::NormalEquations;
 use crate::pose::PoseSpace;
 use crate::{Error, Result};
-use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
 /// The solver a streamed fit used.
@@ -64,9 +62,6 @@ pub(crate) fn choose_path(n: usize, m: usize) -> SolverPath {
         SolverPath::LeastSquares
     }
 }
-
-/// Images decoded per block on the least-squares path (one 8-bit panel).
-pub(crate) const BLOCK: usize = 2 * KCP;
 
 /// What a streamed fit did and where its time went.
 #[derive(Debug, Clone, PartialEq)]
@@ -167,48 +162,6 @@ pub(crate) fn fit_streamed(manifest: &Manifest, color: ColorMode, settings: &Set
     Ok((AnyModel::new(model), stats.describe()))
 }
 
-/// What [`accumulate_rows`] reads with: images `start..` of `manifest` (each of `spec`, else an
-/// error naming `context`) decoded from disk into the rows of a block, `progress` told of each.
-pub(crate) fn disk_reader<'a>(
-    manifest: &'a Manifest,
-    spec: ImageSpec,
-    context: String,
-    progress: &'a (dyn Fn(u64) + Sync),
-) -> impl FnMut(usize, &mut [f32]) -> Result<()> + Send + 'a {
-    let m = spec.features();
-    let mut row = Vec::with_capacity(m);
-    move |start, block| {
-        for (k, slot) in block.chunks_exact_mut(m).enumerate() {
-            row.clear();
-            read_features(&manifest.image_path(start + k), spec.color, Some((spec.width, spec.height)), &context, &mut row)?;
-            slot.copy_from_slice(&row);
-            progress(1);
-        }
-        Ok(())
-    }
-}
-
-/// A block of images on its way from the reader to the accumulation.
-struct Block {
-    start: usize,
-    len: usize,
-    /// Features, `len` rows of M.
-    f: Vec<f32>,
-    /// The same as 8-bit levels, when `exact`.
-    q: Vec<u8>,
-    /// Whether every feature is an 8-bit level (k as f32 / 255 exactly as image_io makes it).
-    exact: bool,
-}
-
-/// Seconds a block-by-block accumulation spent: reading (on the reader thread), waiting for the
-/// reader, and adding blocks to the sums.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(crate) struct Timing {
-    pub read_s: f64,
-    pub wait_s: f64,
-    pub accumulate_s: f64,
-}
-
 /// The least-squares path on images delivered by `read(start, block)`, which fills `block`
 /// (rows of M features) with images `start..`, `block.len() / M` of them. `read` runs on a thread
 /// of its own, one block ahead of the accumulation.
@@ -239,78 +192,6 @@ pub(crate) fn fit_least_squares(
         integer_8bit: exact,
     };
     Ok((model, stats))
-}
-
-/// Adds images `range` of `manifest` (M features each), delivered block by block by
-/// `read(start, block)` on a reader thread of its own, to `ne`, in order.
-pub(crate) fn accumulate_rows(
-    manifest: &Manifest,
-    m: usize,
-    range: std::ops::Range<usize>,
-    block: usize,
-    mut read: impl FnMut(usize, &mut [f32]) -> Result<()> + Send,
-    ne: &mut NormalEquations,
-) -> Result<Timing> {
-    assert!(block > 0, "block size");
-    let space = manifest.space();
-    let k = space.encoded_len();
-    let (first, end) = (range.start, range.end);
-    let mut p = vec![0f64; block * k];
-    let (mut wait_s, mut accumulate_s) = (0.0, 0.0);
-    let bsize = block.min(end - first);
-
-    let read_s = std::thread::scope(|scope| -> Result<f64> {
-        let (full_tx, full_rx) = sync_channel::<Result<Block>>(1);
-        let (free_tx, free_rx) = sync_channel::<Block>(2);
-        for _ in 0..2 {
-            free_tx.send(Block { start: 0, len: 0, f: vec![0.0; bsize * m], q: vec![0; bsize * m], exact: false }).expect("fresh channel");
-        }
-        let reader = scope.spawn(move || {
-            let mut read_s = 0.0;
-            let mut start = first;
-            while start < end {
-                let Ok(mut blk) = free_rx.recv() else { break };
-                let b = block.min(end - start);
-                let t = Instant::now();
-                let res = read(start, &mut blk.f[..b * m]).and_then(|()| {
-                    let f = &blk.f[..b * m];
-                    if let Some(i) = f.iter().position(|v| !v.is_finite()) {
-                        return Err(Error::Dataset { path: manifest.image_path(start + i / m), message: "image has a non-finite value".into() });
-                    }
-                    blk.exact = quantize(f, &mut blk.q[..b * m]);
-                    Ok(())
-                });
-                read_s += t.elapsed().as_secs_f64();
-                let failed = res.is_err();
-                (blk.start, blk.len) = (start, b);
-                if full_tx.send(res.map(|()| blk)).is_err() || failed {
-                    break;
-                }
-                start += b;
-            }
-            read_s
-        });
-        let mut done = first;
-        while done < end {
-            let t = Instant::now();
-            let Ok(blk) = full_rx.recv() else { break };
-            let blk = blk?;
-            wait_s += t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let (start, b) = (blk.start, blk.len);
-            debug_assert_eq!(start, done);
-            for i in 0..b {
-                space.encode(manifest.pose(start + i), &mut p[i * k..(i + 1) * k]);
-            }
-            ne.add(&blk.f[..b * m], blk.exact.then(|| &blk.q[..b * m]), &p[..b * k]);
-            accumulate_s += t.elapsed().as_secs_f64();
-            done += b;
-            let _ = free_tx.send(blk);
-        }
-        drop((full_rx, free_tx));
-        Ok(reader.join().expect("the reader thread panicked"))
-    })?;
-    Ok(Timing { read_s, wait_s, accumulate_s })
 }
 
 /// The linear model that solves `ne` (images of `spec`, poses `train_poses` in `space`) with

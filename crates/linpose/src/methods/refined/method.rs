@@ -33,7 +33,9 @@ pub(crate) static METHOD: Method = Method {
     ],
     params: |s| Ok(RefinedParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(RefinedModel::from_parts(meta, t)?)),
+    footprint: |s| Ok(std::sync::Arc::new(RefinedParams::from_settings(s)?)),
     stream: None,
+    partial: None,
 };
 
 impl RefinedParams {

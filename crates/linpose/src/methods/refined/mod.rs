@@ -92,6 +92,7 @@
 //! `tests/`.
 
 mod fit;
+mod footprint;
 mod lm;
 mod basin;
 mod method;
@@ -108,7 +109,8 @@ pub(crate) mod select;
 pub(crate) use method::METHOD;
 pub use model::RefinedModel;
 pub use params::{RefinedParams, RefinedSettings};
-pub use crate::manifold::{Interpolant, INTERPOLANTS};
+pub use crate::manifold::Interpolant;
+pub(crate) use crate::manifold::INTERPOLANTS;
 
 pub(crate) use fit::Views;
 

@@ -20,8 +20,8 @@ pub struct RefinedParams {
     /// Images binned by this factor before anything else (1: as given; None: chosen from the
     /// training data among 1, 2 and 4).
     pub(crate) bin: Option<usize>,
-    /// How the surface interpolates between knots (None: chosen from the training data among
-    /// [`INTERPOLANTS`](super::INTERPOLANTS)).
+    /// How the surface interpolates between knots (None: chosen from the training data: the spline or the
+    /// local cubic).
     pub(crate) interpolant: Option<Interpolant>,
 }
 

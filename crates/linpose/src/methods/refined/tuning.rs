@@ -16,9 +16,9 @@
 //! here too; the settings the method chooses itself on held-out training views (L, the metric,
 //! the interpolant, the binning factor, the noisy match, the noise threshold) are not constants.
 //! The pixel-noise estimate's own sampling (every 8th row, a first pass of a quarter of them) is
-//! documented with the estimator, [`crate::pixel_noise`]. Constants fixed by the maths or the
-//! hardware (the 7 products per knot of the lattice search, SIMD lane counts, array sizes) stay
-//! beside their code.
+//! in the estimator's tuning file ([`crate::pixel_noise`]'s `tuning.rs`). Constants fixed by the
+//! maths or the hardware (the 7 products per knot of the lattice search, SIMD lane counts, array
+//! sizes) stay beside their code.
 
 // ---------------------------------------------------------------------------------------------
 // The parameters' defaults and bounds
@@ -240,3 +240,34 @@ const _: () = assert!(NOISE_SUB_U8.is_multiple_of(crate::kernels::dot_q::GROUP *
 /// The lattice (degrees) a query's pose climbs on in another basin (`second_look`) when
 /// the model reports continuous poses (`resolution` 0): the default reporting lattice. Not tuned.
 pub(crate) const HYPOTHESIS_STEP: f64 = DEFAULT_RESOLUTION;
+
+// ---------------------------------------------------------------------------------------------
+// What a fit costs in memory (the memory plan's estimate, `crate::memory`, whose documentation
+// tables the measurements)
+// ---------------------------------------------------------------------------------------------
+
+/// The method's working copies at the images' full size, in bytes per training image and
+/// feature (besides the f32 images themselves): the held-out views as given for the noisy
+/// match, their copies under two levels of simulated noise, the fold's own views. Measured
+/// with [`BINNED_BYTES`] on 1,440 images of 160 x 120 fitted with bin 1 (599 MiB) and bin 4
+/// (421 MiB): 5.15, rounded up.
+pub(crate) const FULL_BYTES: f64 = 5.5;
+
+/// The method's working copies at the binned size, in bytes per training image and binned
+/// feature: the held-out folds' views, their f64 transposed copy in each fold's PCA, the final
+/// PCA's copy. Measured with [`FULL_BYTES`] (see there): 7.45, rounded up.
+pub(crate) const BINNED_BYTES: f64 = 7.5;
+
+/// Bytes per N^2: the final PCA's Gram matrix and eigendecomposition (as
+/// `crate::manifold::tuning::EVD_SYSTEM_BYTES`) and 4 more, because the peak of one and the same
+/// fit varies between runs (its held-out fits run side by side, two at a time, and free at
+/// different moments): 322 to 389 MiB over five runs on 2,880 images of 16 x 12, where 36 N^2
+/// gave 398 MiB.
+pub(crate) const SYSTEM_BYTES: f64 = 40.0;
+
+/// The structures per point of the reporting lattice (the surface's lattice search, its coarse
+/// tree, the noisy match's tables, for each candidate fitted on held-out views, two interpolants
+/// at a time). Measured: 84 MiB above the PCA on 2,880 images of 16 x 12 over a lattice of
+/// 43,920 points (about 2 KiB a point). A model reporting continuous poses (`resolution` 0) is
+/// counted on the lattice of [`DEFAULT_RESOLUTION`].
+pub(crate) const LATTICE_BYTES: f64 = 2048.0;

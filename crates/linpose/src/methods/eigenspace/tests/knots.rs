@@ -14,7 +14,7 @@ pub(crate) fn between3() -> Dataset {
     grid_of(&[vec![35.0, 55.0], (0..6).map(|k| 10.0 + 60.0 * k as f64).collect(), vec![-22.5, -7.5, 7.5, 22.5]])
 }
 
-/// Each view's error (degrees, the largest over the parameters).
+/// Each view's error (degrees: the angle of the rotation between the poses).
 fn errors_of(est: &[f64], d: &Dataset) -> Vec<f64> {
     let p = d.space().len();
     (0..d.len()).map(|i| d.space().error_deg(d.pose(i), &est[i * p..(i + 1) * p])).collect()
@@ -35,7 +35,8 @@ fn three_parameters_keep_the_knots_reproduce_training_poses_and_interpolate() {
     let est = model.predict(test.features()).unwrap();
     let e = errors_of(&est, &test);
     let (mean, max) = (e.iter().sum::<f64>() / e.len() as f64, e.iter().copied().fold(0.0, f64::max));
-    assert!(mean < 0.5 && max <= 1.0, "unseen mean {mean}, max {max}: {e:?}");
+    // One 0.5-degree lattice step in two of the angles is a rotation of 0.71 degrees.
+    assert!(mean < 0.75 && max <= 1.0, "unseen mean {mean}, max {max}: {e:?}");
     // What error there is, is the surface's: the estimate lies nearer the query than the true pose.
     let Search::Knots(k) = &model.search else { panic!("a lattice") };
     let l = model.components();
@@ -103,8 +104,8 @@ fn a_model_file_of_three_parameters_reads_back_with_the_same_poses() {
     let model = EigenspaceParams::default().components(10).fit(&train).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.safetensors");
-    crate::model_file::save(&model, &path).unwrap();
-    let back = crate::model_file::load(&path).unwrap();
+    model.save(&path).unwrap();
+    let back = crate::AnyModel::load(&path).unwrap();
     let test = between3();
     assert_eq!(back.predict(test.features()).unwrap(), model.predict(test.features()).unwrap());
     assert_eq!(back.model_bytes(), model.model_bytes());

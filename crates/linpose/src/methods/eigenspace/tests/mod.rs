@@ -192,8 +192,8 @@ fn model_file_round_trip_gives_the_same_predictions() {
     assert!(model.components() > search::MAX_TREE_DIM);
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.safetensors");
-    crate::model_file::save(&model, &path).unwrap();
-    let back = crate::model_file::load(&path).unwrap();
+    model.save(&path).unwrap();
+    let back = crate::AnyModel::load(&path).unwrap();
     assert!(back.downcast_ref::<EigenspaceModel>().is_some());
     // serde_json reads floats back to within an ulp or so, so compare the metadata field by field.
     let (a, b) = (back.meta(), model.meta());

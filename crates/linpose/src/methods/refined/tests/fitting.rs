@@ -27,8 +27,8 @@ fn unseen_views_are_close_and_the_file_round_trips() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.safetensors");
     let any = crate::AnyModel::new(model.clone());
-    crate::model_file::save(&any, &path).unwrap();
-    let back = crate::model_file::load(&path).unwrap();
+    any.save(&path).unwrap();
+    let back = crate::AnyModel::load(&path).unwrap();
     assert!(back.downcast_ref::<RefinedModel>().is_some());
     assert_eq!(back.predict(test.features()).unwrap(), est);
 }
@@ -113,8 +113,8 @@ fn the_binning_factor_is_checked_and_kept_in_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.safetensors");
     let any = crate::AnyModel::new(model.clone());
-    crate::model_file::save(&any, &path).unwrap();
-    let back = crate::model_file::load(&path).unwrap();
+    any.save(&path).unwrap();
+    let back = crate::AnyModel::load(&path).unwrap();
     assert_eq!(back.meta().settings["bin"], 4);
     assert_eq!(back.predict(test.features()).unwrap(), est);
     // Settings without a factor are damaged, not read as some default.

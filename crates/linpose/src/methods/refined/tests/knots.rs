@@ -5,7 +5,7 @@ use super::*;
 use crate::methods::eigenspace::tests::grid_of;
 use crate::methods::eigenspace::tests::knots::{between3, train3};
 
-/// Each view's error (degrees, the largest over the parameters).
+/// Each view's error (degrees: the angle of the rotation between the poses).
 fn errors_of(est: &[f64], d: &Dataset) -> Vec<f64> {
     let p = d.space().len();
     (0..d.len()).map(|i| d.space().error_deg(d.pose(i), &est[i * p..(i + 1) * p])).collect()
@@ -29,7 +29,8 @@ fn three_parameters_start_from_the_training_views_and_interpolate() {
     assert!(e.iter().all(|&v| v == 0.0), "{e:?}");
     let test = between3();
     let e = errors_of(&model.predict(test.features()).unwrap(), &test);
-    assert!(mean(&e) <= 0.5 && e.iter().all(|&v| v <= 1.0), "{e:?} with {:?}", model.settings());
+    // One 0.5-degree lattice step in two of the angles is a rotation of 0.71 degrees.
+    assert!(mean(&e) <= 0.75 && e.iter().all(|&v| v <= 1.0), "{e:?} with {:?}", model.settings());
     // Ranked hypotheses: predict's pose first, confident on every clean view.
     let est = model.estimate(test.features(), 3).unwrap();
     let poses = model.predict(test.features()).unwrap();
@@ -73,7 +74,8 @@ fn the_refined_knots_model_grows_with_the_training_views() {
             let train = train3(az);
             let model = RefinedParams::default().components(12).bin(1).interpolant(Interpolant::Spline).fit(&train).unwrap();
             let fixed = (model.proj.rows().len() + model.mean_proj.len() + model.look.as_ref().map_or(0, crate::second_look::SecondLook::len)) * 4;
-            (model.model_bytes() - fixed) as f64 / train.len() as f64
+            // Per training view and component (held-out views choose how many).
+            (model.model_bytes() - fixed) as f64 / (train.len() * model.settings().components) as f64
         })
         .collect();
     for w in per_view.windows(2) {
@@ -95,8 +97,8 @@ fn four_parameters_train_and_predict() {
     // Through a model file.
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.safetensors");
-    crate::model_file::save(&model, &path).unwrap();
-    let back = crate::model_file::load(&path).unwrap();
+    model.save(&path).unwrap();
+    let back = crate::AnyModel::load(&path).unwrap();
     assert_eq!(back.predict(test.features()).unwrap(), model.predict(test.features()).unwrap());
 }
 

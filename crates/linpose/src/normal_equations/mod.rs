@@ -1,8 +1,9 @@
-//! The normal equations of the linear model, summed image by image: X^T X (M x M, its lower
-//! triangle), X^T P (M x K) and each encoded column's P^T P, over any set of images. They are
-//! sums, so sets of images summed apart (blocks read in turn, shards on other machines) add up
-//! to those of the union: the streamed fit (`stream.rs`) and the merged statistics of
-//! [`crate::partial`] both solve what this accumulates.
+//! The normal equations of least squares on images, summed image by image: X^T X (M x M, its
+//! lower triangle), X^T P (M x K) and each encoded column's P^T P, over any set of images. They
+//! are sums, so sets of images summed apart (blocks read in turn, [`rows`]; shards on other
+//! machines) add up to those of the union: the linear model's streamed fit
+//! (`methods::linear::stream`) and the merged statistics of [`crate::partial`] both solve what
+//! this accumulates.
 //!
 //! Blocks whose values are all 8-bit levels (what every 8-bit image gives: the feature of level k
 //! is the f32 value k * fl(1/255) = V_k 2^-31 with V_k an integer) are summed in integers by the
@@ -23,6 +24,8 @@
 //! right-hand side), so lambda = 0 gives the minimum-norm least-squares fit whenever the pixels
 //! that do vary are linearly independent over the images. Otherwise the system is refused as
 //! singular, with the hint to add a ridge.
+
+pub(crate) mod rows;
 
 use crate::kernels::levels::{residuals as level_residuals, SCALE_CROSS, SCALE_PAIRS};
 use crate::kernels::syrk::{pack_columns, pack_pairs_u8, pack_quads_u8, padded, SyrkAcc, KC, KCP, KCQ};
