@@ -86,7 +86,7 @@ fn values(data: &Dataset) -> Vec<Vec<f64>> {
 fn lattice(data: &Dataset) -> (Vec<bool>, Vec<bool>) {
     let vals = values(data);
     let index = |j: usize, x: f64| vals[j].iter().position(|&v| v == x).unwrap_or(0);
-    let train = (0..data.len()).map(|i| data.pose(i).iter().enumerate().all(|(j, &x)| index(j, x) % 2 == 0)).collect();
+    let train = (0..data.len()).map(|i| data.pose(i).iter().enumerate().all(|(j, &x)| index(j, x).is_multiple_of(2))).collect();
     let params = data.space().params();
     let inside = (0..data.len())
         .map(|i| {
@@ -107,8 +107,8 @@ fn sub_lattices(data: &Dataset, train: &[bool]) -> Result<Vec<Vec<bool>>> {
     let count = trained[j].len();
     Ok(THIN
         .iter()
-        .filter(|&&f| count % f == 0 && count / f >= 2)
-        .map(|&f| (0..data.len()).map(|i| train[i] && trained[j].iter().position(|&v| v == data.pose(i)[j]).is_some_and(|k| k % f == 0)).collect())
+        .filter(|&&f| count.is_multiple_of(f) && count / f >= 2)
+        .map(|&f| (0..data.len()).map(|i| train[i] && trained[j].iter().position(|&v| v == data.pose(i)[j]).is_some_and(|k| k.is_multiple_of(f))).collect())
         .collect())
 }
 
