@@ -265,6 +265,7 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         table1_sizes.iter_mut().for_each(|p| p.cost.per_query_us = 0.0);
         if let Some(t) = &mut three_params {
             t.rows.iter_mut().for_each(|r| (r.fit_s, r.cost.per_query_us) = (0.0, 0.0));
+            t.total_s = 0.0;
         }
         for r in &mut results {
             r.runs.iter_mut().for_each(|x| (x.fit_s, x.predict_s, x.per_query_us) = (0.0, 0.0, 0.0));
@@ -334,8 +335,9 @@ fn ring_sizes(name: &str, data: &Dataset, params: &StudyParams) -> anyhow::Resul
     Ok(points)
 }
 
-/// The three-parameter section on the built-in object `name` rendered on `g`: the study, the
-/// Table 1 figure's points of three parameters, and the seconds spent rendering.
+/// The three-parameter section on the built-in object `name` rendered on `g`: the study (its
+/// `total_s` the section's wall time, rendering included), the Table 1 figure's points of three
+/// parameters, and the seconds spent rendering.
 fn three_params_study(name: &str, g: &ThreeParamsGrid, params: &StudyParams) -> anyhow::Result<(ThreeParamsStudy, Vec<SizePoint>, f64)> {
     let (az, el, roll) = (Grid::parse("azimuth", g.azimuth)?, Grid::parse("elevation", g.elevation)?, Grid::parse("roll", g.roll)?);
     let grid = PoseGrid::new(el.clone(), az.clone())?.with_roll(roll.clone())?;
@@ -352,7 +354,7 @@ fn three_params_study(name: &str, g: &ThreeParamsGrid, params: &StudyParams) -> 
         bar.inc(1);
     })?;
     bar.finish_and_clear();
-    Ok((study, points, data_s))
+    Ok((ThreeParamsStudy { total_s: t.elapsed().as_secs_f64(), ..study }, points, data_s))
 }
 
 /// The per-object studies, the seconds spent making or reading the data, and each object's
@@ -461,7 +463,7 @@ fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {
         }
     }
     if let Some(t) = &info.three_params {
-        println!("three parameters ({}: {}; {} trained, {} unseen inside the training range):", t.object, t.grid, t.n_train, t.n_unseen);
+        println!("three parameters ({}: {}; {} trained, {} unseen inside the training range; {:.1} s):", t.object, t.grid, t.n_train, t.n_unseen, t.total_s);
         println!("{:<12} {:>12} {:>8} {:>12} {:>12} {:>16}", "method", "model bytes", "fit s", "us per query", "unseen mean", "gross (flagged)");
         for r in &t.rows {
             println!(

@@ -106,12 +106,13 @@ pub(super) fn three_params_section(b: &mut Vec<Block>, t: Option<&ThreeParamsStu
     b.push(Block::Heading(1, "Three pose parameters: azimuth, elevation and camera roll".into()));
     let lattice: Vec<String> = t.params.iter().zip(&t.trained).map(|(p, v)| format!("{p} {}", values(v))).collect();
     b.push(Block::Para(format!(
-        "The object {}, rendered at {} (the camera rolled about its optical axis). Every method is trained on the every-other-value lattice ({}: {} views) and measured on the {} other views inside the training range (none beyond the last trained value of a linear parameter). With more than two parameters the eigenspace and the refined method keep the manifold as its knots, the training views' coordinates, and search it continuously, so their N in the paper's N L + M L is the training views. Error: the angle of the rotation from the true camera pose to the estimated one (and each parameter's own mean error). Time per query: the wall time of estimating the measured views, batched, divided by their number, the least of a few runs, on 2 cores; fit: the wall time of training.",
+        "The object {}, rendered at {} (the camera rolled about its optical axis). Every method is trained on the every-other-value lattice ({}: {} views) and measured on the {} other views inside the training range (none beyond the last trained value of a linear parameter). With more than two parameters the eigenspace and the refined method keep the manifold as its knots, the training views' coordinates, and search it continuously, so their N in the paper's N L + M L is the training views. Error: the angle of the rotation from the true camera pose to the estimated one (and each parameter's own mean error). Time per query: the wall time of estimating the measured views, batched, divided by their number, the least of a few runs, on 2 cores; fit: the wall time of training. The section took {:.1} s, rendering and the Table 1 figure's fits of three parameters included.",
         t.object,
         t.grid,
         lattice.join("; "),
         t.n_train,
-        t.n_unseen
+        t.n_unseen,
+        t.total_s
     )));
     let mut header: Vec<String> =
         ["method", "model bytes", "Table 1 terms", "fit (s)", "us per query", "unseen mean", "median", "p90", "max"].map(String::from).to_vec();

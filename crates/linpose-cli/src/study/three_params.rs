@@ -67,6 +67,9 @@ pub(crate) struct ThreeParamsStudy {
     pub trained: Vec<Vec<f64>>,
     /// One row per method.
     pub rows: Vec<ThreeParamsRow>,
+    /// Seconds the section took, making the data included (set by the caller that makes it; 0
+    /// from [`run`]).
+    pub total_s: f64,
 }
 
 /// Each parameter's distinct values in `data`, smallest first.
@@ -165,6 +168,7 @@ pub(crate) fn run(object: &str, data: &Dataset, grid: &str, p: &StudyParams, pro
         n_unseen: unseen.len(),
         trained: values(&train),
         rows,
+        total_s: 0.0,
     };
     Ok((study, points))
 }
