@@ -27,9 +27,10 @@ pub(crate) const COARSE_STEP: f64 = 12.0;
 /// The three-parameter section's grid by default (built-in objects): azimuth every 12 degrees,
 /// elevation 32 to 68 every 9 and camera roll -30 to 30 every 15, 750 views of 80 x 60, trained
 /// on the every-other-value lattice (azimuth every 24, elevation 32, 50, 68, roll -30, 0, 30: 135
-/// views). What it trades: a small grid and small images keep the section to about a second of
-/// the default study (measured: the section's rendering, fits and evaluations under 2 s of CPU
-/// on 2 cores); `--full` runs [`THREE_PARAMS_FULL`], the grid of issue 62.
+/// views). What it trades: a small grid and small images keep the section to a few seconds of
+/// the default study (measured, rendering and the Table 1 figure's fits included: 2.0 s of wall
+/// time on 2 cores shared at load 4.7, 3.0 s at load 7); `--full` runs [`THREE_PARAMS_FULL`],
+/// the grid of issue 62.
 pub(crate) const THREE_PARAMS: ThreeParamsGrid = ThreeParamsGrid { azimuth: "0:348:12", elevation: "32:68:9", roll: "-30:30:15", size: (80, 60) };
 
 /// The three-parameter section's grid with `--full`: azimuth 0 to 354 every 6, elevation 32 to
