@@ -83,7 +83,7 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
     if let Some(j) = &a.json {
         write_json(j, &Report { report: &r, by_jitter })?;
     }
-    Ok(())
+    crate::queries::refusals(r.rejected.len(), r.rejected.len() + r.n_eval)
 }
 
 /// The eval JSON: the library's report, and the error against the jitter when the data set has it.
