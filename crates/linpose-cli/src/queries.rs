@@ -36,8 +36,8 @@ pub(crate) fn report_refused(bar: &indicatif::ProgressBar, path: &Path, reason: 
     bar.suspend(|| eprintln!("linpose: {}: refused: {reason}", path.display()));
 }
 
-/// Some images had no estimate, each named on its own line, and every other image was
-/// estimated: `linpose` exits with status [`SomeRefused::EXIT_CODE`].
+/// Some images had no estimate, each named on its own line, and every other image (at least
+/// one) was estimated: `linpose` exits with status [`SomeRefused::EXIT_CODE`].
 #[derive(Debug)]
 pub(crate) struct SomeRefused {
     /// Images with no estimate.
@@ -62,7 +62,11 @@ impl std::error::Error for SomeRefused {}
 
 /// The end of a `predict` or `eval` of `total` images of which `refused` had no estimate (each
 /// named by [`report_refused`]): [`SomeRefused`] when any had, so the exit status says so.
+/// When every image was refused, nothing was estimated: an error (status 1) like any other.
 pub(crate) fn refusals(refused: usize, total: usize) -> anyhow::Result<()> {
+    if refused > 0 && refused == total {
+        anyhow::bail!("none of the {total} images has an estimate (each named above with its reason)");
+    }
     if refused > 0 {
         return Err(SomeRefused { refused, total }.into());
     }

@@ -455,7 +455,8 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
             use rayon::prelude::*;
             feats.par_chunks_mut(m).zip(pix.par_chunks_mut(m)).zip(chunk.par_iter()).map(|((f, p), path)| read_one(path, spec, &context, f, p)).collect()
         };
-        let mut reasons: Vec<Option<String>> = read.iter().zip(chunk).map(|(r, path)| r.as_ref().err().map(|e| crate::queries::read_refusal(path, e))).collect();
+        let mut reasons: Vec<Option<String>> =
+            read.iter().zip(chunk).map(|(r, path)| r.as_ref().err().map(|e| crate::queries::read_refusal(path, e))).collect();
         let rows: Vec<usize> = (0..n).filter(|&i| reasons[i].is_none()).collect();
         crate::queries::compact(&mut feats, m, &rows);
         crate::queries::compact(&mut pix, m, &rows);

@@ -97,8 +97,12 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
         // no estimate and leaves the others theirs.
         let feats = &mut features[..n * m];
         let pix = &mut pixels[..n * m];
-        let read: Vec<linpose::Result<bool>> =
-            feats.par_chunks_mut(m).zip(pix.par_chunks_mut(m)).zip(chunk.par_iter()).map(|((slot, slot8), path)| read_one(path, spec, &context, slot, slot8)).collect();
+        let read: Vec<linpose::Result<bool>> = feats
+            .par_chunks_mut(m)
+            .zip(pix.par_chunks_mut(m))
+            .zip(chunk.par_iter())
+            .map(|((slot, slot8), path)| read_one(path, spec, &context, slot, slot8))
+            .collect();
         // Each image's outcome: None until estimated or refused.
         let mut reasons: Vec<Option<String>> = read.iter().zip(chunk).map(|(r, path)| r.as_ref().err().map(|e| read_refusal(path, e))).collect();
         let mut rows: Vec<usize> = (0..n).filter(|&i| reasons[i].is_none()).collect();
