@@ -71,3 +71,27 @@ fn eval_counts_a_black_view_apart_and_reports_the_rest() {
     let others: Vec<&Value> = c["samples"].as_array().unwrap().iter().filter(|s| s["image"] != "e040.0_a090.0.png").collect();
     assert_eq!(e["samples"].as_array().unwrap().iter().collect::<Vec<_>>(), others);
 }
+
+/// `predict --top K` with a many-object model: the K best (object, pose) hypotheses, best first,
+/// each with its object, pose and score; the view's own object and pose come first.
+#[test]
+fn top_ranks_object_and_pose_hypotheses_of_a_many_object_model() {
+    let d = Dir::new();
+    for o in ["duck", "cap"] {
+        d.ok(&["synth", "--object", o, "--azimuth", "0:350:10", "--elevation", "40", "--size", "32x24", "--out", &format!("objs/{o}")]);
+    }
+    d.ok(&["train", "--data", "objs", "--method", "eigenspace", "--train-step", "20", "--no-normalize", "--out", "m.st"]);
+    for (o, view, azimuth) in [("duck", "objs/duck/e040.0_a010.0.png", 10.0), ("cap", "objs/cap/e040.0_a130.0.png", 130.0)] {
+        let out = d.ok(&["predict", "--model", "m.st", "--top", "3", "--json", view]);
+        let v: Value = serde_json::from_str(out.trim()).unwrap();
+        let h = v["hypotheses"].as_array().unwrap();
+        assert!(!h.is_empty() && h.len() <= 3, "{out}");
+        assert_eq!(h[0]["object"], o, "{out}");
+        assert!((h[0]["pose"]["azimuth"].as_f64().unwrap() - azimuth).abs() <= 3.0, "{out}");
+        let scores: Vec<f64> = h.iter().map(|x| x["score"].as_f64().unwrap()).collect();
+        assert!(scores.windows(2).all(|w| w[0] >= w[1]) && scores.iter().all(|s| (0.0..=1.0).contains(s)), "{out}");
+    }
+    // Text: every hypothesis after the estimate, numbered.
+    let text = d.ok(&["predict", "--model", "m.st", "--top", "2", "objs/duck/e040.0_a010.0.png"]);
+    assert!(text.contains("\t#1: object=duck ") && text.contains("\t#2: object="), "{text}");
+}

@@ -426,18 +426,26 @@ struct Estimate<'a> {
     own_nearer: Option<&'a str>,
     confidence: f64,
     pose: Option<BTreeMap<&'a str, f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hypotheses: Option<Vec<ObjectHypothesisRow<'a>>>,
+}
+
+/// One (object, pose) hypothesis of `predict --top` with a many-object model.
+#[derive(Serialize)]
+struct ObjectHypothesisRow<'a> {
+    object: &'a str,
+    distance: f64,
+    pose: BTreeMap<&'a str, f64>,
+    score: f64,
 }
 
 /// `predict` with a many-object model: each image's object, its confidence and its pose, or
 /// "unknown".
 pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<()> {
-    if a.top.is_some() {
-        anyhow::bail!(
-            "--top with a many-object model ({}): not supported yet; each image gets its object, the confidence of that and its pose",
-            a.model.display()
-        );
-    }
     let model = linpose::recognize::ObjectModel::load(&a.model)?;
+    if a.top.is_some() && model.space().is_none() {
+        anyhow::bail!("--top: {} was trained without poses; it tells objects apart, with no (object, pose) hypotheses to rank", a.model.display());
+    }
     let (spec, space) = (model.spec(), model.space());
     let m = spec.features();
     let context = format!("the size of the model's training images ({})", a.model.display());
@@ -473,6 +481,22 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
                 Err(why) => reasons[i] = Some(why),
             }
         }
+        // With --top, the (object, pose) hypotheses of each image that has an estimate.
+        let mut ranked: Vec<Vec<linpose::recognize::ObjectHypothesis>> = vec![Vec::new(); n];
+        if let Some(top) = a.top {
+            let kept: Vec<usize> = (0..n).filter(|&i| est[i].is_some()).collect();
+            let rows_of: Vec<f32> = kept.iter().flat_map(|&i| feats[rows.iter().position(|&r| r == i).unwrap_or(0) * m..][..m].iter().copied()).collect();
+            let found = crate::queries::each_row(kept.len(), |r| model.hypotheses(&rows_of[r.start * m..r.end * m], top as usize));
+            for (&i, h) in kept.iter().zip(found) {
+                match h {
+                    Ok(h) => ranked[i] = h,
+                    Err(why) => {
+                        est[i] = None;
+                        reasons[i] = Some(why);
+                    }
+                }
+            }
+        }
         for (i, path) in chunk.iter().enumerate() {
             let Some(e) = &est[i] else {
                 let why = reasons[i].as_deref().unwrap_or("no estimate");
@@ -502,6 +526,19 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
                     own_nearer: r.own_nearer.map(|k| model.names()[k].as_str()),
                     confidence: r.confidence,
                     pose,
+                    hypotheses: a.top.map(|_| {
+                        ranked[i]
+                            .iter()
+                            .map(|h| ObjectHypothesisRow {
+                                object: &model.names()[h.object],
+                                distance: h.distance,
+                                pose: space
+                                    .map(|space| space.params().iter().map(|q| q.name.as_str()).zip(h.pose.pose.iter().copied()).collect())
+                                    .unwrap_or_default(),
+                                score: h.pose.score,
+                            })
+                            .collect()
+                    }),
                 };
                 serde_json::to_writer(&mut out, &row)?;
                 writeln!(out)?;
@@ -523,6 +560,15 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
                 if let (Some(p), Some(space)) = (&e.pose, space) {
                     for (q, v) in space.params().iter().zip(&p.pose) {
                         write!(out, "\t{}={v:.4}", q.name)?;
+                    }
+                }
+                if let Some(space) = space.filter(|_| a.top.is_some()) {
+                    for (k, h) in ranked[i].iter().enumerate() {
+                        write!(out, "\t#{}: object={}", k + 1, model.names()[h.object])?;
+                        for (q, v) in space.params().iter().zip(&h.pose.pose) {
+                            write!(out, " {}={v:.4}", q.name)?;
+                        }
+                        write!(out, " score={:.3}", h.pose.score)?;
                     }
                 }
                 writeln!(out)?;
