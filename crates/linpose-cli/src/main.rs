@@ -80,6 +80,10 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             eprintln!("linpose: error: {}", message(&e));
+            // Some images refused (each named), every other one estimated: its own status.
+            if e.downcast_ref::<queries::SomeRefused>().is_some() {
+                return ExitCode::from(queries::SomeRefused::EXIT_CODE);
+            }
             ExitCode::FAILURE
         }
     }

@@ -71,6 +71,76 @@ fn killed_train_leaves_the_old_model_or_the_new_one() {
 }
 
 #[test]
+fn killed_merge_leaves_the_old_model_or_the_new_one() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 2, &[20.0, 40.0], (48, 36));
+    for i in 1..=2 {
+        complete(&d.path(""), &["train", "--data", "data", "--ridge", "1e-3", "--shard", &format!("{i}/2"), "--partial", &format!("p{i}")], 2);
+    }
+    let new_args = ["merge", "p1", "p2", "--out", "m.safetensors"];
+    let full = complete(&d.path(""), &new_args, 2);
+    eprintln!("merge runs {full:?}");
+    let new = std::fs::read(d.path("m.safetensors")).unwrap();
+    complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
+    let old = std::fs::read(d.path("m.safetensors")).unwrap();
+    assert_ne!(old, new);
+    for delay in delays(full, 10) {
+        std::fs::write(d.path("m.safetensors"), &old).unwrap();
+        kill_after(&d.path(""), &new_args, delay);
+        let now = std::fs::read(d.path("m.safetensors")).unwrap();
+        assert!(now == old || now == new, "killed after {delay:?}: the model file is neither the old nor the new one ({} bytes)", now.len());
+    }
+    complete(&d.path(""), &new_args, 2);
+    assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), new);
+    assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
+}
+
+/// An output folder that cannot be written in: a clear error naming the file, exit status 1,
+/// and nothing left behind. A read-only folder, or where the test runs as root (who writes in
+/// one anyway) a folder of /proc, where nobody creates files.
+#[test]
+fn an_unwritable_output_folder_is_an_error_and_leaves_nothing() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 10, &[], (24, 18));
+    std::fs::create_dir(d.path("ro")).unwrap();
+    std::fs::set_permissions(d.path("ro"), std::fs::Permissions::from_mode(0o555)).unwrap();
+    let ro = if std::fs::write(d.path("ro/probe"), b"x").is_ok() { "/proc/self".to_string() } else { d.path("ro").display().to_string() };
+    for args in [
+        vec!["train".to_string(), "--data".into(), "data".into(), "--out".into(), format!("{ro}/m.safetensors")],
+        vec!["train".to_string(), "--data".into(), "data".into(), "--shard".into(), "1/2".into(), "--partial".into(), format!("{ro}/p1")],
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = linpose(&d.path(""), &args, 2).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(&format!("{ro}/")) && stderr.contains("linpose: error:"), "{args:?}: {stderr}");
+    }
+    let _ = std::fs::remove_file(d.path("ro/probe"));
+    assert_eq!(std::fs::read_dir(d.path("ro")).unwrap().count(), 0);
+}
+
+/// A disk that fills up while the model is written (a file size limit, `ulimit -f`, with the
+/// signal it raises ignored, so writes fail as on a full disk): a clear error naming the file,
+/// exit status 1, the previous model intact and no temporary file left.
+#[test]
+fn a_full_disk_while_writing_is_an_error_and_keeps_the_old_model() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 5, &[20.0, 40.0], (48, 36));
+    complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
+    let old = std::fs::read(d.path("m.safetensors")).unwrap();
+    let exe = env!("CARGO_BIN_EXE_linpose");
+    // 64 blocks: far less than the eigenspace model's file.
+    let script = format!("ulimit -f 64 && trap '' XFSZ && exec '{exe}' train --data data --method eigenspace --out m.safetensors");
+    let out = Command::new("sh").arg("-c").arg(&script).current_dir(d.path("")).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("linpose: error:") && stderr.contains("m.safetensors"), "{stderr}");
+    assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), old);
+    assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
+}
+
+#[test]
 fn killed_synth_leaves_no_data_set_or_a_complete_one() {
     let d = Dir::new();
     let args = ["synth", "--object", "duck", "--out", "set", "--azimuth", "0:350:10", "--elevation", "30:60:15", "--size", "48x36"];

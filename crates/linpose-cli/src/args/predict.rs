@@ -27,4 +27,9 @@ pub(crate) struct PredictArgs {
     /// The confidence under which an estimate is flagged (with --top).
     #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW, requires = "top")]
     pub flag_below: f64,
+    /// Stop at the first image that cannot be estimated (unreadable, the wrong size, all black,
+    /// refused by the model's normalisation), with an error naming it, instead of estimating
+    /// every other image and naming each refused one.
+    #[arg(long)]
+    pub strict: bool,
 }
