@@ -146,3 +146,62 @@ pub(crate) fn read_one(path: &Path, spec: linpose::image_io::ImageSpec, context:
         }
     }
 }
+
+/// Where `predict` writes its estimates: standard output, or (`--out FILE`) a temporary file
+/// beside FILE, `.NAME.tmp-PID` as the library's atomic writes name theirs, renamed to FILE by
+/// [`Output::finish`] once complete. Dropped unfinished (an error, `--strict`), the temporary is
+/// removed and FILE keeps what it held; killed, the hidden temporary is left for the next write
+/// to remove.
+pub(crate) struct Output {
+    w: Box<dyn std::io::Write>,
+    file: Option<(std::path::PathBuf, std::path::PathBuf)>,
+}
+
+impl Output {
+    /// Standard output, or a temporary beside `path`.
+    pub(crate) fn open(path: Option<&Path>) -> anyhow::Result<Self> {
+        let Some(path) = path else {
+            return Ok(Output { w: Box::new(std::io::BufWriter::new(std::io::stdout().lock())), file: None });
+        };
+        crate::common::check_output_file(path, "estimates")?;
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+        let f = std::fs::File::create(&tmp).map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+        Ok(Output { w: Box::new(std::io::BufWriter::new(f)), file: Some((path.to_path_buf(), tmp)) })
+    }
+
+    /// Flushes; with a file, syncs it and renames it into place.
+    pub(crate) fn finish(mut self) -> anyhow::Result<()> {
+        self.w.flush()?;
+        if let Some((path, tmp)) = self.file.take() {
+            // The writer closes the file before it is synced by name and renamed.
+            self.w = Box::new(std::io::sink());
+            let done = std::fs::File::open(&tmp).and_then(|f| f.sync_all()).and_then(|_| std::fs::rename(&tmp, &path));
+            if let Err(e) = done {
+                let _ = std::fs::remove_file(&tmp);
+                anyhow::bail!("{}: cannot write: {e}", path.display());
+            }
+            linpose::atomic::remove_stale_temps(&path);
+        }
+        Ok(())
+    }
+}
+
+impl std::io::Write for Output {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.w.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.w.flush()
+    }
+}
+
+impl Drop for Output {
+    fn drop(&mut self) {
+        if let Some((_, tmp)) = self.file.take() {
+            self.w = Box::new(std::io::sink());
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}

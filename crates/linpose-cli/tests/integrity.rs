@@ -1,7 +1,7 @@
 //! What linpose writes is never half-written, and the same command writes the same bytes.
 //!
-//! - Killed with SIGKILL at any moment, `train`, `synth` and `experiment` leave at their output
-//!   path either what was there before (or nothing) or the complete new output; never a partial
+//! - Killed with SIGKILL at any moment, `train`, `merge`, `predict --out`, `synth` and
+//!   `experiment` leave at their output path either what was there before (or nothing) or the complete new output; never a partial
 //!   file or folder. Their temporary `.NAME.tmp-PID` leftovers are hidden names, and the next
 //!   successful write removes them.
 //! - The same command run twice, with 1 or 2 threads, writes byte-identical models and reports.
@@ -93,6 +93,35 @@ fn killed_merge_leaves_the_old_model_or_the_new_one() {
     complete(&d.path(""), &new_args, 2);
     assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), new);
     assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
+}
+
+#[test]
+fn killed_predict_out_leaves_the_old_estimates_or_the_new_ones() {
+    let d = Dir::new();
+    complete(&d.path(""), &["synth", "--object", "duck", "--azimuth", "0:359:1", "--elevation", "30:60:10", "--size", "48x36", "--out", "set"], 2);
+    complete(&d.path(""), &["train", "--data", "set", "--method", "eigenspace", "--train-step", "10", "--out", "m.safetensors"], 2);
+    let new_args = ["predict", "--model", "m.safetensors", "--json", "--top", "3", "--out", "p.jsonl", "set"];
+    let full = complete(&d.path(""), &new_args, 2);
+    eprintln!("predict runs {full:?}");
+    let new = std::fs::read(d.path("p.jsonl")).unwrap();
+    assert_eq!(String::from_utf8_lossy(&new).lines().count(), 1440);
+    let old = b"the previous estimates\n".to_vec();
+    for delay in delays(full, 10) {
+        std::fs::write(d.path("p.jsonl"), &old).unwrap();
+        kill_after(&d.path(""), &new_args, delay);
+        let now = std::fs::read(d.path("p.jsonl")).unwrap();
+        assert!(now == old || now == new, "killed after {delay:?}: the estimates are neither the old nor the new ones ({} bytes)", now.len());
+    }
+    // --strict stopped by a bad image: the old file stays, nothing else is left.
+    std::fs::write(d.path("p.jsonl"), &old).unwrap();
+    image::GrayImage::new(48, 36).save(d.path("black.png")).unwrap();
+    let out = linpose(&d.path(""), &["predict", "--model", "m.safetensors", "--strict", "--out", "p.jsonl", "set/e030.0_a000.0.png", "black.png"], 2)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(std::fs::read(d.path("p.jsonl")).unwrap(), old);
+    complete(&d.path(""), &new_args, 2);
+    assert_eq!(hidden_leftovers(&d.path(""), "p.jsonl"), Vec::<String>::new());
 }
 
 /// An output folder that cannot be written in: a clear error naming the file, exit status 1,

@@ -32,4 +32,8 @@ pub(crate) struct PredictArgs {
     /// every other image and naming each refused one.
     #[arg(long)]
     pub strict: bool,
+    /// Write the estimates to FILE instead of standard output, atomically: FILE is the previous
+    /// one or the complete new one, never a part, whatever stops the run.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
 }

@@ -450,8 +450,7 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
     let m = spec.features();
     let context = format!("the size of the model's training images ({})", a.model.display());
     let bar = progress(files.len() as u64, "estimating");
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut out = crate::queries::Output::open(a.out.as_deref())?;
     let mut refused = 0usize;
     for chunk in files.chunks(crate::queries::BATCH) {
         // Decoded in parallel as `predict` decodes one object's queries, then all as features;
@@ -577,7 +576,7 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
         bar.inc(chunk.len() as u64);
     }
     bar.finish_and_clear();
-    out.flush()?;
+    out.finish()?;
     crate::queries::refusals(refused, files.len())
 }
 

@@ -83,8 +83,7 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
     let m = spec.features();
     let files = expand(&query_paths(a)?)?;
     let bar = progress(files.len() as u64, "estimating");
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut out = crate::queries::Output::open(a.out.as_deref())?;
     let mut features = vec![0f32; BATCH.min(files.len()) * m];
     let mut pixels = vec![0u8; BATCH.min(files.len()) * m];
     let context = format!("the size of the model's training images ({})", a.model.display());
@@ -206,6 +205,6 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
         bar.inc(n as u64);
     }
     bar.finish_and_clear();
-    out.flush()?;
+    out.finish()?;
     refusals(refused, files.len())
 }
