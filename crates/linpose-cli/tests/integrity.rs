@@ -1,9 +1,9 @@
 //! What linpose writes is never half-written, and the same command writes the same bytes.
 //!
 //! - Killed with SIGKILL at any moment, `train`, `merge`, `predict --out`, `synth` and
-//!   `experiment` leave at their output path either what was there before (or nothing) or the complete new output; never a partial
-//!   file or folder. Their temporary `.NAME.tmp-PID` leftovers are hidden names, and the next
-//!   successful write removes them.
+//!   `experiment` leave at their output path either what was there before (or nothing) or the
+//!   complete new output; never a partial file or folder. Their temporary `.NAME.tmp-PID`
+//!   leftovers are hidden names, and the next successful write removes them.
 //! - The same command run twice, with 1 or 2 threads, writes byte-identical models and reports.
 //!   Reports hold timings: `train --json` and `eval --json` have them under keys ending in `_s`,
 //!   which the comparison sets to 0; `experiment --no-timings` writes 0 for them itself.
