@@ -100,3 +100,25 @@ fn top_ranks_object_and_pose_hypotheses_of_a_many_object_model() {
     let text = d.ok(&["predict", "--model", "m.st", "--top", "2", "objs/duck/e040.0_a010.0.png"]);
     assert!(text.contains("\t#1: object=duck ") && text.contains("\t#2: object="), "{text}");
 }
+
+/// `eval` of a many-object model: a black view and a truncated file among the objects' views are
+/// counted apart with why; every other view is evaluated; exit status 3.
+#[test]
+fn eval_of_many_objects_counts_bad_views_apart() {
+    let d = Dir::new();
+    for o in ["duck", "cap"] {
+        d.ok(&["synth", "--object", o, "--azimuth", "0:330:30", "--elevation", "40", "--size", "32x24", "--out", &format!("objs/{o}")]);
+    }
+    d.ok(&["train", "--data", "objs", "--method", "eigenspace", "--no-normalize", "--out", "m.st"]);
+    image::GrayImage::new(32, 24).save(d.path("objs/duck/e040.0_a090.0.png")).unwrap();
+    let whole = std::fs::read(d.path("objs/cap/e040.0_a030.0.png")).unwrap();
+    std::fs::write(d.path("objs/cap/e040.0_a060.0.png"), &whole[..whole.len() / 2]).unwrap();
+    let out = d.run(&["eval", "--model", "m.st", "--data", "objs", "--json", "e.json"]);
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
+    let e: Value = serde_json::from_str(&std::fs::read_to_string(d.path("e.json")).unwrap()).unwrap();
+    let mut named: Vec<String> =
+        e["rejected"].as_array().unwrap().iter().map(|r| format!("{}/{}", r["object"].as_str().unwrap(), r["image"].as_str().unwrap())).collect();
+    named.sort();
+    assert_eq!(named, ["cap/e040.0_a060.0.png", "duck/e040.0_a090.0.png"]);
+    assert_eq!(e["samples"].as_array().unwrap().len(), 22);
+}

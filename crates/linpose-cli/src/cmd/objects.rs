@@ -57,6 +57,40 @@ fn catalog(dir: &Path, leave_out: &[String]) -> anyhow::Result<Catalog> {
     Ok(c.select(&keep)?)
 }
 
+/// [`load`], with the images that cannot be read at size `spec` (unreadable, damaged, another
+/// size) left out and each named with why; every image is checked only when the whole catalog
+/// does not load. An object none of whose images can be read is an error naming it.
+fn load_readable(c: &Catalog, spec: linpose::image_io::ImageSpec) -> anyhow::Result<(ObjectSet, Vec<Refused>)> {
+    let e = match load(c, spec.color) {
+        Ok(set) => return Ok((set, Vec::new())),
+        Err(e) => e,
+    };
+    let context = "the size of the model's training images";
+    let mut refused = Vec::new();
+    let mut manifests = Vec::with_capacity(c.len());
+    for (name, m) in c.names().iter().zip(c.manifests()) {
+        use rayon::prelude::*;
+        let why: Vec<Option<String>> = (0..m.len())
+            .into_par_iter()
+            .map(|i| {
+                let path = m.image_path(i);
+                linpose::image_io::read_query(&path, spec, context).err().map(|e| crate::queries::read_refusal(&path, &e))
+            })
+            .collect();
+        let mask: Vec<bool> = why.iter().map(Option::is_none).collect();
+        if !mask.iter().any(|&k| k) {
+            anyhow::bail!("{}: none of object '{name}''s {} images can be read, the first: {}", m.root().display(), m.len(), why[0].as_deref().unwrap_or(""));
+        }
+        refused.extend(why.into_iter().enumerate().filter_map(|(i, w)| w.map(|reason| Refused { object: name.clone(), image: m.images()[i].clone(), reason })));
+        manifests.push(m.subset(&mask)?);
+    }
+    if refused.is_empty() {
+        return Err(e);
+    }
+    let readable = Catalog::new(c.root(), c.names().to_vec(), manifests)?;
+    Ok((load(&readable, spec.color)?, refused))
+}
+
 /// Decodes a catalog's images with a progress bar.
 fn load(c: &Catalog, color: linpose::image_io::ColorMode) -> anyhow::Result<ObjectSet> {
     let bar = progress(c.total_images() as u64, "decoding images");
@@ -268,7 +302,9 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
             model.names().join(", ")
         ),
     };
-    let data = load(&c, model.spec().color)?;
+    // Images that cannot be read at the model's size are counted apart with why, as the model's
+    // refusals are; every object's other views are evaluated.
+    let (data, unreadable) = load_readable(&c, model.spec())?;
     if data.spec() != model.spec() || model.space().is_some_and(|s| s != data.space()) {
         anyhow::bail!(
             "{}: images of {}x{} with parameters {}, but the model was trained on {}x{} with {}",
@@ -286,7 +322,7 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     }
     let names = model.names();
     let mut samples = Vec::with_capacity(data.total_len());
-    let mut rejected = Vec::new();
+    let mut rejected = unreadable;
     let mut predict_s = 0.0;
     let space = model.space();
     for (name, d) in data.names().iter().zip(data.objects()) {
