@@ -205,3 +205,17 @@ impl Drop for Output {
         }
     }
 }
+
+/// Why each image of `manifest` cannot be read as a query of size `spec` (unreadable, damaged,
+/// another size), `None` for each one that can: decoded in parallel, for `eval` to count the
+/// unreadable ones apart.
+pub(crate) fn unreadable(manifest: &linpose::Manifest, spec: linpose::image_io::ImageSpec) -> Vec<Option<String>> {
+    use rayon::prelude::*;
+    (0..manifest.len())
+        .into_par_iter()
+        .map(|i| {
+            let path = manifest.image_path(i);
+            read_query(&path, spec, "the size of the model's training images").err().map(|e| read_refusal(&path, &e))
+        })
+        .collect()
+}

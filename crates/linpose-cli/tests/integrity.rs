@@ -43,6 +43,17 @@ fn delays(full: Duration, n: u32) -> impl Iterator<Item = Duration> {
     (0..n).map(move |i| full.mul_f64(i as f64 / (n - 1) as f64 * 1.1))
 }
 
+/// Kills `args` (which writes `file`) at ten moments spread over `full`, each time with `old` at
+/// `file` first: after each kill `file` holds `old` or `new`, never a part.
+fn kills_keep_old_or_new(dir: &Path, args: &[&str], file: &str, full: Duration, old: &[u8], new: &[u8]) {
+    for delay in delays(full, 10) {
+        std::fs::write(dir.join(file), old).unwrap();
+        kill_after(dir, args, delay);
+        let now = std::fs::read(dir.join(file)).unwrap();
+        assert!(now == old || now == new, "killed after {delay:?}: {file} is neither the old nor the new one ({} bytes)", now.len());
+    }
+}
+
 fn hidden_leftovers(dir: &Path, name: &str) -> Vec<String> {
     std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()?.file_name().into_string().ok()).filter(|f| f.starts_with(&format!(".{name}."))).collect()
 }
@@ -58,12 +69,7 @@ fn killed_train_leaves_the_old_model_or_the_new_one() {
     complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
     let old = std::fs::read(d.path("m.safetensors")).unwrap();
     assert_ne!(old, new);
-    for delay in delays(full, 10) {
-        std::fs::write(d.path("m.safetensors"), &old).unwrap();
-        kill_after(&d.path(""), &new_args, delay);
-        let now = std::fs::read(d.path("m.safetensors")).unwrap();
-        assert!(now == old || now == new, "killed after {delay:?}: the model file is neither the old nor the new one ({} bytes)", now.len());
-    }
+    kills_keep_old_or_new(&d.path(""), &new_args, "m.safetensors", full, &old, &new);
     // A complete run removes what the killed ones left.
     complete(&d.path(""), &new_args, 2);
     assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), new);
@@ -84,12 +90,7 @@ fn killed_merge_leaves_the_old_model_or_the_new_one() {
     complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
     let old = std::fs::read(d.path("m.safetensors")).unwrap();
     assert_ne!(old, new);
-    for delay in delays(full, 10) {
-        std::fs::write(d.path("m.safetensors"), &old).unwrap();
-        kill_after(&d.path(""), &new_args, delay);
-        let now = std::fs::read(d.path("m.safetensors")).unwrap();
-        assert!(now == old || now == new, "killed after {delay:?}: the model file is neither the old nor the new one ({} bytes)", now.len());
-    }
+    kills_keep_old_or_new(&d.path(""), &new_args, "m.safetensors", full, &old, &new);
     complete(&d.path(""), &new_args, 2);
     assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), new);
     assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
@@ -106,12 +107,7 @@ fn killed_predict_out_leaves_the_old_estimates_or_the_new_ones() {
     let new = std::fs::read(d.path("p.jsonl")).unwrap();
     assert_eq!(String::from_utf8_lossy(&new).lines().count(), 1440);
     let old = b"the previous estimates\n".to_vec();
-    for delay in delays(full, 10) {
-        std::fs::write(d.path("p.jsonl"), &old).unwrap();
-        kill_after(&d.path(""), &new_args, delay);
-        let now = std::fs::read(d.path("p.jsonl")).unwrap();
-        assert!(now == old || now == new, "killed after {delay:?}: the estimates are neither the old nor the new ones ({} bytes)", now.len());
-    }
+    kills_keep_old_or_new(&d.path(""), &new_args, "p.jsonl", full, &old, &new);
     // --strict stopped by a bad image: the old file stays, nothing else is left.
     std::fs::write(d.path("p.jsonl"), &old).unwrap();
     image::GrayImage::new(48, 36).save(d.path("black.png")).unwrap();

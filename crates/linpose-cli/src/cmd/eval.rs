@@ -5,7 +5,6 @@ use crate::common::{check_output_file, load_dataset, write_json};
 use crate::queries::print_refused;
 use linpose::render::ViewJitter;
 use linpose::{ErrorSummary, PoseModel};
-use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::{HashMap, HashSet};
 
@@ -181,14 +180,7 @@ fn load_readable(manifest: linpose::Manifest, spec: linpose::image_io::ImageSpec
         Ok(d) => return Ok((d, Vec::new())),
         Err(e) => e,
     };
-    let context = "the size of the model's training images";
-    let why: Vec<Option<String>> = (0..whole.len())
-        .into_par_iter()
-        .map(|i| {
-            let path = whole.image_path(i);
-            linpose::image_io::read_query(&path, spec, context).err().map(|e| crate::queries::read_refusal(&path, &e))
-        })
-        .collect();
+    let why = crate::queries::unreadable(&whole, spec);
     if why.iter().all(Option::is_none) {
         return Err(e);
     }

@@ -65,18 +65,10 @@ fn load_readable(c: &Catalog, spec: linpose::image_io::ImageSpec) -> anyhow::Res
         Ok(set) => return Ok((set, Vec::new())),
         Err(e) => e,
     };
-    let context = "the size of the model's training images";
     let mut refused = Vec::new();
     let mut manifests = Vec::with_capacity(c.len());
     for (name, m) in c.names().iter().zip(c.manifests()) {
-        use rayon::prelude::*;
-        let why: Vec<Option<String>> = (0..m.len())
-            .into_par_iter()
-            .map(|i| {
-                let path = m.image_path(i);
-                linpose::image_io::read_query(&path, spec, context).err().map(|e| crate::queries::read_refusal(&path, &e))
-            })
-            .collect();
+        let why = crate::queries::unreadable(m, spec);
         let mask: Vec<bool> = why.iter().map(Option::is_none).collect();
         if !mask.iter().any(|&k| k) {
             anyhow::bail!("{}: none of object '{name}''s {} images can be read, the first: {}", m.root().display(), m.len(), why[0].as_deref().unwrap_or(""));
