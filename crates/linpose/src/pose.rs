@@ -165,6 +165,16 @@ impl PoseSpace {
         }
     }
 
+    /// The index of the parameter that turns the image in its plane: a `roll` beside
+    /// `elevation` and `azimuth` (the camera turned about its optical axis, which the error
+    /// measures as a rotation), else None.
+    pub(crate) fn in_plane_roll(&self) -> Option<usize> {
+        match self.geometry() {
+            Geometry::Rotation(_, _, ir) => Some(ir),
+            _ => None,
+        }
+    }
+
     /// The pose error (docs/method.md), in degrees:
     /// - with `elevation`, `azimuth` and `roll`: the angle of the rotation that takes the camera's
     ///   true orientation to its estimated one (the geodesic distance on SO(3));

@@ -2,7 +2,8 @@
 //! the projector that takes a query's coordinates on them (`projector`), the training views'
 //! grid of poses and its dense resampling (`grid`), the splines and surfaces through the views'
 //! coordinates (`spline`, `surface`, [`Interpolant`]), the k-d tree over manifold points
-//! (`kdtree`), the coarse candidates of a continuous search from the training views (`knots`),
+//! (`kdtree`), the knots a camera roll adds between the training rolls, training views turned in
+//! the image (`roll`), the coarse candidates of a continuous search from the training views (`knots`),
 //! and the held-out folds every automatic choice is scored on (`folds`).
 //!
 //! Whether a manifold is resampled on a dense lattice of poses or kept as its knots (the
@@ -18,6 +19,7 @@ pub(crate) mod kdtree;
 pub(crate) mod knots;
 pub(crate) mod pca;
 pub(crate) mod projector;
+pub(crate) mod roll;
 pub(crate) mod spline;
 pub(crate) mod surface;
 pub(crate) mod tuning;

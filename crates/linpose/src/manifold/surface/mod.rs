@@ -185,20 +185,35 @@ impl Surface {
     /// The number of points along each axis of [`Surface::grid_poses`], and whether the axis is
     /// circular.
     pub(crate) fn grid_shape(&self, per_cell: usize) -> Vec<(usize, bool)> {
-        let per_cell = per_cell.max(1);
-        self.shape.iter().zip(&self.periods).map(|(&n, p)| if p.is_some() { (n * per_cell, true) } else { ((n - 1) * per_cell + 1, false) }).collect()
+        self.grid_shape_by(&vec![per_cell; self.params()])
+    }
+
+    /// [`Self::grid_shape`] with `per_cell[j]` points per knot interval along axis j.
+    pub(crate) fn grid_shape_by(&self, per_cell: &[usize]) -> Vec<(usize, bool)> {
+        self.shape
+            .iter()
+            .zip(&self.periods)
+            .zip(per_cell)
+            .map(|((&n, p), &c)| if p.is_some() { (n * c.max(1), true) } else { ((n - 1) * c.max(1) + 1, false) })
+            .collect()
     }
 
     /// The poses of a regular grid over the domain with `per_cell` points per knot interval
     /// along each axis (the knots included), row-major.
     pub(crate) fn grid_poses(&self, per_cell: usize) -> Vec<f64> {
-        let per_cell = per_cell.max(1);
+        self.grid_poses_by(&vec![per_cell; self.params()])
+    }
+
+    /// [`Self::grid_poses`] with `per_cell[j]` points per knot interval along axis j.
+    pub(crate) fn grid_poses_by(&self, per_cell: &[usize]) -> Vec<f64> {
         let axes: Vec<Vec<f64>> = self
             .splines
             .iter()
             .zip(&self.periods)
             .zip(&self.shape)
-            .map(|((s, p), &n)| {
+            .zip(per_cell)
+            .map(|(((s, p), &n), &per_cell)| {
+                let per_cell = per_cell.max(1);
                 let knots = s.knots();
                 let pieces = if p.is_some() { n } else { n - 1 };
                 let mut v = Vec::new();

@@ -5,12 +5,13 @@ use super::model::RefinedModel;
 use super::noisy::background_knots;
 use super::params::{RefinedParams, RefinedSettings};
 use super::select;
-use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, WEIGHT_FLOOR};
+use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, ROLL_SPLIT, WEIGHT_FLOOR};
 use super::METHOD;
 use crate::binning::Binning;
 use crate::dataset::Dataset;
 use crate::manifold::grid::Grid;
-use crate::manifold::pca::{self, Dimension};
+use crate::manifold::pca::{self, Dimension, Pca};
+use crate::manifold::roll::RollKnots;
 use crate::model::{Estimator, Method, ModelMeta};
 use crate::second_look::SecondLook;
 use crate::Result;
@@ -101,16 +102,28 @@ impl Estimator for RefinedParams {
         let scale = search_scale(sigma2.as_deref(), l_search, l);
         // The route measures a query's noise on the image as given: so is the threshold.
         let noise_threshold = select::noise_threshold(full)?.threshold;
-        let mut knots = Vec::with_capacity(grid.sample_at.len() * l);
-        for &i in &grid.sample_at {
-            knots.extend(pca.coords[i * l..(i + 1) * l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
-        }
         let mut basis = pca.basis.clone();
         let m = train.n_features();
         for (c, &w) in scale.iter().enumerate() {
             basis[c * m..(c + 1) * m].iter_mut().for_each(|v| *v *= w);
         }
-        let background = background_knots(views, &grid.sample_at, &basis, l);
+        // The surface's knots: the training views, and with a camera roll the turned views
+        // between the training rolls (`manifold::roll`).
+        let rolled = RollKnots::new(full, &grid, roll_split())?;
+        let (knots, background, axes) = match &rolled {
+            None => {
+                let mut knots = Vec::with_capacity(grid.sample_at.len() * l);
+                for &i in &grid.sample_at {
+                    knots.extend(pca.coords[i * l..(i + 1) * l].iter().zip(&scale).map(|(&v, &w)| (v * w) as f32));
+                }
+                (knots, background_knots(views, &grid.sample_at, &basis, l), grid.axes.clone())
+            }
+            Some(r) => {
+                let knots = roll_knot_coords(r, &pca, &scale, &basis, binning);
+                let all: Vec<usize> = (0..r.len()).collect();
+                (knots, background_knots(Views { full: &r.views, binning }, &all, &basis, l), r.axes.clone())
+            }
+        };
         let settings = RefinedSettings {
             params: *self,
             bin: binning.factor(),
@@ -121,7 +134,8 @@ impl Estimator for RefinedParams {
             components: l,
             search_components: l_search,
             energy_kept: pca.energy_kept(),
-            knot_shape: grid.shape(),
+            knot_shape: axes.iter().map(Vec::len).collect(),
+            roll_split: rolled.is_some().then(roll_split),
             selection,
             plain_error,
             interpolation_variance: sigma2.unwrap_or_default(),
@@ -144,7 +158,7 @@ impl Estimator for RefinedParams {
         };
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         let look = SecondLook::fit(full, &grid, interpolant)?;
-        RefinedModel::new(meta, settings, to32(&basis), to32(&pca.mean), knots, background, grid.axes)?.with_look(look)
+        RefinedModel::new(meta, settings, to32(&basis), to32(&pca.mean), knots, background, axes)?.with_look(look)
     }
 }
 
@@ -184,4 +198,38 @@ pub(crate) fn search_scale(sigma2: Option<&[f64]>, ls: usize, l: usize) -> Vec<f
     let mut s = weights(sigma2, ls);
     s.resize(l, 1.0);
     s
+}
+
+/// The split of a camera roll's knot intervals ([`ROLL_SPLIT`]).
+fn roll_split() -> usize {
+    std::env::var("LINPOSE_ROLL_SPLIT").ok().and_then(|v| v.parse().ok()).unwrap_or(ROLL_SPLIT)
+}
+
+/// The scaled coordinates of every knot of `r` (N x L, row-major): a training view's as the
+/// PCA gave them, a turned view's its binned image's at unit energy, the mean subtracted, on the
+/// scaled `basis`.
+fn roll_knot_coords(r: &RollKnots, pca: &Pca, scale: &[f64], basis: &[f64], binning: Binning) -> Vec<f32> {
+    use rayon::prelude::*;
+    let (l, m) = (scale.len(), pca.mean.len());
+    let per: Vec<Vec<f32>> = (0..r.len())
+        .into_par_iter()
+        .map_init(
+            || (vec![0f32; m], Vec::new()),
+            |(binned, acc), p| match r.sample[p] {
+                Some(i) => pca.coords[i * l..(i + 1) * l].iter().zip(scale).map(|(&v, &w)| (v * w) as f32).collect(),
+                None => {
+                    let x = r.views.row(p);
+                    if binning.bins() {
+                        binning.apply(x, binned, acc);
+                    } else {
+                        binned.copy_from_slice(x);
+                    }
+                    let norm = binned.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt().max(f64::MIN_POSITIVE);
+                    let centred: Vec<f64> = binned.iter().zip(&pca.mean).map(|(&v, &u)| v as f64 / norm - u).collect();
+                    (0..l).map(|c| basis[c * m..(c + 1) * m].iter().zip(&centred).map(|(u, v)| u * v).sum::<f64>() as f32).collect()
+                }
+            },
+        )
+        .collect();
+    per.concat()
 }

@@ -6,7 +6,7 @@ use super::noisy::{NoiseScan, NoisyTree};
 use super::params::RefinedSettings;
 use super::search::{box_split, lattice, CoarseTree};
 use crate::manifold::surface::Surface;
-use super::tuning::{MAX_LATTICE, TREE_STEP};
+use super::tuning::{MAX_LATTICE, MAX_ROLL_SPLIT, TREE_STEP};
 use super::METHOD;
 use crate::binning::Binning;
 use crate::kernels::{dot_q, Level};
@@ -97,8 +97,14 @@ impl RefinedModel {
         // continuous fallback from per_cell points per knot interval.
         let continuous = !crate::manifold::dense_lattice(d);
         let per_cell = if continuous { crate::manifold::tuning::KNOT_START_PER_CELL } else { settings.params.per_cell };
-        let start_poses = surface.grid_poses(per_cell);
-        let start_shape = surface.grid_shape(per_cell);
+        // Along a split roll the starts keep their spacing over the training rolls: the turned
+        // views refine the surface between them, not where a search may start.
+        let mut per_axis = vec![per_cell; d];
+        if let (Some(s), Some(r)) = (settings.roll_split, meta.space.in_plane_roll()) {
+            per_axis[r] = per_cell.div_ceil(s);
+        }
+        let start_poses = surface.grid_poses_by(&per_axis);
+        let start_shape = surface.grid_shape_by(&per_axis);
         let b64: Vec<f64> = background.iter().map(|&v| v as f64).collect();
         let bg_surface = Surface::new(&meta.space, &axes, &b64, l, settings.interpolant)?;
         let n_start = start_poses.len() / d;
@@ -199,7 +205,8 @@ impl RefinedModel {
         self.settings.components
     }
 
-    /// Number of knots (training views on the grid).
+    /// Number of knots: the training views on the grid, and with a camera roll the turned views
+    /// between them ([`RefinedSettings::roll_split`]).
     pub fn knots_len(&self) -> usize {
         self.knots.len() / self.components()
     }
@@ -264,6 +271,9 @@ impl RefinedModel {
         let (l, m, d) = (settings.components, binning.spec().features(), meta.space.len());
         if l == 0 || settings.knot_shape.len() != d || settings.knot_shape.iter().any(|&c| c == 0 || c > 1 << 16) {
             return Err(bad(format!("{l} components, knot shape {:?}", settings.knot_shape)));
+        }
+        if let Some(s) = settings.roll_split.filter(|&s| !(2..=MAX_ROLL_SPLIT).contains(&s) || meta.space.in_plane_roll().is_none()) {
+            return Err(bad(format!("a roll split of {s} (2 to {MAX_ROLL_SPLIT}, with a camera roll beside elevation and azimuth)")));
         }
         if !(1..=l).contains(&settings.search_components) {
             return Err(bad(format!("a clean search on {} of {l} components", settings.search_components)));

@@ -165,8 +165,14 @@ pub struct RefinedSettings {
     pub search_components: usize,
     /// Fraction of the training energy (about the mean) they hold.
     pub energy_kept: f64,
-    /// Knots along each pose parameter.
+    /// Knots along each pose parameter (with a camera roll, the roll's training values and the
+    /// turned views between them, [`Self::roll_split`]).
     pub knot_shape: Vec<usize>,
+    /// The parts each knot interval of a camera roll (a `roll` beside `elevation` and `azimuth`)
+    /// is split into by training views turned in the image, which the surface passes through as
+    /// extra knots (`docs/refined.md`); None when its knots are the training views alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roll_split: Option<usize>,
     /// The automatic choice of L: each candidate with the mean pose error (degrees) of the
     /// held-out training views (empty when L was fixed).
     pub selection: Vec<(usize, f64)>,

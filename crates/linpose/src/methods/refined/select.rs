@@ -262,6 +262,7 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
         search_components: l,
         energy_kept: 0.0,
         knot_shape,
+        roll_split: None,
         selection: vec![],
         plain_error: None,
         interpolation_variance: vec![],

@@ -271,3 +271,17 @@ pub(crate) const SYSTEM_BYTES: f64 = 40.0;
 /// 43,920 points (about 2 KiB a point). A model reporting continuous poses (`resolution` 0) is
 /// counted on the lattice of [`DEFAULT_RESOLUTION`].
 pub(crate) const LATTICE_BYTES: f64 = 2048.0;
+
+// ---------------------------------------------------------------------------------------------
+// Knots between the training rolls
+// ---------------------------------------------------------------------------------------------
+
+/// The parts each knot interval of a camera roll is split into by turned training views
+/// (`manifold::roll`): more parts hold the surface to the images at more rolls, and each adds
+/// a knot per training view along the other axes (the model's knots and their slopes, the
+/// fitting's turns and projections). MEASUREMENT PENDING.
+pub(crate) const ROLL_SPLIT: usize = 2;
+
+/// The largest roll split a model file may record: a bound on a model's knots, far above
+/// [`ROLL_SPLIT`]. Not tuned.
+pub(crate) const MAX_ROLL_SPLIT: usize = 16;

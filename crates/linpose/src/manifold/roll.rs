@@ -1,0 +1,174 @@
+//! Knots between the training rolls: where a pose space has a camera roll beside elevation and
+//! azimuth ([`crate::PoseSpace::error_deg`]'s rotation), a roll turns the image in its plane and
+//! nothing else, so the view at a roll between two training rolls is a training view turned in
+//! the image. The surface through the training views' coordinates bends between its knots as a
+//! cubic in each parameter, and an image turned by half a knot interval is far from the cubic's
+//! midpoint (a turned edge is not a blend of two edges): turned views placed as extra knots along
+//! the roll axis hold the surface to the images there.
+//!
+//! [`RollKnots::new`] splits every knot interval of the roll axis into `split` equal parts
+//! (the closing interval of a circular roll too, when it is no wider than the widest other one)
+//! and makes the view at each new knot from the two training views around it, each turned to
+//! the new roll about the image's centre (bilinear) and weighted by its nearness. A turned
+//! image's corners come from outside the frame: they take the view's backdrop level, the median
+//! of its border pixels per channel, which is the background where the object stays clear of the
+//! border (a rendered view's, a turntable's uniform backdrop) and only an approximation where it
+//! does not. The turned views are not training views: they are only knots of a surface, and the
+//! settings chosen on held-out training views are chosen without them.
+
+use crate::dataset::Dataset;
+use crate::image_io::ImageSpec;
+use crate::manifold::grid::Grid;
+use crate::Result;
+use rayon::prelude::*;
+
+/// The dense grid of knots along a roll axis: its positions, which training view (if any) sits
+/// at each point, and every point's view.
+#[derive(Debug)]
+pub(crate) struct RollKnots {
+    /// Knot positions per parameter: the grid's, with the roll axis split.
+    pub axes: Vec<Vec<f64>>,
+    /// For each point of the dense grid (row-major, the last parameter fastest), the training
+    /// view there (an index into the training set), or None for a turned view.
+    pub sample: Vec<Option<usize>>,
+    /// Every point's view in the same order, at the training views' size.
+    pub views: Dataset,
+}
+
+impl RollKnots {
+    /// The dense knots of the training views `full` on `grid` with the roll axis's intervals
+    /// split into `split` parts; None when the space has no roll ([`crate::PoseSpace`]'s
+    /// in-plane roll), the roll has one training value, or `split` is below 2.
+    pub(crate) fn new(full: &Dataset, grid: &Grid, split: usize) -> Result<Option<RollKnots>> {
+        let space = full.space();
+        let Some(r) = space.in_plane_roll() else { return Ok(None) };
+        let rolls = &grid.axes[r];
+        if split < 2 || rolls.len() < 2 {
+            return Ok(None);
+        }
+        let period = space.params()[r].period;
+        // Each dense roll: (value, lower knot index, upper knot index, the upper's value).
+        let mut dense: Vec<(f64, usize, usize, f64)> = Vec::new();
+        let widest = rolls.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+        let n = rolls.len();
+        for i in 0..n {
+            let (j, b) = match (i + 1 < n, period) {
+                (true, _) => (i + 1, rolls[i + 1]),
+                (false, Some(t)) if rolls[0] + t - rolls[i] <= widest => (0, rolls[0] + t),
+                _ => (i, rolls[i]),
+            };
+            let a = rolls[i];
+            dense.push((a, i, i, a));
+            if j != i {
+                dense.extend((1..split).map(|k| (a + (b - a) * k as f64 / split as f64, i, j, b)));
+            }
+        }
+        let mut axes = grid.axes.clone();
+        axes[r] = dense.iter().map(|p| p.0).collect();
+        // Row-major strides of the original grid and of the dense one.
+        let shape: Vec<usize> = grid.axes.iter().map(Vec::len).collect();
+        let dshape: Vec<usize> = axes.iter().map(Vec::len).collect();
+        let total: usize = dshape.iter().product();
+        let spec = full.spec();
+        let mf = spec.features();
+        // The original grid's flat index of a dense point with its roll knot replaced by `k`.
+        let original = |mut flat: usize, k: usize| {
+            let mut idx = vec![0; dshape.len()];
+            for j in (0..dshape.len()).rev() {
+                idx[j] = flat % dshape[j];
+                flat /= dshape[j];
+            }
+            let (d, mut o) = (dense[idx[r]], 0);
+            for j in 0..shape.len() {
+                o = o * shape[j] + if j == r { k } else { idx[j] };
+            }
+            (d, o)
+        };
+        let sample: Vec<Option<usize>> = (0..total)
+            .map(|p| {
+                let ((v, i, _, _), _) = original(p, 0);
+                (v == rolls[i]).then(|| grid.sample_at[original(p, i).1])
+            })
+            .collect();
+        let mut pixels = vec![0f32; total * mf];
+        pixels.par_chunks_exact_mut(mf).enumerate().for_each_init(
+            || vec![0f32; mf],
+            |turned, (p, out)| {
+                let ((v, i, j, b), _) = original(p, 0);
+                let lower = grid.sample_at[original(p, i).1];
+                if v == rolls[i] {
+                    out.copy_from_slice(full.row(lower));
+                    return;
+                }
+                let upper = grid.sample_at[original(p, j).1];
+                let (a, wa) = (rolls[i], (b - v) / (b - rolls[i]));
+                turn(full.row(lower), spec, v - a, &backdrop(full.row(lower), spec), out);
+                out.iter_mut().for_each(|x| *x *= wa as f32);
+                turn(full.row(upper), spec, v - b, &backdrop(full.row(upper), spec), turned);
+                out.iter_mut().zip(turned.iter()).for_each(|(x, &y)| *x += (1.0 - wa) as f32 * y);
+            },
+        );
+        let mut poses = Vec::with_capacity(total * dshape.len());
+        for mut p in 0..total {
+            let at = poses.len();
+            poses.resize(at + dshape.len(), 0.0);
+            for j in (0..dshape.len()).rev() {
+                poses[at + j] = axes[j][p % dshape[j]];
+                p /= dshape[j];
+            }
+        }
+        // A circular roll's values stay within one period of its first knot (the grid's own).
+        let views = Dataset::new(spec, pixels, space.clone(), poses)?;
+        Ok(Some(RollKnots { axes, sample, views }))
+    }
+
+    /// Number of points on the dense grid.
+    pub(crate) fn len(&self) -> usize {
+        self.sample.len()
+    }
+}
+
+/// The backdrop level of an image: the median of its border pixels, per channel.
+pub(crate) fn backdrop(image: &[f32], spec: ImageSpec) -> Vec<f32> {
+    let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
+    let border = |x: usize, y: usize| x == 0 || y == 0 || x + 1 == w || y + 1 == h;
+    (0..ch)
+        .map(|c| {
+            let mut v: Vec<f32> = (0..w * h).filter(|&p| border(p % w, p / w)).map(|p| image[p * ch + c]).collect();
+            v.sort_by(f32::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        })
+        .collect()
+}
+
+/// `image` turned by `deg` degrees counter-clockwise (as seen, rows top to bottom) about the
+/// image's centre into `out`, as a camera's roll turns it (the renderer's `Camera::roll`):
+/// bilinear, each of the four source pixels outside the frame read as `fill` (one value per
+/// channel).
+pub(crate) fn turn(image: &[f32], spec: ImageSpec, deg: f64, fill: &[f32], out: &mut [f32]) {
+    let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
+    let (cx, cy) = ((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let (s, c) = deg.to_radians().sin_cos();
+    let at = |x: isize, y: isize, k: usize| -> f64 {
+        if x < 0 || y < 0 || x >= w as isize || y >= h as isize {
+            fill[k] as f64
+        } else {
+            image[(y as usize * w + x as usize) * ch + k] as f64
+        }
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let (qx, qy) = (x as f64 - cx, y as f64 - cy);
+            // The point that the turn carries to (x, y): the inverse turn of (x, y).
+            let (sx, sy) = (cx + qx * c - qy * s, cy + qx * s + qy * c);
+            let (x0, y0) = (sx.floor(), sy.floor());
+            let (fx, fy) = (sx - x0, sy - y0);
+            let (x0, y0) = (x0 as isize, y0 as isize);
+            for k in 0..ch {
+                let top = at(x0, y0, k) * (1.0 - fx) + at(x0 + 1, y0, k) * fx;
+                let bottom = at(x0, y0 + 1, k) * (1.0 - fx) + at(x0 + 1, y0 + 1, k) * fx;
+                out[(y * w + x) * ch + k] = (top * (1.0 - fy) + bottom * fy) as f32;
+            }
+        }
+    }
+}
