@@ -128,6 +128,34 @@ impl RollKnots {
     }
 }
 
+/// How far each training view of `full` on `grid` turned in the image to the next training value
+/// of the roll (parameter `r`) lands from the training view there, relative to how far apart the
+/// two views are: the sum of ||turn(x_a, b - a) - x_b||^2 over every pair of neighbouring rolls
+/// (every other parameter equal) over the sum of ||x_a - x_b||^2. Near 0 where a roll turns the
+/// image and nothing else (less the corners and the bilinear blur); near 1 or above where it
+/// changes the image otherwise. None with fewer than two rolls or identical neighbours.
+pub(crate) fn turn_error(full: &Dataset, grid: &Grid, r: usize) -> Option<f64> {
+    let shape: Vec<usize> = grid.axes.iter().map(Vec::len).collect();
+    let stride: usize = shape[r + 1..].iter().product();
+    let n = shape[r];
+    let spec = full.spec();
+    let pairs: Vec<usize> = (0..grid.sample_at.len()).filter(|&p| (p / stride) % n + 1 < n).collect();
+    let (turned, still) = pairs
+        .par_iter()
+        .map_init(
+            || vec![0f32; spec.features()],
+            |out, &p| {
+                let k = (p / stride) % n;
+                let (a, b) = (full.row(grid.sample_at[p]), full.row(grid.sample_at[p + stride]));
+                turn(a, spec, grid.axes[r][k + 1] - grid.axes[r][k], &backdrop(a, spec), out);
+                let sq = |x: &[f32]| x.iter().zip(b).map(|(&u, &v)| (u as f64 - v as f64).powi(2)).sum::<f64>();
+                (sq(out), sq(a))
+            },
+        )
+        .reduce(|| (0.0, 0.0), |x, y| (x.0 + y.0, x.1 + y.1));
+    (still > 0.0).then(|| turned / still)
+}
+
 /// The backdrop level of an image: the median of its border pixels, per channel.
 pub(crate) fn backdrop(image: &[f32], spec: ImageSpec) -> Vec<f32> {
     let (w, h, ch) = (spec.width as usize, spec.height as usize, spec.color.channels());
@@ -170,5 +198,38 @@ pub(crate) fn turn(image: &[f32], spec: ImageSpec, deg: f64, fill: &[f32], out: 
                 out[(y * w + x) * ch + k] = (top * (1.0 - fy) + bottom * fy) as f32;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image_io::ColorMode;
+    use crate::render::{objects, render, Camera, RenderParams};
+
+    fn view(roll: f64) -> Vec<f32> {
+        let mesh = objects::builtin("duck").unwrap();
+        let params = RenderParams::default().width(64).height(48).camera(Camera::default().roll(roll));
+        render(&mesh, 30.0, 50.0, &params).unwrap().pixels().map(|p| p.0[0] as f32 / 255.0).collect()
+    }
+
+    fn sq(a: &[f32], b: &[f32]) -> f64 {
+        a.iter().zip(b).map(|(&u, &v)| (u as f64 - v as f64).powi(2)).sum()
+    }
+
+    #[test]
+    fn a_positive_turn_is_the_renderers_positive_roll() {
+        let spec = ImageSpec { width: 64, height: 48, color: ColorMode::Gray };
+        let (at0, at10) = (view(0.0), view(10.0));
+        let fill = backdrop(&at0, spec);
+        assert_eq!(fill, vec![0.0]);
+        let (mut plus, mut minus) = (vec![0.0; at0.len()], vec![0.0; at0.len()]);
+        turn(&at0, spec, 10.0, &fill, &mut plus);
+        turn(&at0, spec, -10.0, &fill, &mut minus);
+        let (e_plus, e_minus, apart) = (sq(&plus, &at10), sq(&minus, &at10), sq(&at0, &at10));
+        assert!(e_plus < 0.1 * apart && e_minus > apart, "{e_plus} {e_minus} {apart}");
+        // No turn is the image itself.
+        turn(&at0, spec, 0.0, &fill, &mut plus);
+        assert_eq!(plus, at0);
     }
 }

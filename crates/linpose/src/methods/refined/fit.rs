@@ -5,13 +5,13 @@ use super::model::RefinedModel;
 use super::noisy::background_knots;
 use super::params::{RefinedParams, RefinedSettings};
 use super::select;
-use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, ROLL_SPLIT, WEIGHT_FLOOR};
+use super::tuning::{BIN_CANDIDATES, FALLBACK_COMPONENTS, NOISE_COMPONENTS, ROLL_SPLIT, ROLL_TURN_MAX, WEIGHT_FLOOR};
 use super::METHOD;
 use crate::binning::Binning;
 use crate::dataset::Dataset;
 use crate::manifold::grid::Grid;
 use crate::manifold::pca::{self, Dimension, Pca};
-use crate::manifold::roll::RollKnots;
+use crate::manifold::roll::{self, RollKnots};
 use crate::model::{Estimator, Method, ModelMeta};
 use crate::second_look::SecondLook;
 use crate::Result;
@@ -109,7 +109,14 @@ impl Estimator for RefinedParams {
         }
         // The surface's knots: the training views, and with a camera roll the turned views
         // between the training rolls (`manifold::roll`).
-        let rolled = RollKnots::new(full, &grid, roll_split())?;
+        let (split, roll_turn_error) = match (full.space().in_plane_roll(), self.roll_split) {
+            (None, _) => (1, None),
+            (Some(r), fixed) => {
+                let e = roll::turn_error(full, &grid, r);
+                (fixed.unwrap_or(if e.is_some_and(|e| e <= ROLL_TURN_MAX) { ROLL_SPLIT } else { 1 }), e)
+            }
+        };
+        let rolled = RollKnots::new(full, &grid, split)?;
         let (knots, background, axes) = match &rolled {
             None => {
                 let mut knots = Vec::with_capacity(grid.sample_at.len() * l);
@@ -135,7 +142,8 @@ impl Estimator for RefinedParams {
             search_components: l_search,
             energy_kept: pca.energy_kept(),
             knot_shape: axes.iter().map(Vec::len).collect(),
-            roll_split: rolled.is_some().then(roll_split),
+            roll_split: rolled.is_some().then_some(split),
+            roll_turn_error,
             selection,
             plain_error,
             interpolation_variance: sigma2.unwrap_or_default(),
@@ -198,11 +206,6 @@ pub(crate) fn search_scale(sigma2: Option<&[f64]>, ls: usize, l: usize) -> Vec<f
     let mut s = weights(sigma2, ls);
     s.resize(l, 1.0);
     s
-}
-
-/// The split of a camera roll's knot intervals ([`ROLL_SPLIT`]).
-fn roll_split() -> usize {
-    std::env::var("LINPOSE_ROLL_SPLIT").ok().and_then(|v| v.parse().ok()).unwrap_or(ROLL_SPLIT)
 }
 
 /// The scaled coordinates of every knot of `r` (N x L, row-major): a training view's as the

@@ -30,6 +30,11 @@ pub(crate) static METHOD: Method = Method {
             value: "spline|local|auto",
             help: "how the manifold passes between training views: spline (the C2 cubic spline, the eigenspace's), local (each knot's slope from its two neighbours alone), or auto (the default): chosen by the held-out error of the training views",
         },
+        MethodOption {
+            name: "roll-split",
+            value: "P|auto",
+            help: "with a camera roll beside elevation and azimuth: split each interval between training rolls into P by training views turned in the image, extra knots of the manifold (1: none), or auto (the default): 2 where turning each training view to the next training roll reproduces the view there",
+        },
     ],
     params: |s| Ok(RefinedParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(RefinedModel::from_parts(meta, t)?)),
@@ -56,6 +61,10 @@ impl RefinedParams {
         match r.text("interpolant") {
             None | Some("auto") => p = p.auto_interpolant(),
             Some(v) => p = p.interpolant(v.parse::<Interpolant>().map_err(|_| r.error("interpolant", v, "expected 'spline', 'local' or 'auto'"))?),
+        }
+        match r.text("roll-split") {
+            None | Some("auto") => {}
+            Some(v) => p = p.roll_split(v.parse().map_err(|_| r.error("roll-split", v, "expected a whole number or 'auto'"))?),
         }
         Ok(p)
     }

@@ -2,7 +2,7 @@
 //! what it chose.
 
 use crate::manifold::surface::Interpolant;
-use super::tuning::{DEFAULT_PER_CELL, DEFAULT_RESOLUTION, DEFAULT_STARTS, MAX_PER_CELL, MAX_STARTS};
+use super::tuning::{DEFAULT_PER_CELL, DEFAULT_RESOLUTION, DEFAULT_STARTS, MAX_PER_CELL, MAX_ROLL_SPLIT, MAX_STARTS};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
 
@@ -23,6 +23,10 @@ pub struct RefinedParams {
     /// How the surface interpolates between knots (None: chosen from the training data: the spline or the
     /// local cubic).
     pub(crate) interpolant: Option<Interpolant>,
+    /// The parts each knot interval of a camera roll is split into by turned training views
+    /// (None: two where the training views show that a roll turns the image).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) roll_split: Option<usize>,
 }
 
 impl Default for RefinedParams {
@@ -35,6 +39,7 @@ impl Default for RefinedParams {
             resolution: DEFAULT_RESOLUTION,
             bin: None,
             interpolant: None,
+            roll_split: None,
         }
     }
 }
@@ -110,6 +115,17 @@ impl RefinedParams {
         self
     }
 
+    /// With a camera roll (a `roll` beside `elevation` and `azimuth`, which turns the image in
+    /// its plane): split each interval between the training rolls into `parts` by training
+    /// views turned to the rolls between, which the surface passes through as extra knots
+    /// (`docs/refined.md`); 1 keeps the training views alone. By default the split is two
+    /// parts (a knot halfway) where turning each training view to the next training roll
+    /// reproduces the view there ([`RefinedSettings::roll_turn_error`]), else none.
+    pub fn roll_split(mut self, parts: usize) -> Self {
+        self.roll_split = Some(parts);
+        self
+    }
+
     /// The interpolant asked for (None: chosen from the data).
     pub fn fixed_interpolant(&self) -> Option<Interpolant> {
         self.interpolant
@@ -126,6 +142,9 @@ impl RefinedParams {
         }
         if !(self.resolution.is_finite() && self.resolution >= 0.0) {
             return Err(Error::invalid("resolution", self.resolution, "must be a number of degrees >= 0"));
+        }
+        if let Some(s) = self.roll_split.filter(|s| !(1..=MAX_ROLL_SPLIT).contains(s)) {
+            return Err(Error::invalid("roll split", s, format!("must be 1 to {MAX_ROLL_SPLIT}")));
         }
         if !(1..=MAX_STARTS).contains(&self.starts) {
             return Err(Error::invalid("starts", self.starts, format!("must be 1 to {MAX_STARTS}")));
@@ -173,6 +192,12 @@ pub struct RefinedSettings {
     /// extra knots (`docs/refined.md`); None when its knots are the training views alone.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roll_split: Option<usize>,
+    /// With a camera roll: how far each training view turned in the image to the next training
+    /// roll lands from the view there, relative to how far apart the two views are (the sum of
+    /// squared differences over every such pair, `manifold::roll`): near 0 where a roll turns the
+    /// image and nothing else. Above 0.25 the automatic split is none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roll_turn_error: Option<f64>,
     /// The automatic choice of L: each candidate with the mean pose error (degrees) of the
     /// held-out training views (empty when L was fixed).
     pub selection: Vec<(usize, f64)>,

@@ -263,6 +263,7 @@ fn fold_settings(params: &RefinedParams, l: usize, knot_shape: Vec<usize>) -> Re
         energy_kept: 0.0,
         knot_shape,
         roll_split: None,
+        roll_turn_error: None,
         selection: vec![],
         plain_error: None,
         interpolation_variance: vec![],

@@ -285,3 +285,9 @@ pub(crate) const ROLL_SPLIT: usize = 2;
 /// The largest roll split a model file may record: a bound on a model's knots, far above
 /// [`ROLL_SPLIT`]. Not tuned.
 pub(crate) const MAX_ROLL_SPLIT: usize = 16;
+
+/// The most [`RefinedSettings::roll_turn_error`](super::RefinedSettings::roll_turn_error) at
+/// which a camera roll's intervals are split by default: below it, turning a training view to
+/// the next training roll reproduces the view there well enough to stand for the views between.
+/// MEASUREMENT PENDING.
+pub(crate) const ROLL_TURN_MAX: f64 = 0.25;

@@ -22,6 +22,9 @@ fn three_parameters_start_from_the_training_views_and_interpolate() {
     let model = RefinedParams::default().fit(&train).unwrap();
     assert!(model.continuous() && model.tree.is_none() && model.lattice.is_none() && model.noisy_tree.is_none());
     assert_eq!(model.settings().knot_shape, vec![4, 18, 5]);
+    // Its `roll` moves a band rather than turning the image: no views turned between its rolls.
+    let turn = model.settings().roll_turn_error.unwrap();
+    assert!(model.settings().roll_split.is_none() && turn > crate::methods::refined::tuning::ROLL_TURN_MAX, "{turn}");
     // The coarse points: the surface at two points per knot interval along each axis (the knots
     // among them), 2^3 a training view but for the ends of the linear axes.
     assert_eq!((model.start_len(), model.knots_len()), (7 * 36 * 9, train.len()));

@@ -8,6 +8,7 @@ mod knots;
 mod manifold;
 mod noisy_match;
 mod queries;
+mod roll;
 mod surface_bits;
 
 use super::*;
