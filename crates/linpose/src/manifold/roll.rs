@@ -19,6 +19,7 @@
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::manifold::grid::Grid;
+use crate::manifold::tuning::TURN_PAIRS;
 use crate::Result;
 use rayon::prelude::*;
 
@@ -133,13 +134,16 @@ impl RollKnots {
 /// two views are: the sum of ||turn(x_a, b - a) - x_b||^2 over every pair of neighbouring rolls
 /// (every other parameter equal) over the sum of ||x_a - x_b||^2. Near 0 where a roll turns the
 /// image and nothing else (less the corners and the bilinear blur); near 1 or above where it
-/// changes the image otherwise. None with fewer than two rolls or identical neighbours.
+/// changes the image otherwise. At most [`TURN_PAIRS`] pairs, evenly spread over the grid, are
+/// compared. None with fewer than two rolls or identical neighbours.
 pub(crate) fn turn_error(full: &Dataset, grid: &Grid, r: usize) -> Option<f64> {
     let shape: Vec<usize> = grid.axes.iter().map(Vec::len).collect();
     let stride: usize = shape[r + 1..].iter().product();
     let n = shape[r];
     let spec = full.spec();
-    let pairs: Vec<usize> = (0..grid.sample_at.len()).filter(|&p| (p / stride) % n + 1 < n).collect();
+    let all: Vec<usize> = (0..grid.sample_at.len()).filter(|&p| (p / stride) % n + 1 < n).collect();
+    let every = all.len().div_ceil(TURN_PAIRS).max(1);
+    let pairs: Vec<usize> = all.into_iter().step_by(every).collect();
     let (turned, still) = pairs
         .par_iter()
         .map_init(
@@ -184,14 +188,34 @@ pub(crate) fn turn(image: &[f32], spec: ImageSpec, deg: f64, fill: &[f32], out: 
             image[(y as usize * w + x as usize) * ch + k] as f64
         }
     };
+    // floor without a library call (the source points are within a few frames of the image).
+    let floor = |v: f64| {
+        let i = v as isize;
+        if (i as f64) > v {
+            i - 1
+        } else {
+            i
+        }
+    };
     for y in 0..h {
+        let qy = y as f64 - cy;
         for x in 0..w {
-            let (qx, qy) = (x as f64 - cx, y as f64 - cy);
+            let qx = x as f64 - cx;
             // The point that the turn carries to (x, y): the inverse turn of (x, y).
             let (sx, sy) = (cx + qx * c - qy * s, cy + qx * s + qy * c);
-            let (x0, y0) = (sx.floor(), sy.floor());
-            let (fx, fy) = (sx - x0, sy - y0);
-            let (x0, y0) = (x0 as isize, y0 as isize);
+            let (x0, y0) = (floor(sx), floor(sy));
+            let (fx, fy) = (sx - x0 as f64, sy - y0 as f64);
+            if x0 >= 0 && y0 >= 0 && x0 + 1 < w as isize && y0 + 1 < h as isize {
+                // Inside the frame (most pixels): the four source pixels read directly.
+                let (i, o) = ((y0 as usize * w + x0 as usize) * ch, (y * w + x) * ch);
+                let (fx, fy) = (fx as f32, fy as f32);
+                for k in 0..ch {
+                    let top = image[i + k] * (1.0 - fx) + image[i + ch + k] * fx;
+                    let bottom = image[i + w * ch + k] * (1.0 - fx) + image[i + (w + 1) * ch + k] * fx;
+                    out[o + k] = top * (1.0 - fy) + bottom * fy;
+                }
+                continue;
+            }
             for k in 0..ch {
                 let top = at(x0, y0, k) * (1.0 - fx) + at(x0 + 1, y0, k) * fx;
                 let bottom = at(x0, y0 + 1, k) * (1.0 - fx) + at(x0 + 1, y0 + 1, k) * fx;

@@ -76,7 +76,11 @@
 //! (on held-out views under simulated noise) and the noise threshold (between the noisiest clean
 //! training image and the least noisy one under simulated noise). No automatic choice makes a
 //! query cost as much as the eigenspace's, and the model keeps only the eigenimages its queries
-//! use. Every tuning constant, with how it was chosen, is in `tuning.rs`.
+//! use. With a camera roll (a `roll` beside `elevation` and `azimuth`) whose training views show
+//! that it turns the image, the surface also passes through training views turned to the rolls
+//! between the training rolls (`crate::manifold::roll`), knots of the surface only: the choices
+//! above are made on the training views. Every tuning constant, with how it was chosen, is in
+//! `tuning.rs`.
 //!
 //! Trained in f64, served in f32: basis, mean and surface are stored as f32, the projections are
 //! f32 (or exact integer) products, the searches run in f64 on the f32 numbers.

@@ -146,7 +146,9 @@ impl RefinedModel {
             proj = proj.with_u8(clean).with_u8(extra);
         }
         // Coordinates L_s.. are unscaled (search_scale), and the knots are the training views
-        // (a full grid, one view a point): their mean square is the eigenvalue over N.
+        // (a full grid, one view a point): their mean square is the eigenvalue over N. With a
+        // roll's turned views among them (`manifold::roll`), the mean over those too, which turn
+        // the training views and so hold about as much there.
         let nk = knots.len() / l.max(1);
         let beyond: f64 = knots.chunks_exact(l.max(1)).map(|k| k[ls..].iter().map(|&v| v as f64 * v as f64).sum::<f64>()).sum::<f64>() / nk.max(1) as f64;
         let clean_residual_energy = settings.residual_energy + beyond;
