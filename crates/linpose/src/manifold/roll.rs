@@ -23,17 +23,25 @@ use crate::manifold::tuning::TURN_PAIRS;
 use crate::Result;
 use rayon::prelude::*;
 
-/// The dense grid of knots along a roll axis: its positions, which training view (if any) sits
-/// at each point, and every point's view.
+/// The dense grid of knots along a roll axis: its positions, and at each point a training view
+/// or a turned one.
 #[derive(Debug)]
 pub(crate) struct RollKnots {
     /// Knot positions per parameter: the grid's, with the roll axis split.
     pub axes: Vec<Vec<f64>>,
-    /// For each point of the dense grid (row-major, the last parameter fastest), the training
-    /// view there (an index into the training set), or None for a turned view.
-    pub sample: Vec<Option<usize>>,
-    /// Every point's view in the same order, at the training views' size.
-    pub views: Dataset,
+    /// What stands at each point of the dense grid (row-major, the last parameter fastest).
+    pub knots: Vec<Knot>,
+    /// The turned views in the grid's order, at the training views' size.
+    pub turned: Dataset,
+}
+
+/// One point of [`RollKnots`]' grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Knot {
+    /// A training view (its index in the training set).
+    View(usize),
+    /// A turned view (its index in [`RollKnots::turned`]).
+    Turned(usize),
 }
 
 impl RollKnots {
@@ -85,22 +93,24 @@ impl RollKnots {
             }
             (d, o)
         };
-        let sample: Vec<Option<usize>> = (0..total)
+        let mut at_turned = Vec::new();
+        let knots: Vec<Knot> = (0..total)
             .map(|p| {
                 let ((v, i, _, _), _) = original(p, 0);
-                (v == rolls[i]).then(|| grid.sample_at[original(p, i).1])
+                if v == rolls[i] {
+                    Knot::View(grid.sample_at[original(p, i).1])
+                } else {
+                    at_turned.push(p);
+                    Knot::Turned(at_turned.len() - 1)
+                }
             })
             .collect();
-        let mut pixels = vec![0f32; total * mf];
-        pixels.par_chunks_exact_mut(mf).enumerate().for_each_init(
+        let mut pixels = vec![0f32; at_turned.len() * mf];
+        pixels.par_chunks_exact_mut(mf).zip(&at_turned).for_each_init(
             || vec![0f32; mf],
-            |turned, (p, out)| {
+            |turned, (out, &p)| {
                 let ((v, i, j, b), _) = original(p, 0);
                 let lower = grid.sample_at[original(p, i).1];
-                if v == rolls[i] {
-                    out.copy_from_slice(full.row(lower));
-                    return;
-                }
                 let upper = grid.sample_at[original(p, j).1];
                 let (a, wa) = (rolls[i], (b - v) / (b - rolls[i]));
                 turn(full.row(lower), spec, v - a, &backdrop(full.row(lower), spec), out);
@@ -109,8 +119,8 @@ impl RollKnots {
                 out.iter_mut().zip(turned.iter()).for_each(|(x, &y)| *x += (1.0 - wa) as f32 * y);
             },
         );
-        let mut poses = Vec::with_capacity(total * dshape.len());
-        for mut p in 0..total {
+        let mut poses = Vec::with_capacity(at_turned.len() * dshape.len());
+        for &(mut p) in &at_turned {
             let at = poses.len();
             poses.resize(at + dshape.len(), 0.0);
             for j in (0..dshape.len()).rev() {
@@ -119,13 +129,13 @@ impl RollKnots {
             }
         }
         // A circular roll's values stay within one period of its first knot (the grid's own).
-        let views = Dataset::new(spec, pixels, space.clone(), poses)?;
-        Ok(Some(RollKnots { axes, sample, views }))
+        let turned = Dataset::new(spec, pixels, space.clone(), poses)?;
+        Ok(Some(RollKnots { axes, knots, turned }))
     }
 
     /// Number of points on the dense grid.
     pub(crate) fn len(&self) -> usize {
-        self.sample.len()
+        self.knots.len()
     }
 }
 

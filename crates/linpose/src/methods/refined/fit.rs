@@ -11,7 +11,7 @@ use crate::binning::Binning;
 use crate::dataset::Dataset;
 use crate::manifold::grid::Grid;
 use crate::manifold::pca::{self, Dimension, Pca};
-use crate::manifold::roll::{self, RollKnots};
+use crate::manifold::roll::{self, Knot, RollKnots};
 use crate::model::{Estimator, Method, ModelMeta};
 use crate::second_look::SecondLook;
 use crate::Result;
@@ -127,8 +127,21 @@ impl Estimator for RefinedParams {
             }
             Some(r) => {
                 let knots = roll_knot_coords(r, &pca, &scale, &basis, binning);
-                let all: Vec<usize> = (0..r.len()).collect();
-                (knots, background_knots(Views { full: &r.views, binning }, &all, &basis, l), r.axes.clone())
+                // The offset directions of the training views and of the turned ones, in the
+                // grid's order.
+                let trained: Vec<usize> = r.knots.iter().filter_map(|k| if let Knot::View(i) = k { Some(*i) } else { None }).collect();
+                let mut of_views = background_knots(views, &trained, &basis, l).into_iter();
+                let all: Vec<usize> = (0..r.turned.len()).collect();
+                let mut of_turned = background_knots(Views { full: &r.turned, binning }, &all, &basis, l).into_iter();
+                let background = r
+                    .knots
+                    .iter()
+                    .flat_map(|k| match k {
+                        Knot::View(_) => of_views.by_ref().take(l).collect::<Vec<_>>(),
+                        Knot::Turned(_) => of_turned.by_ref().take(l).collect(),
+                    })
+                    .collect();
+                (knots, background, r.axes.clone())
             }
         };
         let settings = RefinedSettings {
@@ -218,10 +231,10 @@ fn roll_knot_coords(r: &RollKnots, pca: &Pca, scale: &[f64], basis: &[f64], binn
         .into_par_iter()
         .map_init(
             || (vec![0f32; m], Vec::new()),
-            |(binned, acc), p| match r.sample[p] {
-                Some(i) => pca.coords[i * l..(i + 1) * l].iter().zip(scale).map(|(&v, &w)| (v * w) as f32).collect(),
-                None => {
-                    let x = r.views.row(p);
+            |(binned, acc), p| match r.knots[p] {
+                Knot::View(i) => pca.coords[i * l..(i + 1) * l].iter().zip(scale).map(|(&v, &w)| (v * w) as f32).collect(),
+                Knot::Turned(t) => {
+                    let x = r.turned.row(t);
                     if binning.bins() {
                         binning.apply(x, binned, acc);
                     } else {
