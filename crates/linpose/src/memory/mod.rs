@@ -21,7 +21,7 @@
 //!   for N > M it accumulates X^T X, M x M, block by block, whatever N; the eigenspace's, for
 //!   N > M, the M x M covariance in one pass and the N L coordinates in a second, without the
 //!   second look). Only the linear model takes it where the in-memory path fits too
-//!   ([`crate::model::footprint::Footprint::stream_first`]).
+//!   (`Footprint::stream_first`, `crate::model::footprint`).
 //!
 //! # The estimates (bytes; N images, M features)
 //!
@@ -51,7 +51,8 @@
 //! turntables rendered by `linpose synth --object duck`: `d480` 160 x 120, azimuth every 3
 //! degrees, elevation 30 to 60 every 10; `d1440` the same every degree; `t2880`, `t5760`,
 //! `t11160` 16 x 12, azimuth every 2, 1, 1 degrees, elevation every 2, 2, 1; `s5760` 64 x 48
-//! and `s11160` 80 x 60 likewise; `d19440` 160 x 120, every degree, elevation 30 to 83; `objs`
+//! and `s11160` 80 x 60 likewise; `d19440` 160 x 120, every degree, elevation 30 to 83;
+//! `m1010160` 32 x 24, azimuth, elevation 32 to 77 and roll -30 to 30 every degree; `objs`
 //! duck, pot and cap at 80 x 60 as `d1440`. The refined method's peak varies between runs of
 //! the same fit by up to 20% (its held-out fits run side by side): 322 to 389 MiB on `t2880`.
 //!
@@ -77,6 +78,8 @@
 //! | --method eigenspace | d1440 | 1440 | 19200 | in memory | 408.4 | 424.7 | +4% |
 //! | --method eigenspace | t2880 | 2880 | 192 | in memory | 70.4 | 73.6 | +5% |
 //! | --method eigenspace | t5760 | 5760 | 192 | in memory | 110.0 | 112.2 | +2% |
+//! | (linear, ridge 0: streamed) | m1010160 | 1010160 | 768 | streamed | 284 | 307 | +8% |
+//! | --method eigenspace (streamed) | m1010160 | 1010160 | 768 | streamed | 2785 | 2990 | +7% |
 //! | --method eigenspace --normalize | d1440 | 1440 | 19200 | in memory | 514.2 | 530.1 | +3% |
 //! | --method refined | d480 | 480 | 19200 | in memory | 228.9 | 270.3 | +18% |
 //! | --method refined | d1440 | 1440 | 19200 | in memory | 545.0 | 677.3 | +24% |

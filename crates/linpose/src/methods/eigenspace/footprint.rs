@@ -8,13 +8,13 @@
 //!   36 N^2 (the Gram matrix and its eigendecomposition) + 16 M L, then, the copy freed, the
 //!   manifold, 8 M L + 24 P L, and the second look's knots (below).
 //! - in memory, N > M: the PCA through the M x M scatter (`manifold::scatter`), 44 M^2 (the
-//!   scatter, the covariance and its eigendecomposition) + 16 B M (a block of B images in f64)
-//!   + 8 N L (the coordinates) + 16 M L, then the manifold and the second look: its own PCA of
+//!   scatter, the covariance and its eigendecomposition), 16 B M (a block of B images in f64),
+//!   8 N L (the coordinates) and 16 M L, then the manifold and the second look: its own PCA of
 //!   the images binned by b (the coarsest of 4, 2, 1 leaving at least N pixels, M_b = M / b^2),
 //!   through the scatter when N > M_b, and its K = min(N - 1, M_b) coordinates per view, kept
 //!   as f64 and f32 knots and a surface of 2^D values per knot (K of them), and scanned at
 //!   N or, for D <= 2, N 2^D points: about (20 + 4 2^D + 4 2^D) N K. A million views of 32 x 24
-//!   and three parameters: K = 767, 27 GiB, which is why such a set streams.
+//!   and three parameters: K = 768, 53 GiB in all, which is why such a set streams.
 //! - streamed, N > M (`stream.rs`; no second look): the PCA through the scatter as above, a
 //!   block of images as f32 (4 B M), then the manifold. For N <= M the streamed fit loads the
 //!   set and needs what the fit in memory needs.
