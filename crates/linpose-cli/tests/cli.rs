@@ -462,9 +462,9 @@ fn normalized_models_take_jittered_views_and_name_the_images_they_refuse() {
     image::GrayImage::new(80, 60).save(d.path("black.png")).unwrap();
     std::fs::copy(d.path("jit/e040.0_a000.0.png"), d.path("view.png")).unwrap();
     let out = d.run(&["predict", "--model", "n.st", "black.png", "view.png"]);
-    assert!(!out.status.success());
+    assert_eq!(out.status.code(), Some(3));
     let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
-    assert!(stderr.contains("black.png: cannot normalise: no object found") && stderr.contains("1 of 2 images"), "{stderr}");
+    assert!(stderr.contains("black.png: refused: cannot normalise: no object found") && stderr.contains("1 of 2 images"), "{stderr}");
     assert!(stdout.starts_with("view.png\t") && !stdout.contains("black.png"), "{stdout}");
     d.fails(&["train", "--data", "reg", "--normalize", "--stream", "--out", "s.st"], &["--stream", "normalisation"]);
     d.fails(&["train", "--data", "reg", "--normalize", "sideways", "--out", "s.st"], &["sideways"]);

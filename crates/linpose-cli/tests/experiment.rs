@@ -26,6 +26,7 @@ fn quick_experiment_writes_a_report_that_agrees_with_direct_evaluation() {
         "figures/fig4-duck-linear-noise10.svg",
         "figures/error-cdf.svg",
         "figures/error-vs-training-size.svg",
+        "figures/table1-storage-vs-training-views.svg",
     ] {
         assert!(d.path("rep").join(f).is_file(), "missing {f}");
     }
@@ -41,6 +42,10 @@ fn quick_experiment_writes_a_report_that_agrees_with_direct_evaluation() {
         "Table 1",
         "NL + ML",
         "MK",
+        "**Three pose parameters.**",
+        "**Table 1 against N.**",
+        "## Three pose parameters: azimuth, elevation and camera roll",
+        "### Table 1 against the number of training views",
     ] {
         assert!(md.contains(s), "report.md lacks {s}");
     }
@@ -85,6 +90,67 @@ fn quick_experiment_writes_a_report_that_agrees_with_direct_evaluation() {
     let t1 = duck["table1"].as_array().unwrap();
     let lin = t1.iter().find(|t| t["method"] == "linear").unwrap();
     assert_eq!(lin["formula_numbers"], 80 * 60 * 3);
+    three_params_agree_with_direct_evaluation(&d, &r, &md);
+}
+
+/// The three-parameter section of the report in `d/rep` (`results`, `md`) against the same
+/// grid rendered, trained and evaluated through the CLI.
+fn three_params_agree_with_direct_evaluation(d: &Dir, results: &serde_json::Value, md: &str) {
+    let t = &results["study"]["three_params"];
+    assert_eq!(t["object"], "duck");
+    assert_eq!(t["params"], serde_json::json!(["elevation", "azimuth", "roll"]));
+    d.ok(&["synth", "--object", "duck", "--azimuth", "0:348:12", "--elevation", "32:68:9", "--roll", "-30:30:15", "--size", "80x60", "--out", "three"]);
+    // The every-other-value lattice: azimuth every 24, elevation 32, 50, 68, roll -30, 0, 30.
+    let poses = std::fs::read_to_string(d.path("three/poses.csv")).unwrap();
+    let train: Vec<&str> = poses
+        .lines()
+        .skip(1)
+        .filter(|l| {
+            let c: Vec<f64> = l.split(',').skip(1).map(|v| v.parse().unwrap()).collect();
+            [32.0, 50.0, 68.0].contains(&c[0]) && c[1] % 24.0 == 0.0 && [-30.0, 0.0, 30.0].contains(&c[2])
+        })
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!((t["n_views"].as_u64().unwrap(), t["n_train"].as_u64().unwrap(), t["n_unseen"].as_u64().unwrap()), (750, 135, 615));
+    assert_eq!(train.len(), 135);
+    std::fs::write(d.path("train.txt"), train.join("\n")).unwrap();
+    let rows = t["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 3, "every method");
+    for row in rows {
+        let method = row["method"].as_str().unwrap();
+        let model = format!("three-{method}.safetensors");
+        d.ok(&["train", "--data", "three", "--train-list", "train.txt", "--method", method, "--no-normalize", "--out", &model]);
+        let file = format!("three-{method}.json");
+        d.ok(&["eval", "--model", &model, "--data", "three", "--json", &file]);
+        let e = json(&d.path(&file));
+        assert_eq!(row["model_bytes"], e["model_bytes"], "{method}");
+        // Every view off the lattice is inside the training range here.
+        let unseen: Vec<&serde_json::Value> = e["samples"].as_array().unwrap().iter().filter(|s| s["seen"] == false).collect();
+        assert_eq!(unseen.len(), 615);
+        let err = |s: &&serde_json::Value| s["error_deg"].as_f64().unwrap();
+        let mean = unseen.iter().map(err).sum::<f64>() / unseen.len() as f64;
+        let reported = row["unseen"]["mean_deg"].as_f64().unwrap();
+        assert!((mean - reported).abs() <= 1e-9 * mean.max(1.0), "{method}: report {reported} vs direct {mean}");
+        let gross = unseen.iter().filter(|s| err(s) > 20.0).count() as u64;
+        let gross_flagged = unseen.iter().filter(|s| err(s) > 20.0 && s["flagged"] == true).count() as u64;
+        assert_eq!((row["gross"].as_u64().unwrap(), row["gross_flagged"].as_u64().unwrap()), (gross, gross_flagged), "{method}");
+        let bytes = row["model_bytes"].as_u64().unwrap();
+        assert!(md.contains(&format!("| {method} | {bytes} |")), "the section's table has the {method} row");
+    }
+    let linear = rows.iter().find(|r| r["method"] == "linear").unwrap();
+    assert_eq!(linear["formula_numbers"], 80 * 60 * 4, "M K with K = 4: (cos, sin) azimuth, elevation, roll");
+    // The Table 1 figure has every method with one, two and three parameters, the linear
+    // model's storage the same M K at every N.
+    let sizes = results["study"]["table1_sizes"].as_array().unwrap();
+    for method in ["linear", "eigenspace", "refined"] {
+        for (k, params) in [(2, 1), (3, 2), (4, 3)] {
+            let pts: Vec<&serde_json::Value> = sizes.iter().filter(|p| p["method"] == method && p["params"] == params).collect();
+            assert!(pts.len() >= 2, "{method} with {params} parameters: {} points", pts.len());
+            if method == "linear" {
+                assert!(pts.iter().all(|p| p["formula_numbers"] == 80 * 60 * k), "{method} with {params} parameters");
+            }
+        }
+    }
 }
 
 #[test]

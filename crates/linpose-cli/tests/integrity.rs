@@ -1,9 +1,9 @@
 //! What linpose writes is never half-written, and the same command writes the same bytes.
 //!
-//! - Killed with SIGKILL at any moment, `train`, `synth` and `experiment` leave at their output
-//!   path either what was there before (or nothing) or the complete new output; never a partial
-//!   file or folder. Their temporary `.NAME.tmp-PID` leftovers are hidden names, and the next
-//!   successful write removes them.
+//! - Killed with SIGKILL at any moment, `train`, `merge`, `predict --out`, `synth` and
+//!   `experiment` leave at their output path either what was there before (or nothing) or the
+//!   complete new output; never a partial file or folder. Their temporary `.NAME.tmp-PID`
+//!   leftovers are hidden names, and the next successful write removes them.
 //! - The same command run twice, with 1 or 2 threads, writes byte-identical models and reports.
 //!   Reports hold timings: `train --json` and `eval --json` have them under keys ending in `_s`,
 //!   which the comparison sets to 0; `experiment --no-timings` writes 0 for them itself.
@@ -43,6 +43,17 @@ fn delays(full: Duration, n: u32) -> impl Iterator<Item = Duration> {
     (0..n).map(move |i| full.mul_f64(i as f64 / (n - 1) as f64 * 1.1))
 }
 
+/// Kills `args` (which writes `file`) at ten moments spread over `full`, each time with `old` at
+/// `file` first: after each kill `file` holds `old` or `new`, never a part.
+fn kills_keep_old_or_new(dir: &Path, args: &[&str], file: &str, full: Duration, old: &[u8], new: &[u8]) {
+    for delay in delays(full, 10) {
+        std::fs::write(dir.join(file), old).unwrap();
+        kill_after(dir, args, delay);
+        let now = std::fs::read(dir.join(file)).unwrap();
+        assert!(now == old || now == new, "killed after {delay:?}: {file} is neither the old nor the new one ({} bytes)", now.len());
+    }
+}
+
 fn hidden_leftovers(dir: &Path, name: &str) -> Vec<String> {
     std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()?.file_name().into_string().ok()).filter(|f| f.starts_with(&format!(".{name}."))).collect()
 }
@@ -58,15 +69,99 @@ fn killed_train_leaves_the_old_model_or_the_new_one() {
     complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
     let old = std::fs::read(d.path("m.safetensors")).unwrap();
     assert_ne!(old, new);
-    for delay in delays(full, 10) {
-        std::fs::write(d.path("m.safetensors"), &old).unwrap();
-        kill_after(&d.path(""), &new_args, delay);
-        let now = std::fs::read(d.path("m.safetensors")).unwrap();
-        assert!(now == old || now == new, "killed after {delay:?}: the model file is neither the old nor the new one ({} bytes)", now.len());
-    }
+    kills_keep_old_or_new(&d.path(""), &new_args, "m.safetensors", full, &old, &new);
     // A complete run removes what the killed ones left.
     complete(&d.path(""), &new_args, 2);
     assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), new);
+    assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
+}
+
+#[test]
+fn killed_merge_leaves_the_old_model_or_the_new_one() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 2, &[20.0, 40.0], (48, 36));
+    for i in 1..=2 {
+        complete(&d.path(""), &["train", "--data", "data", "--ridge", "1e-3", "--shard", &format!("{i}/2"), "--partial", &format!("p{i}")], 2);
+    }
+    let new_args = ["merge", "p1", "p2", "--out", "m.safetensors"];
+    let full = complete(&d.path(""), &new_args, 2);
+    eprintln!("merge runs {full:?}");
+    let new = std::fs::read(d.path("m.safetensors")).unwrap();
+    complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
+    let old = std::fs::read(d.path("m.safetensors")).unwrap();
+    assert_ne!(old, new);
+    kills_keep_old_or_new(&d.path(""), &new_args, "m.safetensors", full, &old, &new);
+    complete(&d.path(""), &new_args, 2);
+    assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), new);
+    assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
+}
+
+#[test]
+fn killed_predict_out_leaves_the_old_estimates_or_the_new_ones() {
+    let d = Dir::new();
+    complete(&d.path(""), &["synth", "--object", "duck", "--azimuth", "0:359:1", "--elevation", "30:60:10", "--size", "48x36", "--out", "set"], 2);
+    complete(&d.path(""), &["train", "--data", "set", "--method", "eigenspace", "--train-step", "10", "--out", "m.safetensors"], 2);
+    let new_args = ["predict", "--model", "m.safetensors", "--json", "--top", "3", "--out", "p.jsonl", "set"];
+    let full = complete(&d.path(""), &new_args, 2);
+    eprintln!("predict runs {full:?}");
+    let new = std::fs::read(d.path("p.jsonl")).unwrap();
+    assert_eq!(String::from_utf8_lossy(&new).lines().count(), 1440);
+    let old = b"the previous estimates\n".to_vec();
+    kills_keep_old_or_new(&d.path(""), &new_args, "p.jsonl", full, &old, &new);
+    // --strict stopped by a bad image: the old file stays, nothing else is left.
+    std::fs::write(d.path("p.jsonl"), &old).unwrap();
+    image::GrayImage::new(48, 36).save(d.path("black.png")).unwrap();
+    let out = linpose(&d.path(""), &["predict", "--model", "m.safetensors", "--strict", "--out", "p.jsonl", "set/e030.0_a000.0.png", "black.png"], 2)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(std::fs::read(d.path("p.jsonl")).unwrap(), old);
+    complete(&d.path(""), &new_args, 2);
+    assert_eq!(hidden_leftovers(&d.path(""), "p.jsonl"), Vec::<String>::new());
+}
+
+/// An output folder that cannot be written in: a clear error naming the file, exit status 1,
+/// and nothing left behind. A read-only folder, or where the test runs as root (who writes in
+/// one anyway) a folder of /proc, where nobody creates files.
+#[test]
+fn an_unwritable_output_folder_is_an_error_and_leaves_nothing() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 10, &[], (24, 18));
+    std::fs::create_dir(d.path("ro")).unwrap();
+    std::fs::set_permissions(d.path("ro"), std::fs::Permissions::from_mode(0o555)).unwrap();
+    let ro = if std::fs::write(d.path("ro/probe"), b"x").is_ok() { "/proc/self".to_string() } else { d.path("ro").display().to_string() };
+    for args in [
+        vec!["train".to_string(), "--data".into(), "data".into(), "--out".into(), format!("{ro}/m.safetensors")],
+        vec!["train".to_string(), "--data".into(), "data".into(), "--shard".into(), "1/2".into(), "--partial".into(), format!("{ro}/p1")],
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = linpose(&d.path(""), &args, 2).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(&format!("{ro}/")) && stderr.contains("linpose: error:"), "{args:?}: {stderr}");
+    }
+    let _ = std::fs::remove_file(d.path("ro/probe"));
+    assert_eq!(std::fs::read_dir(d.path("ro")).unwrap().count(), 0);
+}
+
+/// A disk that fills up while the model is written (a file size limit, `ulimit -f`, with the
+/// signal it raises ignored, so writes fail as on a full disk): a clear error naming the file,
+/// exit status 1, the previous model intact and no temporary file left.
+#[test]
+fn a_full_disk_while_writing_is_an_error_and_keeps_the_old_model() {
+    let d = Dir::new();
+    write_dataset(&d.path("data"), 5, &[20.0, 40.0], (48, 36));
+    complete(&d.path(""), &["train", "--data", "data", "--out", "m.safetensors"], 2);
+    let old = std::fs::read(d.path("m.safetensors")).unwrap();
+    let exe = env!("CARGO_BIN_EXE_linpose");
+    // 64 blocks: far less than the eigenspace model's file.
+    let script = format!("ulimit -f 64 && trap '' XFSZ && exec '{exe}' train --data data --method eigenspace --out m.safetensors");
+    let out = Command::new("sh").arg("-c").arg(&script).current_dir(d.path("")).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("linpose: error:") && stderr.contains("m.safetensors"), "{stderr}");
+    assert_eq!(std::fs::read(d.path("m.safetensors")).unwrap(), old);
     assert_eq!(hidden_leftovers(&d.path(""), "m.safetensors"), Vec::<String>::new());
 }
 

@@ -118,3 +118,22 @@ fn partials_that_do_not_belong_together_are_refused() {
     d.fails(&["train", "--data", "a", "--shard", "1/2", "--partial", "x", "--method", "refined"], &["refined", "one process"]);
     assert!(!d.path("x").exists());
 }
+
+/// Two objects rendered on one grid have the same image names and poses: their shards are
+/// refused by `merge`, naming both files and the images; shards of one object still merge into
+/// the single-process model.
+#[test]
+fn shards_of_two_data_sets_with_one_manifest_are_refused() {
+    let d = Dir::new();
+    for o in ["duck", "cap"] {
+        d.ok(&["synth", "--object", o, "--azimuth", "0:350:10", "--elevation", "40", "--size", "20x15", "--out", o]);
+    }
+    d.ok(&["train", "--data", "duck", "--shard", "1/2", "--partial", "d1", "--ridge", "1e-3"]);
+    d.ok(&["train", "--data", "cap", "--shard", "2/2", "--partial", "c2", "--ridge", "1e-3"]);
+    d.fails(&["merge", "d1", "c2", "--out", "m"], &["d1", "c2", "training images", "the same names and poses"]);
+    assert!(!d.path("m").exists());
+    d.ok(&["train", "--data", "duck", "--shard", "2/2", "--partial", "d2", "--ridge", "1e-3"]);
+    d.ok(&["merge", "d1", "d2", "--out", "m"]);
+    d.ok(&["train", "--data", "duck", "--ridge", "1e-3", "--no-normalize", "--out", "whole"]);
+    assert!(largest_difference(&d, "m", "whole") <= 1e-9);
+}

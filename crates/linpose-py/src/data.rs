@@ -6,7 +6,7 @@ use crate::model::{array2, space};
 use crate::py_err;
 use linpose::dataset::{first_gray8, load_gray8_into};
 use linpose::image_io::ColorMode;
-use linpose::render::synth::{render_u8, PoseGrid};
+use linpose::render::synth::{render_scenes, render_u8, PoseGrid};
 use linpose::render::{objects, Camera, Grid, Jitter, Light, Mesh, RenderParams};
 use linpose::{Dataset, Manifest, TrainSelection};
 use numpy::{PyArray1, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods};
@@ -22,7 +22,9 @@ type Params = Vec<(String, Option<f64>)>;
 /// when given, `roll` and `light` (`START:STOP:STEP` degrees). The arguments come grouped from
 /// the package's `linpose.synth` (which documents them): `source` = `(object, random, mesh)`,
 /// `poses` = `(azimuth, elevation, roll, light)`, `look` = `(size, perspective, specular)`,
-/// `jitter` = `(shift, scale, exposure)` or None, and its seed.
+/// `jitter` = `(shift, scale, exposure)` or None, and its seed, `scene` = `(background, occlude,
+/// seed, info)` (the background as `linpose synth --background` takes it). With `info` the
+/// views' scenes come fourth ([`crate::scenes::Info`]), else None.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 pub(crate) fn synth<'py>(
@@ -31,8 +33,10 @@ pub(crate) fn synth<'py>(
     poses: (String, String, Option<String>, Option<String>),
     look: ((u32, u32), bool, f64),
     jitter: (Option<(f64, f64, f64)>, u64),
-) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, numpy::PyArray2<f64>>, Params)> {
+    scene: (String, f64, u64, bool),
+) -> PyResult<(Bound<'py, PyArray3<u8>>, Bound<'py, numpy::PyArray2<f64>>, Params, Option<crate::scenes::Info<'py>>)> {
     let ((object, random, mesh), (azimuth, elevation, roll, light), (size, perspective, specular), (jitter, jitter_seed)) = (source, poses, look, jitter);
+    let (background, occlude, scene_seed, want_info) = scene;
     let (object, azimuth, elevation) = (object.as_deref(), azimuth.as_str(), elevation.as_str());
     let mesh: Mesh = match (object, random, &mesh) {
         (Some(name), None, None) => objects::builtin(name).map_err(py_err)?,
@@ -58,12 +62,20 @@ pub(crate) fn synth<'py>(
     let camera = if perspective { Camera::perspective() } else { Camera::default() };
     let params = RenderParams::default().width(w).height(h).camera(camera).light(Light::default().specular(specular));
     params.validate().map_err(py_err)?;
+    let grid = grid.with_scene(crate::scenes::scene_spec(&background, occlude, scene_seed)?.open(w, h).map_err(py_err)?);
     let manifest = grid.manifest(Path::new("")).map_err(py_err)?;
-    let pixels = py.detach(|| render_u8(&mesh, &grid, &params, &|_| {})).map_err(py_err)?;
     let n = grid.len();
+    // The masks only when asked for: they take as much memory as the images.
+    let (pixels, info) = match want_info {
+        true => {
+            let views = py.detach(|| render_scenes(&mesh, &grid, &params, &|_| {})).map_err(py_err)?;
+            (views.pixels, Some(crate::scenes::info(py, [n, h as usize, w as usize], views.masks, &views.records)?))
+        }
+        false => (py.detach(|| render_u8(&mesh, &grid, &params, &|_| {})).map_err(py_err)?, None),
+    };
     let images = PyArray1::from_vec(py, pixels).reshape([n, h as usize, w as usize])?;
     let poses = array2(py, manifest.poses().to_vec(), n, manifest.space().len())?;
-    Ok((images, poses, manifest.space().params().iter().map(|p| (p.name.clone(), p.period)).collect()))
+    Ok((images, poses, manifest.space().params().iter().map(|p| (p.name.clone(), p.period)).collect(), info))
 }
 
 /// Reads a data set folder (`poses.csv` beside its images, or a COIL folder with `object`):

@@ -16,6 +16,7 @@ mod data;
 mod model;
 mod objects;
 mod partial;
+mod scenes;
 
 use pyo3::prelude::*;
 
@@ -45,6 +46,7 @@ fn _linpose(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(objects::holds_objects, m)?)?;
     m.add_function(wrap_pyfunction!(objects::bytes_hold_objects, m)?)?;
     m.add_function(wrap_pyfunction!(data::synth, m)?)?;
+    m.add_function(wrap_pyfunction!(scenes::scene, m)?)?;
     m.add_function(wrap_pyfunction!(data::read_dataset, m)?)?;
     m.add_function(wrap_pyfunction!(data::pose_error, m)?)?;
     m.add_function(wrap_pyfunction!(data::train_mask, m)?)?;

@@ -106,3 +106,21 @@ def test_a_failed_refit_leaves_the_estimator_unfitted():
         est.predict(X[:1])
     # Fitted again, it reproduces its training poses (score: minus the mean error, degrees).
     assert est.fit(X, y[:, 1]).score(X, y[:, 1]) > -1e-3
+
+
+def test_predict_each_answers_every_good_image_and_names_each_bad_one():
+    X, y, params = linpose.synth("cap", azimuth="0:350:10", elevation="32:32:1", size=(32, 24))
+    est = linpose.EigenspacePose(params=params[1:]).fit(X[::2], y[::2, 1])
+    batch = np.concatenate([X[1:3], np.zeros((1,) + X.shape[1:], X.dtype), X[3:5]])
+    # predict keeps scikit-learn's semantics: the batch raises, naming the row.
+    with pytest.raises(ValueError, match="row 2 of the batch: the image is all black"):
+        est.predict(batch)
+    pose, refused = est.predict_each(batch)
+    assert refused[:2] == [None, None] and refused[3:] == [None, None]
+    assert refused[2].startswith("the image is all black")
+    assert np.isnan(pose[2]).all()
+    good = np.concatenate([X[1:3], X[3:5]])
+    np.testing.assert_array_equal(pose[[0, 1, 3, 4]], est.predict(good).reshape(4, -1))
+    # A batch with nothing wrong: every image, nothing refused.
+    pose, refused = est.predict_each(good)
+    assert refused == [None] * 4 and not np.isnan(pose).any()

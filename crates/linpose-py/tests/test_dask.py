@@ -134,6 +134,29 @@ def test_the_tasks_give_the_f64_model(small, large, case, settings, tol):
     assert max(worst) < tol
 
 
+def test_shards_of_two_data_sets_with_one_manifest_do_not_merge(cli, tmp_path, monkeypatch):
+    """Two objects rendered on one grid, each read by the same relative image paths from its
+    own folder, as workers with each object's folder as their working directory would: the same
+    names and poses, other pixels. Their shards, read as the Dask tasks read them, are refused
+    when merged, naming the images; one object's shards merge."""
+    from linpose import _linpose
+
+    y = params = names = None
+    for o in ("duck", "cap"):
+        run(cli, "synth", "--object", o, "--azimuth", "0:355:5", "--elevation", "30", "--size", "16x12", "--out", tmp_path / o)
+        _, y, params, names = linpose.read_dataset(tmp_path / o)
+    text = linpose.dask._settings({"ridge": 1e-3})
+
+    def shard(o, i):
+        monkeypatch.chdir(tmp_path / o)
+        _, _, w, h, _ = _linpose.partial_plan("linear", text, names, y, params)
+        return _linpose.partial_read_shard(("linear", text), (names, y, params), (w, h), (i, 2))
+
+    with pytest.raises(ValueError, match="training images .*fingerprint of the bytes"):
+        _linpose.partial_merge(shard("duck", 0), shard("cap", 1))
+    _linpose.partial_finish(_linpose.partial_merge(shard("duck", 0), shard("duck", 1)))
+
+
 class _KillOnce(distributed.WorkerPlugin):
     """SIGKILLs the worker process when a shard task starts on a worker that already holds a
     finished shard, once (a marker file says it happened): a worker lost mid-run, with one of its

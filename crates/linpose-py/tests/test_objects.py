@@ -236,5 +236,5 @@ def test_behind_one_normalisation_stage_moved_views_are_recognised_and_an_empty_
     back = linpose.from_bytes(est.to_bytes())
     assert back.normalize == "geometry" and (back.predict(moved) == est.predict(moved)).all()
     black = np.concatenate([moved[:2], np.zeros_like(moved[:1])])
-    with pytest.raises(ValueError, match="query #2.*no object found"):
+    with pytest.raises(ValueError, match="query row 2 of the batch.*no object found"):
         est.predict(black)

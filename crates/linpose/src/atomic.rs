@@ -43,6 +43,46 @@ pub(crate) fn write_atomic_with(path: &Path, fill: impl FnOnce(&mut std::io::Buf
     Ok(())
 }
 
+/// Writes the folder `out` atomically: `fill` fills a temporary folder `.NAME.tmp-PID` beside
+/// it, which is renamed to `out` once complete and removed on error, so nothing half-written is
+/// ever left at `out`. `out` must not exist yet or be an empty folder (refused otherwise, before
+/// `fill` runs).
+pub(crate) fn write_folder(out: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let replace_empty = match fs::metadata(out) {
+        Ok(m) if m.is_dir() => {
+            let mut entries = fs::read_dir(out).map_err(|e| Error::io(out, e))?;
+            if entries.next().is_some() {
+                return Err(Error::Dataset {
+                    path: out.to_path_buf(),
+                    message: "the output folder exists and is not empty; give a new folder (it is created) or an empty one".into(),
+                });
+            }
+            true
+        }
+        Ok(_) => return Err(Error::Dataset { path: out.to_path_buf(), message: "exists and is not a folder".into() }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
+        Err(e) => return Err(Error::io(out, e)),
+    };
+    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "dataset".into());
+    let tmp = out.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    if let Some(parent) = tmp.parent().filter(|p| !p.as_os_str().is_empty()) {
+        fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
+    }
+    fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
+    let result = fill(&tmp).and_then(|()| {
+        if replace_empty {
+            fs::remove_dir(out).map_err(|e| Error::io(out, e))?;
+        }
+        fs::rename(&tmp, out).map_err(|e| Error::io(out, e))
+    });
+    if result.is_err() {
+        let _ = fs::remove_dir_all(&tmp);
+    } else {
+        remove_stale_temps(out);
+    }
+    result
+}
+
 /// Removes what killed writers of `path` left beside it: `.NAME.tmp-PID` (and `.NAME.old-PID`, an
 /// old folder moved aside while being replaced), files or folders, whose process PID is no longer
 /// running. Only where that can be told (Linux's /proc); elsewhere it does nothing. A PID reused

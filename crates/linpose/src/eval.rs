@@ -45,7 +45,8 @@ pub struct SampleResult {
     pub in_top: Option<bool>,
 }
 
-/// A sample the model's normalisation stage refused.
+/// A sample with no estimate: refused by the model's normalisation stage, or by the model
+/// itself (an all-black image, which cannot be scaled to unit energy).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Rejected {
     /// Image path as in the manifest.
@@ -176,8 +177,8 @@ pub struct EvalReport {
     pub params: Vec<String>,
     /// Samples evaluated (the data set's, less those refused).
     pub n_eval: usize,
-    /// The samples the model's normalisation stage refused ([`crate::normalize`]), with why:
-    /// counted apart, in no error figure.
+    /// The samples with no estimate, with why (refused by the model's normalisation stage,
+    /// [`crate::normalize`], or by the model): counted apart, in no error figure.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub rejected: Vec<Rejected>,
     /// Training samples of the model.
@@ -271,17 +272,49 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
         }
         None => (model, q, vec![None; data.len()]),
     };
-    let kept: Vec<usize> = (0..data.len()).filter(|&i| refused[i].is_none()).collect();
-    let rejected: Vec<Rejected> =
-        (0..data.len()).filter_map(|i| refused[i].clone().map(|reason| Rejected { image: data.manifest().images()[i].clone(), reason })).collect();
+    let mut kept: Vec<usize> = (0..data.len()).filter(|&i| refused[i].is_none()).collect();
+    let mut rejected: Vec<(usize, Rejected)> =
+        (0..data.len()).filter_map(|i| refused[i].clone().map(|reason| (i, Rejected { image: data.manifest().images()[i].clone(), reason }))).collect();
     if kept.is_empty() {
         return Err(Error::Dataset {
             path: data.manifest().image_path(0),
-            message: format!("the model's normalisation refuses every image of the data set, the first: {}", rejected[0].reason),
+            message: format!("the model's normalisation refuses every image of the data set, the first: {}", rejected[0].1.reason),
         });
     }
     let t0 = Instant::now();
-    let est = model.predict(q)?;
+    let mut q = q;
+    let mut usable;
+    let est = match model.predict(q) {
+        Ok(est) => est,
+        Err(first) => {
+            // Some query the model refuses (an all-black image cannot be scaled): each query
+            // alone, those refused counted apart with why, the others estimated together as
+            // they would be without them (a query's estimate does not depend on its batch).
+            let ok: Vec<usize> = (0..kept.len())
+                .filter(|&i| match model.predict(&q[i * m..(i + 1) * m]) {
+                    Ok(_) => true,
+                    Err(e) => {
+                        let reason = match e {
+                            Error::InvalidParameter { name: "query", reason, .. } => reason,
+                            e => e.to_string(),
+                        };
+                        rejected.push((kept[i], Rejected { image: data.manifest().images()[kept[i]].clone(), reason }));
+                        false
+                    }
+                })
+                .collect();
+            if ok.is_empty() {
+                return Err(first);
+            }
+            usable = Vec::with_capacity(ok.len() * m);
+            ok.iter().for_each(|&i| usable.extend_from_slice(&q[i * m..(i + 1) * m]));
+            kept = ok.iter().map(|&i| kept[i]).collect();
+            q = &usable;
+            model.predict(q)?
+        }
+    };
+    rejected.sort_by_key(|r| r.0);
+    let rejected: Vec<Rejected> = rejected.into_iter().map(|r| r.1).collect();
     // The normalisation is part of each query's cost.
     let predict_s = t0.elapsed().as_secs_f64() + stage_s;
     let estimates: Option<Vec<Estimate>> = if opt.top > 0 { Some(model.estimate(q, opt.top)?) } else { None };

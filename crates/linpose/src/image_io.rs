@@ -132,6 +132,21 @@ pub(crate) fn read_image(path: &Path, color: ColorMode) -> Result<(u32, u32, Que
     Ok((w, h, QueryImage::Features(f)))
 }
 
+/// Reads the image file at `path` as 8-bit pixels in its own colour: one channel for a gray
+/// image, three interleaved (R, G, B) for a colour one; 16-bit values rounded to 8 bits, alpha
+/// dropped. The returned spec's colour mode says which.
+pub(crate) fn read_u8(path: &Path) -> Result<(ImageSpec, Vec<u8>)> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let img = decode(path, &bytes)?;
+    let (width, height) = (img.width(), img.height());
+    Ok(match img {
+        DynamicImage::ImageLuma8(g) => (ImageSpec { width, height, color: ColorMode::Gray }, g.into_raw()),
+        img if !img.color().has_color() => (ImageSpec { width, height, color: ColorMode::Gray }, img.to_luma8().into_raw()),
+        DynamicImage::ImageRgb8(c) => (ImageSpec { width, height, color: ColorMode::Rgb }, c.into_raw()),
+        img => (ImageSpec { width, height, color: ColorMode::Rgb }, img.to_rgb8().into_raw()),
+    })
+}
+
 /// The feature of an 8-bit value `v`: v / 255 as an f32, the same bits the image reader makes
 /// of an 8-bit pixel (so features made from pixels in memory match those read from files).
 #[inline]

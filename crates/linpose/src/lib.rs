@@ -51,7 +51,8 @@
 //!   how well the confidence flags the gross errors ([`evaluate`], [`EvalOptions`]).
 //! - **The renderer** (cargo feature `render`, off by default): `render` makes turntable data sets
 //!   of built-in objects, meshes or procedural objects (`render::objects::random`, a zoo to
-//!   measure robustness on).
+//!   measure robustness on), optionally in scenes: over a cluttered background, partly hidden
+//!   by occluders (`render::scene`); `scene` puts the views of any data set into such scenes.
 //!
 //! Errors are one [`Error`] type that names the file, line or value at fault.
 #![deny(missing_docs)]
@@ -88,6 +89,8 @@ pub mod pose;
 pub mod recognize;
 #[cfg(feature = "render")]
 pub mod render;
+#[cfg(feature = "render")]
+pub mod scene;
 pub(crate) mod second_look;
 pub(crate) mod stage_choice;
 pub(crate) mod tuning;

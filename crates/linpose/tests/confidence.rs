@@ -162,7 +162,7 @@ fn bad_queries_are_clear_errors() {
         batch[m..2 * m].fill(0.0);
         if method.name != "linear" {
             let err = model.estimate(&batch, 2).unwrap_err().to_string();
-            assert!(err.contains("#1 of the batch") && err.contains("all black"), "{}: {err}", method.name);
+            assert!(err.contains("row 1 of the batch") && err.contains("all black"), "{}: {err}", method.name);
         }
         let err = model.estimate(&batch[..m + 1], 2).unwrap_err().to_string();
         assert!(err.contains(&m.to_string()), "{}: {err}", method.name);

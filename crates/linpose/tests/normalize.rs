@@ -60,7 +60,7 @@ fn an_image_the_stage_cannot_normalise_is_an_error_naming_it() {
     match model.predict(&batch) {
         Err(e @ Error::Normalize { .. }) => {
             let text = e.to_string();
-            assert!(text.contains("query #1 of the batch") && text.contains("no object found"), "{text}");
+            assert!(text.contains("query row 1 of the batch") && text.contains("no object found"), "{text}");
         }
         other => panic!("expected a normalisation error, got {other:?}"),
     }

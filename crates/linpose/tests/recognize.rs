@@ -353,7 +353,7 @@ fn a_query_the_stage_cannot_normalise_is_refused_by_its_place_and_alone() {
     queries.extend(vec![0.0f32; W * H]);
     queries.extend_from_slice(duck.row(3));
     let e = model.estimate(&queries, 1).unwrap_err().to_string();
-    assert!(e.contains("query #1") && e.contains("no object found"), "{e}");
+    assert!(e.contains("query row 1 of the batch") && e.contains("no object found"), "{e}");
     let each = model.estimate_each(&queries, 1).unwrap();
     assert_eq!(each.len(), 3);
     assert!(matches!(each[1], Err(Rejection::Empty { .. })), "{:?}", each[1]);

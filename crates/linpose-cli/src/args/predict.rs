@@ -27,4 +27,13 @@ pub(crate) struct PredictArgs {
     /// The confidence under which an estimate is flagged (with --top).
     #[arg(long, value_name = "C", default_value_t = linpose::confidence::FLAG_BELOW, requires = "top")]
     pub flag_below: f64,
+    /// Stop at the first image that cannot be estimated (unreadable, the wrong size, all black,
+    /// refused by the model's normalisation), with an error naming it, instead of estimating
+    /// every other image and naming each refused one.
+    #[arg(long)]
+    pub strict: bool,
+    /// Write the estimates to FILE instead of standard output, atomically: FILE is the previous
+    /// one or the complete new one, never a part, whatever stops the run.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
 }

@@ -33,12 +33,13 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
         );
     }
     let manifest = a.data.manifest()?;
-    let data = load_dataset(manifest, model.meta().spec.color)?;
+    let (data, unreadable) = load_readable(manifest, model.meta().spec)?;
     if !(a.flag_below.is_finite() && (0.0..=1.0).contains(&a.flag_below)) {
         anyhow::bail!("--flag-below {} is outside [0, 1]: it is a confidence", a.flag_below);
     }
     let opt = linpose::EvalOptions { top: a.top as usize, flag_below: a.flag_below, ..linpose::EvalOptions::new(a.noise, a.seed) };
-    let r = linpose::evaluate(&model, &data, &opt)?;
+    let mut r = linpose::evaluate(&model, &data, &opt)?;
+    r.rejected.extend(unreadable);
     println!("{} model, {} training views; {} samples evaluated, noise +-{}", r.method, r.n_train, r.n_eval, r.noise);
     print_refused(r.rejected.len(), r.rejected.iter().map(|x| format!("{}: {}", x.image, x.reason)));
     println!("{:<8} {:>6} {:>10} {:>10} {:>10} {:>10}", "", "n", "mean", "median", "p90", "max");
@@ -83,7 +84,7 @@ pub(crate) fn run(a: &EvalArgs) -> anyhow::Result<()> {
     if let Some(j) = &a.json {
         write_json(j, &Report { report: &r, by_jitter })?;
     }
-    Ok(())
+    crate::queries::refusals(r.rejected.len(), r.rejected.len() + r.n_eval)
 }
 
 /// The eval JSON: the library's report, and the error against the jitter when the data set has it.
@@ -168,4 +169,27 @@ fn jitter_table(dir: &std::path::Path, r: &linpose::EvalReport) -> anyhow::Resul
         println!("{:<9} {:>16} {:>6} {:>10} {:>8}", b.axis, format!("{:.3}-{:.3}{unit}", b.lo, b.hi), b.n, mean, b.refused);
     }
     Ok(table)
+}
+
+/// The data set's images that can be read at the model's size `spec`, and each other one with
+/// why (unreadable, damaged, another size), counted apart as eval counts images the model
+/// refuses. Every image is checked only when the whole set does not load.
+fn load_readable(manifest: linpose::Manifest, spec: linpose::image_io::ImageSpec) -> anyhow::Result<(linpose::Dataset, Vec<linpose::eval::Rejected>)> {
+    let whole = manifest.clone();
+    let e = match load_dataset(manifest, spec.color) {
+        Ok(d) => return Ok((d, Vec::new())),
+        Err(e) => e,
+    };
+    let why = crate::queries::unreadable(&whole, spec);
+    if why.iter().all(Option::is_none) {
+        return Err(e);
+    }
+    let mask: Vec<bool> = why.iter().map(Option::is_none).collect();
+    if !mask.iter().any(|&k| k) {
+        anyhow::bail!("{}: none of the data set's {} images can be read, the first: {}", whole.root().display(), whole.len(), why[0].as_deref().unwrap_or(""));
+    }
+    let data = load_dataset(whole.subset(&mask)?, spec.color)?;
+    let rejected =
+        why.into_iter().enumerate().filter_map(|(i, w)| w.map(|reason| linpose::eval::Rejected { image: whole.images()[i].clone(), reason })).collect();
+    Ok((data, rejected))
 }

@@ -1,9 +1,11 @@
 //! `linpose experiment`: the paper's study, run and reported (the main job).
 
-use super::tuning::{COARSE_STEP, JITTER_EXPOSURE, JITTER_SCALE, JITTER_SHIFT_PER_WIDTH, SIZE_STEPS};
+use super::tuning::{ThreeParamsGrid, COARSE_STEP, JITTER_EXPOSURE, JITTER_SCALE, JITTER_SHIFT_PER_WIDTH, SIZE_STEPS, THREE_PARAMS, THREE_PARAMS_FULL};
 use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
 use crate::study::recognition::{self, RecognitionStudy};
+use crate::study::table1::{self, SizePoint};
+use crate::study::three_params::{self, ThreeParamsStudy};
 use crate::study::{normalization, run_object, ObjectResult, Run, StudyParams};
 use anyhow::Context;
 use linpose::image_io::ColorMode;
@@ -33,9 +35,10 @@ pub(crate) struct ExperimentArgs {
     #[arg(long, conflicts_with = "full")]
     pub quick: bool,
     /// The long version, on the built-in objects: the size sweep over 6,9,12,18,27 degrees, the
-    /// normalisation study on every unseen view jittered, and each object left out of
-    /// recognition measured on every view (by default: steps 6,9,18,27, and the views of a 12-degree
-    /// grid for the other two).
+    /// normalisation study on every unseen view jittered, each object left out of recognition
+    /// measured on every view, and the three-parameter section on azimuth 0:354:6 x elevation
+    /// 32:77:9 x roll -30:30:10 at 160x120 (by default: steps 6,9,18,27, the views of a 12-degree
+    /// grid for the two, and azimuth 0:348:12 x elevation 32:68:9 x roll -30:30:15 at 80x60).
     #[arg(long)]
     pub full: bool,
     /// Main training step in degrees (default: 9, the paper's; 18 with --quick).
@@ -158,6 +161,8 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(tmp.join("figures"))
         .and_then(|_| std::fs::create_dir_all(tmp.join("models")))
         .with_context(|| format!("{}: cannot create the report folder", tmp.display()))?;
+    // The Table 1 figure's points of one pose parameter, from the first object.
+    let mut ring_points: Vec<SizePoint> = Vec::new();
     let result = (|| -> anyhow::Result<Studied> {
         let mut results = Vec::new();
         let mut kept = Vec::new();
@@ -206,6 +211,9 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             for m in &r.models {
                 m.save(&tmp.join("models").join(format!("{name}-{}.safetensors", m.meta().method)))?;
             }
+            if results.is_empty() {
+                ring_points = ring_sizes(name, &data, &params)?;
+            }
             // Every view kept (8-bit where exact) for the recognition study across the objects.
             let mask = data.manifest().training_mask(&TrainSelection::Step(params.train_step))?;
             kept.push((data.subset(&mask)?, Views::keep(data)));
@@ -227,6 +235,25 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             return Err(e);
         }
     };
+    // Three pose parameters, on the first built-in object.
+    let three = match sources.first() {
+        Some((_, Source::Builtin(n))) => match three_params_study(n, if a.full { &THREE_PARAMS_FULL } else { &THREE_PARAMS }, &params) {
+            Ok((study, points, s)) => {
+                data_s += s;
+                Some((study, points))
+            }
+            Err(e) => {
+                let _ = std::fs::remove_dir_all(&tmp);
+                return Err(e.context(format!("the three-parameter study on {n}")));
+            }
+        },
+        _ => None,
+    };
+    // The Table 1 figure: one parameter (the first object's ring), two (its size sweep), three.
+    let mut table1_sizes = ring_points;
+    table1_sizes.extend(results.first().map(table1::from_sweep).unwrap_or_default());
+    let (mut three_params, three_points) = three.unzip();
+    table1_sizes.extend(three_points.unwrap_or_default());
     let recognition = recognition.map(|mut s| {
         if a.no_timings {
             s.rows.iter_mut().for_each(|r| (r.fit_s, r.per_query_us) = (0.0, 0.0));
@@ -235,9 +262,15 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     });
     if a.no_timings {
         data_s = 0.0;
+        table1_sizes.iter_mut().for_each(|p| p.cost.per_query_us = 0.0);
+        if let Some(t) = &mut three_params {
+            t.rows.iter_mut().for_each(|r| (r.fit_s, r.cost.per_query_us) = (0.0, 0.0));
+            t.total_s = 0.0;
+        }
         for r in &mut results {
             r.runs.iter_mut().for_each(|x| (x.fit_s, x.predict_s, x.per_query_us) = (0.0, 0.0, 0.0));
             r.table1.iter_mut().for_each(|t| t.per_query_us = 0.0);
+            r.sweep.iter_mut().for_each(|p| p.cost.per_query_us = 0.0);
         }
     }
     let info = StudyInfo {
@@ -262,6 +295,8 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         data_s,
         total_s: if a.no_timings { 0.0 } else { t0.elapsed().as_secs_f64() },
         recognition,
+        three_params,
+        table1_sizes,
     };
     let written = (|| -> anyhow::Result<()> {
         let doc = report::build(&info, &results).map_err(|e| anyhow::anyhow!("drawing the figures: {e}"))?;
@@ -281,6 +316,45 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     }
     summary(&info, &results, &a.out);
     Ok(())
+}
+
+/// The Table 1 figure's points of one pose parameter: every method fitted on the ring of `data`
+/// ([`table1::ring`]) at each training step of the size sweep, timed on the whole ring. None
+/// when `data` has no such ring.
+fn ring_sizes(name: &str, data: &Dataset, params: &StudyParams) -> anyhow::Result<Vec<SizePoint>> {
+    let Some(ring) = table1::ring(data)? else { return Ok(vec![]) };
+    let trainings: Vec<Vec<bool>> =
+        params.size_steps.iter().map(|&s| ring.manifest().training_mask(&TrainSelection::Step(s))).collect::<linpose::Result<_>>()?;
+    let bar = progress((trainings.len() * params.methods.len()) as u64, &format!("{name}, one parameter"));
+    let points = table1::sizes(&table1::Sizes { object: name, data: &ring, trainings: &trainings, methods: &params.methods, timed: &ring }, &|s| {
+        bar.set_message(s.to_string());
+        bar.inc(1);
+    })
+    .with_context(|| format!("the one-parameter fits on {name}"))?;
+    bar.finish_and_clear();
+    Ok(points)
+}
+
+/// The three-parameter section on the built-in object `name` rendered on `g`: the study (its
+/// `total_s` the section's wall time, rendering included), the Table 1 figure's points of three
+/// parameters, and the seconds spent rendering.
+fn three_params_study(name: &str, g: &ThreeParamsGrid, params: &StudyParams) -> anyhow::Result<(ThreeParamsStudy, Vec<SizePoint>, f64)> {
+    let (az, el, roll) = (Grid::parse("azimuth", g.azimuth)?, Grid::parse("elevation", g.elevation)?, Grid::parse("roll", g.roll)?);
+    let grid = PoseGrid::new(el.clone(), az.clone())?.with_roll(roll.clone())?;
+    let render = RenderParams::default().width(g.size.0).height(g.size.1);
+    let t = Instant::now();
+    let bar = progress(grid.len() as u64, &format!("rendering {name}, three parameters"));
+    let data = synth::dataset(&objects::builtin(name)?, &grid, &render, Path::new(name), &|k| bar.inc(k))?;
+    bar.finish_and_clear();
+    let data_s = t.elapsed().as_secs_f64();
+    let desc = format!("azimuth {az} x elevation {el} x roll {roll} = {} images of {}x{}", grid.len(), g.size.0, g.size.1);
+    let bar = progress((params.methods.len() * (2 + crate::study::tuning::THIN.len())) as u64, &format!("{name}, three parameters"));
+    let (study, points) = three_params::run(name, &data, &desc, params, &|s| {
+        bar.set_message(s.to_string());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    Ok((ThreeParamsStudy { total_s: t.elapsed().as_secs_f64(), ..study }, points, data_s))
 }
 
 /// The per-object studies, the seconds spent making or reading the data, and each object's
@@ -385,6 +459,21 @@ fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {
                 r.recognizer,
                 100.0 * r.recognized_unseen,
                 100.0 * r.false_rejections
+            );
+        }
+    }
+    if let Some(t) = &info.three_params {
+        println!("three parameters ({}: {}; {} trained, {} unseen inside the training range; {:.1} s):", t.object, t.grid, t.n_train, t.n_unseen, t.total_s);
+        println!("{:<12} {:>12} {:>8} {:>12} {:>12} {:>16}", "method", "model bytes", "fit s", "us per query", "unseen mean", "gross (flagged)");
+        for r in &t.rows {
+            println!(
+                "{:<12} {:>12} {:>8.2} {:>12.1} {:>12.2} {:>16}",
+                r.method,
+                r.cost.model_bytes,
+                r.fit_s,
+                r.cost.per_query_us,
+                r.unseen.mean_deg,
+                format!("{} ({})", r.gross, r.gross_flagged)
             );
         }
     }

@@ -57,6 +57,32 @@ fn catalog(dir: &Path, leave_out: &[String]) -> anyhow::Result<Catalog> {
     Ok(c.select(&keep)?)
 }
 
+/// [`load`], with the images that cannot be read at size `spec` (unreadable, damaged, another
+/// size) left out and each named with why; every image is checked only when the whole catalog
+/// does not load. An object none of whose images can be read is an error naming it.
+fn load_readable(c: &Catalog, spec: linpose::image_io::ImageSpec) -> anyhow::Result<(ObjectSet, Vec<Refused>)> {
+    let e = match load(c, spec.color) {
+        Ok(set) => return Ok((set, Vec::new())),
+        Err(e) => e,
+    };
+    let mut refused = Vec::new();
+    let mut manifests = Vec::with_capacity(c.len());
+    for (name, m) in c.names().iter().zip(c.manifests()) {
+        let why = crate::queries::unreadable(m, spec);
+        let mask: Vec<bool> = why.iter().map(Option::is_none).collect();
+        if !mask.iter().any(|&k| k) {
+            anyhow::bail!("{}: none of object '{name}''s {} images can be read, the first: {}", m.root().display(), m.len(), why[0].as_deref().unwrap_or(""));
+        }
+        refused.extend(why.into_iter().enumerate().filter_map(|(i, w)| w.map(|reason| Refused { object: name.clone(), image: m.images()[i].clone(), reason })));
+        manifests.push(m.subset(&mask)?);
+    }
+    if refused.is_empty() {
+        return Err(e);
+    }
+    let readable = Catalog::new(c.root(), c.names().to_vec(), manifests)?;
+    Ok((load(&readable, spec.color)?, refused))
+}
+
 /// Decodes a catalog's images with a progress bar.
 fn load(c: &Catalog, color: linpose::image_io::ColorMode) -> anyhow::Result<ObjectSet> {
     let bar = progress(c.total_images() as u64, "decoding images");
@@ -268,7 +294,9 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
             model.names().join(", ")
         ),
     };
-    let data = load(&c, model.spec().color)?;
+    // Images that cannot be read at the model's size are counted apart with why, as the model's
+    // refusals are; every object's other views are evaluated.
+    let (data, unreadable) = load_readable(&c, model.spec())?;
     if data.spec() != model.spec() || model.space().is_some_and(|s| s != data.space()) {
         anyhow::bail!(
             "{}: images of {}x{} with parameters {}, but the model was trained on {}x{} with {}",
@@ -286,20 +314,26 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     }
     let names = model.names();
     let mut samples = Vec::with_capacity(data.total_len());
-    let mut rejected = Vec::new();
+    let mut rejected = unreadable;
     let mut predict_s = 0.0;
     let space = model.space();
     for (name, d) in data.names().iter().zip(data.objects()) {
         let truth = names.iter().position(|n| n == name);
         let t = Instant::now();
-        // Behind a normalisation stage, the images it refuses are set apart, in no figure.
-        let est = model.estimate_each(d.features(), 1)?;
+        // Behind a normalisation stage, the images it refuses are set apart, in no figure; so
+        // are those the model refuses (an all-black image), each found alone.
+        let m = d.n_features();
+        let est = crate::queries::each_row(d.len(), |r| model.estimate_each(&d.features()[r.start * m..r.end * m], 1));
         predict_s += t.elapsed().as_secs_f64();
         for (i, e) in est.into_iter().enumerate() {
             let e = match e {
-                Ok(e) => e,
-                Err(r) => {
-                    rejected.push(Refused { object: name.clone(), image: d.manifest().images()[i].clone(), reason: r.to_string() });
+                Ok(Ok(e)) => e,
+                Ok(Err(r)) => {
+                    rejected.push(Refused { object: name.clone(), image: d.manifest().images()[i].clone(), reason: crate::queries::cannot_normalise(&r) });
+                    continue;
+                }
+                Err(why) => {
+                    rejected.push(Refused { object: name.clone(), image: d.manifest().images()[i].clone(), reason: why });
                     continue;
                 }
             };
@@ -365,7 +399,7 @@ pub(crate) fn eval(a: &EvalArgs) -> anyhow::Result<()> {
     if let Some(j) = &a.json {
         write_json(j, &report)?;
     }
-    Ok(())
+    crate::queries::refusals(report.rejected.len(), report.rejected.len() + report.n_eval)
 }
 
 fn print_report(r: &Report) {
@@ -420,49 +454,90 @@ struct Estimate<'a> {
     own_nearer: Option<&'a str>,
     confidence: f64,
     pose: Option<BTreeMap<&'a str, f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hypotheses: Option<Vec<ObjectHypothesisRow<'a>>>,
+}
+
+/// One (object, pose) hypothesis of `predict --top` with a many-object model.
+#[derive(Serialize)]
+struct ObjectHypothesisRow<'a> {
+    object: &'a str,
+    distance: f64,
+    pose: BTreeMap<&'a str, f64>,
+    score: f64,
 }
 
 /// `predict` with a many-object model: each image's object, its confidence and its pose, or
 /// "unknown".
 pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::Result<()> {
-    if a.top.is_some() {
-        anyhow::bail!(
-            "--top with a many-object model ({}): not supported yet; each image gets its object, the confidence of that and its pose",
-            a.model.display()
-        );
-    }
     let model = linpose::recognize::ObjectModel::load(&a.model)?;
+    if a.top.is_some() && model.space().is_none() {
+        anyhow::bail!("--top: {} was trained without poses; it tells objects apart, with no (object, pose) hypotheses to rank", a.model.display());
+    }
     let (spec, space) = (model.spec(), model.space());
     let m = spec.features();
     let context = format!("the size of the model's training images ({})", a.model.display());
     let bar = progress(files.len() as u64, "estimating");
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut out = crate::queries::Output::open(a.out.as_deref())?;
     let mut refused = 0usize;
     for chunk in files.chunks(crate::queries::BATCH) {
-        // Decoded in parallel as `predict` decodes one object's queries, then all as features.
-        let (mut feats, mut pix) = (vec![0f32; chunk.len() * m], vec![0u8; chunk.len() * m]);
-        {
+        // Decoded in parallel as `predict` decodes one object's queries, then all as features;
+        // an image that cannot be read, or that the model refuses, has no estimate and leaves
+        // the others theirs.
+        let n = chunk.len();
+        let (mut feats, mut pix) = (vec![0f32; n * m], vec![0u8; n * m]);
+        let read: Vec<linpose::Result<bool>> = {
             use rayon::prelude::*;
-            feats
-                .par_chunks_mut(m)
-                .zip(pix.par_chunks_mut(m))
-                .zip(chunk.par_iter())
-                .map(|((f, p), path)| read_one(path, spec, &context, f, p))
-                .collect::<linpose::Result<Vec<bool>>>()?;
+            feats.par_chunks_mut(m).zip(pix.par_chunks_mut(m)).zip(chunk.par_iter()).map(|((f, p), path)| read_one(path, spec, &context, f, p)).collect()
+        };
+        let mut reasons: Vec<Option<String>> =
+            read.iter().zip(chunk).map(|(r, path)| r.as_ref().err().map(|e| crate::queries::read_refusal(path, e))).collect();
+        let rows: Vec<usize> = (0..n).filter(|&i| reasons[i].is_none()).collect();
+        crate::queries::compact(&mut feats, m, &rows);
+        crate::queries::compact(&mut pix, m, &rows);
+        let (feats, pix) = (&mut feats[..rows.len() * m], &pix[..rows.len() * m]);
+        eight_bit_as_features(feats, pix, m);
+        let feats = &*feats;
+        // Behind a normalisation stage, the images it refuses get why in their place.
+        let outcomes = crate::queries::each_row(rows.len(), |r| model.estimate_each(&feats[r.start * m..r.end * m], 1));
+        let mut est: Vec<Option<linpose::recognize::ObjectEstimate>> = (0..n).map(|_| None).collect();
+        for (&i, o) in rows.iter().zip(outcomes) {
+            match o {
+                Ok(Ok(e)) => est[i] = Some(e),
+                Ok(Err(r)) => reasons[i] = Some(crate::queries::cannot_normalise(&r)),
+                Err(why) => reasons[i] = Some(why),
+            }
         }
-        eight_bit_as_features(&mut feats, &pix, m);
-        // Behind a normalisation stage, the images it refuses are reported on stderr (the exit
-        // status says so at the end).
-        let est = model.estimate_each(&feats, 1)?;
-        for (path, e) in chunk.iter().zip(&est) {
-            let e = match e {
-                Ok(e) => e,
-                Err(r) => {
-                    crate::queries::cannot_normalise(&bar, path, r);
-                    refused += 1;
-                    continue;
+        // With --top, the (object, pose) hypotheses of each image that has an estimate.
+        let mut ranked: Vec<Vec<linpose::recognize::ObjectHypothesis>> = vec![Vec::new(); n];
+        if let Some(top) = a.top {
+            let kept: Vec<usize> = (0..n).filter(|&i| est[i].is_some()).collect();
+            let rows_of: Vec<f32> = kept.iter().flat_map(|&i| feats[rows.iter().position(|&r| r == i).unwrap_or(0) * m..][..m].iter().copied()).collect();
+            let found = crate::queries::each_row(kept.len(), |r| model.hypotheses(&rows_of[r.start * m..r.end * m], top as usize));
+            for (&i, h) in kept.iter().zip(found) {
+                match h {
+                    Ok(h) => ranked[i] = h,
+                    Err(why) => {
+                        est[i] = None;
+                        reasons[i] = Some(why);
+                    }
                 }
+            }
+        }
+        for (i, path) in chunk.iter().enumerate() {
+            let Some(e) = &est[i] else {
+                let why = reasons[i].as_deref().unwrap_or("no estimate");
+                if a.strict {
+                    out.flush()?;
+                    anyhow::bail!("{}: {why}", path.display());
+                }
+                crate::queries::report_refused(&bar, path, why);
+                if a.json {
+                    serde_json::to_writer(&mut out, &serde_json::json!({ "image": path.display().to_string(), "refused": why }))?;
+                    writeln!(out)?;
+                }
+                refused += 1;
+                continue;
             };
             let name = path.display().to_string();
             let r = &e.recognition;
@@ -478,6 +553,19 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
                     own_nearer: r.own_nearer.map(|k| model.names()[k].as_str()),
                     confidence: r.confidence,
                     pose,
+                    hypotheses: a.top.map(|_| {
+                        ranked[i]
+                            .iter()
+                            .map(|h| ObjectHypothesisRow {
+                                object: &model.names()[h.object],
+                                distance: h.distance,
+                                pose: space
+                                    .map(|space| space.params().iter().map(|q| q.name.as_str()).zip(h.pose.pose.iter().copied()).collect())
+                                    .unwrap_or_default(),
+                                score: h.pose.score,
+                            })
+                            .collect()
+                    }),
                 };
                 serde_json::to_writer(&mut out, &row)?;
                 writeln!(out)?;
@@ -501,13 +589,22 @@ pub(crate) fn predict(a: &PredictArgs, files: &[std::path::PathBuf]) -> anyhow::
                         write!(out, "\t{}={v:.4}", q.name)?;
                     }
                 }
+                if let Some(space) = space.filter(|_| a.top.is_some()) {
+                    for (k, h) in ranked[i].iter().enumerate() {
+                        write!(out, "\t#{}: object={}", k + 1, model.names()[h.object])?;
+                        for (q, v) in space.params().iter().zip(&h.pose.pose) {
+                            write!(out, " {}={v:.4}", q.name)?;
+                        }
+                        write!(out, " score={:.3}", h.pose.score)?;
+                    }
+                }
                 writeln!(out)?;
             }
         }
         bar.inc(chunk.len() as u64);
     }
     bar.finish_and_clear();
-    out.flush()?;
+    out.finish()?;
     crate::queries::refusals(refused, files.len())
 }
 

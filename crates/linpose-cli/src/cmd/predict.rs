@@ -2,7 +2,7 @@
 
 use crate::args::PredictArgs;
 use crate::common::progress;
-use crate::queries::{cannot_normalise, eight_bit_as_features, read_one, refusals, BATCH};
+use crate::queries::{cannot_normalise, compact, each_row, eight_bit_as_features, read_one, read_refusal, refusals, report_refused, BATCH};
 use anyhow::Context;
 use linpose::image_io::has_image_extension;
 use linpose::PoseModel;
@@ -22,6 +22,13 @@ struct Estimate<'a> {
     flagged: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
     hypotheses: Option<Vec<Hypothesis<'a>>>,
+}
+
+/// An image with no estimate, and why.
+#[derive(Serialize)]
+struct Refused<'a> {
+    image: &'a str,
+    refused: &'a str,
 }
 
 #[derive(Serialize)]
@@ -76,81 +83,94 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
     let m = spec.features();
     let files = expand(&query_paths(a)?)?;
     let bar = progress(files.len() as u64, "estimating");
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut out = crate::queries::Output::open(a.out.as_deref())?;
     let mut features = vec![0f32; BATCH.min(files.len()) * m];
     let mut pixels = vec![0u8; BATCH.min(files.len()) * m];
-    let mut poses = vec![0f64; BATCH * space.len()];
     let context = format!("the size of the model's training images ({})", a.model.display());
     let mut refused = 0usize;
+    let k = space.len();
     for chunk in files.chunks(BATCH) {
+        let n = chunk.len();
         // Decoded in parallel; 8-bit gray (or RGB made gray) images stay 8-bit for the model's
-        // 8-bit path, any other image becomes f32 features.
-        let feats = &mut features[..chunk.len() * m];
-        let pix = &mut pixels[..chunk.len() * m];
-        let all_u8 = feats
+        // 8-bit path, any other image becomes f32 features. An image that cannot be read has
+        // no estimate and leaves the others theirs.
+        let feats = &mut features[..n * m];
+        let pix = &mut pixels[..n * m];
+        let read: Vec<linpose::Result<bool>> = feats
             .par_chunks_mut(m)
             .zip(pix.par_chunks_mut(m))
             .zip(chunk.par_iter())
             .map(|((slot, slot8), path)| read_one(path, spec, &context, slot, slot8))
-            .collect::<linpose::Result<Vec<bool>>>()?
-            .into_iter()
-            .all(|b| b);
-        // A model behind a normalisation stage: the images it refuses are reported on stderr
-        // and left out; the rest are normalised once and given to the method's own model.
-        let n_chunk = chunk.len() as u64;
-        let mut chunk: Vec<&PathBuf> = chunk.iter().collect();
-        let mut feats = feats;
-        let mut all_u8 = all_u8;
+            .collect();
+        // Each image's outcome: None until estimated or refused.
+        let mut reasons: Vec<Option<String>> = read.iter().zip(chunk).map(|(r, path)| r.as_ref().err().map(|e| read_refusal(path, e))).collect();
+        let mut rows: Vec<usize> = (0..n).filter(|&i| reasons[i].is_none()).collect();
+        compact(feats, m, &rows);
+        compact(pix, m, &rows);
+        let mut all_u8 = rows.iter().all(|&i| matches!(read[i], Ok(true)));
+        let (mut feats, pix) = (&mut feats[..rows.len() * m], &mut pix[..rows.len() * m]);
+        // A model behind a normalisation stage: the images it refuses are left out; the rest
+        // are normalised once and given to the method's own model.
         let mut normalised;
         let mut target: &dyn PoseModel = &model;
-        if let Some((stage, inner)) = model.behind_stage() {
+        if let (Some((stage, inner)), false) = (model.behind_stage(), rows.is_empty()) {
             eight_bit_as_features(feats, pix, m);
             all_u8 = false;
-            let (rows, verdicts) = stage.apply_batch(feats);
-            let mut kept = 0;
-            for (i, v) in verdicts.iter().enumerate() {
-                match v {
-                    None => {
-                        chunk[kept] = chunk[i];
-                        kept += 1;
-                    }
-                    Some(r) => {
-                        cannot_normalise(&bar, chunk[i], r);
-                        refused += 1;
-                    }
+            let (normal, verdicts) = stage.apply_batch(feats);
+            for (&i, v) in rows.iter().zip(&verdicts) {
+                if let Some(r) = v {
+                    reasons[i] = Some(cannot_normalise(r));
                 }
             }
-            chunk.truncate(kept);
-            if kept == 0 {
-                bar.inc(n_chunk);
-                continue;
-            }
-            normalised = rows;
+            rows.retain(|&i| reasons[i].is_none());
+            normalised = normal;
             feats = &mut normalised[..];
             target = inner;
         }
-        let est = &mut poses[..chunk.len() * space.len()];
-        let mut ranked = None;
-        if let Some(top) = a.top {
+        if !all_u8 || a.top.is_some() {
             // Hypotheses are ranked on features: the 8-bit path's estimates agree but for near
             // ties, and the first hypothesis must be the estimate printed.
             eight_bit_as_features(feats, pix, m);
-            let r = target.estimate(feats, top as usize)?;
-            for (o, e) in est.chunks_exact_mut(space.len()).zip(&r) {
-                o.copy_from_slice(&e.pose);
+        }
+        let (feats, pix) = (&*feats, &*pix);
+        let outcomes = each_row(rows.len(), |r| -> linpose::Result<Vec<(Vec<f64>, Option<linpose::confidence::Estimate>)>> {
+            if let Some(top) = a.top {
+                let ranked = target.estimate(&feats[r.start * m..r.end * m], top as usize)?;
+                return Ok(ranked.into_iter().map(|e| (e.pose.clone(), Some(e))).collect());
             }
-            ranked = Some(r);
-        } else if all_u8 {
-            target.predict_u8_into(pix, est)?;
-        } else {
-            eight_bit_as_features(feats, pix, m);
-            target.predict_into(feats, est)?;
+            let mut est = vec![0f64; r.len() * k];
+            if all_u8 {
+                target.predict_u8_into(&pix[r.start * m..r.end * m], &mut est)?;
+            } else {
+                target.predict_into(&feats[r.start * m..r.end * m], &mut est)?;
+            }
+            Ok(est.chunks_exact(k).map(|p| (p.to_vec(), None)).collect())
+        });
+        let mut estimates: Vec<Option<(Vec<f64>, Option<linpose::confidence::Estimate>)>> = (0..n).map(|_| None).collect();
+        for (&i, o) in rows.iter().zip(outcomes) {
+            match o {
+                Ok(e) => estimates[i] = Some(e),
+                Err(why) => reasons[i] = Some(why),
+            }
         }
         let named = |pose: &[f64]| -> BTreeMap<&str, f64> { space.params().iter().map(|p| p.name.as_str()).zip(pose.iter().copied()).collect() };
-        for (i, (path, pose)) in chunk.iter().zip(est.chunks_exact(space.len())).enumerate() {
+        for (i, path) in chunk.iter().enumerate() {
             let name = path.display().to_string();
-            let r = ranked.as_ref().map(|r| &r[i]);
+            let Some((pose, r)) = &estimates[i] else {
+                let why = reasons[i].as_deref().unwrap_or("no estimate");
+                if a.strict {
+                    out.flush()?;
+                    anyhow::bail!("{name}: {why}");
+                }
+                report_refused(&bar, path, why);
+                if a.json {
+                    serde_json::to_writer(&mut out, &Refused { image: &name, refused: why })?;
+                    writeln!(out)?;
+                }
+                refused += 1;
+                continue;
+            };
+            let r = r.as_ref();
             if a.json {
                 let e = Estimate {
                     image: &name,
@@ -182,9 +202,9 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
                 writeln!(out)?;
             }
         }
-        bar.inc(n_chunk);
+        bar.inc(n as u64);
     }
     bar.finish_and_clear();
-    out.flush()?;
+    out.finish()?;
     refusals(refused, files.len())
 }

@@ -3,6 +3,8 @@
 
 use crate::common::progress;
 use anyhow::{bail, Context};
+use linpose::render::background::BackgroundSpec;
+use linpose::render::scene::{SceneSpec, DEFAULT_SEED};
 use linpose::render::synth::{write_dataset, PoseGrid};
 use linpose::render::{objects, Camera, Grid, Jitter, Light, Mesh, RenderParams};
 use std::io::Write;
@@ -47,10 +49,19 @@ pub(crate) struct SynthArgs {
     /// Weight of the specular highlight (0 for a matte object).
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     pub specular: f64,
-    /// Brightness of the background, from 0 (black, the default) to 1 (white): a studio
-    /// backdrop of gray paper or cloth, e.g. 0.5.
-    #[arg(long, value_name = "LEVEL", default_value_t = 0.0)]
-    pub background: f64,
+    /// The background: a level from 0 (black, the default) to 1 (white), a studio backdrop of
+    /// gray paper or cloth, e.g. 0.5; or a scene's: `texture` (procedural clutter), `noise`
+    /// (independent pixel noise) or a folder of photographs (a random crop of a random one),
+    /// each view its own draw (recorded in scene.csv).
+    #[arg(long, value_name = "LEVEL|texture|noise|DIR", default_value = "0")]
+    pub background: String,
+    /// Hide about this share of each view's object (in [0, 1)) behind one or two opaque,
+    /// striped occluders, each view its own (recorded in scene.csv).
+    #[arg(long, value_name = "F", default_value_t = 0.0)]
+    pub occlude: f64,
+    /// Seed of the scene's draws (background and occluders).
+    #[arg(long, value_name = "S", default_value_t = DEFAULT_SEED)]
+    pub seed: u64,
     /// Jitter every view as a camera in a cell would see it: a shift of up to SHIFT pixels along
     /// each image axis, a scale within 1 +- SCALE and an exposure within 1 +- EXPOSURE, uniform,
     /// each view its own draw (written to jitter.csv), e.g. 8,0.1,0.2.
@@ -102,15 +113,24 @@ pub(crate) fn run(args: &SynthArgs) -> anyhow::Result<()> {
     }
     let (width, height) = parse_size(&args.size)?;
     let camera = if args.perspective { Camera::perspective() } else { Camera::default() };
-    let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular)).background(args.background);
+    let background = BackgroundSpec::parse(&args.background)?;
+    let level = match background {
+        BackgroundSpec::Level(v) => v,
+        _ => 0.0,
+    };
+    let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular)).background(level);
     params.validate()?;
+    let scene = SceneSpec { background, occlude: args.occlude, seed: args.seed }.open(width, height)?;
+    let scene_csv = !scene.is_plain();
+    grid = grid.with_scene(scene);
 
     let bar = progress(grid.len() as u64, "rendering images");
     // The library's errors name the folder or file at fault.
     let n = write_dataset(&mesh, &grid, &params, out, &|k| bar.inc(k))?;
     bar.finish_and_clear();
-    let also = if grid.jitter().is_some() { ", jitter.csv" } else { "" };
-    writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv{also} to {}", out.display())?;
+    let jitter = if grid.jitter().is_some() { ", jitter.csv" } else { "" };
+    let scene = if scene_csv { ", scene.csv" } else { "" };
+    writeln!(stdout, "wrote {n} images of {name} at {width}x{height} and poses.csv{jitter}{scene} to {}", out.display())?;
     Ok(())
 }
 

@@ -6,10 +6,14 @@ pub(crate) mod doc;
 mod normalization;
 pub(crate) mod plots;
 mod recognition;
+mod table1;
+mod three_params;
 
 use confidence::{confidence_finding, confidence_section};
 use normalization::{normalization_finding, normalization_section};
 use recognition::{recognition_finding, recognition_section};
+use table1::{table1_figure, table1_finding};
+use three_params::{three_params_finding, three_params_section};
 
 use crate::study::{ObjectResult, Run, GROSS_ERROR_DEG};
 use doc::{Block, Doc, FigureData};
@@ -51,6 +55,12 @@ pub(crate) struct StudyInfo {
     /// Recognition on all the objects at once, when there were several of one image size.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub recognition: Option<crate::study::recognition::RecognitionStudy>,
+    /// The three-parameter section, on the first built-in object (none on the user's data).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub three_params: Option<crate::study::three_params::ThreeParamsStudy>,
+    /// The Table 1 figure's points: every method fitted on nested training sets of one, two and
+    /// three pose parameters.
+    pub table1_sizes: Vec<crate::study::table1::SizePoint>,
 }
 
 pub(super) fn f(v: f64, d: usize) -> String {
@@ -151,6 +161,8 @@ pub(crate) fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, S
         ));
         b.push(Block::Para("The paper's Table 1 gives storage and cost NL + ML for the eigenspace method (N manifold points of L dimensions, M pixels) and MK for the linear model (K encoded parameters). Bytes count the numbers each model stores to serve a query, as float32; time is the wall time of estimating every view of the object divided by their number, batched, on 2 cores.".into()));
     }
+    table1_figure(&mut b, info)?;
+    three_params_section(&mut b, info.three_params.as_ref());
 
     // Overtraining.
     b.push(Block::Heading(1, "Training-set size and the overtraining question (section 4)".into()));
@@ -347,6 +359,12 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
         out.push(text);
     }
     if let Some(text) = normalization_finding(&everything) {
+        out.push(text);
+    }
+    if let Some(text) = info.three_params.as_ref().and_then(three_params_finding) {
+        out.push(text);
+    }
+    if let Some(text) = table1_finding(&info.table1_sizes) {
         out.push(text);
     }
     for o in open {

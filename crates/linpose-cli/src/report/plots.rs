@@ -341,3 +341,132 @@ pub(crate) fn confidence_scatter(title: &str, series: &[(String, Vec<(f64, f64)>
         Ok(())
     })
 }
+
+/// One series of a [`loglog_grid`] panel.
+pub(crate) struct LogSeries {
+    /// Its name in the legend (series of one name share a legend entry).
+    pub name: String,
+    /// Its (x, y) points; those with a coordinate not positive and finite are left out.
+    pub points: Vec<(f64, f64)>,
+    /// Its colour, an index into the report's palette.
+    pub color: usize,
+    /// A dashed line without markers (a formula) rather than a solid one with markers (measured).
+    pub dashed: bool,
+}
+
+/// One panel of a [`loglog_grid`]: its title and series.
+pub(crate) struct LogPanel {
+    /// The title above it.
+    pub title: String,
+    /// Its series.
+    pub series: Vec<LogSeries>,
+}
+
+/// One row of a [`loglog_grid`]: panels sharing the y axis.
+pub(crate) struct LogRow {
+    /// The y axis' title.
+    pub y_desc: String,
+    /// How a y value is written on the axis.
+    pub unit: fn(f64) -> String,
+    /// The panels, left to right.
+    pub panels: Vec<LogPanel>,
+}
+
+/// The report's palette, by index.
+const PALETTE: [RGBColor; 6] =
+    [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(255, 127, 14), RGBColor(23, 190, 207)];
+
+/// The smallest and largest of `v`'s positive finite values, widened a little (a single value:
+/// a factor of 2 each way); (1, 10) when there is none.
+fn log_range(v: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = v.filter(|x| x.is_finite() && *x > 0.0).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    match (lo.is_finite(), hi > lo) {
+        (false, _) => (1.0, 10.0),
+        (true, false) => (lo / 2.0, hi * 2.0),
+        (true, true) => (lo / 1.3, hi * 1.3),
+    }
+}
+
+/// Whether `v` is 1, 2 or 5 times a power of ten: the values a log axis labels.
+fn round_log(v: f64) -> bool {
+    let m = v / 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 5.0, 10.0].iter().any(|&k| (m - k).abs() < 1e-6 * k)
+}
+
+/// Panels on log-log axes, in rows sharing their y axis (each row's own range) and all sharing
+/// the x axis, with one legend under them for every series name.
+pub(crate) fn loglog_grid(x_desc: &str, rows: &[LogRow]) -> Result<String, String> {
+    let cols = rows.iter().map(|r| r.panels.len()).max().unwrap_or(0).max(1);
+    let positive = |p: &&(f64, f64)| p.0.is_finite() && p.0 > 0.0 && p.1.is_finite() && p.1 > 0.0;
+    let all = || rows.iter().flat_map(|r| r.panels.iter().flat_map(|p| p.series.iter().flat_map(|s| s.points.iter().filter(positive))));
+    let (x0, x1) = log_range(all().map(|p| p.0));
+    let mut legend: Vec<(&str, usize, bool)> = Vec::new();
+    for s in rows.iter().flat_map(|r| r.panels.iter().flat_map(|p| p.series.iter())) {
+        if !legend.iter().any(|l| l.0 == s.name) {
+            legend.push((&s.name, s.color, s.dashed));
+        }
+    }
+    let per_color = legend.iter().map(|l| legend.iter().filter(|k| k.1 == l.1).count()).max().unwrap_or(0);
+    let (panel_w, panel_h, legend_h) = (380u32, 310u32, 22 * per_color as u32 + 16);
+    svg((panel_w * cols as u32, panel_h * rows.len() as u32 + legend_h), |root| {
+        let (grid, key) = root.split_vertically(panel_h * rows.len() as u32);
+        let areas = grid.split_evenly((rows.len(), cols));
+        for (ri, row) in rows.iter().enumerate() {
+            let (y0, y1) = log_range(row.panels.iter().flat_map(|p| p.series.iter().flat_map(|s| s.points.iter().filter(positive).map(|p| p.1))));
+            for (ci, panel) in row.panels.iter().enumerate() {
+                let mut chart = ChartBuilder::on(&areas[ri * cols + ci])
+                    .caption(&panel.title, (FONT, 14))
+                    .margin(8)
+                    .x_label_area_size(38)
+                    .y_label_area_size(62)
+                    .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                    .map_err(|e| e.to_string())?;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_desc)
+                    .y_desc(&row.y_desc)
+                    .x_label_formatter(&|v| if round_log(*v) { format!("{v:.0}") } else { String::new() })
+                    .y_label_formatter(&|v| if round_log(*v) { (row.unit)(*v) } else { String::new() })
+                    .max_light_lines(0)
+                    .label_style((FONT, 11))
+                    .axis_desc_style((FONT, 12))
+                    .bold_line_style(RGBColor(230, 230, 230))
+                    .draw()
+                    .map_err(|e| e.to_string())?;
+                for s in &panel.series {
+                    let c = PALETTE[s.color % PALETTE.len()];
+                    let mut pts: Vec<(f64, f64)> = s.points.iter().filter(positive).copied().collect();
+                    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    if s.dashed {
+                        chart.draw_series(DashedLineSeries::new(pts, 6, 4, c.stroke_width(2))).map_err(|e| e.to_string())?;
+                    } else {
+                        chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(1))).map_err(|e| e.to_string())?;
+                        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(|e| e.to_string())?;
+                    }
+                }
+            }
+        }
+        // The legend: a column per colour.
+        let style = (FONT, 12).into_font().color(&BLACK);
+        let mut colors: Vec<usize> = Vec::new();
+        for l in &legend {
+            if !colors.contains(&l.1) {
+                colors.push(l.1);
+            }
+        }
+        let width = (panel_w as i32 * cols as i32 - 40) / colors.len().max(1) as i32;
+        for (i, (name, color, dashed)) in legend.iter().enumerate() {
+            let c = PALETTE[color % PALETTE.len()];
+            let (col, row) = (colors.iter().position(|k| k == color).unwrap_or(0), legend[..i].iter().filter(|l| l.1 == *color).count());
+            let (x, y) = (20 + col as i32 * width, 12 + row as i32 * 22);
+            if *dashed {
+                key.draw(&plotters::element::DashedPathElement::new(vec![(x, y), (x + 28, y)], 6, 4, c.stroke_width(2))).map_err(|e| e.to_string())?;
+            } else {
+                key.draw(&PathElement::new(vec![(x, y), (x + 28, y)], c.stroke_width(1))).map_err(|e| e.to_string())?;
+                key.draw(&Circle::new((x + 14, y), 4, c.filled())).map_err(|e| e.to_string())?;
+            }
+            key.draw(&Text::new(name.to_string(), (x + 36, y - 7), style.clone())).map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    })
+}

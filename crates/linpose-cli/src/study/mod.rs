@@ -10,6 +10,8 @@
 
 pub(crate) mod normalization;
 pub(crate) mod recognition;
+pub(crate) mod table1;
+pub(crate) mod three_params;
 pub(crate) mod tuning;
 
 use linpose::dataset::Dataset;
@@ -116,6 +118,9 @@ pub(crate) struct SweepPoint {
     pub all_mean_deg: f64,
     /// The linear model's exact leave-one-out mean error on its training set.
     pub loo_mean_deg: Option<f64>,
+    /// The model's storage and time per query (on every view), for the Table 1 figure.
+    #[serde(flatten)]
+    pub cost: table1::Cost,
 }
 
 /// Table 1 of the paper, measured: storage and cost terms of one fitted model.
@@ -276,7 +281,8 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
             let per_query_us = r.predict_s / r.n_eval as f64 * 1e6;
             if noise == 0.0 {
                 table1.push(table1_row(&model, per_query_us));
-                clean.push((models.len(), r.n_train, r.all.mean_deg, r.unseen.map_or(f64::NAN, |u| u.mean_deg)));
+                let cost = table1::Cost::of(&model, r.predict_s, r.n_eval);
+                clean.push((models.len(), r.n_train, r.all.mean_deg, r.unseen.map_or(f64::NAN, |u| u.mean_deg), cost));
             }
             let (param_err, gross) = param_errors(data, &r.samples);
             runs.push(Run {
@@ -308,7 +314,7 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
             progress(&format!("{name}: {} with a {step}-degree training step", method.name()));
             // The main step: the model and its clean errors are the main run's.
             let shared = clean.iter().find(|c| c.0 == i).filter(|_| step == p.train_step);
-            if let Some(&(_, n_train, all_mean_deg, unseen_mean_deg)) = shared {
+            if let Some((_, n_train, all_mean_deg, unseen_mean_deg, cost)) = shared.cloned() {
                 sweep.push(SweepPoint {
                     method: models[i].meta().method.clone(),
                     step,
@@ -316,6 +322,7 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
                     unseen_mean_deg,
                     all_mean_deg,
                     loo_mean_deg: loo_mean(method, &train)?,
+                    cost,
                 });
                 continue;
             }
@@ -327,6 +334,7 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
             };
             let r = evaluate(&model, data, &EvalOptions { top: 0, ..EvalOptions::new(0.0, p.seed) })?;
             let loo_mean_deg = loo_mean(method, &train)?;
+            let cost = table1::Cost::of(&model, r.predict_s, r.n_eval);
             sweep.push(SweepPoint {
                 method: r.method,
                 step,
@@ -334,6 +342,7 @@ pub(crate) fn run_object(name: &str, data: &Dataset, p: &StudyParams, progress: 
                 unseen_mean_deg: r.unseen.map_or(f64::NAN, |u| u.mean_deg),
                 all_mean_deg: r.all.mean_deg,
                 loo_mean_deg,
+                cost,
             });
         }
     }

@@ -13,7 +13,8 @@ and for several objects, :class:`ObjectRecognizer`, a classifier: which object a
 
 The models are the Rust library's, and their files are the command line's: :func:`load` reads
 one ``linpose train`` wrote, and ``save`` writes one ``linpose predict`` reads. :func:`synth`
-renders turntable data sets, :func:`read_dataset` reads a data set folder, :func:`train_mask`
+renders turntable data sets (optionally in cluttered, occluded scenes), :func:`scene` puts
+studio views into such scenes, :func:`read_dataset` reads a data set folder, :func:`train_mask`
 picks the paper's training views and :func:`pose_error` is the error measure of ``linpose eval``.
 
 :mod:`linpose.dask` fits the linear model and the eigenspace on a Dask cluster (``import
@@ -42,6 +43,7 @@ __all__ = [
     "load",
     "from_bytes",
     "synth",
+    "scene",
     "read_dataset",
     "train_mask",
     "pose_error",
@@ -82,6 +84,10 @@ def synth(
     specular: float = 0.0,
     jitter: Optional[Tuple[float, float, float]] = None,
     jitter_seed: int = 0,
+    background: Union[float, str, "os.PathLike[str]"] = 0.0,
+    occlude: float = 0.0,
+    scene_seed: int = 0,
+    return_scene: bool = False,
 ):
     """Renders a turntable data set in memory, the images ``linpose synth`` would write.
 
@@ -95,17 +101,74 @@ def synth(
     ``shift`` pixels, ``1 +- scale``, ``1 +- exposure``) from ``jitter_seed``. The images are
     held in memory: n x width x height bytes.
 
+    Scenes, as ``linpose synth --background/--occlude/--seed``: ``background`` is a level from 0
+    (black) to 1 (white), ``"texture"`` (procedural clutter), ``"noise"`` (pixel noise) or a
+    folder of photographs (a random crop of a random one), each view its own draw from
+    ``scene_seed``; ``occlude`` in [0, 1) hides about that share of each view's object behind one
+    or two striped occluders (docs/scenes.md).
+
     Returns ``(images, poses, params)``: ``uint8`` images (n, height, width), poses (n, K) in
     degrees (elevation, azimuth, then roll and light when given) and the parameters, e.g.
     ``[("elevation", None), ("azimuth", 360.0)]``; roll and light are circular (period 360)
-    when their grid goes round a whole turn, linear (``None``) otherwise.
+    when their grid goes round a whole turn, linear (``None``) otherwise. With
+    ``return_scene=True`` a fourth item says what each view's scene is (see :func:`scene`).
     """
-    return _linpose.synth(
+    images, poses, params, info = _linpose.synth(
         (object, random, None if mesh is None else os.fspath(mesh)),
         (azimuth, elevation, roll, light),
         (tuple(size), perspective, float(specular)),
         (None if jitter is None else tuple(float(v) for v in jitter), jitter_seed),
+        (_background(background), float(occlude), int(scene_seed), bool(return_scene)),
     )
+    if return_scene:
+        return images, poses, params, _scene_info(info, len(images))
+    return images, poses, params
+
+
+def scene(
+    images,
+    background: Union[float, str, "os.PathLike[str]"] = "texture",
+    occlude: float = 0.0,
+    seed: int = 0,
+):
+    """Puts studio views into scenes, as ``linpose scene`` does to a data set's views.
+
+    ``images`` are ``uint8`` (n, h, w) gray or (n, h, w, 3) RGB views of an object against a
+    uniform studio backdrop. In each the object is found (the pixels that differ from the
+    backdrop's level, measured on the border, by more than its own spread; specks left out,
+    small enclosed holes filled), the backdrop replaced by ``background`` (as :func:`synth`'s,
+    ``"texture"`` by default) and about ``occlude`` (in [0, 1)) of the object hidden behind
+    occluders; view i draws scene i of ``seed``. A view without an object to find is a
+    ``ValueError`` naming its index.
+
+    Returns ``(images, info)``: the views in their scenes (``uint8``, the input's shape) and a
+    dict: ``mask`` (n, h, w) bool, the object's pixels; ``occluded`` (n, h, w) bool, the pixels
+    the occluders cover; ``hidden`` (n,), the share of each object they hide; ``records``, one
+    dict per view as ``scene.csv`` has it (``image``, ``background``, ``seed``, ``occlude``,
+    ``hidden``, ``object_pixels``, ``occluders``: ``(shape, cx, cy, hx, hy)`` in pixels).
+    """
+    images = np.ascontiguousarray(images)
+    if images.dtype != np.uint8:
+        raise TypeError(f"images must be uint8, not {images.dtype}")
+    out, info = _linpose.scene(images, (_background(background), float(occlude), int(seed)))
+    return out, _scene_info(info, len(images))
+
+
+def _background(background) -> str:
+    """A background as the command line takes it: a level's number, a kind, or a folder."""
+    if isinstance(background, (int, float)) and not isinstance(background, bool):
+        return repr(float(background))
+    return os.fspath(background)
+
+
+_RECORD_FIELDS = ("image", "background", "seed", "occlude", "hidden", "object_pixels", "occluders")
+
+
+def _scene_info(info, n: int) -> dict:
+    mask, occluded, records = info
+    records = [dict(zip(_RECORD_FIELDS, r)) for r in records]
+    hidden = np.array([r["hidden"] for r in records] if records else np.zeros(n), dtype=np.float64)
+    return {"mask": mask, "occluded": occluded, "hidden": hidden, "records": records}
 
 
 def read_dataset(path: PathLike, object: Optional[int] = None):

@@ -163,6 +163,35 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         out = model.predict(self._rows(X))
         return out[:, 0] if self._y_1d else out
 
+    def predict_each(self, X):
+        """The pose of each image that can be estimated, and why each other one cannot: for
+        batches that may hold bad frames (an all-black image cannot be scaled to unit energy),
+        where ``predict`` raises for the whole batch as scikit-learn expects.
+
+        Returns ``(pose, refused)``: ``pose`` as ``predict`` (always (n, K)), a row of NaN for
+        an image with no estimate; ``refused`` a list of n entries, None for an estimated
+        image, else the reason. The estimated images get the numbers ``predict`` gives them in
+        a batch without the others (an image's estimate does not depend on its batch).
+        """
+        model = self._model()
+        rows = self._rows(X)
+        try:
+            return model.predict(rows), [None] * len(rows)
+        except ValueError:
+            pass
+        refused = []
+        for i in range(len(rows)):
+            try:
+                model.predict(rows[i : i + 1])
+                refused.append(None)
+            except ValueError as e:
+                refused.append(_reason(str(e)))
+        good = [i for i, r in enumerate(refused) if r is None]
+        pose = np.full((len(rows), len(self.params_)), np.nan)
+        if good:
+            pose[good] = model.predict(rows[good])
+        return pose, refused
+
     def predict_hypotheses(self, X, top: int = 3):
         """The estimate of each image with its ranked hypotheses and a confidence.
 
@@ -466,3 +495,10 @@ def _stage(model) -> Optional[str]:
     p = json.loads(model.normalize_json)
     g, b = p.get("radius") is not None, p.get("brightness") is not None
     return "all" if g and b else "geometry" if g else "brightness"
+
+
+def _reason(message: str) -> str:
+    """The reason of a core error about one query ("invalid query = row 0 of the batch: REASON"),
+    without the row (the caller knows which image it is)."""
+    head, sep, rest = message.partition(" of the batch: ")
+    return rest if sep else message

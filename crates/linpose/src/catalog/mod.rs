@@ -56,7 +56,8 @@ impl Catalog {
     /// - a folder of object folders: DIR has no `poses.csv`, and each of its subfolders that
     ///   holds a `poses.csv` is one object, read by [`Manifest::read_dir_format`] (so its own
     ///   `dataset.toml` applies) and named after the subfolder; objects are sorted by name, and
-    ///   subfolders without a `poses.csv` are ignored;
+    ///   another subfolder without a `poses.csv` (an empty object folder) is an error naming it
+    ///   (hidden ones, with a leading dot, are ignored);
     /// - `DIR/poses.csv` with an `object` column (anywhere after `image`): the rows of each
     ///   object, objects in order of first appearance; image paths are relative to DIR and
     ///   `DIR/dataset.toml` describes the pose parameters;
@@ -467,18 +468,41 @@ fn coil_objects(dir: &Path) -> Result<Vec<u32>> {
 
 /// The subfolders of `dir` that hold a `poses.csv`, sorted by name; a name that is not UTF-8
 /// is an error.
+///
+/// Once some subfolder holds a `poses.csv`, every other subfolder (but hidden ones, named with a
+/// leading dot) must too: an object folder left empty or without its `poses.csv` is an error
+/// naming it, never an object silently left out.
 fn object_folders(dir: &Path) -> Result<Vec<String>> {
     let mut folders = Vec::new();
+    let mut without = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
         let entry = entry.map_err(|e| Error::io(dir, e))?;
         let path = entry.path();
-        if !(path.is_dir() && path.join("poses.csv").is_file()) {
+        if !path.is_dir() || entry.file_name().to_string_lossy().starts_with('.') {
+            continue;
+        }
+        if !path.join("poses.csv").is_file() {
+            without.push(path);
             continue;
         }
         let Some(name) = entry.file_name().to_str().map(String::from) else {
             return Err(Error::Dataset { path, message: "the object folder's name is not valid UTF-8, so it cannot name the object".into() });
         };
         folders.push(name);
+    }
+    if let (false, Some(path)) = (folders.is_empty(), without.iter().min()) {
+        let empty = std::fs::read_dir(path).map(|mut d| d.next().is_none()).unwrap_or(false);
+        return Err(Error::Dataset {
+            path: path.clone(),
+            message: format!(
+                "{} of this many-object data set, which has no poses.csv while {} other object folder{} {}: give it its \
+                 images and poses.csv, or move it out of the data set",
+                if empty { "an empty folder" } else { "a folder" },
+                folders.len(),
+                if folders.len() == 1 { "" } else { "s" },
+                if folders.len() == 1 { "has one" } else { "have one" }
+            ),
+        });
     }
     folders.sort();
     Ok(folders)

@@ -38,15 +38,31 @@ fn dataset(n: usize, w: u32, space: PoseSpace) -> Dataset {
     Dataset::new(spec, vec![0.5; n * spec.features()], space, (0..n * p).map(|i| i as f64).collect()).unwrap()
 }
 
-/// Layout (a): objects `b` (3 views, with a dataset.toml) and `a` (2 views), and a folder that is
-/// not an object.
+/// Layout (a): objects `b` (3 views, with a dataset.toml) and `a` (2 views), and a hidden folder
+/// that is not an object.
 fn folder_of_folders(dir: &Path) {
     write(dir, "b/poses.csv", "image,azimuth,tilt\n0.png,0,10\n1.png,120,10\n2.png,240,10\n");
     write(dir, "b/dataset.toml", "tilt = { period = 180 }\n");
     write(dir, "a/poses.csv", "image,azimuth,tilt\nx/0.png,0,0\nx/1.png,180,0\n");
     write(dir, "a/dataset.toml", "tilt = { period = 180 }\n");
-    write(dir, "notes/readme.txt", "not an object");
+    write(dir, ".notes/readme.txt", "not an object");
     write(dir, "README", "a file");
+}
+
+/// A folder beside the objects without a poses.csv, empty or not, is an error naming it: no
+/// object is silently left out.
+#[test]
+fn a_folder_without_poses_beside_the_objects_is_named() {
+    let t = tempfile::tempdir().unwrap();
+    folder_of_folders(t.path());
+    std::fs::create_dir(t.path().join("c")).unwrap();
+    let e = err(Catalog::open(t.path()));
+    assert!(e.contains("/c") && e.contains("an empty folder") && e.contains("2 other object folders have one"), "{e}");
+    std::fs::remove_dir(t.path().join("c")).unwrap();
+    write(t.path(), "notes/readme.txt", "not an object");
+    let e = err(Catalog::open(t.path()));
+    assert!(e.contains("/notes") && e.contains("no poses.csv"), "{e}");
+    assert!(err(Source::open(t.path(), None)).contains("/notes"));
 }
 
 #[test]

@@ -142,7 +142,7 @@ impl Storage {
 pub(crate) fn unscalable_query(i: usize) -> Error {
     Error::invalid(
         "query",
-        format!("#{i} of the batch"),
+        format!("row {i} of the batch"),
         "the image is all black or not finite (zero or non-finite energy), so it cannot be scaled to unit energy",
     )
 }

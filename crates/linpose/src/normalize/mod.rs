@@ -454,7 +454,7 @@ impl Normalizer {
     pub(crate) fn apply_queries(&self, queries: &[f32]) -> Result<Vec<f32>> {
         let (rows, verdicts) = self.apply_batch(queries);
         match verdicts.into_iter().enumerate().find_map(|(i, v)| v.map(|r| (i, r))) {
-            Some((i, reason)) => Err(Error::Normalize { image: format!("query #{i} of the batch"), reason }),
+            Some((i, reason)) => Err(Error::Normalize { image: format!("query row {i} of the batch"), reason }),
             None => Ok(rows),
         }
     }

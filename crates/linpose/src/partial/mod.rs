@@ -29,6 +29,7 @@
 //! refuses a set whose shards do not cover it all.
 
 mod file;
+mod tuning;
 
 pub use crate::model::partial_fit::Split;
 
@@ -46,6 +47,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use std::sync::Arc;
+use tuning::CONTENT_SAMPLE;
 
 /// A shard's data for [`Partial::accumulate`].
 #[derive(Debug, Clone, Copy)]
@@ -79,6 +81,11 @@ struct Header {
     split: Split,
     /// FNV-1a of the training set's image names and poses.
     fingerprint: String,
+    /// FNV-1a of the bytes of a sample of the training set's image files
+    /// ([`content_fingerprint`]), once a shard was read from disk; `None` for statistics of
+    /// images given in memory (and in files written before it was recorded).
+    #[serde(default)]
+    content: Option<String>,
     /// The training set's folder and image names ([`Split::Pixels`] only: finishing rebuilds it).
     root: String,
     names: Vec<String>,
@@ -165,6 +172,7 @@ impl Partial {
             n,
             split,
             fingerprint: fingerprint(manifest),
+            content: None,
             root,
             names,
         };
@@ -298,6 +306,16 @@ impl Partial {
         if color != self.header.spec.color {
             return Err(self.error("the colour handling differs from the statistics'"));
         }
+        // Two data sets with one manifest (two objects rendered on one grid) differ in their
+        // images: the statistics record which images they were read from.
+        let content = content_fingerprint(manifest)?;
+        if let Some(had) = self.header.content.as_ref().filter(|&had| *had != content) {
+            return Err(self.error(format!(
+                "the data set's images are not those these statistics were read from (their fingerprint {content} here, {had} there): \
+                 the same image names and poses, other pixels"
+            )));
+        }
+        self.header.content = Some(content);
         let range = self.shard_range(index, count)?;
         let spec = self.header.spec;
         let (w, h, m) = (spec.width, spec.height, spec.features());
@@ -366,6 +384,14 @@ impl Partial {
         differ("training images", a.n.to_string(), b.n.to_string())?;
         differ("shards of", a.split.unit().into(), b.split.unit().into())?;
         differ("training set (fingerprint of image names and poses)", a.fingerprint.clone(), b.fingerprint.clone())?;
+        if let (Some(x), Some(y)) = (&a.content, &b.content) {
+            differ(
+                &format!("training images (fingerprint of the bytes of {} image files spread over the set; the same names and poses)", CONTENT_SAMPLE),
+                x.clone(),
+                y.clone(),
+            )?;
+        }
+        let content = a.content.clone().or_else(|| b.content.clone());
         // Every overlap is refused before anything is marked, so a refused merge changes nothing.
         if let Some(r) = other.covered.iter().find(|r| self.covered.iter().any(|c| c.start < r.end && r.start < c.end)) {
             return Err(self.error(format!(
@@ -379,6 +405,7 @@ impl Partial {
         for r in &other.covered {
             self.cover(r.clone())?;
         }
+        self.header.content = content;
         match (&mut self.stats, other.stats) {
             (Stats::Images(x), Stats::Images(y)) => x.merge(&y),
             (Stats::Pixels { gram, blocks }, Stats::Pixels { gram: g2, blocks: b2 }) => {
@@ -534,21 +561,60 @@ fn unpack_lower(packed: &[f64], n: usize) -> Mat<f64> {
 
 /// FNV-1a (64-bit) of the image names and the poses' bits, as 16 hex digits.
 fn fingerprint(manifest: &Manifest) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for &b in bytes {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    };
+    let mut h = Fnv::new();
     for name in manifest.images() {
-        eat(name.as_bytes());
-        eat(&[0]);
+        h.eat(name.as_bytes());
+        h.eat(&[0]);
     }
     for p in manifest.poses() {
-        eat(&p.to_bits().to_le_bytes());
+        h.eat(&p.to_bits().to_le_bytes());
     }
-    format!("{h:016x}")
+    h.hex()
+}
+
+/// FNV-1a (64-bit) of the bytes of [`CONTENT_SAMPLE`] image files of `manifest` spread evenly
+/// over it (the first and the last among them; all of a smaller set), as 16 hex digits: what
+/// tells apart two data sets with the same image names and poses (two objects rendered on one
+/// grid). Every shard reads the same files, whichever images it sums, so the fingerprints of
+/// shards of one data set agree.
+fn content_fingerprint(manifest: &Manifest) -> Result<String> {
+    let n = manifest.len();
+    let mut h = Fnv::new();
+    let k = CONTENT_SAMPLE.min(n);
+    let mut last = usize::MAX;
+    for j in 0..k {
+        let i = if k <= 1 { 0 } else { j * (n - 1) / (k - 1) };
+        if i == last {
+            continue;
+        }
+        last = i;
+        let path = manifest.image_path(i);
+        let bytes = std::fs::read(&path).map_err(|e| Error::io(&path, e))?;
+        h.eat(&(i as u64).to_le_bytes());
+        h.eat(&(bytes.len() as u64).to_le_bytes());
+        h.eat(&bytes);
+    }
+    Ok(h.hex())
+}
+
+/// The 64-bit FNV-1a hash.
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+
+    fn eat(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    fn hex(&self) -> String {
+        format!("{:016x}", self.0)
+    }
 }
 
 #[cfg(test)]

@@ -80,7 +80,7 @@ macro_rules! registry {
 
 registry!(universal, linear);
 
-pub use model::{Labels, ObjectEstimate, ObjectModel, ObjectSettings, OwnSettings};
+pub use model::{Labels, ObjectEstimate, ObjectHypothesis, ObjectModel, ObjectSettings, OwnSettings};
 
 use crate::catalog::ObjectSet;
 use crate::dataset::Dataset;

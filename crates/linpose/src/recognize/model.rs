@@ -6,7 +6,7 @@
 use super::own::OwnSpaces;
 use super::{checked_distances, Recognition, Recognize, Recognizer, RecognizerParams, Unknown};
 use crate::catalog::ObjectSet;
-use crate::confidence::Estimate;
+use crate::confidence::{Estimate, Hypothesis};
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::model::{check_queries, AnyModel, MethodSpec, PoseModel, Storage, Tensor, TensorSet};
@@ -82,6 +82,17 @@ pub struct ObjectEstimate {
     pub recognition: Recognition,
     /// Its pose from the object's own model; `None` for an unknown object.
     pub pose: Option<Estimate>,
+}
+
+/// One (object, pose) hypothesis of a query ([`ObjectModel::hypotheses`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObjectHypothesis {
+    /// The object's index ([`ObjectModel::names`]).
+    pub object: usize,
+    /// The query's distance to the object, in the recogniser's measure.
+    pub distance: f64,
+    /// The pose with its score, as the object's pose model judges them.
+    pub pose: Hypothesis,
 }
 
 /// Recognition then pose over several objects ([`crate::recognize`]).
@@ -490,6 +501,51 @@ impl ObjectModel {
         let (rows, verdicts) = stage.apply_batch(queries);
         let mut est = if rows.is_empty() { Vec::new() } else { self.estimate_of(&rows, top)? }.into_iter();
         Ok(verdicts.into_iter().map(|v| v.map_or_else(|| Ok(est.next().expect("one estimate per query the stage accepted")), Err)).collect())
+    }
+
+    /// Each query's `top` best (object, pose) hypotheses: the `top` objects nearest the query in
+    /// the recogniser's measure, each with its pose model's `top` hypotheses
+    /// ([`PoseModel::estimate`]), ranked by the pose's score (the nearer object first on a tie),
+    /// the best `top` kept. A pose's score is the probability its object's pose model gives it:
+    /// with the eigenspace and the refined method near 0 for every pose of an object the query
+    /// is none of the views of, so an object that does not explain the query ranks low however
+    /// near the recogniser finds it. Unknown objects are not set apart: these are the
+    /// alternatives, whatever [`ObjectModel::recognize`] decides. Needs a model fitted with poses.
+    pub fn hypotheses(&self, queries: &[f32], top: usize) -> Result<Vec<Vec<ObjectHypothesis>>> {
+        if self.poses.is_empty() {
+            return Err(Error::invalid("top", top, "this model was fitted without poses: it tells objects apart, with no pose hypotheses"));
+        }
+        let q = self.prepared(queries)?;
+        let (m, k) = (self.spec.features(), self.names.len());
+        let n = q.len() / m;
+        let top = top.max(1);
+        let d = self.distances_of(&q)?;
+        let nearest: Vec<Vec<usize>> = (0..n)
+            .map(|i| {
+                let row = &d[i * k..(i + 1) * k];
+                let mut o: Vec<usize> = (0..k).collect();
+                o.sort_by(|&a, &b| row[a].total_cmp(&row[b]));
+                o.truncate(top);
+                o
+            })
+            .collect();
+        let mut out: Vec<Vec<ObjectHypothesis>> = vec![Vec::new(); n];
+        for o in 0..k {
+            let idx: Vec<usize> = (0..n).filter(|&i| nearest[i].contains(&o)).collect();
+            if idx.is_empty() {
+                continue;
+            }
+            let batch: Vec<f32> = idx.iter().flat_map(|&i| q[i * m..(i + 1) * m].iter().copied()).collect();
+            for (&i, e) in idx.iter().zip(self.poses[o].estimate(&batch, top)?) {
+                out[i].extend(e.hypotheses.into_iter().map(|pose| ObjectHypothesis { object: o, distance: d[i * k + o], pose }));
+            }
+        }
+        for (h, near) in out.iter_mut().zip(&nearest) {
+            let rank = |o: usize| near.iter().position(|&x| x == o).unwrap_or(usize::MAX);
+            h.sort_by(|a, b| b.pose.score.total_cmp(&a.pose.score).then(rank(a.object).cmp(&rank(b.object))));
+            h.truncate(top);
+        }
+        Ok(out)
     }
 
     /// [`ObjectModel::estimate`] of queries already prepared.

@@ -9,7 +9,8 @@
 //! light is fixed in the world: it does not turn with the object; its azimuth ([`Light::azimuth_deg`])
 //! moves it around the turntable's vertical axis, which changes the shading and nothing else (a
 //! data set can step through it, `synth --light`). Shading is Lambertian with an ambient term and an optional
-//! Blinn-Phong highlight; the image is 8-bit gray on a black background. A camera offset moves
+//! Blinn-Phong highlight; the image is 8-bit gray on a uniform background (black by default), or
+//! over a scene's background with occluders in front ([`scene`]). A camera offset moves
 //! the object in the frame and an exposure scales its brightness; [`jitter`] draws both, with a
 //! scale, per view, as a camera in a cell would see the views a turntable registers.
 //!
@@ -28,15 +29,21 @@
 //! 360 are the same pose bit for bit), trigonometry through the pure-Rust `libm`, and per-pixel
 //! work uses only IEEE-exact operations.
 
+pub mod background;
 pub mod grid;
 pub mod jitter;
 pub mod mesh;
 pub mod objects;
+pub mod occlude;
 mod params;
+pub mod photos;
 pub mod random;
 mod raster;
+pub mod scene;
 pub mod synth;
+mod texture;
 mod tuning;
+mod view;
 
 pub use grid::Grid;
 pub use jitter::{Jitter, ViewJitter};
@@ -46,7 +53,7 @@ pub use params::{Camera, Light, Projection, RenderParams};
 use crate::{Error, Result};
 use image::GrayImage;
 use mesh::normalise;
-use raster::{Projected, Samples, Shading};
+use raster::{Projected, Samples, Shading, Target};
 
 /// Renders `mesh` turned by `azimuth_deg` and seen from `elevation_deg` (in [-90, 90]).
 pub fn render(mesh: &Mesh, azimuth_deg: f64, elevation_deg: f64, params: &RenderParams) -> Result<GrayImage> {
@@ -86,6 +93,30 @@ impl Renderer {
 
     /// Renders into `out`, `width * height` gray pixels, row-major.
     pub fn render_into(&mut self, mesh: &Mesh, azimuth_deg: f64, elevation_deg: f64, out: &mut [u8]) -> Result<()> {
+        self.render_target(mesh, [azimuth_deg, elevation_deg], Target { out, backdrop: None, coverage: None })
+    }
+
+    /// Renders into `out` over `backdrop` (when given; else the parameters' uniform background),
+    /// both `width * height` gray pixels, row-major, and writes into `coverage` how many of each
+    /// pixel's samples the object covers (0 to supersample squared). A pixel the object covers
+    /// whole is the pixel [`Renderer::render_into`] gives; one it covers in part mixes the object
+    /// with the backdrop's pixel in proportion, as a camera's pixel mixes an edge. The exposure
+    /// scales the backdrop with the object.
+    pub fn render_over(&mut self, mesh: &Mesh, pose: [f64; 2], backdrop: Option<&[u8]>, out: &mut [u8], coverage: &mut [u8]) -> Result<()> {
+        let n = out.len();
+        if backdrop.is_some_and(|b| b.len() != n) || coverage.len() != n {
+            return Err(Error::invalid(
+                "backdrop or coverage buffer",
+                format!("{:?}, {}", backdrop.map(|b| b.len()), coverage.len()),
+                format!("must hold {n} pixels, as the output"),
+            ));
+        }
+        self.render_target(mesh, pose, Target { out, backdrop, coverage: Some(coverage) })
+    }
+
+    /// Renders the pose `[azimuth, elevation]` (degrees) into `target`.
+    fn render_target(&mut self, mesh: &Mesh, pose: [f64; 2], target: Target<'_>) -> Result<()> {
+        let [azimuth_deg, elevation_deg] = pose;
         if !azimuth_deg.is_finite() {
             return Err(Error::invalid("azimuth", azimuth_deg, "must be a finite number of degrees"));
         }
@@ -94,8 +125,8 @@ impl Renderer {
         }
         let p = &self.params;
         let (w, h) = (p.get_width() as usize, p.get_height() as usize);
-        if out.len() != w * h {
-            return Err(Error::invalid("output buffer", out.len(), format!("must hold {w} x {h} pixels")));
+        if target.out.len() != w * h {
+            return Err(Error::invalid("output buffer", target.out.len(), format!("must hold {w} x {h} pixels")));
         }
         let ss = p.get_supersample() as usize;
         let (sw, sh) = (w * ss, h * ss);
@@ -160,7 +191,8 @@ impl Renderer {
         };
         self.samples.reset(sw, sh);
         self.samples.draw(&self.xyd, mesh.triangles());
-        self.samples.resolve(&self.verts, mesh.triangles(), &shading, ss, out);
+        let Target { out, backdrop, coverage } = target;
+        self.samples.resolve(&self.verts, mesh.triangles(), &shading, ss, Target { out: &mut *out, backdrop, coverage });
         let exposure = p.get_exposure();
         if exposure != 1.0 {
             out.iter_mut().for_each(|v| *v = (*v as f64 * exposure).round().min(255.0) as u8);

@@ -35,6 +35,15 @@ pub(crate) struct Shading {
 
 const EMPTY: u32 = u32::MAX;
 
+/// Where [`Samples::resolve`] puts an image: its pixels, what stands behind the object (8-bit,
+/// one per pixel; the shading's uniform level when none) and, when wanted, how many of each
+/// pixel's samples the object covers.
+pub(crate) struct Target<'a> {
+    pub out: &'a mut [u8],
+    pub backdrop: Option<&'a [u8]>,
+    pub coverage: Option<&'a mut [u8]>,
+}
+
 /// Reusable sample buffers of one image.
 #[derive(Debug, Default)]
 pub(crate) struct Samples {
@@ -115,26 +124,36 @@ impl Samples {
     }
 
     /// Shades the visible samples and averages each `ss x ss` block into one 8-bit pixel of
-    /// `out` (row-major, `width / ss` by `height / ss`).
-    pub(super) fn resolve(&self, verts: &[Projected], triangles: &[[u32; 3]], shading: &Shading, ss: usize, out: &mut [u8]) {
+    /// `target.out` (row-major, `width / ss` by `height / ss`); a sample no surface covers is
+    /// the backdrop's pixel when there is one, else the shading's background level.
+    pub(super) fn resolve(&self, verts: &[Projected], triangles: &[[u32; 3]], shading: &Shading, ss: usize, target: Target<'_>) {
         let (pw, ph) = (self.width / ss, self.height / ss);
+        let Target { out, backdrop, mut coverage } = target;
         debug_assert_eq!(out.len(), pw * ph);
         let norm = (ss * ss) as f64;
         for py in 0..ph {
             for px in 0..pw {
+                let background = backdrop.map_or(shading.background, |b| b[py * pw + px] as f64 / 255.0);
                 let mut sum = 0.0;
+                let mut covered = 0u8;
                 for sy in 0..ss {
                     let row = (py * ss + sy) * self.width + px * ss;
                     for sx in 0..ss {
                         let k = row + sx;
                         let t = self.tri[k];
                         sum += match t {
-                            EMPTY => shading.background,
-                            t => shade(verts, triangles[t as usize], self.b1[k], self.b2[k], shading),
+                            EMPTY => background,
+                            t => {
+                                covered += 1;
+                                shade(verts, triangles[t as usize], self.b1[k], self.b2[k], shading)
+                            }
                         };
                     }
                 }
                 out[py * pw + px] = quantise(sum / norm);
+                if let Some(c) = coverage.as_deref_mut() {
+                    c[py * pw + px] = covered;
+                }
             }
         }
     }
@@ -218,7 +237,7 @@ mod tests {
         s.reset(8, 8);
         s.draw(&xyd, &tris);
         let mut out = vec![0u8; 64];
-        s.resolve(&[V; 4], &tris, &FLAT, 1, &mut out);
+        s.resolve(&[V; 4], &tris, &FLAT, 1, Target { out: &mut out, backdrop: None, coverage: None });
         let lit: Vec<usize> = (0..64).filter(|&k| out[k] == 255).collect();
         assert_eq!(lit.len(), 16, "{out:?}");
         assert!(lit.iter().all(|&k| (1..5).contains(&(k % 8)) && (1..5).contains(&(k / 8))));
@@ -234,7 +253,7 @@ mod tests {
             s.reset(4, 4);
             s.draw(&xyd, &tris);
             let mut out = vec![0u8; 16];
-            s.resolve(&verts, &tris, &FLAT, 1, &mut out);
+            s.resolve(&verts, &tris, &FLAT, 1, Target { out: &mut out, backdrop: None, coverage: None });
             assert_eq!(out[0], 128);
         }
     }

@@ -1,13 +1,16 @@
 //! Synthetic data sets: an object rendered on a grid of poses, in memory or written to disk in
-//! the directory format (`OUT/poses.csv`, `OUT/dataset.toml` and PNG images beside them).
+//! the directory format (`OUT/poses.csv`, `OUT/dataset.toml` and PNG images beside them), and,
+//! when the grid has a scene ([`PoseGrid::with_scene`]), `OUT/scene.csv` recording each view's.
 //!
 //! Writing streams: images are rendered and encoded in parallel a chunk at a time and go straight
-//! to disk, and `poses.csv` and `jitter.csv` are written row by row, so a data set of any size (up
+//! to disk, and `poses.csv`, `jitter.csv` and `scene.csv` are written row by row, so a data set of any size (up
 //! to [`MAX_IMAGES`] views) needs only a chunk's worth of memory. Nothing half-written
 //! is ever left at OUT: everything is written into a temporary folder beside it, which is renamed
 //! to OUT once complete (and removed on error). OUT must not exist yet or be an empty folder.
 
+use super::scene::{write_scene_csv, Scene, SceneRecord};
 use super::tuning::CHUNK;
+use super::view::ViewRenderer;
 use super::{Grid, Jitter, Mesh, RenderParams, Renderer};
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
@@ -19,7 +22,8 @@ use image::{ExtendedColorType, ImageEncoder};
 use rayon::prelude::*;
 use std::fs;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
+use std::sync::Arc;
 
 /// Most images one data set may have (the manifest's row limit).
 pub const MAX_IMAGES: usize = crate::manifest::MAX_ROWS;
@@ -39,17 +43,18 @@ pub struct PoseGrid {
     roll: Option<Grid>,
     light: Option<Grid>,
     jitter: Option<Jitter>,
+    scene: Option<Arc<Scene>>,
 }
 
 impl PoseGrid {
     /// The product of two grids; refuses more than [`MAX_IMAGES`] poses.
     pub fn new(elevation: Grid, azimuth: Grid) -> Result<Self> {
-        PoseGrid { elevation, azimuth, roll: None, light: None, jitter: None }.checked()
+        PoseGrid { elevation, azimuth, roll: None, light: None, jitter: None, scene: None }.checked()
     }
 
     /// The paper's 16 x 110 = 1760 poses.
     pub fn paper() -> Self {
-        PoseGrid { elevation: Grid::paper_elevation(), azimuth: Grid::paper_azimuth(), roll: None, light: None, jitter: None }
+        PoseGrid { elevation: Grid::paper_elevation(), azimuth: Grid::paper_azimuth(), roll: None, light: None, jitter: None, scene: None }
     }
 
     /// Every pose also at every roll of `roll` (degrees, the camera turned about its optical
@@ -97,9 +102,36 @@ impl PoseGrid {
         self.jitter.as_ref()
     }
 
+    /// Every view put into `scene`: the object over the scene's background (a uniform level is
+    /// the render parameters' background), occluders in front, each view its own draw. Unless
+    /// the scene is only a uniform level, the data set then gets `scene.csv` beside `poses.csv`,
+    /// a [`SceneRecord`] per view.
+    pub fn with_scene(mut self, scene: Scene) -> Self {
+        self.scene = Some(Arc::new(scene));
+        self
+    }
+
+    /// The scene of the views, if any.
+    pub fn scene(&self) -> Option<&Scene> {
+        self.scene.as_deref()
+    }
+
+    /// Whether the views are written with a `scene.csv`: a scene that is more than a level.
+    fn has_scene_csv(&self) -> bool {
+        self.scene().is_some_and(|s| !s.is_plain())
+    }
+
+    /// `params` with the scene's uniform level as its background, when the scene's background is one.
+    fn scene_params(&self, params: &RenderParams) -> RenderParams {
+        match self.scene().map(|s| s.background()) {
+            Some(super::background::Background::Level(v)) => params.clone().background(*v),
+            _ => params.clone(),
+        }
+    }
+
     /// Whether views differ in more than their pose on the turntable (roll, light or jitter), so
     /// that each needs its own render parameters ([`PoseGrid::params_of`]).
-    fn per_view_params(&self) -> bool {
+    pub(crate) fn per_view_params(&self) -> bool {
         self.roll.is_some() || self.light.is_some() || self.jitter.is_some()
     }
 
@@ -278,6 +310,30 @@ pub fn dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, root: &Path,
 /// grid's order (row-major, width x height each): the pixels [`write_dataset`] would write.
 /// `progress` is called with the number of images rendered since its last call.
 pub fn render_u8(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, progress: &(dyn Fn(u64) + Sync)) -> Result<Vec<u8>> {
+    Ok(render_views(mesh, grid, params, false, progress)?.pixels)
+}
+
+/// Views rendered in memory with what their scenes are: [`render_scenes`]'s result.
+#[derive(Debug, Clone)]
+pub struct SceneViews {
+    /// The 8-bit gray images, one after another in the grid's order (width x height each).
+    pub pixels: Vec<u8>,
+    /// The object's pixels in each image (those it covers any part of, occluded or not),
+    /// laid out as `pixels`.
+    pub masks: Vec<bool>,
+    /// Each view's scene, when the grid's scene is more than a uniform level (else empty).
+    pub records: Vec<SceneRecord>,
+}
+
+/// Renders every pose of `grid` into memory as [`render_u8`] does, with each view's object mask
+/// and scene record.
+pub fn render_scenes(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, progress: &(dyn Fn(u64) + Sync)) -> Result<SceneViews> {
+    render_views(mesh, grid, params, true, progress)
+}
+
+/// Renders every pose of `grid` into memory, with the object's masks when `masks`.
+fn render_views(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, masks: bool, progress: &(dyn Fn(u64) + Sync)) -> Result<SceneViews> {
+    let params = &grid.scene_params(params);
     if let Some(j) = &grid.jitter {
         j.fits(params)?;
     }
@@ -289,19 +345,27 @@ pub fn render_u8(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, progress: 
     let mut pixels: Vec<u8> = Vec::new();
     pixels.try_reserve_exact(total).map_err(|_| too_big())?;
     pixels.resize(total, 0);
-    pixels.par_chunks_mut(m).enumerate().try_for_each_init(
-        || Renderer::new(params).expect("validated"),
-        |r, (i, out)| {
-            let (e, a) = grid.pose(i);
-            if grid.per_view_params() {
-                r.set_params(&grid.params_of(i, params)?)?;
-            }
-            r.render_into(mesh, a, e, out)?;
-            progress(1);
-            Ok::<(), Error>(())
-        },
-    )?;
-    Ok(pixels)
+    let mut mask: Vec<bool> = Vec::new();
+    if masks {
+        mask.try_reserve_exact(total).map_err(|_| too_big())?;
+        mask.resize(total, false);
+    }
+    let mut mask_chunks: Vec<Option<&mut [bool]>> = if masks { mask.chunks_mut(m).map(Some).collect() } else { (0..grid.len()).map(|_| None).collect() };
+    let records: Vec<Option<SceneRecord>> = pixels
+        .par_chunks_mut(m)
+        .zip(mask_chunks.par_iter_mut())
+        .enumerate()
+        .map_init(
+            || ViewRenderer::new(params).expect("validated"),
+            |r, (i, (out, mask))| {
+                let record = r.render(mesh, grid, params, i, out, mask.as_deref_mut())?;
+                progress(1);
+                Ok::<_, Error>(record)
+            },
+        )
+        .collect::<Result<_>>()?;
+    drop(mask_chunks);
+    Ok(SceneViews { pixels, masks: mask, records: records.into_iter().flatten().collect() })
 }
 
 /// Encodes 8-bit gray pixels as a PNG, with fast compression.
@@ -316,75 +380,48 @@ pub fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
 /// Renders every pose of `grid` and writes the data set to `out` (see the module doc). `progress`
 /// is called with the number of images written since its last call. Returns the image count.
 pub fn write_dataset(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, out: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<u64> {
+    let params = &grid.scene_params(params);
     Renderer::new(params)?;
     if let Some(j) = &grid.jitter {
         j.fits(params)?;
     }
-    let replace_empty = match fs::metadata(out) {
-        Ok(m) if m.is_dir() => {
-            let mut entries = fs::read_dir(out).map_err(|e| Error::io(out, e))?;
-            if entries.next().is_some() {
-                return Err(Error::Dataset {
-                    path: out.to_path_buf(),
-                    message: "the output folder exists and is not empty; give a new folder (it is created) or an empty one".into(),
-                });
-            }
-            true
-        }
-        Ok(_) => return Err(Error::Dataset { path: out.to_path_buf(), message: "exists and is not a folder".into() }),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => false,
-        Err(e) => return Err(Error::io(out, e)),
-    };
-    let tmp = temp_dir(out);
-    if let Some(parent) = tmp.parent().filter(|p| !p.as_os_str().is_empty()) {
-        fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
-    fs::create_dir(&tmp).map_err(|e| Error::io(&tmp, e))?;
-    let result = fill(mesh, grid, params, &tmp, progress).and_then(|()| {
-        if replace_empty {
-            fs::remove_dir(out).map_err(|e| Error::io(out, e))?;
-        }
-        fs::rename(&tmp, out).map_err(|e| Error::io(out, e))
-    });
-    if result.is_err() {
-        let _ = fs::remove_dir_all(&tmp);
-    } else {
-        crate::atomic::remove_stale_temps(out);
-    }
-    result.map(|()| grid.len() as u64)
+    crate::atomic::write_folder(out, |tmp| fill(mesh, grid, params, tmp, progress))?;
+    Ok(grid.len() as u64)
 }
 
-/// `.NAME.tmp-PID` beside `out`.
-fn temp_dir(out: &Path) -> PathBuf {
-    let name = out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "dataset".into());
-    out.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
-}
-
-/// Writes the images, then dataset.toml and poses.csv, into the folder `dir`.
+/// Writes the images (and scene.csv), then dataset.toml and poses.csv, into the folder `dir`.
 fn fill(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, dir: &Path, progress: &(dyn Fn(u64) + Sync)) -> Result<()> {
     let (w, h) = (params.get_width(), params.get_height());
     let n = grid.len();
+    let scene_path = dir.join("scene.csv");
+    let mut scenes = match grid.has_scene_csv() {
+        true => Some(std::io::BufWriter::new(fs::File::create(&scene_path).map_err(|e| Error::io(&scene_path, e))?)),
+        false => None,
+    };
     for start in (0..n).step_by(CHUNK) {
-        let results: Vec<Result<()>> = (start..(start + CHUNK).min(n))
+        let results: Vec<Result<Option<SceneRecord>>> = (start..(start + CHUNK).min(n))
             .into_par_iter()
             .map_init(
-                || (Renderer::new(params).expect("validated"), vec![0u8; w as usize * h as usize]),
+                || (ViewRenderer::new(params).expect("validated"), vec![0u8; w as usize * h as usize]),
                 |(r, pixels), i| {
-                    let (e, a) = grid.pose(i);
-                    if grid.per_view_params() {
-                        r.set_params(&grid.params_of(i, params)?)?;
-                    }
-                    r.render_into(mesh, a, e, pixels)?;
+                    let record = r.render(mesh, grid, params, i, pixels, None)?;
                     let png = encode_png(pixels, w, h)?;
                     let path = dir.join(grid.image_name(i));
                     fs::write(&path, png).map_err(|e| Error::io(&path, e))?;
                     progress(1);
-                    Ok(())
+                    Ok(record)
                 },
             )
             .collect();
         // The first failure in pose order, so the error is the same on every run.
-        results.into_iter().collect::<Result<Vec<()>>>()?;
+        let records: Vec<SceneRecord> = results.into_iter().collect::<Result<Vec<_>>>()?.into_iter().flatten().collect();
+        if let Some(w) = scenes.as_mut() {
+            write_scene_csv(w, &records, start == 0).map_err(|e| rename_io(e, &scene_path))?;
+        }
+    }
+    if let Some(w) = scenes {
+        let file = w.into_inner().map_err(|e| Error::io(&scene_path, e.into_error()))?;
+        file.sync_all().map_err(|e| Error::io(&scene_path, e))?;
     }
     // The tables go to disk row by row: their memory does not grow with the number of views.
     if grid.jitter.is_some() {
@@ -392,4 +429,12 @@ fn fill(mesh: &Mesh, grid: &PoseGrid, params: &RenderParams, dir: &Path, progres
     }
     crate::atomic::write_atomic(&dir.join("dataset.toml"), grid.dataset_toml().as_bytes())?;
     crate::atomic::write_atomic_with(&dir.join("poses.csv"), |w| grid.write_poses_csv(w))
+}
+
+/// An I/O error of `scene.csv` made to name `path`.
+fn rename_io(e: Error, path: &Path) -> Error {
+    match e {
+        Error::Io { source, .. } => Error::io(path, source),
+        e => e,
+    }
 }

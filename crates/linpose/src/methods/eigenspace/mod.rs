@@ -696,7 +696,7 @@ impl EigenspaceModel {
             });
         }
         if let Some(i) = out.chunks_exact(p).position(|o| o[0].is_nan()) {
-            return Err(Error::invalid("query", format!("#{i} of the batch"), "the image is all black (zero energy), so it cannot be scaled to unit energy"));
+            return Err(Error::invalid("query", format!("row {i} of the batch"), "the image is all black (zero energy), so it cannot be scaled to unit energy"));
         }
         Ok(())
     }

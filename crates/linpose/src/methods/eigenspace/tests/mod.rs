@@ -261,7 +261,7 @@ fn incomplete_grid_and_black_images_are_named() {
     let mut q = d.features()[..20 * W * H].to_vec();
     q[17 * W * H..18 * W * H].fill(0.0);
     let e = model.predict(&q).unwrap_err().to_string();
-    assert!(e.contains("#17") && e.contains("all black"), "{e}");
+    assert!(e.contains("row 17 of the batch") && e.contains("all black"), "{e}");
     assert!(model.predict(&q[..W * H - 1]).is_err());
 }
 
