@@ -237,9 +237,9 @@ const CASES: &[Case] = &[
     case(
         "stream_a_method_that_cannot",
         &[],
-        &["train", "--data", "data", "--method", "eigenspace", "--stream", "--out", "e"],
+        &["train", "--data", "data", "--method", "refined", "--stream", "--out", "e"],
         1,
-        &["--stream", "eigenspace", "in memory only", "linear"],
+        &["--stream", "refined", "in memory only", "linear, eigenspace"],
     ),
     case("stream_with_ridge_auto", &[], &["train", "--data", "data", "--stream", "--ridge", "auto", "--out", "e"], 1, &["--ridge auto", "fixed ridge"]),
     case("unknown_method", &[], &["train", "--data", "data", "--method", "quadratic", "--out", "e"], 2, &["quadratic", "linear", "eigenspace", "refined"]),

@@ -82,12 +82,13 @@ fn an_impossible_budget_is_refused_before_reading_the_images() {
         assert!(!err.contains("decode") && !err.contains(&first), "no image was read: {err}");
         assert!(!d.path("m.safetensors").exists());
     }
-    // The eigenspace (in memory only): the numbers, and fewer or smaller images would help.
+    // The refined method (in memory only): the numbers, and the budget that would do (its
+    // held-out fits' searches, not the images, are what exceed it).
     let err = d.fails(
-        &["train", "--data", "data", "--method", "eigenspace", "--manifold-step", "5", "--memory-budget", "20M", "--out", "m.safetensors"],
-        &["not enough memory", "in memory needs", "the eigenspace method fits in memory only", "more than the budget of 20.0 MiB"],
+        &["train", "--data", "data", "--method", "refined", "--memory-budget", "20M", "--out", "m.safetensors"],
+        &["not enough memory", "in memory needs", "not streamed: the refined method fits in memory only", "more than the budget of 20.0 MiB"],
     );
-    assert!(err.contains("fewer training images, at most ") && err.contains("--train-step"), "{err}");
+    assert!(err.contains("what would help: --memory-budget "), "{err}");
     assert!(!d.path("m.safetensors").exists());
     // With room, the same command reads the images and meets the corrupt ones.
     d.fails(&["train", "--data", "data", "--ridge", "1e-3", "--memory-budget", "1G", "--out", "m.safetensors"], &["not a PNG"]);
@@ -95,4 +96,54 @@ fn an_impossible_budget_is_refused_before_reading_the_images() {
     let out = d.run(&["train", "--data", "data", "--memory-budget", "8X", "--out", "m.safetensors"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("--memory-budget") && err.contains("8X") && err.contains("unknown unit"), "{err}");
+}
+
+/// The eigenspace with more images than features streams: three pose parameters rendered at
+/// 8 x 6 (108 views > 48 pixels). Asked to stream it reads the images twice (the M x M scatter,
+/// then the coordinates), says so, and writes a model without the second look whose poses are
+/// the in-memory fit's on every view; the in-memory fit's plan counts its second look, which a
+/// budget the streamed fit fits under turns to the streamed path by itself.
+#[test]
+fn the_eigenspace_streams_from_the_scatter() {
+    let d = Dir::new();
+    d.ok(&["synth", "--object", "duck", "--out", "data", "--azimuth", "0:330:30", "--elevation", "32:72:20", "--roll", "-20:20:20", "--size", "8x6"]);
+    d.ok(&["synth", "--object", "duck", "--out", "queries", "--azimuth", "15:315:60", "--elevation", "42", "--roll", "-10:10:20", "--size", "8x6"]);
+    let base = ["train", "--data", "data", "--method", "eigenspace", "--components", "6", "--no-normalize"];
+    let train = |extra: &[&str], out: &str| {
+        let summary = format!("{out}.json");
+        let args: Vec<&str> = base.iter().chain(extra).copied().chain(["--out", out, "--json", &summary]).collect();
+        let out = d.run(&args);
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{args:?}: {err}");
+        err
+    };
+    let err = train(&["--stream"], "st.safetensors");
+    assert!(err.contains("the M x M scatter of 48 features") && err.contains(": streaming"), "{err}");
+    assert!(err.contains("two passes over them") && err.contains("no second look"), "{err}");
+    let err = train(&[], "mem.safetensors");
+    assert!(err.contains("in memory needs") && err.contains("second look") && err.contains(": in memory"), "{err}");
+    let (st, mem) = (json(&d.path("st.safetensors.json")), json(&d.path("mem.safetensors.json")));
+    assert_eq!((st["memory"]["path"].as_str(), mem["memory"]["path"].as_str()), (Some("streamed"), Some("in memory")));
+    assert_eq!(st["settings"]["components"], 6);
+    assert!(st["settings"]["second_look"].is_null() && !mem["settings"]["second_look"].is_null());
+    // Table 1's terms: N L + M L beside the second look's, which the streamed model lacks.
+    assert_eq!(st["storage"]["formula"], mem["storage"]["formula"]);
+    assert!(st["storage"]["numbers"].as_u64().unwrap() < mem["storage"]["numbers"].as_u64().unwrap(), "{} {}", st["storage"], mem["storage"]);
+    // A budget under the in-memory estimate and over the streamed one: streamed by itself.
+    let (in_memory, streamed) = (mem["memory"]["in_memory_bytes"].as_u64().unwrap(), st["memory"]["streamed_bytes"].as_u64().unwrap());
+    assert!(streamed < in_memory, "{streamed} {in_memory}");
+    let budget = ((streamed + in_memory) / 2).to_string();
+    let err = train(&["--memory-budget", &budget], "auto.safetensors");
+    assert!(err.contains("; streamed needs ") && err.contains(": streaming"), "{err}");
+    // The same poses as the in-memory fit, on the training views and on views between them.
+    for data in ["data", "queries"] {
+        let poses = |model: &str| {
+            let out = format!("{model}.{data}.json");
+            d.ok(&["eval", "--model", model, "--data", data, "--json", &out]);
+            json(&d.path(&out))["samples"].as_array().unwrap().iter().map(|s| s["pose"].clone()).collect::<Vec<_>>()
+        };
+        let want = poses("mem.safetensors");
+        assert_eq!(poses("st.safetensors"), want, "{data}");
+        assert_eq!(poses("auto.safetensors"), want, "{data}");
+    }
 }

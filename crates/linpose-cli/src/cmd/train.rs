@@ -22,6 +22,9 @@ struct TrainSummary {
     fit_s: f64,
     model_bytes: usize,
     file_bytes: u64,
+    /// The storage in the paper's Table 1 terms: the method's formula, its terms' values and
+    /// the numbers it gives.
+    storage: StorageSummary,
     settings: serde_json::Value,
     #[serde(skip_serializing_if = "Option::is_none")]
     normalize: Option<linpose::normalize::Normalizer>,
@@ -30,6 +33,14 @@ struct TrainSummary {
     stage_choice: Option<StageChoice>,
     /// The memory plan: the path taken and what it needed.
     memory: MemorySummary,
+}
+
+/// A model's storage in the paper's Table 1 terms.
+#[derive(Serialize)]
+struct StorageSummary {
+    formula: &'static str,
+    #[serde(flatten)]
+    terms: linpose::model::Storage,
 }
 
 /// No normalisation stage.
@@ -91,7 +102,9 @@ pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
     };
     plan::say(&plan);
     let (model, load_s, fit_s, how) = if plan.path == Path::Streamed {
-        let bar = crate::common::progress(manifest.len() as u64, "reading");
+        // Each image read as many times as the method passes over the set.
+        let m = manifest.first_image_spec(a.color.into())?.features();
+        let bar = crate::common::progress(method.stream_reads(manifest.len(), m), "reading");
         let (model, how) = method.fit_streamed(&manifest, a.color.into(), settings, &|k| bar.inc(k)).map_err(as_flag)?;
         bar.finish_and_clear();
         let choice = match rule {
@@ -142,6 +155,7 @@ fn report(a: &TrainArgs, trained: Trained<'_>, plan: &Plan) -> anyhow::Result<()
         fit_s,
         model_bytes: model.model_bytes(),
         file_bytes,
+        storage: StorageSummary { formula: model.method().storage, terms: model.storage() },
         settings: meta.settings.clone(),
         normalize: meta.normalize.clone(),
         stage_choice: meta.stage_choice.clone(),

@@ -1,4 +1,5 @@
-//! What the manifold methods share: the principal components of the training views (`pca`),
+//! What the manifold methods share: the principal components of the training views (`pca`; with
+//! more views than pixels from their scatter, `scatter`),
 //! the projector that takes a query's coordinates on them (`projector`), the training views'
 //! grid of poses and its dense resampling (`grid`), the splines and surfaces through the views'
 //! coordinates (`spline`, `surface`, [`Interpolant`]), the k-d tree over manifold points
@@ -20,6 +21,7 @@ pub(crate) mod knots;
 pub(crate) mod pca;
 pub(crate) mod projector;
 pub(crate) mod roll;
+pub(crate) mod scatter;
 pub(crate) mod spline;
 pub(crate) mod surface;
 pub(crate) mod tuning;

@@ -1,12 +1,15 @@
 //! The eigenspace: principal components of the unit-energy training images (Murase & Nayar),
 //! computed in f64 from the N x N Gram matrix, which is far smaller than the M x M covariance
-//! when N << M (36 or 222 images against 16,384 or 19,200 pixels).
+//! when N << M (36 or 222 images against 16,384 or 19,200 pixels); with more images than
+//! features, from the M x M scatter instead ([`super::scatter`]), the same eigenspace.
 //!
 //! With x_i scaled to ||x_i|| = 1, the mean image mu subtracted (Xc = X - 1 mu^T, N x M) and
 //! Xc Xc^T = V Lambda V^T, the eigenimages are u_l = Xc^T v_l / sqrt(lambda_l) (orthonormal) and the
 //! training images' coordinates are g_il = u_l . (x_i - mu) = sqrt(lambda_l) v_il exactly, so the
 //! manifold's knots never go through a rounded basis.
 
+use super::scatter::Scatter;
+use super::tuning::SCATTER_BLOCK;
 use crate::dataset::Dataset;
 use crate::linalg::{gram, par, transpose_features};
 use crate::{Error, Result};
@@ -34,7 +37,8 @@ pub(crate) struct Pca {
     /// The training images' coordinates (N x L, row-major), in the training set's order.
     pub coords: Vec<f64>,
     /// Every eigenvalue of the centred Gram matrix, largest first (N values; the last is zero up
-    /// to rounding, since centring removes one dimension).
+    /// to rounding, since centring removes one dimension); of the M x M covariance, M values,
+    /// when fitted from the scatter (the same nonzero ones).
     pub eigenvalues: Vec<f64>,
 }
 
@@ -101,6 +105,66 @@ fn centred_unit_gram(g: &Mat<f64>) -> Mat<f64> {
     Mat::from_fn(n, n, |i, j| unit[(i, j)] - (r[i] + r[j]) + t)
 }
 
+/// How many eigenimages `dim` keeps of the eigenvalues `eigenvalues` (largest first) of `n`
+/// images: capped at the usable rank (see [`fit`]) and at N - 1; None when none is usable.
+pub(crate) fn kept(eigenvalues: &[f64], n: usize, dim: Dimension) -> Option<usize> {
+    let tol = eigenvalues[0] * (f64::EPSILON / f32::EPSILON as f64);
+    let rank = eigenvalues.iter().take_while(|&&l| l > tol).count().min(n - 1);
+    if rank == 0 {
+        return None;
+    }
+    Some(match dim {
+        Dimension::Fixed(k) => k.min(rank),
+        Dimension::Energy(t) => {
+            let total: f64 = eigenvalues.iter().map(|&v| v.max(0.0)).sum();
+            let mut acc = 0.0;
+            let mut l = rank;
+            for (i, &v) in eigenvalues[..rank].iter().enumerate() {
+                acc += v;
+                // A relative slack of a few eps so that T = 1 stops at the rank, not past it.
+                if acc >= t * total * (1.0 - 4.0 * n as f64 * f64::EPSILON) {
+                    l = i + 1;
+                    break;
+                }
+            }
+            l
+        }
+    })
+}
+
+/// The error of training images (of `manifest`) that are all the same once scaled to unit energy.
+pub(crate) fn all_alike(manifest: &crate::Manifest) -> Error {
+    Error::Dataset {
+        path: manifest.root().to_path_buf(),
+        message: "the training images are all the same once scaled to unit energy: there is no eigenspace to build".into(),
+    }
+}
+
+/// The error of an all-black training image `i`.
+pub(crate) fn black(manifest: &crate::Manifest, i: usize) -> Error {
+    Error::Dataset {
+        path: manifest.image_path(i),
+        message: "the image is all black (zero energy), so it cannot be scaled to unit energy for the eigenspace; remove it from the training set".into(),
+    }
+}
+
+/// The eigenspace of more images than features through their M x M scatter
+/// ([`super::scatter`]), summed over blocks of [`SCATTER_BLOCK`] images.
+fn fit_by_scatter(train: &Dataset, dim: Dimension) -> Result<Pca> {
+    let (n, m) = (train.len(), train.n_features());
+    let mut scatter = Scatter::new(m);
+    for rows in train.features().chunks(SCATTER_BLOCK * m) {
+        scatter.add(rows, |i| black(train.manifest(), i))?;
+    }
+    let eigen = scatter.eigen(dim)?.ok_or_else(|| all_alike(train.manifest()))?;
+    let l = eigen.dim();
+    let mut coords = vec![0.0; n * l];
+    for (b, (rows, out)) in train.features().chunks(SCATTER_BLOCK * m).zip(coords.chunks_mut(SCATTER_BLOCK * l)).enumerate() {
+        eigen.project(rows, out, |i| black(train.manifest(), b * SCATTER_BLOCK + i))?;
+    }
+    Ok(eigen.into_pca(coords))
+}
+
 fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pca> {
     let (n, m) = (train.len(), train.n_features());
     if n < 2 {
@@ -108,6 +172,9 @@ fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pc
             path: train.manifest().root().to_path_buf(),
             message: format!("the eigenspace needs at least 2 training images, got {n}"),
         });
+    }
+    if raw.is_none() && n > m {
+        return fit_by_scatter(train, dim);
     }
     let mut xt = transpose_features(train.features(), n, m, None);
     let mut mean = vec![0.0; m];
@@ -119,11 +186,7 @@ fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pc
         };
         // Features are finite (Dataset checks), so the norm is finite and zero only when black.
         if norm <= 0.0 {
-            return Err(Error::Dataset {
-                path: train.manifest().image_path(j),
-                message: "the image is all black (zero energy), so it cannot be scaled to unit energy for the eigenspace; remove it from the training set"
-                    .into(),
-            });
+            return Err(black(train.manifest(), j));
         }
         col.iter_mut().for_each(|v| *v /= norm);
         mean.iter_mut().zip(col.iter()).for_each(|(u, &v)| *u += v);
@@ -141,31 +204,7 @@ fn fit_from(train: &Dataset, dim: Dimension, raw: Option<Mat<f64>>) -> Result<Pc
     // faer sorts eigenvalues in nondecreasing order: reverse to largest first.
     let order: Vec<usize> = (0..n).rev().collect();
     let eigenvalues: Vec<f64> = order.iter().map(|&i| evd.S()[i]).collect();
-    let tol = eigenvalues[0] * (f64::EPSILON / f32::EPSILON as f64);
-    let rank = eigenvalues.iter().take_while(|&&l| l > tol).count().min(n - 1);
-    if rank == 0 {
-        return Err(Error::Dataset {
-            path: train.manifest().root().to_path_buf(),
-            message: "the training images are all the same once scaled to unit energy: there is no eigenspace to build".into(),
-        });
-    }
-    let l = match dim {
-        Dimension::Fixed(k) => k.min(rank),
-        Dimension::Energy(t) => {
-            let total: f64 = eigenvalues.iter().map(|&v| v.max(0.0)).sum();
-            let mut acc = 0.0;
-            let mut l = rank;
-            for (i, &v) in eigenvalues[..rank].iter().enumerate() {
-                acc += v;
-                // A relative slack of a few eps so that T = 1 stops at the rank, not past it.
-                if acc >= t * total * (1.0 - 4.0 * n as f64 * f64::EPSILON) {
-                    l = i + 1;
-                    break;
-                }
-            }
-            l
-        }
-    };
+    let l = kept(&eigenvalues, n, dim).ok_or_else(|| all_alike(train.manifest()))?;
     // V_L scaled by 1/sqrt(lambda) (for the basis) and the coordinates sqrt(lambda) v.
     let u_evd = evd.U();
     let mut v_scaled = Mat::<f64>::zeros(n, l);
@@ -196,8 +235,14 @@ mod tests {
 
     /// N smooth images of M pixels that vary with an angle.
     fn data(n: usize, m: usize) -> Dataset {
+        data_over(n, m, 360.0)
+    }
+
+    /// [`data`] with the angle over `span` degrees (less than a turn: no pair of equal
+    /// eigenvalues, so that the eigenimages are defined up to sign).
+    fn data_over(n: usize, m: usize, span: f64) -> Dataset {
         let space = PoseSpace::new(vec![Param::circular("azimuth", 360.0)]).unwrap();
-        let poses: Vec<f64> = (0..n).map(|i| i as f64 * 360.0 / n as f64).collect();
+        let poses: Vec<f64> = (0..n).map(|i| i as f64 * span / n as f64).collect();
         let images = (0..n).map(|i| format!("{i}.png")).collect();
         let mut f = Vec::with_capacity(n * m);
         for &a in &poses {
@@ -287,6 +332,44 @@ mod tests {
                 assert!(less < t * total, "T={t}: {} components would do", l - 1);
             }
         }
+    }
+
+    /// More images than features: the scatter route gives the Gram route's eigenspace (the
+    /// eigenvalues, the eigenimages with their signs, the coordinates), up to rounding.
+    #[test]
+    fn scatter_route_matches_the_gram_route() {
+        let (n, m) = (90, 40);
+        let d = data_over(n, m, 200.0);
+        for dim in [Dimension::Fixed(6), Dimension::Energy(0.999)] {
+            let by_scatter = fit(&d, dim).unwrap();
+            let by_gram = fit_with_gram(&d, dim, crate::linalg::gram_of(&d, None)).unwrap();
+            let l = by_gram.dim();
+            assert_eq!(by_scatter.dim(), l, "{dim:?}");
+            assert_eq!(by_scatter.eigenvalues.len(), m);
+            let top = by_gram.eigenvalues[0];
+            for c in 0..l {
+                assert!((by_scatter.eigenvalues[c] - by_gram.eigenvalues[c]).abs() < 1e-10 * top, "eigenvalue {c}");
+            }
+            let close = |a: &[f64], b: &[f64], what: &str| {
+                for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                    assert!((x - y).abs() < 1e-7, "{what} {i}: {x} against {y}");
+                }
+            };
+            close(&by_scatter.mean, &by_gram.mean, "mean");
+            close(&by_scatter.basis, &by_gram.basis, "basis");
+            close(&by_scatter.coords, &by_gram.coords, "coordinate");
+        }
+    }
+
+    #[test]
+    fn all_black_image_is_named_on_either_route() {
+        // More images than features: the scatter route names it alike.
+        let d = data(60, 20);
+        let mut f = d.features().to_vec();
+        f[41 * 20..42 * 20].fill(0.0);
+        let d = Dataset::from_features(d.manifest().clone(), d.spec(), f).unwrap();
+        let e = fit(&d, Dimension::Fixed(3)).unwrap_err().to_string();
+        assert!(e.contains("41.png") && e.contains("all black"), "{e}");
     }
 
     #[test]

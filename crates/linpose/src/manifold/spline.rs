@@ -12,6 +12,7 @@
 //! (dx_i = x_{i+1} - x_i, m_i the secant slope), closed by the boundary conditions. Many curves
 //! (every manifold coordinate, every point of the other axes) then share S.
 
+use super::tuning::MAX_SPLINE_KNOTS;
 use crate::{Error, Result};
 use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::Solve;
@@ -26,6 +27,23 @@ pub(crate) enum Boundary {
     /// A closed curve of the given period: the knot x_0 + period carries the value of x_0, and
     /// the first and second derivatives agree there.
     Periodic(f64),
+}
+
+/// Refuses more knots along one axis (`what`, for the message) than [`MAX_SPLINE_KNOTS`]: the
+/// slope operator is a dense n x n matrix, solved from an n x n system (24 n^2 bytes, n^3
+/// operations), which past that many knots the machine cannot hold (100,000 knots: 224 GiB).
+pub(crate) fn check_knots(what: &'static str, n: usize) -> Result<()> {
+    if n <= MAX_SPLINE_KNOTS {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        what,
+        format!("{n} values"),
+        format!(
+            "a spline through them holds a dense {n} x {n} slope operator and its system ({}): at most {MAX_SPLINE_KNOTS} values along one pose parameter (train on fewer, e.g. --train-step or --train-list)",
+            crate::error::format_bytes(24 * (n as u64) * (n as u64))
+        ),
+    ))
 }
 
 /// A cubic spline's knots and its slope operator, reusable for any number of curves.
@@ -59,6 +77,7 @@ impl Spline {
         if knots.is_empty() {
             return Err(Error::invalid("spline knots", "[]", "at least one knot is needed"));
         }
+        check_knots("spline knots", knots.len())?;
         if let Some(w) = knots.windows(2).find(|w| !w[0].is_finite() || !w[1].is_finite() || w[1] <= w[0]) {
             return Err(Error::invalid("spline knots", format!("{} then {}", w[0], w[1]), "knots must be finite and strictly increasing"));
         }
@@ -313,6 +332,20 @@ fn periodic_slopes(x: &[f64]) -> Mat<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// More knots than a dense slope operator can hold: an error naming them, before anything
+    /// is allocated (100,000 knots would need 224 GiB), on either boundary and either slope rule.
+    #[test]
+    fn too_many_knots_are_refused() {
+        let knots: Vec<f64> = (0..100_000).map(|i| i as f64 * 0.0036).collect();
+        for boundary in [Boundary::NotAKnot, Boundary::Periodic(360.0)] {
+            for e in [Spline::new(&knots, boundary).unwrap_err(), Spline::local(&knots, boundary).unwrap_err()] {
+                let e = e.to_string();
+                assert!(e.contains("100000 values") && e.contains("at most 16384") && e.contains("GiB"), "{e}");
+            }
+        }
+        assert!(check_knots("x", MAX_SPLINE_KNOTS).is_ok());
+    }
 
     /// SciPy's values (fixtures/spline_scipy.py). The spline is a handful of O(1) operations on
     /// O(1) numbers, so both sides agree to a few ulps of the values' scale; 1e-12 leaves room for

@@ -98,6 +98,29 @@ pub(crate) const EVD_SYSTEM_BYTES: f64 = 36.0;
 /// the code (8 + 8 + 4 + 4).
 pub(crate) const MANIFOLD_VALUE_BYTES: f64 = 24.0;
 
+/// Bytes per knot-surface point and eigenimage of a manifold kept as its knots (more than two
+/// pose parameters: 2^D points per training view, [`crate::memory`]'s lattice), for the memory
+/// plan: the surface's f32 values and slopes and the f64 spline cube they are built from, the
+/// start points (f32) and their k-d tree. Measured: the eigenspace's streamed fit of 1,010,160
+/// views of 32 x 24 (three parameters, L = 20: 161.6 million such values) peaked at 2.71 GiB,
+/// of which its other arrays (the coordinates, the knots, the manifest, the file's bytes) take
+/// about 0.6 GiB: 14 bytes a value; 16 rounds it up.
+pub(crate) const KNOT_VALUE_BYTES: f64 = 16.0;
+
+/// Images per block of the scatter route of the PCA ([`super::scatter`], more images than
+/// features): each block is turned to unit energy in f64 (8 M bytes an image: 6 MiB at 32 x 24)
+/// and added to the M x M scatter by one matrix product, large enough to run at the product's
+/// speed (a block of 1,024 images against 768 features is 1.2 GFLOP) and small beside the
+/// scatter's own memory for M of a few thousand. Chosen by hand; not timed against other values.
+pub(crate) const SCATTER_BLOCK: usize = 1024;
+
+/// Most knots of a spline along one pose parameter ([`super::spline::check_knots`]): its slope
+/// operator is dense, 24 n^2 bytes with its system while it is built (16,384 knots: 6 GiB) and an
+/// LU of n^3 operations (16,384: about a minute on 2 cores), so a longer axis is refused before
+/// anything is allocated rather than failing to allocate. Chosen from the memory; 10,000 knots
+/// (2.2 GiB) trained in 113 s with the eigenspace's second look (one pose parameter, 32 x 24).
+pub(crate) const MAX_SPLINE_KNOTS: usize = 16_384;
+
 /// Most pairs of neighbouring training rolls whose turned views are compared to tell whether a
 /// roll turns the image (`roll::turn_error`, spread evenly over the grid): more pairs give a
 /// steadier ratio and cost a turned image each (about 0.2 ms at 160 x 120), in every fit. The

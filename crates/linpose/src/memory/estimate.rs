@@ -21,7 +21,10 @@ pub struct Estimate {
 /// (`name` when there are none).
 fn estimate(parts: Parts, job: &Job, name: &str) -> Estimate {
     let what = parts.what().unwrap_or_else(|| name.to_string());
-    let parts = parts.add(OVERHEAD_BYTES as f64, "the process").add((job.threads * job.m) as f64 * THREAD_FEATURE_BYTES as f64, "decoding");
+    let parts = parts
+        .add(OVERHEAD_BYTES as f64, "the process")
+        .add(job.n as f64 * IMAGE_ENTRY_BYTES as f64, "the manifest")
+        .add((job.threads * job.m) as f64 * THREAD_FEATURE_BYTES as f64, "decoding");
     let bytes = parts.total().ceil();
     Estimate { bytes: if bytes >= u64::MAX as f64 { u64::MAX } else { bytes as u64 }, what }
 }

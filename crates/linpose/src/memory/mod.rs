@@ -5,8 +5,8 @@
 //! it (100,800 images of 160 x 120 with the linear model: the N x N Gram matrix alone is 76 GiB),
 //! with no message and no model, although the streamed path would have fitted it in under
 //! 2 GiB. [`plan`] decides before any pixel is read (the first image's header gives its size):
-//! the in-memory path when it fits (but with more images than features the streamed
-//! least-squares path whenever it can take the job: less memory and time, the same model with a
+//! the in-memory path when it fits (but for the linear model with more images than features the
+//! streamed least-squares path whenever it can take the job: less memory and time, the same model with a
 //! ridge, the only fit with ridge 0), else the streamed one when the method and its settings
 //! stream and it fits, else an [`Error::NotEnoughMemory`] naming the numbers and what would help
 //! ([`Remedy`]). [`Plan::describe`] says which and why in one line.
@@ -18,14 +18,17 @@
 //!   one), with settings it streams with: one object, no normalisation, and none of the
 //!   method's settings that need the set in memory (the linear model's streamed fit takes a
 //!   fixed ridge, uncentred: for N <= M it loads the set and fits through the N x N Gram matrix,
-//!   for N > M it accumulates X^T X, M x M, block by block, whatever N).
+//!   for N > M it accumulates X^T X, M x M, block by block, whatever N; the eigenspace's, for
+//!   N > M, the M x M covariance in one pass and the N L coordinates in a second, without the
+//!   second look). Only the linear model takes it where the in-memory path fits too
+//!   (`Footprint::stream_first`, `crate::model::footprint`).
 //!
 //! # The estimates (bytes; N images, M features)
 //!
 //! Read from what the code allocates, the coefficients that the code alone does not settle
 //! measured (each module's tuning file says which, and how). Every estimate adds
-//! `tuning::OVERHEAD_BYTES` for the process and `tuning::THREAD_FEATURE_BYTES` per thread and
-//! feature, and every N x N system one more N x N matrix when that is under glibc's largest
+//! `tuning::OVERHEAD_BYTES` for the process, `tuning::IMAGE_ENTRY_BYTES` per image (the
+//! manifest) and `tuning::THREAD_FEATURE_BYTES` per thread and feature, and every N x N system one more N x N matrix when that is under glibc's largest
 //! mmap threshold (`crate::huge::HEAP_MATRIX_BYTES`: freed, it may stay on the heap).
 //!
 //! - Images: 4 N M (f32), twice with normalisation (the normalised copy), three times when the
@@ -48,7 +51,8 @@
 //! turntables rendered by `linpose synth --object duck`: `d480` 160 x 120, azimuth every 3
 //! degrees, elevation 30 to 60 every 10; `d1440` the same every degree; `t2880`, `t5760`,
 //! `t11160` 16 x 12, azimuth every 2, 1, 1 degrees, elevation every 2, 2, 1; `s5760` 64 x 48
-//! and `s11160` 80 x 60 likewise; `d19440` 160 x 120, every degree, elevation 30 to 83; `objs`
+//! and `s11160` 80 x 60 likewise; `d19440` 160 x 120, every degree, elevation 30 to 83;
+//! `m1010160` 32 x 24, azimuth, elevation 32 to 77 and roll -30 to 30 every degree; `objs`
 //! duck, pot and cap at 80 x 60 as `d1440`. The refined method's peak varies between runs of
 //! the same fit by up to 20% (its held-out fits run side by side): 322 to 389 MiB on `t2880`.
 //!
@@ -72,8 +76,10 @@
 //! | --ridge 1e-3 --memory-budget 4G | d19440 | 19440 | 19200 | streamed | 1769.6 | 1810.5 | +2% |
 //! | --method eigenspace | d480 | 480 | 19200 | in memory | 125.2 | 134.5 | +7% |
 //! | --method eigenspace | d1440 | 1440 | 19200 | in memory | 408.4 | 424.7 | +4% |
-//! | --method eigenspace | t2880 | 2880 | 192 | in memory | 262.9 | 308.8 | +17% |
-//! | --method eigenspace | t5760 | 5760 | 192 | in memory | 987.7 | 1175.0 | +19% |
+//! | --method eigenspace | t2880 | 2880 | 192 | in memory | 70.4 | 73.6 | +5% |
+//! | --method eigenspace | t5760 | 5760 | 192 | in memory | 110.0 | 112.2 | +2% |
+//! | (linear, ridge 0: streamed) | m1010160 | 1010160 | 768 | streamed | 284 | 307 | +8% |
+//! | --method eigenspace (streamed) | m1010160 | 1010160 | 768 | streamed | 2785 | 2990 | +7% |
 //! | --method eigenspace --normalize | d1440 | 1440 | 19200 | in memory | 514.2 | 530.1 | +3% |
 //! | --method refined | d480 | 480 | 19200 | in memory | 228.9 | 270.3 | +18% |
 //! | --method refined | d1440 | 1440 | 19200 | in memory | 545.0 | 677.3 | +24% |
@@ -144,6 +150,8 @@ pub struct Job {
     n: usize,
     m: usize,
     k: usize,
+    /// Pose parameters D.
+    params: usize,
     channels: usize,
     method: &'static Method,
     /// The method's fit with its settings, as far as memory goes.
@@ -159,12 +167,15 @@ pub struct Job {
 impl Job {
     /// `n` training images of `m` features (one value per pixel; see [`Job::channels`]) and `k`
     /// encoded pose values, fitted by `method` with `settings` (refused as the method refuses
-    /// them). No pose lattice ([`Job::lattice`]) and the rayon pool's threads.
+    /// them). No pose lattice ([`Job::lattice`]), the rayon pool's threads, and the fewest pose
+    /// parameters that encode to `k` values (every one circular, two values each;
+    /// [`Job::for_manifest`] reads them from the data set).
     pub fn new(n: usize, m: usize, k: usize, method: &'static Method, settings: &Settings) -> Result<Self> {
         Ok(Job {
             n,
             m,
             k,
+            params: k.div_ceil(2),
             channels: 1,
             method,
             fit: (method.footprint)(settings)?,
@@ -179,7 +190,8 @@ impl Job {
     /// The images of `manifest`, of size `spec` ([`Manifest::first_image_spec`]): N, M, K and,
     /// from its poses, the pose lattice the method resamples or reports on, if it has one.
     pub fn for_manifest(manifest: &Manifest, spec: ImageSpec, method: &'static Method, settings: &Settings) -> Result<Self> {
-        let job = Job::new(manifest.len(), spec.features(), manifest.space().encoded_len(), method, settings)?.channels(spec.color.channels());
+        let mut job = Job::new(manifest.len(), spec.features(), manifest.space().encoded_len(), method, settings)?.channels(spec.color.channels());
+        job.params = manifest.space().len();
         let step = job.fit.lattice_step();
         Ok(job.lattice(step.map_or(0, |s| lattice_points(manifest, s))))
     }
@@ -240,7 +252,7 @@ impl Job {
 
     /// The sizes the method's fit depends on.
     fn sizes(&self) -> Sizes {
-        Sizes { n: self.n, m: self.m, k: self.k, channels: self.channels, lattice: self.lattice }
+        Sizes { n: self.n, m: self.m, k: self.k, channels: self.channels, lattice: self.lattice, params: self.params }
     }
 
     /// The same job with `n` images (objects scaled alike).
@@ -465,10 +477,11 @@ pub fn plan(job: &Job, limit: &Limit, force: Option<Path>) -> Result<Plan> {
         },
         Some(Path::InMemory) => Path::InMemory,
         None if !fits(&in_memory) && streamed.as_ref().is_some_and(fits) => Path::Streamed,
-        // More images than features: least squares through X^T X takes less memory and time
-        // than the N x N Gram matrix, gives the same model with a ridge, and is the only fit
-        // with ridge 0 (the minimum-norm least-squares fit; the Gram matrix is singular).
-        None if job.n > job.m && streamed.as_ref().is_some_and(fits) => Path::Streamed,
+        // A method whose streamed fit is the better one where it can take the job (the linear
+        // model with more images than features: least squares through X^T X takes less memory
+        // and time than the N x N Gram matrix, gives the same model with a ridge, and is the
+        // only fit with ridge 0).
+        None if job.fit.stream_first(&job.sizes()) && streamed.as_ref().is_some_and(fits) => Path::Streamed,
         None => Path::InMemory,
     };
     let plan = Plan { path, in_memory, streamed, limit: *limit, forced: force.is_some() };

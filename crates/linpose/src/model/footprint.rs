@@ -26,6 +26,8 @@ pub(crate) struct Sizes {
     pub(crate) channels: usize,
     /// Points of the pose lattice the fit resamples or searches ([`Footprint::lattice_step`]).
     pub(crate) lattice: usize,
+    /// Pose parameters D.
+    pub(crate) params: usize,
 }
 
 /// A sum of named parts, in bytes.
@@ -55,6 +57,11 @@ impl Parts {
     pub(crate) fn stage(self, a: Parts, b: Parts) -> Self {
         let larger = if a.total() >= b.total() { a } else { b };
         larger.parts.into_iter().fold(self, |s, (v, w)| s.add(v, w))
+    }
+
+    /// With every part of `other` added.
+    pub(crate) fn join(self, other: Parts) -> Self {
+        other.parts.into_iter().fold(self, |s, (v, w)| s.add(v, w))
     }
 
     /// Called `what` as a whole, whatever part is largest.
@@ -91,6 +98,13 @@ pub(crate) trait Footprint: std::fmt::Debug + Send + Sync {
     /// not load the set; None when it does (it needs then what the fit in memory needs).
     fn streamed(&self, _s: &Sizes) -> Option<Parts> {
         None
+    }
+
+    /// Whether the plan takes the streamed path whenever it fits, even where the fit in memory
+    /// fits too (the linear model with more images than features: least squares through X^T X,
+    /// less memory and time, the same model). Otherwise only when the fit in memory does not fit.
+    fn stream_first(&self, _s: &Sizes) -> bool {
+        false
     }
 
     /// A setting that keeps the streamed fit from taking the job, if one does (a method that

@@ -43,6 +43,16 @@ pub struct MethodOption {
 /// progress)` to the model and a line saying how it was fitted.
 pub(crate) type StreamFit = fn(&Manifest, ColorMode, &Settings, &(dyn Fn(u64) + Sync)) -> Result<(AnyModel, String)>;
 
+/// A method's fit from images streamed from disk, and how many times it reads each image.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Stream {
+    /// The fit.
+    pub(crate) fit: StreamFit,
+    /// Passes over the images of a set of N images of M features (each image read that many
+    /// times), for a progress bar.
+    pub(crate) passes: fn(usize, usize) -> u64,
+}
+
 /// Makes a method's fit from partial statistics ([`crate::partial`]) from its settings.
 pub(crate) type PartialFitOf = fn(&Settings) -> Result<Arc<dyn PartialFit>>;
 
@@ -68,7 +78,7 @@ pub struct Method {
     pub(crate) load: fn(ModelMeta, &TensorSet) -> Result<AnyModel>,
     /// What its fit with these settings allocates, for the memory plan ([`crate::memory`]).
     pub(crate) footprint: FootprintOf,
-    pub(crate) stream: Option<StreamFit>,
+    pub(crate) stream: Option<Stream>,
     /// Its fit with these settings from statistics summed over shards of the training set
     /// ([`crate::partial`]), if it has one.
     pub(crate) partial: Option<PartialFitOf>,
@@ -101,8 +111,15 @@ impl Method {
     /// memory; returns the model and a line saying how it was fitted. `progress` is called with
     /// the number of images read since its last call.
     pub fn fit_streamed(&self, manifest: &Manifest, color: ColorMode, settings: &Settings, progress: &(dyn Fn(u64) + Sync)) -> Result<(AnyModel, String)> {
-        let fit = self.stream.ok_or_else(|| Error::invalid("method", self.name, "cannot fit from streamed images; fit it in memory"))?;
-        fit(manifest, color, settings, progress)
+        let stream = self.stream.ok_or_else(|| Error::invalid("method", self.name, "cannot fit from streamed images; fit it in memory"))?;
+        (stream.fit)(manifest, color, settings, progress)
+    }
+
+    /// How many images [`Method::fit_streamed`] reads for N training images of M features
+    /// (each as many times as it passes over them; 0 for a method that does not stream), for a
+    /// progress bar.
+    pub fn stream_reads(&self, n: usize, m: usize) -> u64 {
+        self.stream.map_or(0, |s| (s.passes)(n, m) * n as u64)
     }
 
     /// Rebuilds a model of this method from a model file's metadata and arrays.

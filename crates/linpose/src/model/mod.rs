@@ -16,6 +16,7 @@ pub(crate) mod split;
 mod tensor;
 mod tuning;
 
+pub(crate) use method::Stream;
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
 pub use normalized::Normalized;
 pub use tensor::{Tensor, TensorData, TensorSet};

@@ -54,13 +54,14 @@
 mod footprint;
 mod partial;
 mod knots;
+mod stream;
 pub(crate) mod search;
 mod tuning;
 
 use crate::dataset::Dataset;
 use crate::kernels::{dot_q, dot_u8, Level};
 use crate::manifold::Interpolant;
-use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Tensor, TensorSet};
+use crate::model::{batch_len, AnyModel, Estimator, Method, MethodOption, ModelMeta, Origin, PoseModel, Settings, Storage, Stream, Tensor, TensorSet};
 use crate::model::split;
 use crate::second_look::{Queries, SecondLook, SecondLookSettings};
 use crate::{Error, Result};
@@ -88,7 +89,8 @@ pub(crate) static METHOD: Method = Method {
     params: |s| Ok(EigenspaceParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(EigenspaceModel::from_parts(meta, t)?)),
     footprint: |s| Ok(std::sync::Arc::new(EigenspaceParams::from_settings(s)?)),
-    stream: None,
+    // Two passes over the images with more images than features (`stream.rs`).
+    stream: Some(Stream { fit: stream::fit_streamed, passes: |n, m| if n > m { 2 } else { 1 } }),
     partial: Some(|s| Ok(std::sync::Arc::new(EigenspaceParams::from_settings(s)?))),
 };
 
@@ -200,7 +202,8 @@ pub struct EigenspaceSettings {
     /// The search in use.
     pub search: SearchKind,
     /// The second look that decides between the estimate and its rivals and scores them
-    /// (`second_look`); absent only in models fitted inside another method's choices.
+    /// (`second_look`); absent in models fitted inside another method's choices and in a fit
+    /// streamed from disk with more images than features (`stream.rs`).
     pub second_look: Option<SecondLookSettings>,
 }
 
@@ -221,29 +224,46 @@ impl EigenspaceParams {
     /// ([`pca::fit_with_gram`]); computed from the images when None.
     pub(crate) fn fit_with_gram(&self, train: &Dataset, gram: Option<faer::Mat<f64>>) -> Result<EigenspaceModel> {
         self.validate()?;
-        let space = train.space();
-        let root = train.manifest().root();
         // The grid first: a training set that cannot make a manifold fails before any arithmetic.
-        let grid = Grid::new(space, train.poses(), train.manifest().images(), root)?;
-        let continuous = !crate::manifold::dense_lattice(space.len());
-        if !continuous {
-            let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| crate::manifold::grid::sample_count(g, p.period, self.manifold_step)).collect();
-            crate::manifold::grid::check_size(&counts, 1, self.manifold_step)?;
-        }
+        let grid = self.grid(train.manifest())?;
         let pca = match gram {
             Some(g) => pca::fit_with_gram(train, self.dimension, g)?,
             None => pca::fit(train, self.dimension)?,
         };
+        let look = SecondLook::fit(train, &grid, Interpolant::Spline)?;
+        self.model(train.manifest(), train.spec(), &grid, &pca, Some(look))
+    }
+
+    /// The training grid of `manifest`'s poses, with the dense manifold's size checked where it
+    /// is resampled.
+    fn grid(&self, manifest: &crate::Manifest) -> Result<Grid> {
+        let space = manifest.space();
+        let grid = Grid::new(space, manifest.poses(), manifest.images(), manifest.root())?;
+        for (p, a) in space.params().iter().zip(&grid.axes) {
+            crate::manifold::spline::check_knots("training values", a.len())
+                .map_err(|e| Error::Dataset { path: manifest.root().to_path_buf(), message: format!("pose parameter '{}': {e}", p.name) })?;
+        }
+        if crate::manifold::dense_lattice(space.len()) {
+            let counts: Vec<f64> = space.params().iter().zip(&grid.axes).map(|(p, g)| crate::manifold::grid::sample_count(g, p.period, self.manifold_step)).collect();
+            crate::manifold::grid::check_size(&counts, 1, self.manifold_step)?;
+        }
+        Ok(grid)
+    }
+
+    /// The model of the eigenspace `pca` of `manifest`'s images (of `spec`) on their `grid`,
+    /// with the second look `look` (None for a fit streamed from disk, see `stream.rs`).
+    fn model(&self, manifest: &crate::Manifest, spec: crate::image_io::ImageSpec, grid: &Grid, pca: &pca::Pca, look: Option<SecondLook>) -> Result<EigenspaceModel> {
+        let space = manifest.space();
+        let continuous = !crate::manifold::dense_lattice(space.len());
         let l = pca.dim();
         let to32 = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
         // The dense manifold's points and sample positions, or the knots and their positions.
         let (points, axes) = if continuous {
             (grid.sample_at.iter().flat_map(|&i| to32(&pca.coords[i * l..(i + 1) * l])).collect(), grid.axes.clone())
         } else {
-            let dense = Manifold::build(space, &grid, &pca.coords, l, self.manifold_step)?;
+            let dense = Manifold::build(space, grid, &pca.coords, l, self.manifold_step)?;
             (to32(&dense.points), dense.axes)
         };
-        let look = SecondLook::fit(train, &grid, Interpolant::Spline)?;
         let settings = EigenspaceSettings {
             params: *self,
             components: l,
@@ -251,18 +271,18 @@ impl EigenspaceParams {
             manifold_shape: axes.iter().map(Vec::len).collect(),
             continuous,
             search: self.search,
-            second_look: Some(look.settings().clone()),
+            second_look: look.as_ref().map(|k| k.settings().clone()),
         };
         let meta = ModelMeta {
             method: METHOD.name.into(),
-            spec: train.spec(),
+            spec,
             space: space.clone(),
-            train_poses: train.poses().to_vec(),
+            train_poses: manifest.poses().to_vec(),
             settings: serde_json::Value::Null,
             normalize: None,
             stage_choice: None,
         };
-        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), points, axes, Some(look))
+        EigenspaceModel::new(meta, settings, to32(&pca.basis), to32(&pca.mean), points, axes, look)
     }
 }
 
@@ -468,10 +488,8 @@ impl EigenspaceModel {
         let settings: EigenspaceSettings = serde_json::from_value(meta.settings.clone()).map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         settings.params.validate().map_err(|e| t.error(format!("damaged eigenspace settings: {e}")))?;
         let (l, m, d) = (settings.components, meta.spec.features(), meta.space.len());
-        let Some(look) = settings.second_look.clone() else {
-            return Err(t.error("damaged eigenspace settings: no second look"));
-        };
-        let look = SecondLook::from_parts(look, meta.spec, &meta.space, t)?;
+        // A model streamed from disk has no second look (`stream.rs`).
+        let look = settings.second_look.clone().map(|s| SecondLook::from_parts(s, meta.spec, &meta.space, t)).transpose()?;
         if l == 0 || settings.manifold_shape.len() != d || settings.manifold_shape.contains(&0) {
             return Err(t.error(format!("damaged eigenspace settings: {l} components, manifold shape {:?}", settings.manifold_shape)));
         }
@@ -500,7 +518,7 @@ impl EigenspaceModel {
             return Err(t.error("the eigenspace holds non-finite values"));
         }
         debug_assert_eq!(points.len(), n_dense * l);
-        EigenspaceModel::new(meta, settings, basis, mean, points, axes, Some(look)).map_err(|e| t.error(e.to_string()))
+        EigenspaceModel::new(meta, settings, basis, mean, points, axes, look).map_err(|e| t.error(e.to_string()))
     }
 }
 
@@ -523,6 +541,11 @@ impl PoseModel for EigenspaceModel {
         crate::model::check_queries(self.mean.len(), queries.len(), "query batch")?;
         let mut out = vec![0.0; queries.len() / self.mean.len() * self.meta.space.len()];
         self.predict_own(queries, &mut out)?;
+        if self.look.is_none() {
+            // Without the second look (a fit streamed from disk) nothing scores the estimate:
+            // its confidence is unknown (NaN, so flagged at any threshold).
+            return Ok(out.chunks_exact(self.meta.space.len()).map(|o| crate::Estimate::single(o.to_vec(), f64::NAN)).collect());
+        }
         let est = self.look_again(Queries::F32(queries), &mut out, Some(top));
         crate::second_look::complete(est, out.len() / self.meta.space.len().max(1))
     }

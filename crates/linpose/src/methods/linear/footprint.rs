@@ -67,6 +67,12 @@ impl Footprint for LinearParams {
         )
     }
 
+    /// With more images than features the least-squares path: less memory and time than the
+    /// N x N Gram matrix, the same model with a ridge, the only fit with ridge 0.
+    fn stream_first(&self, s: &Sizes) -> bool {
+        s.n > s.m
+    }
+
     fn stream_block(&self) -> Option<StreamBlock> {
         let setting = |name: &str, value: String, reason, change| StreamBlock {
             reason,

@@ -75,7 +75,7 @@ pub(crate) static METHOD: Method = Method {
     params: |s| Ok(LinearParams::from_settings(s)?.into()),
     load: |meta, t| Ok(AnyModel::new(LinearModel::from_parts(meta, t)?)),
     footprint: |s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?)),
-    stream: Some(stream::fit_streamed),
+    stream: Some(crate::model::Stream { fit: stream::fit_streamed, passes: |_, _| 1 }),
     partial: Some(|s| Ok(std::sync::Arc::new(LinearParams::from_settings(s)?))),
 };
 
