@@ -55,7 +55,10 @@ pub(crate) const BRIGHT: f32 = 0.3;
 /// The inlier threshold while scoring hypotheses, as a share of the hypothesis's mean bright
 /// pixel (in the query's gain). What it trades: a training view up to half a step from the
 /// query differs from it by far more than noise, so this is loose; looser counts background of
-/// the object's brightness as explained. Not tuned.
+/// the object's brightness as explained. 0.25 against 0.15 and 0.4 on COIL-20 objects 2, 3,
+/// 6, 9, 11, 16 and 19 in texture scenes (refined; 0, 20 and 40% hidden): mean errors over the
+/// seven 5.3, 12.8 and 20.8 degrees at 0.25; 5.7, 14.1 and 22.9 at 0.15; 6.9, 18.3 and 29.3 at
+/// 0.4.
 pub(crate) const COARSE: f32 = 0.25;
 
 /// The inlier thresholds of the re-solves of a refined hypothesis, in turn, as shares of the
