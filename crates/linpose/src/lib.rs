@@ -89,6 +89,7 @@ pub mod pose;
 pub mod recognize;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod robust;
 #[cfg(feature = "render")]
 pub mod scene;
 pub(crate) mod second_look;

@@ -127,7 +127,8 @@ struct ObjectsHeader {
 }
 
 fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
-    let (meta, tensors) = read_parts(path, bytes)?;
+    let (file_meta, tensors) = read_parts(path, bytes)?;
+    let meta = &file_meta;
     let err = |m: String| Error::ModelFile { path: path.to_path_buf(), message: m };
     if meta.get("kind").map(String::as_str) == Some(PARTIAL_KIND) {
         return Err(err(
@@ -142,7 +143,14 @@ fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
     }
     let json = meta.get("linpose.meta").ok_or_else(|| err("model file has no linpose.meta".into()))?;
     let meta: ModelMeta = serde_json::from_str(json).map_err(|e| err(format!("damaged metadata: {e}")))?;
-    pose_model(meta, &tensors)
+    let model = pose_model(meta, &tensors)?;
+    match file_meta.get(crate::robust::META_KEY) {
+        None => Ok(model),
+        Some(json) => {
+            let settings = serde_json::from_str(json).map_err(|e| err(format!("damaged robust stage settings: {e}")))?;
+            crate::robust::Robust::from_parts(model, settings, &tensors)
+        }
+    }
 }
 
 /// A pose model from its metadata and arrays: the method's own model, put back behind its

@@ -53,6 +53,12 @@ pub(crate) struct TrainArgs {
     /// Use the images as they are: no normalisation stage (as `--normalize off`).
     #[arg(long)]
     pub no_normalize: bool,
+    /// The robust stage: a query the training views' eigenspace does not explain (a cluttered
+    /// background, an occluder) has the pixels it cannot explain found and replaced by the
+    /// robust reconstruction before the method sees it (stored in the model); a query it
+    /// explains goes as it is. Gray views fitted in memory.
+    #[arg(long, conflicts_with = "stream")]
+    pub robust: bool,
     /// With a data set of many objects: how a query's object is told (default: the first listed).
     #[arg(long, value_name = "NAME", value_parser = recognizer_names())]
     pub recognizer: Option<String>,

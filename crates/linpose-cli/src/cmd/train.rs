@@ -75,6 +75,9 @@ pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
             anyhow::bail!("{}: a data set of many objects is fitted in memory (not yet: --stream)", a.data.data.display());
         }
         let params = crate::cmd::objects::recognizer_params(a)?;
+        if a.robust {
+            anyhow::bail!("--robust: a data set of many objects takes no robust stage yet; train each object's model apart");
+        }
         return crate::cmd::objects::train(a, &params, method, &spec, rule);
     }
     if many_only {
@@ -101,6 +104,9 @@ pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
         StageRule::Fixed(_) => (plan::plan_one(a, &manifest, method, rule)?, None),
     };
     plan::say(&plan);
+    if a.robust && plan.path == Path::Streamed {
+        anyhow::bail!("--robust: the robust stage is fitted in memory, and this training set is streamed from disk");
+    }
     let (model, load_s, fit_s, how) = if plan.path == Path::Streamed {
         // Each image read as many times as the method passes over the set.
         let m = manifest.first_image_spec(a.color.into())?.features();
@@ -120,6 +126,7 @@ pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
             Some(why) => spec.fit_with_choice(&train, StageChoice::off(why))?,
             None => spec.fit_with_stage(&train, rule)?,
         };
+        let model = if a.robust { linpose::robust::Robust::fit(&train, model)? } else { model };
         (model, load_s, t1.elapsed().as_secs_f64(), None)
     };
     let file_bytes = model.save(out).context("writing the model")?;

@@ -120,7 +120,15 @@ fn json<T: serde::Serialize + ?Sized>(v: &T) -> String {
 /// metadata keys are sorted and the tensors laid out as safetensors does (by decreasing
 /// alignment, then name), so the same model always gives the same bytes.
 pub(super) fn model_bytes<M: PoseModel + ?Sized>(model: &M) -> Result<Vec<u8>> {
+    model_bytes_with(model, &[])
+}
+
+/// [`model_bytes`] with more metadata entries (a stage's settings, [`crate::robust::Robust`]).
+pub(crate) fn model_bytes_with<M: PoseModel + ?Sized>(model: &M, extra: &[(&'static str, String)]) -> Result<Vec<u8>> {
     let mut meta = BTreeMap::new();
+    for (k, v) in extra {
+        meta.insert(*k, v.clone());
+    }
     meta.insert("method", model.meta().method.clone());
     meta.insert("linpose.meta", serde_json::to_string(model.meta()).expect("meta serialises"));
     write_parts(meta, model.tensors())

@@ -252,6 +252,9 @@ impl PoseModel for AnyModel {
     fn tensors(&self) -> Vec<Tensor> {
         self.0.tensors()
     }
+    fn to_bytes(&self) -> Result<Vec<u8>> {
+        self.0.to_bytes()
+    }
     fn coefficients(&self) -> Option<&[f64]> {
         self.0.coefficients()
     }

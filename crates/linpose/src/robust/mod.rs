@@ -1,0 +1,282 @@
+//! Robust estimation: a query whose pixels the training views' eigenspace cannot explain (a
+//! cluttered background, an occluder) is repaired before a method sees it, after Leonardis &
+//! Bischof (*Robust Recognition Using Eigenimages*, CVIU 78, 2000).
+//!
+//! The stage (`Stage`) holds its own eigenspace of the training views (the mean unit-energy image and
+//! `tuning::COMPONENTS` eigenimages, full size) and works in the image binned by b
+//! (`tuning::MIN_PIXELS`), where the binned rows are the full rows binned (binning is linear,
+//! so coefficients found there reconstruct the full image):
+//!
+//! 1. **Check.** The query's least-squares reconstruction on the binned rows (its gain free)
+//!    and the share of its energy in the pixels that reconstruction leaves dark (`dark_share`):
+//!    at most the threshold calibrated on the training set's own held-out views
+//!    (`calibrate.rs`), the query goes to the method as it is, bit for bit. The plain residual
+//!    off the eigenspace tells scenes from studio views less well: a view between the training
+//!    views leaves a residual on the object where its pose moves it, as large on some objects as
+//!    a scene's. This costs one binning and 2K products of M / b^2.
+//! 2. **Hypothesize and test** (`search.rs`). Hypotheses are the training views' coefficients,
+//!    each with the gain that best fits the query (a median of ratios over its bright pixels);
+//!    each is scored by the pixels it explains; the best few are refined by re-solving the
+//!    coefficients on the pixels they explain and finding those again; the one that explains the
+//!    most pixels is kept (the minimum-description-length choice of the paper, at a fixed cost
+//!    per pixel).
+//! 3. **Repair.** The query's own pixels are kept where their bin and its four neighbours are
+//!    explained; every other pixel is the reconstruction in the query's gain. The method then
+//!    takes the repaired image as a studio view.
+//!
+//! The fit also says how much of the object the query shows: the share of the reconstruction's
+//! bright pixels that were explained (`Fit::shown`), which the confidence takes into account.
+
+mod calibrate;
+mod model;
+mod search;
+pub(crate) mod tuning;
+
+pub use model::Robust;
+pub(crate) use model::META_KEY;
+
+use crate::binning::Binning;
+use crate::dataset::Dataset;
+use crate::image_io::{ColorMode, ImageSpec};
+use crate::manifold::pca::{self, Dimension};
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+
+/// What a stage records besides its arrays.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RobustSettings {
+    /// The binning factor b of the robust fit.
+    pub bin: usize,
+    /// Rows of the stage: the mean image and the eigenimages.
+    pub rows: usize,
+    /// The share of a query's energy where its reconstruction is dark above which it is fitted
+    /// robustly.
+    pub threshold: f64,
+}
+
+/// The robust stage (see the module doc).
+#[derive(Debug, Clone)]
+pub(crate) struct Stage {
+    settings: RobustSettings,
+    binning: Binning,
+    /// M.
+    m: usize,
+    /// K x M: the mean unit-energy training image, then the eigenimages.
+    rows: Vec<f32>,
+    /// M_b x K: the binned rows, pixel by pixel.
+    small: Vec<f32>,
+    /// K x K, row-major: the inverse of the binned rows' Gram matrix.
+    ginv: Vec<f64>,
+    /// H x K: the hypotheses' coefficients (1, y_h), the training views' coordinates.
+    hyps: Vec<f32>,
+    /// H x M_b: the hypotheses' binned images.
+    preds: Vec<f32>,
+    /// Per hypothesis: its brightest binned value.
+    peaks: Vec<f32>,
+    /// The binned pixels where some row has energy.
+    support: Vec<u32>,
+}
+
+/// A robust fit of one query.
+#[derive(Debug, Clone)]
+pub(crate) struct Fit {
+    /// K coefficients on the stage's rows (the first is the query's gain on the mean image).
+    pub coef: Vec<f64>,
+    /// Per binned pixel: whether the fit explains it.
+    pub inlier: Vec<bool>,
+    /// The share of the reconstruction's bright binned pixels the fit explains: how much of the
+    /// object the query shows.
+    pub shown: f64,
+    /// The pixel residual under which a pixel is explained (the inlier threshold of the fit).
+    pub theta: f32,
+}
+
+impl Stage {
+    /// The stage of `train`'s views: their eigenspace, its binning and threshold.
+    pub(crate) fn fit(train: &Dataset) -> Result<Stage> {
+        let spec = train.spec();
+        if spec.color != ColorMode::Gray {
+            return Err(Error::invalid("robust", "colour views", "robust estimation takes gray views; train on gray images (--color gray)"));
+        }
+        let p = pca::fit(train, Dimension::Fixed(tuning::COMPONENTS))?;
+        let (l, m) = (p.dim(), train.n_features());
+        let rows: Vec<f32> = p.mean.iter().chain(&p.basis).map(|&v| v as f32).collect();
+        let hyps: Vec<f32> = p.coords.chunks_exact(l).flat_map(|y| std::iter::once(1.0).chain(y.iter().copied())).map(|v| v as f32).collect();
+        let binning = binning_of(spec);
+        let threshold = calibrate::threshold(train, binning)? * tuning::THRESHOLD_FACTOR;
+        let settings = RobustSettings { bin: binning.factor(), rows: l + 1, threshold };
+        debug_assert_eq!(rows.len(), (l + 1) * m);
+        Stage::new(spec, settings, rows, hyps)
+    }
+
+    /// The stage from its settings and arrays (a model file's), the derived arrays computed.
+    pub(crate) fn new(spec: ImageSpec, settings: RobustSettings, rows: Vec<f32>, hyps: Vec<f32>) -> Result<Stage> {
+        let m = spec.features();
+        let k = settings.rows;
+        if k == 0 || rows.len() != k * m || !hyps.len().is_multiple_of(k) || hyps.is_empty() {
+            return Err(Error::invalid(
+                "robust stage",
+                format!("{} row values, {} hypothesis values", rows.len(), hyps.len()),
+                format!("rows of {k} x {m} values and whole hypotheses of {k}"),
+            ));
+        }
+        if !(settings.threshold.is_finite() && settings.threshold >= 0.0) || rows.iter().chain(&hyps).any(|v| !v.is_finite()) {
+            return Err(Error::invalid("robust stage", settings.threshold, "a finite threshold and finite rows"));
+        }
+        let binning = Binning::new(spec, settings.bin)?;
+        let mb = binning.spec().features();
+        let mut small = vec![0f32; mb * k];
+        let (mut out, mut acc) = (vec![0f32; mb], Vec::new());
+        for (j, r) in rows.chunks_exact(m).enumerate() {
+            binning.apply(r, &mut out, &mut acc);
+            for (i, &v) in out.iter().enumerate() {
+                small[i * k + j] = v;
+            }
+        }
+        let mut gram = vec![0f64; k * k];
+        for b in small.chunks_exact(k) {
+            for a in 0..k {
+                for c in 0..k {
+                    gram[a * k + c] += b[a] as f64 * b[c] as f64;
+                }
+            }
+        }
+        let ginv = search::invert(&gram, k).ok_or_else(|| Error::Numerical("the robust stage's binned rows are not independent".into()))?;
+        // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
+        let n = hyps.len() / k;
+        let step = n.div_ceil(tuning::MAX_HYPOTHESES).max(1);
+        let hyps: Vec<f32> = hyps.chunks_exact(k).step_by(step).flatten().copied().collect();
+        let mut preds = Vec::with_capacity(hyps.len() / k * mb);
+        for h in hyps.chunks_exact(k) {
+            preds.extend(small.chunks_exact(k).map(|b| b.iter().zip(h).map(|(&u, &v)| u * v).sum::<f32>()));
+        }
+        let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
+        let most: Vec<f32> = (0..k).map(|j| small.chunks_exact(k).fold(0f32, |a, b| a.max(b[j].abs()))).collect();
+        let support = (0..mb as u32)
+            .filter(|&i| small[i as usize * k..(i as usize + 1) * k].iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top))
+            .collect();
+        Ok(Stage { settings, binning, m, rows, small, ginv, hyps, preds, peaks, support })
+    }
+
+    /// Its settings.
+    pub(crate) fn settings(&self) -> &RobustSettings {
+        &self.settings
+    }
+
+    /// Its rows (K x M: the mean image, then the eigenimages).
+    pub(crate) fn rows(&self) -> &[f32] {
+        &self.rows
+    }
+
+    /// Its hypotheses' coefficients (H x K).
+    pub(crate) fn hypotheses(&self) -> &[f32] {
+        &self.hyps
+    }
+
+    /// Numbers it stores.
+    pub(crate) fn len(&self) -> usize {
+        self.rows.len() + self.hyps.len()
+    }
+
+    /// The query `x` (M features) binned, with the share of its energy in the pixels its
+    /// least-squares reconstruction leaves dark ([`dark_share`]); None for a query of no energy.
+    pub(crate) fn check(&self, x: &[f32]) -> (Vec<f32>, Option<f64>) {
+        let k = self.settings.rows;
+        let mut xb = vec![0f32; self.binning.spec().features()];
+        self.binning.apply(x, &mut xb, &mut Vec::new());
+        let share = dark_share(xb.len(), k, |i, j| self.small[i * k + j] as f64, &self.ginv, &xb);
+        (xb, share)
+    }
+
+    /// Whether `x` needs the robust fit: its residual above the threshold.
+    pub(crate) fn needs(&self, x: &[f32]) -> Option<Vec<f32>> {
+        match self.check(x) {
+            (xb, Some(r)) if r > self.settings.threshold => Some(xb),
+            _ => None,
+        }
+    }
+
+    /// The robust fit of a binned query.
+    pub(crate) fn fit_binned(&self, xb: &[f32]) -> Fit {
+        search::fit(self, xb)
+    }
+
+    /// The repaired query: `x`'s own pixels where `fit` explains their bin and its four
+    /// neighbours or the pixel itself, the reconstruction elsewhere.
+    pub(crate) fn repair(&self, x: &[f32], fit: &Fit) -> Vec<f32> {
+        let s = self.binning.spec();
+        let (wb, hb) = (s.width as usize, s.height as usize);
+        let b = self.binning.factor();
+        let w = self.binning.full().width as usize;
+        let keep: Vec<bool> = (0..wb * hb)
+            .map(|i| {
+                let (xo, yo) = (i % wb, i / wb);
+                let ok = |x: usize, y: usize| fit.inlier[y * wb + x];
+                ok(xo, yo) && (xo == 0 || ok(xo - 1, yo)) && (xo + 1 == wb || ok(xo + 1, yo)) && (yo == 0 || ok(xo, yo - 1)) && (yo + 1 == hb || ok(xo, yo + 1))
+            })
+            .collect();
+        let coef: Vec<f32> = fit.coef.iter().map(|&c| c as f32).collect();
+        let mut out = x.to_vec();
+        for (i, v) in out.iter_mut().enumerate() {
+            let (xo, yo) = ((i % w) / b, (i / w) / b);
+            if xo < wb && yo < hb && keep[yo * wb + xo] {
+                continue;
+            }
+            let r: f32 = coef.iter().enumerate().map(|(j, &c)| c * self.rows[j * self.m + i]).sum();
+            if !((*v - r).abs() < fit.theta) {
+                *v = r;
+            }
+        }
+        out
+    }
+
+    /// The query `x` repaired when it needs it (None: it goes as it is), with its fit.
+    pub(crate) fn apply(&self, x: &[f32]) -> Option<(Vec<f32>, Fit)> {
+        let xb = self.needs(x)?;
+        let fit = self.fit_binned(&xb);
+        Some((self.repair(x, &fit), fit))
+    }
+}
+
+/// The share of the binned query `xb`'s energy in the pixels where its least-squares
+/// reconstruction on the rows (`row(i, j)`: binned pixel i of row j, K rows with the inverse
+/// Gram matrix `ginv`, the gain free) is under [`tuning::DARK`] of its brightest: what the
+/// training views leave dark there and the query does not. A studio view between the training
+/// views differs from its reconstruction where the object is, so this share stays near 0; a
+/// background, or an occluder over the backdrop, puts energy where the object is not. None for a
+/// query of no energy.
+pub(crate) fn dark_share(mb: usize, k: usize, row: impl Fn(usize, usize) -> f64, ginv: &[f64], xb: &[f32]) -> Option<f64> {
+    let energy: f64 = xb.iter().map(|&v| v as f64 * v as f64).sum();
+    if !(energy > 0.0 && energy.is_finite()) {
+        return None;
+    }
+    let mut p = vec![0f64; k];
+    for (i, &v) in xb.iter().enumerate() {
+        if v != 0.0 {
+            p.iter_mut().enumerate().for_each(|(j, a)| *a += row(i, j) * v as f64);
+        }
+    }
+    let coef: Vec<f64> = (0..k).map(|a| (0..k).map(|c| ginv[a * k + c] * p[c]).sum()).collect();
+    let recon: Vec<f64> = (0..mb).map(|i| (0..k).map(|j| row(i, j) * coef[j]).sum()).collect();
+    let peak = recon.iter().fold(0f64, |a, &v| a.max(v));
+    let dark: f64 = recon.iter().zip(xb).filter(|(&r, _)| r < tuning::DARK * peak).map(|(_, &v)| v as f64 * v as f64).sum();
+    Some(dark / energy)
+}
+
+/// The binning of the robust fit for views of `spec`: the coarsest power of two that leaves at
+/// least [`tuning::MIN_PIXELS`] binned pixels.
+fn binning_of(spec: ImageSpec) -> Binning {
+    let mut f = 16;
+    while f > 1 {
+        if let Ok(b) = Binning::new(spec, f) {
+            if b.spec().features() >= tuning::MIN_PIXELS {
+                return b;
+            }
+        }
+        f /= 2;
+    }
+    Binning::new(spec, 1).expect("binning by 1 always holds")
+}
+
+#[cfg(test)]
+mod tests;

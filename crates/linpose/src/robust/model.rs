@@ -1,0 +1,152 @@
+//! A model of any method behind the robust stage (the parent module): [`Robust`] checks each
+//! query against the training views' eigenspace; one the eigenspace explains goes to the
+//! method's own model as it is, one it does not (a cluttered background, an occluder) is
+//! repaired first (its unexplained pixels replaced by the robust reconstruction). The model file
+//! keeps the stage: its settings as the `linpose.robust` metadata, its arrays as
+//! `robust.rows` and `robust.hypotheses`.
+
+use super::{RobustSettings, Stage};
+use crate::confidence::Estimate;
+use crate::dataset::Dataset;
+use crate::model::{AnyModel, Method, ModelMeta, PoseModel, Storage, Tensor, TensorSet};
+use crate::Result;
+use rayon::prelude::*;
+
+/// A fitted model whose queries go through the robust stage first.
+#[derive(Debug)]
+pub struct Robust {
+    stage: Stage,
+    inner: AnyModel,
+}
+
+/// The metadata key of the stage's settings in a model file.
+pub(crate) const META_KEY: &str = "linpose.robust";
+
+/// A query's place in its batch and its repaired pixels, with the share of the object it shows.
+type Repaired = (usize, Vec<f32>, f64);
+
+impl Robust {
+    /// `inner` (fitted on `train`) behind a robust stage fitted on `train`.
+    pub fn fit(train: &Dataset, inner: AnyModel) -> Result<AnyModel> {
+        Ok(AnyModel::new(Robust { stage: Stage::fit(train)?, inner }))
+    }
+
+    /// The stage's settings.
+    pub fn settings(&self) -> &RobustSettings {
+        self.stage.settings()
+    }
+
+    /// The method's own model.
+    pub fn inner(&self) -> &AnyModel {
+        &self.inner
+    }
+
+    /// Query `x` (M features) as the method sees it: None when the eigenspace explains it (it
+    /// goes as it is), else the repaired image and the share of the object it shows (the
+    /// reconstruction's bright pixels that the query explains).
+    pub fn repair(&self, x: &[f32]) -> Option<(Vec<f32>, f64)> {
+        self.stage.apply(x).map(|(r, fit)| (r, fit.shown))
+    }
+
+    /// The queries of a batch that need the robust fit, repaired.
+    fn repaired(&self, queries: &[f32]) -> Result<Vec<Repaired>> {
+        let m = self.meta().spec.features();
+        crate::model::check_queries(m, queries.len(), "query batch")?;
+        Ok(queries.par_chunks(m).enumerate().filter_map(|(i, x)| self.stage.apply(x).map(|(r, f)| (i, r, f.shown))).collect())
+    }
+
+    /// The batch with its repaired queries in place.
+    fn with_repairs<'q>(&self, queries: &'q [f32], fixes: &[Repaired]) -> std::borrow::Cow<'q, [f32]> {
+        if fixes.is_empty() {
+            return queries.into();
+        }
+        let m = self.meta().spec.features();
+        let mut q = queries.to_vec();
+        for (i, r, _) in fixes {
+            q[i * m..(i + 1) * m].copy_from_slice(r);
+        }
+        q.into()
+    }
+
+    /// The model back from a file's parts: `inner` behind the stage of `settings` and `tensors`.
+    pub(crate) fn from_parts(inner: AnyModel, settings: RobustSettings, tensors: &TensorSet) -> Result<AnyModel> {
+        let spec = inner.meta().spec;
+        let k = settings.rows;
+        let rows = tensors.f32("robust.rows", &[k, spec.features()])?;
+        let h = tensors.tensors.iter().find(|t| t.name == "robust.hypotheses").map_or(0, |t| t.shape.first().copied().unwrap_or(0));
+        let hyps = tensors.f32("robust.hypotheses", &[h, k])?;
+        let stage = Stage::new(spec, settings, rows, hyps).map_err(|e| tensors.error(format!("damaged robust stage: {e}")))?;
+        Ok(AnyModel::new(Robust { stage, inner }))
+    }
+}
+
+impl PoseModel for Robust {
+    fn method(&self) -> &'static Method {
+        self.inner.method()
+    }
+    fn meta(&self) -> &ModelMeta {
+        self.inner.meta()
+    }
+    fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
+        let fixes = self.repaired(queries)?;
+        self.inner.predict_into(&self.with_repairs(queries, &fixes), out)
+    }
+    fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
+        let m = self.meta().spec.features();
+        crate::model::check_queries(m, queries.len(), "query batch")?;
+        let f: Vec<f32> = queries.iter().map(|&v| v as f32 * crate::kernels::levels::S8).collect();
+        let fixes = self.repaired(&f)?;
+        if fixes.is_empty() {
+            return self.inner.predict_u8_into(queries, out);
+        }
+        // The queries the eigenspace explains through the method's 8-bit path, the repaired
+        // ones through its f32 path.
+        let p = self.meta().space.len();
+        let n = queries.len() / m;
+        let mut fixed = vec![false; n];
+        fixes.iter().for_each(|(i, _, _)| fixed[*i] = true);
+        let plain: Vec<usize> = (0..n).filter(|&i| !fixed[i]).collect();
+        if !plain.is_empty() {
+            let q: Vec<u8> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            let mut o = vec![0.0; plain.len() * p];
+            self.inner.predict_u8_into(&q, &mut o)?;
+            for (k, &i) in plain.iter().enumerate() {
+                out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
+            }
+        }
+        let q: Vec<f32> = fixes.iter().flat_map(|(_, r, _)| r.iter().copied()).collect();
+        let mut o = vec![0.0; fixes.len() * p];
+        self.inner.predict_into(&q, &mut o)?;
+        for (k, (i, _, _)) in fixes.iter().enumerate() {
+            out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
+        }
+        Ok(())
+    }
+    fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
+        let fixes = self.repaired(queries)?;
+        let mut est = self.inner.estimate(&self.with_repairs(queries, &fixes), top)?;
+        for (i, _, shown) in &fixes {
+            crate::confidence::for_hidden(&mut est[*i], *shown);
+        }
+        Ok(est)
+    }
+    fn model_bytes(&self) -> usize {
+        self.inner.model_bytes() + self.stage.len() * 4
+    }
+    fn storage(&self) -> Storage {
+        self.inner.storage()
+    }
+    fn tensors(&self) -> Vec<Tensor> {
+        let mut t = self.inner.tensors();
+        let k = self.stage.settings().rows;
+        t.push(Tensor::f32("robust.rows", vec![k, self.stage.rows().len() / k], self.stage.rows().to_vec()));
+        t.push(Tensor::f32("robust.hypotheses", vec![self.stage.hypotheses().len() / k, k], self.stage.hypotheses().to_vec()));
+        t
+    }
+    fn to_bytes(&self) -> Result<Vec<u8>> {
+        crate::model::file::model_bytes_with(self, &[(META_KEY, serde_json::to_string(self.stage.settings()).expect("plain struct serialises"))])
+    }
+    fn coefficients(&self) -> Option<&[f64]> {
+        self.inner.coefficients()
+    }
+}

@@ -1,0 +1,83 @@
+//! The robust stage's tuning constants: what each trades and how its value was set.
+
+/// Fewest binned pixels the robust fit works on: the stage bins by the largest power of two
+/// (up to 16) that leaves at least this many (128 x 128 views: by 4, 1,024 pixels). What it
+/// trades: every hypothesis and every re-solve costs in proportion to the pixels, and a coarser
+/// mask keeps fewer of the query's own pixels next to an occluder or the background (the
+/// reconstruction fills them); fewer pixels also leave fewer equations per coefficient. Set so
+/// that a 128 x 128 query's robust fit stays well under a millisecond; not tuned further.
+pub(crate) const MIN_PIXELS: usize = 512;
+
+/// Eigenimages of the robust stage (besides the mean image, capped at N - 1). What it trades:
+/// each is one more unknown per re-solve (their cost grows with its square) and one more
+/// direction an outlier can be explained by; too few leave the object's own detail
+/// unexplained and flagged. Not tuned.
+pub(crate) const COMPONENTS: usize = 16;
+
+/// A query goes to the robust fit when the share of its energy where its reconstruction is
+/// dark exceeds this many times the training set's own level (the geometric mean of the largest
+/// in-sample and the largest left-out share, see `calibrate.rs`). What it trades: lower sends
+/// clean views through the robust fit (slower; their answers no longer the plain path's bits);
+/// higher lets scenes pass plainly. Set on COIL-20 objects 1-6 (numpy, the same statistic):
+/// in-sample at most 0.0011-0.0052, left out 0.0041-0.088, their studio views between the
+/// training views 0.0013-0.0185 (at most 1.4 times the geometric mean), their texture scenes
+/// (0-40% hidden) at least 0.038-0.137 (at least 2.9 times it): 2 lies between.
+/// (The largest left-out share alone overstates the views between by up to 6 times: object 6's
+/// 0.088 is above its scenes' 0.063.)
+pub(crate) const THRESHOLD_FACTOR: f64 = 2.0;
+
+/// Most training views left out one at a time for the threshold (taken evenly): each costs an
+/// eigenspace of the others. Not tuned.
+pub(crate) const LEFT_OUT: usize = 24;
+
+/// A binned pixel is dark in a reconstruction under this share of the reconstruction's
+/// brightest (the check's statistic, `super::dark_share`). What it trades: higher takes in the
+/// object's own dim parts, where a pose between the training views leaves residual; lower leaves
+/// fewer pixels to see a background in. Not tuned.
+pub(crate) const DARK: f64 = 0.1;
+
+/// Most hypotheses (the training views' own coefficients, taken evenly) scored per query. What
+/// it trades: each costs one pass over the binned pixels; too few leave poses without a start
+/// near them. Training views every 10 degrees give 36; not tuned.
+pub(crate) const MAX_HYPOTHESES: usize = 72;
+
+/// Hypotheses refined by re-solving (the best by their score). What it trades: each costs
+/// [`ANNEAL`] weighted solves; one alone may be a wrong pose whose silhouette happens to fit. 3
+/// against 6 on COIL-20 objects 1-6 in texture scenes (refined): no better on the whole (6:
+/// object 5 at 40% hidden 2.5 against 5.2 degrees, object 3 32 against 17).
+pub(crate) const REFINED: usize = 3;
+
+/// A hypothesis's pixels that set its gain: those at least this share of its brightest. What it
+/// trades: lower takes in the dark edges where a small pose error is a large ratio; higher
+/// leaves few pixels for the median. Not tuned.
+pub(crate) const BRIGHT: f32 = 0.3;
+
+/// The inlier threshold while scoring hypotheses, as a share of the hypothesis's mean bright
+/// pixel (in the query's gain). What it trades: a training view up to half a step from the
+/// query differs from it by far more than noise, so this is loose; looser counts background of
+/// the object's brightness as explained. 0.25 against 0.15 and 0.4 on COIL-20 objects 2, 3,
+/// 6, 9, 11, 16 and 19 in texture scenes (refined; 0, 20 and 40% hidden): mean errors over the
+/// seven 5.3, 12.8 and 20.8 degrees at 0.25; 5.7, 14.1 and 22.9 at 0.15; 6.9, 18.3 and 29.3 at
+/// 0.4.
+pub(crate) const COARSE: f32 = 0.25;
+
+/// The inlier thresholds of the re-solves of a refined hypothesis, in turn, as shares of the
+/// hypothesis's mean bright pixel (in the query's gain): a pixel is explained when its residual
+/// is under the threshold, the coefficients are solved again on the explained ones, and the
+/// last threshold marks the pixels kept. What it trades: a hypothesis is a training view up to
+/// half a step from the query, which differs from it where the pose changes the image; a tight
+/// threshold from the start drops exactly those pixels and leaves the fit at the training view,
+/// so the threshold starts loose and tightens as the coefficients move to the query. A tighter
+/// last one drops more of the object where the eigenspace reconstructs it imperfectly (its fine
+/// detail, then filled by the reconstruction); a looser one keeps occluder and background pixels
+/// near the object's brightness. Measured on COIL-20 objects 1-6 in texture scenes (refined,
+/// 0/20/40% hidden): a last threshold of 0.1 against 0.15 and 0.2, mean errors grew with it
+/// (20% hidden, objects 1, 2, 4 and 5: 1.9, 3.1 and 5.7 degrees on average, measured before
+/// the penalty of `search.rs`); 0.08
+/// against 0.1 lost more of the object (object 6: 9.1 against 3.2 degrees in texture alone).
+pub(crate) const ANNEAL: [f32; 6] = [0.3, 0.26, 0.22, 0.18, 0.14, 0.1];
+
+/// Binned pixels the model leaves dark in every training view (every row of the stage at most
+/// this share of its largest in absolute value) are left out of the fit: they constrain no
+/// coefficient, and the query's value there is explained only when dark. Not tuned.
+pub(crate) const SUPPORT: f32 = 0.02;
