@@ -47,6 +47,7 @@ pub(crate) fn write_atomic_with(path: &Path, fill: impl FnOnce(&mut std::io::Buf
 /// it, which is renamed to `out` once complete and removed on error, so nothing half-written is
 /// ever left at `out`. `out` must not exist yet or be an empty folder (refused otherwise, before
 /// `fill` runs).
+#[cfg(feature = "render")] // used by the renderer and the scenes only
 pub(crate) fn write_folder(out: &Path, fill: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let replace_empty = match fs::metadata(out) {
         Ok(m) if m.is_dir() => {

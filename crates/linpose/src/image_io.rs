@@ -135,6 +135,7 @@ pub(crate) fn read_image(path: &Path, color: ColorMode) -> Result<(u32, u32, Que
 /// Reads the image file at `path` as 8-bit pixels in its own colour: one channel for a gray
 /// image, three interleaved (R, G, B) for a colour one; 16-bit values rounded to 8 bits, alpha
 /// dropped. The returned spec's colour mode says which.
+#[cfg(feature = "render")] // used by the renderer and the scenes only
 pub(crate) fn read_u8(path: &Path) -> Result<(ImageSpec, Vec<u8>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let img = decode(path, &bytes)?;
