@@ -12,6 +12,17 @@
 
 use super::{tuning, Fit, Stage};
 
+/// The best refined hypothesis so far.
+struct Best {
+    score: f64,
+    coef: Vec<f64>,
+    inlier: Vec<bool>,
+    scale: f32,
+    /// The reconstruction's bright binned pixels, and how many of them are explained.
+    object: usize,
+    seen: usize,
+}
+
 /// The robust fit of the binned query `xb` on `stage`.
 pub(super) fn fit(stage: &Stage, xb: &[f32]) -> Fit {
     let anneal = &tuning::ANNEAL;
@@ -56,7 +67,7 @@ pub(super) fn fit(stage: &Stage, xb: &[f32]) -> Fit {
     }
     scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
     // 2. Refine the best few; 3. keep the best scored.
-    let mut best: Option<(f64, Vec<f64>, Vec<bool>, f32)> = None;
+    let mut best: Option<Best> = None;
     for &(_, h, gain, scale) in scored.iter().take(tuning::REFINED) {
         let mut coef: Vec<f64> = stage.hyps[h * k..(h + 1) * k].iter().map(|&v| (v * gain) as f64).collect();
         let mut inlier = vec![false; mb];
@@ -74,17 +85,17 @@ pub(super) fn fit(stage: &Stage, xb: &[f32]) -> Fit {
         }
         let (object, seen) = object_seen(stage, &coef, &inlier, scale);
         let score = score - (object - seen) as f64;
-        if best.as_ref().is_none_or(|b| score > b.0) {
-            best = Some((score, coef, inlier, scale));
+        if best.as_ref().is_none_or(|b| score > b.score) {
+            best = Some(Best { score, coef, inlier, scale, object, seen });
         }
     }
-    let Some((_, coef, inlier, scale)) = best else {
+    let Some(Best { coef, inlier, scale, object, seen, .. }) = best else {
         // No hypothesis has a bright pixel the query can scale: the least-squares fit on all.
         let all = vec![true; mb];
         let coef = solve_on(stage, xb, &all).unwrap_or_else(|| vec![0.0; k]);
         return Fit { coef, inlier: all, shown: 0.0, theta: 0.0 };
     };
-    let shown = shown(stage, &coef, &inlier, scale);
+    let shown = if object == 0 { 0.0 } else { seen as f64 / object as f64 };
     Fit { coef, inlier, shown, theta: tuning::ANNEAL[tuning::ANNEAL.len() - 1] * scale }
 }
 
@@ -135,17 +146,6 @@ fn solve_on(stage: &Stage, xb: &[f32], inlier: &[bool]) -> Option<Vec<f64>> {
         }
     }
     cholesky_solve(&mut a, k, &mut rhs).then_some(rhs)
-}
-
-/// The share of the reconstruction's bright binned pixels (at least [`tuning::BRIGHT`] of its
-/// mean bright value `scale`) that `inlier` marks.
-fn shown(stage: &Stage, coef: &[f64], inlier: &[bool], scale: f32) -> f64 {
-    let (object, seen) = object_seen(stage, coef, inlier, scale);
-    if object == 0 {
-        0.0
-    } else {
-        seen as f64 / object as f64
-    }
 }
 
 /// The reconstruction's bright binned pixels (at least [`tuning::BRIGHT`] of `scale`) and how
