@@ -16,7 +16,7 @@ fn synth(d: &Dir, out: &'static str, extra: &[&'static str]) -> String {
 fn hidden(d: &Dir, csv: &str) -> Vec<f64> {
     let text = std::fs::read_to_string(d.path(csv)).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("image,background,seed,occlude,hidden,object_pixels,occluders"));
+    assert_eq!(lines.next(), Some("image,background,seed,occlude,hidden,object_pixels,occluders,box"));
     lines.map(|l| l.split(',').nth(4).unwrap().parse().unwrap()).collect()
 }
 
@@ -98,4 +98,52 @@ fn bad_scene_arguments_are_named() {
     image::GrayImage::new(64, 48).save(d.path("studio/e040.0_a090.0.png")).unwrap();
     d.fails(&["scene", "--data", "studio", "--out", "x"], &["e040.0_a090.0.png", "no separable object"]);
     assert!(!d.path("x").exists());
+}
+
+#[test]
+fn a_robust_model_finds_its_object_in_larger_scenes() {
+    let d = Dir::new();
+    d.ok(&["synth", "--object", "duck", "--size", "64x48", "--azimuth", "0:350:10", "--elevation", "40", "--out", "studio"]);
+    d.ok(&["train", "--data", "studio", "--train-step", "20", "--method", "refined", "--robust", "--normalize", "off", "--out", "r.st"]);
+    let out = d.ok(&["scene", "--data", "studio", "--out", "big", "--canvas", "160x120", "--scale", "0.85:1.15", "--seed", "2"]);
+    assert!(out.contains("wrote 36 views"), "{out}");
+    let (w, h) = image::image_dimensions(d.path("big/e040.0_a010.0.png")).unwrap();
+    assert_eq!((w, h), (160, 120));
+    // The truth: scene.csv's box column.
+    let text = std::fs::read_to_string(d.path("big/scene.csv")).unwrap();
+    let truth: std::collections::HashMap<String, Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[0].to_string(), f[7].split(' ').map(|v| v.parse().unwrap()).collect())
+        })
+        .collect();
+    d.ok(&["eval", "--model", "r.st", "--data", "big", "--json", "e.json"]);
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path("e.json")).unwrap()).unwrap();
+    let samples = r["samples"].as_array().unwrap();
+    let near = samples
+        .iter()
+        .filter(|s| {
+            let b: Vec<f64> = s["box"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+            let t = &truth[s["image"].as_str().unwrap()];
+            let shown = s["shown"].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&shown));
+            (b[0] + b[2] / 2.0 - t[0] - t[2] / 2.0).hypot(b[1] + b[3] / 2.0 - t[1] - t[3] / 2.0) <= 3.0
+        })
+        .count();
+    assert!(near >= 32, "{near} of 36 boxes within 3 pixels");
+    // Most views' poses come right from the box found (a wrong box gives a pose anywhere).
+    assert!(r["unseen"]["median_deg"].as_f64().unwrap() < 10.0, "{}", r["unseen"]);
+    // predict: the box and the share shown beside the pose, text and JSON.
+    let text = d.ok(&["predict", "--model", "r.st", "big/e040.0_a010.0.png"]);
+    assert!(text.contains("azimuth=") && text.contains("box=") && text.contains("shown="), "{text}");
+    let json = d.ok(&["predict", "--model", "r.st", "--json", "--top", "2", "big/e040.0_a010.0.png"]);
+    let j: serde_json::Value = serde_json::from_str(json.trim()).unwrap();
+    assert_eq!(j["box"].as_array().unwrap().len(), 4);
+    // A model without the robust stage refuses the larger image by its size.
+    d.ok(&["train", "--data", "studio", "--train-step", "20", "--method", "refined", "--normalize", "off", "--out", "p.st"]);
+    d.fails(&["predict", "--model", "p.st", "--strict", "big/e040.0_a010.0.png"], &["160", "120", "64", "48"]);
+    d.fails(&["scene", "--data", "studio", "--out", "x", "--canvas", "70x50"], &["canvas", "70x50"]);
+    d.fails(&["scene", "--data", "studio", "--out", "x", "--canvas", "160x120", "--scale", "1.2:0.8"], &["scale", "1.2:0.8"]);
 }

@@ -25,7 +25,7 @@ pub(crate) type Info<'py> = (Bound<'py, PyArrayDyn<bool>>, Bound<'py, PyArrayDyn
 /// The scene `(background, occlude, seed)` as the package passes it, for views of `width` x
 /// `height`.
 pub(crate) fn scene_spec(background: &str, occlude: f64, seed: u64) -> PyResult<SceneSpec> {
-    Ok(SceneSpec { background: BackgroundSpec::parse(background).map_err(py_err)?, occlude, seed })
+    Ok(SceneSpec { background: BackgroundSpec::parse(background).map_err(py_err)?, occlude, seed, canvas: None })
 }
 
 /// The arrays and tuples of views' scenes: `masks` (n x h x w), the occluders of `records` (one

@@ -43,6 +43,14 @@ pub struct SampleResult {
     /// Whether one of `hypotheses` is within [`GROSS_DEG`] of the true pose.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub in_top: Option<bool>,
+    /// For an image larger than the training views, where the object was found: the box of the
+    /// training view's frame (left, top, width, height, pixels; [`crate::model::Located`]).
+    #[serde(skip_serializing_if = "Option::is_none", default, rename = "box")]
+    pub bbox: Option<[f64; 4]>,
+    /// For an image larger than the training views, the share of the object's pixels the
+    /// estimate used ([`crate::model::Located::shown`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub shown: Option<f64>,
 }
 
 /// A sample with no estimate: refused by the model's normalisation stage, or by the model
@@ -228,7 +236,9 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
     }
     let meta = model.meta();
     let got = data.spec();
-    if (got.width, got.height) != (meta.spec.width, meta.spec.height) {
+    let larger = got.width >= meta.spec.width && got.height >= meta.spec.height && (got.width, got.height) != (meta.spec.width, meta.spec.height);
+    let search = if larger { model.scene_search() } else { None };
+    if (got.width, got.height) != (meta.spec.width, meta.spec.height) && search.is_none() {
         return Err(Error::ImageSizeMismatch {
             path: data.manifest().image_path(0),
             expected_w: meta.spec.width,
@@ -247,16 +257,19 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
             message: format!("the data set's parameters ({}) differ from the model's ({})", names(data.space()).join(", "), names(&meta.space).join(", ")),
         });
     }
-    let m = meta.spec.features();
     let mut queries;
     let q: &[f32] = if noise > 0.0 {
         queries = data.features().to_vec();
-        add_uniform_noise(&mut queries, m, noise, seed)?;
+        add_uniform_noise(&mut queries, got.features(), noise, seed)?;
         &queries
     } else {
-        add_uniform_noise(&mut [], m, noise, seed)?;
+        add_uniform_noise(&mut [], got.features(), noise, seed)?;
         data.features()
     };
+    if let Some(search) = search {
+        return evaluate_scenes(model, search, data, q, opt);
+    }
+    let m = meta.spec.features();
     let model_bytes = model.model_bytes();
     // Images the model's normalisation stage refuses are counted apart, not estimated; the
     // others are normalised once and given to the method's own model.
@@ -318,6 +331,31 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
     // The normalisation is part of each query's cost.
     let predict_s = t0.elapsed().as_secs_f64() + stage_s;
     let estimates: Option<Vec<Estimate>> = if opt.top > 0 { Some(model.estimate(q, opt.top)?) } else { None };
+    Ok(report(Outcome { model, data, opt, kept, est, estimates, located: None, rejected, model_bytes, predict_s }))
+}
+
+/// What [`report`] makes the report of.
+struct Outcome<'a> {
+    model: &'a dyn PoseModel,
+    data: &'a Dataset,
+    opt: &'a EvalOptions,
+    /// The samples estimated, in the data set's order.
+    kept: Vec<usize>,
+    /// Their poses, row by row, and their estimates (when confidence was asked for).
+    est: Vec<f64>,
+    estimates: Option<Vec<Estimate>>,
+    /// Where each was found in its scene (images larger than the training views).
+    located: Option<Vec<crate::model::Located>>,
+    rejected: Vec<Rejected>,
+    model_bytes: usize,
+    predict_s: f64,
+}
+
+/// The report of an evaluation's estimates.
+fn report(o: Outcome<'_>) -> EvalReport {
+    let Outcome { model, data, opt, kept, est, estimates, located, rejected, model_bytes, predict_s } = o;
+    let (noise, seed) = (opt.noise, opt.seed);
+    let meta = model.meta();
     let p = meta.space.len();
     let samples: Vec<SampleResult> = kept
         .iter()
@@ -337,6 +375,8 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
                 flagged: h.map(|h| h.flagged(opt.flag_below)),
                 hypotheses: h.map(|h| h.hypotheses.clone()).unwrap_or_default(),
                 in_top: h.map(|h| h.hypotheses.iter().any(|k| meta.space.error_deg(truth, &k.pose) <= GROSS_DEG)),
+                bbox: located.as_ref().map(|l| l[i].bbox),
+                shown: located.as_ref().map(|l| l[i].shown),
             }
         })
         .collect();
@@ -347,7 +387,7 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
     };
     let all_e: Vec<f64> = samples.iter().map(|s| s.error_deg).collect();
     let unseen_e: Vec<f64> = samples.iter().filter(|s| !s.seen).map(|s| s.error_deg).collect();
-    Ok(EvalReport {
+    EvalReport {
         method: meta.method.clone(),
         params: names(&meta.space),
         n_eval: samples.len(),
@@ -367,7 +407,43 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
         gross_flagged_share: confidence.as_ref().map(|c| c.gross_flagged_share),
         confidence,
         samples,
-    })
+    }
+}
+
+/// [`evaluate`] of images larger than the training views, `q` (the data set's, with its noise):
+/// the object found in each by `search`, the located queries estimated by the method's own
+/// model. A scene the search refuses is counted apart with why.
+fn evaluate_scenes(model: &dyn PoseModel, search: &dyn crate::model::SceneSearch, data: &Dataset, q: &[f32], opt: &EvalOptions) -> Result<EvalReport> {
+    let spec = data.spec();
+    let m = spec.features();
+    let t0 = Instant::now();
+    let (mut kept, mut found, mut rejected) = (Vec::new(), Vec::new(), Vec::new());
+    match search.locate(q, spec) {
+        Ok(f) => {
+            kept = (0..data.len()).collect();
+            found = f;
+        }
+        Err(first) => {
+            for i in 0..data.len() {
+                match search.locate(&q[i * m..(i + 1) * m], spec) {
+                    Ok(mut f) => {
+                        kept.push(i);
+                        found.append(&mut f);
+                    }
+                    Err(e) => rejected.push(Rejected { image: data.manifest().images()[i].clone(), reason: e.to_string() }),
+                }
+            }
+            if kept.is_empty() {
+                return Err(first);
+            }
+        }
+    }
+    let views: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
+    let est = search.method_model().predict(&views)?;
+    let predict_s = t0.elapsed().as_secs_f64();
+    let estimates = if opt.top > 0 { Some(search.estimate_located(&found, opt.top)?) } else { None };
+    let model_bytes = model.model_bytes();
+    Ok(report(Outcome { model, data, opt, kept, est, estimates, located: Some(found), rejected, model_bytes, predict_s }))
 }
 
 /// Each parameter's error summary over `samples` (`None` when there are none).

@@ -117,6 +117,13 @@ pub fn read_query(path: &Path, spec: ImageSpec, context: &str) -> Result<QueryIm
     Ok(QueryImage::Features(f))
 }
 
+/// Reads the image file at `path` whatever its size (a scene larger than the training views):
+/// its spec in `color` and its features.
+pub fn read_any_size(path: &Path, color: ColorMode) -> Result<(ImageSpec, Vec<f32>)> {
+    let (width, height, q) = read_image(path, color)?;
+    Ok((ImageSpec { width, height, color }, q.into_features()))
+}
+
 /// Reads the image file at `path`, whatever its size: its width, height and values as
 /// [`read_query`] gives them (8-bit gray values when it has them, else features).
 pub(crate) fn read_image(path: &Path, color: ColorMode) -> Result<(u32, u32, QueryImage)> {

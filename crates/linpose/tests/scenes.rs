@@ -141,7 +141,7 @@ fn a_rendered_set_put_into_scenes_reads_as_the_original() {
     let studio = dir.path().join("studio");
     let g = grid("0:350:10", "40");
     write_dataset(&objects::builtin("pot").unwrap(), &g, &params(64, 48), &studio, &|_| {}).unwrap();
-    let spec = SceneSpec { background: BackgroundSpec::Texture, occlude: 0.2, seed: 9 };
+    let spec = SceneSpec { background: BackgroundSpec::Texture, occlude: 0.2, seed: 9, canvas: None };
     let out = dir.path().join("scene");
     let source = Source::open(&studio, None).unwrap();
     let summary = write_scenes(&source, &spec, &out, &|_| {}).unwrap();
@@ -176,7 +176,7 @@ fn a_view_without_an_object_is_named() {
     write_dataset(&objects::builtin("duck").unwrap(), &grid("0:90:30", "40"), &params(32, 24), &studio, &|_| {}).unwrap();
     // One view's object painted out.
     image::GrayImage::new(32, 24).save(studio.join("e040.0_a060.0.png")).unwrap();
-    let spec = SceneSpec { background: BackgroundSpec::Noise, occlude: 0.0, seed: 0 };
+    let spec = SceneSpec { background: BackgroundSpec::Noise, occlude: 0.0, seed: 0, canvas: None };
     let out = dir.path().join("scene");
     let e = write_scenes(&Source::open(&studio, None).unwrap(), &spec, &out, &|_| {}).unwrap_err().to_string();
     assert!(e.contains("e040.0_a060.0.png") && e.contains("no separable object"), "{e}");
@@ -209,7 +209,7 @@ fn photographs_are_cropped_into_the_background() {
 #[test]
 fn occlusion_outside_0_1_is_refused_by_value() {
     for bad in [1.0, -0.2, 2.0] {
-        let e = SceneSpec { background: BackgroundSpec::Texture, occlude: bad, seed: 0 }.open(32, 24).unwrap_err().to_string();
+        let e = SceneSpec { background: BackgroundSpec::Texture, occlude: bad, seed: 0, canvas: None }.open(32, 24).unwrap_err().to_string();
         assert!(e.contains("occlude") && e.contains(&bad.to_string()), "{e}");
     }
 }

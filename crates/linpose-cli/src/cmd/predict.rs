@@ -22,6 +22,35 @@ struct Estimate<'a> {
     flagged: Option<bool>,
     #[serde(skip_serializing_if = "Option::is_none")]
     hypotheses: Option<Vec<Hypothesis<'a>>>,
+    /// For an image larger than the training views: the object's box (left, top, width, height).
+    #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
+    bbox: Option<[f64; 4]>,
+    /// For an image larger than the training views: the share of the object's pixels used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    shown: Option<f64>,
+}
+
+/// A pose, its estimate (with --top) and, for a scene, where the object was found.
+type Outcome = (Vec<f64>, Option<linpose::confidence::Estimate>, Option<linpose::model::Located>);
+
+/// The image at `path`, larger than the training views, searched for the object by `search`
+/// and estimated (with `top` hypotheses when asked for).
+fn scene_estimate(
+    search: &dyn linpose::model::SceneSearch,
+    path: &std::path::Path,
+    color: linpose::image_io::ColorMode,
+    top: Option<u64>,
+) -> linpose::Result<Outcome> {
+    let (spec, scene) = linpose::image_io::read_any_size(path, color)?;
+    let found = search.locate(&scene, spec)?;
+    let (pose, est) = match top {
+        Some(t) => {
+            let e = search.estimate_located(&found, t as usize)?.remove(0);
+            (e.pose.clone(), Some(e))
+        }
+        None => (search.method_model().predict(&found[0].view)?, None),
+    };
+    Ok((pose, est, found.into_iter().next()))
 }
 
 /// An image with no estimate, and why.
@@ -104,7 +133,16 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
             .collect();
         // Each image's outcome: None until estimated or refused.
         let mut reasons: Vec<Option<String>> = read.iter().zip(chunk).map(|(r, path)| r.as_ref().err().map(|e| read_refusal(path, e))).collect();
-        let mut rows: Vec<usize> = (0..n).filter(|&i| reasons[i].is_none()).collect();
+        // Images larger than the training views, for a model that finds its object in them:
+        // searched and estimated one by one below.
+        let scenes: Vec<usize> = match model.scene_search() {
+            Some(_) => (0..n)
+                .filter(|&i| matches!(read[i], Err(linpose::Error::ImageSizeMismatch { got_w, got_h, .. }) if got_w >= spec.width && got_h >= spec.height))
+                .collect(),
+            None => Vec::new(),
+        };
+        scenes.iter().for_each(|&i| reasons[i] = None);
+        let mut rows: Vec<usize> = (0..n).filter(|&i| reasons[i].is_none() && !scenes.contains(&i)).collect();
         compact(feats, m, &rows);
         compact(pix, m, &rows);
         let mut all_u8 = rows.iter().all(|&i| matches!(read[i], Ok(true)));
@@ -146,17 +184,26 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
             }
             Ok(est.chunks_exact(k).map(|p| (p.to_vec(), None)).collect())
         });
-        let mut estimates: Vec<Option<(Vec<f64>, Option<linpose::confidence::Estimate>)>> = (0..n).map(|_| None).collect();
+        let mut estimates: Vec<Option<Outcome>> = (0..n).map(|_| None).collect();
         for (&i, o) in rows.iter().zip(outcomes) {
             match o {
-                Ok(e) => estimates[i] = Some(e),
+                Ok((pose, e)) => estimates[i] = Some((pose, e, None)),
                 Err(why) => reasons[i] = Some(why),
+            }
+        }
+        if let Some(search) = model.scene_search() {
+            let found: Vec<linpose::Result<Outcome>> = scenes.par_iter().map(|&i| scene_estimate(search, &chunk[i], spec.color, a.top)).collect();
+            for (&i, f) in scenes.iter().zip(found) {
+                match f {
+                    Ok(o) => estimates[i] = Some(o),
+                    Err(e) => reasons[i] = Some(read_refusal(&chunk[i], &e)),
+                }
             }
         }
         let named = |pose: &[f64]| -> BTreeMap<&str, f64> { space.params().iter().map(|p| p.name.as_str()).zip(pose.iter().copied()).collect() };
         for (i, path) in chunk.iter().enumerate() {
             let name = path.display().to_string();
-            let Some((pose, r)) = &estimates[i] else {
+            let Some((pose, r, found)) = &estimates[i] else {
                 let why = reasons[i].as_deref().unwrap_or("no estimate");
                 if a.strict {
                     out.flush()?;
@@ -178,6 +225,8 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
                     confidence: r.map(|r| r.confidence),
                     flagged: r.map(|r| r.flagged(a.flag_below)),
                     hypotheses: r.map(|r| r.hypotheses.iter().map(|h| Hypothesis { pose: named(&h.pose), score: h.score }).collect()),
+                    bbox: found.as_ref().map(|f| f.bbox),
+                    shown: found.as_ref().map(|f| f.shown),
                 };
                 serde_json::to_writer(&mut out, &e)?;
                 writeln!(out)?;
@@ -185,6 +234,10 @@ pub(crate) fn run(a: &PredictArgs) -> anyhow::Result<()> {
                 write!(out, "{name}")?;
                 for (p, v) in space.params().iter().zip(pose) {
                     write!(out, "\t{}={v:.4}", p.name)?;
+                }
+                if let Some(f) = found {
+                    let [x, y, w, h] = f.bbox;
+                    write!(out, "\tbox={x:.1},{y:.1},{w:.1},{h:.1}\tshown={:.3}", f.shown)?;
                 }
                 if let Some(r) = r {
                     write!(out, "\tconfidence={:.3}", r.confidence)?;

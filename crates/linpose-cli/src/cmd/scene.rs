@@ -31,6 +31,13 @@ pub(crate) struct SceneArgs {
     /// Hide about this share of each view's object (in [0, 1)) behind one or two occluders.
     #[arg(long, value_name = "F", default_value_t = 0.0)]
     pub occlude: f64,
+    /// Put each view's object (with its occluders) somewhere in a larger image of WxH pixels
+    /// instead, scaled by a random factor within --scale; scene.csv records the box.
+    #[arg(long, value_name = "WxH")]
+    pub canvas: Option<String>,
+    /// The range of the scale factor of the views on the canvas (log-uniform).
+    #[arg(long, value_name = "LO:HI", default_value = "0.8:1.2", requires = "canvas")]
+    pub scale: String,
     /// Seed of the scenes' draws: the same seed, the same scenes.
     #[arg(long, value_name = "S", default_value_t = DEFAULT_SEED)]
     pub seed: u64,
@@ -38,7 +45,11 @@ pub(crate) struct SceneArgs {
 
 /// Runs `linpose scene`.
 pub(crate) fn run(args: &SceneArgs) -> anyhow::Result<()> {
-    let spec = SceneSpec { background: BackgroundSpec::parse(&args.background)?, occlude: args.occlude, seed: args.seed };
+    let canvas = match &args.canvas {
+        Some(size) => Some(canvas(size, &args.scale)?),
+        None => None,
+    };
+    let spec = SceneSpec { background: BackgroundSpec::parse(&args.background)?, occlude: args.occlude, seed: args.seed, canvas };
     // A share outside [0, 1) is refused before any image is read.
     linpose::render::scene::Scene::new(linpose::render::background::Background::Level(0.0), spec.occlude, spec.seed)?;
     let source = Source::open(&args.data, args.object)?;
@@ -57,4 +68,13 @@ pub(crate) fn run(args: &SceneArgs) -> anyhow::Result<()> {
         writeln!(stdout, "hidden share of the object: mean {mean:.3}, from {lo:.3} to {hi:.3} (asked {})", spec.occlude)?;
     }
     Ok(())
+}
+
+/// The canvas of `--canvas WxH --scale LO:HI`.
+fn canvas(size: &str, scale: &str) -> anyhow::Result<linpose::render::place::Canvas> {
+    let (w, h) = size.split_once('x').ok_or_else(|| anyhow::anyhow!("--canvas {size}: expected WxH, e.g. 320x240"))?;
+    let px = |v: &str| v.trim().parse::<u32>().map_err(|_| anyhow::anyhow!("--canvas {size}: '{v}' is not a whole number of pixels"));
+    let (lo, hi) = scale.split_once(':').ok_or_else(|| anyhow::anyhow!("--scale {scale}: expected LO:HI, e.g. 0.8:1.2"))?;
+    let f = |v: &str| v.trim().parse::<f64>().map_err(|_| anyhow::anyhow!("--scale {scale}: '{v}' is not a number"));
+    Ok(linpose::render::place::Canvas::new(px(w)?, px(h)?, [f(lo)?, f(hi)?])?)
 }

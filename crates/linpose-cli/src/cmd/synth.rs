@@ -120,7 +120,7 @@ pub(crate) fn run(args: &SynthArgs) -> anyhow::Result<()> {
     };
     let params = RenderParams::default().width(width).height(height).camera(camera).light(Light::default().specular(args.specular)).background(level);
     params.validate()?;
-    let scene = SceneSpec { background, occlude: args.occlude, seed: args.seed }.open(width, height)?;
+    let scene = SceneSpec { background, occlude: args.occlude, seed: args.seed, canvas: None }.open(width, height)?;
     let scene_csv = !scene.is_plain();
     grid = grid.with_scene(scene);
 

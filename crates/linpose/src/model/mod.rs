@@ -9,6 +9,7 @@
 
 pub(crate) mod file;
 pub(crate) mod footprint;
+mod located;
 mod method;
 mod normalized;
 pub(crate) mod partial_fit;
@@ -16,6 +17,7 @@ pub(crate) mod split;
 mod tensor;
 mod tuning;
 
+pub use located::{Located, SceneSearch};
 pub(crate) use method::Stream;
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};
 pub use normalized::Normalized;
@@ -117,6 +119,12 @@ pub trait PoseModel: Any + Send + Sync + std::fmt::Debug {
     /// the method's own model, which takes normalised images, so a caller that normalises the
     /// queries itself (to count the refused ones apart) does it once. `None` for other models.
     fn behind_stage(&self) -> Option<(&crate::normalize::Normalizer, &dyn PoseModel)> {
+        None
+    }
+
+    /// For a model that finds its object in images larger than its training views (the robust
+    /// stage, [`crate::robust::Robust`]): the search. `None` for other models.
+    fn scene_search(&self) -> Option<&dyn SceneSearch> {
         None
     }
 }
@@ -260,6 +268,9 @@ impl PoseModel for AnyModel {
     }
     fn behind_stage(&self) -> Option<(&crate::normalize::Normalizer, &dyn PoseModel)> {
         self.0.behind_stage()
+    }
+    fn scene_search(&self) -> Option<&dyn SceneSearch> {
+        self.0.scene_search()
     }
 }
 

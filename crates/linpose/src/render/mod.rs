@@ -37,6 +37,7 @@ pub mod objects;
 pub mod occlude;
 mod params;
 pub mod photos;
+pub mod place;
 pub mod random;
 mod raster;
 pub mod scene;

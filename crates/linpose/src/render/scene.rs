@@ -15,6 +15,7 @@
 
 use super::background::{Background, BackgroundDraw, BackgroundSpec};
 use super::occlude::{occlude, Occluder, Occlusion};
+use super::place::{lay, Canvas};
 use crate::image_io::ImageSpec;
 use crate::{Error, Result};
 use rand::SeedableRng;
@@ -35,14 +36,24 @@ pub struct SceneSpec {
     pub occlude: f64,
     /// The seed of the draws.
     pub seed: u64,
+    /// Views put somewhere in a larger image instead of filling their own frame (None: in place).
+    pub canvas: Option<Canvas>,
 }
 
 impl SceneSpec {
     /// The scene for views of `width` x `height` pixels (a folder's photographs read here);
     /// refuses a share outside [0, 1) before reading any.
+    /// With a canvas, the background is the canvas's size and the views must fit it.
     pub fn open(&self, width: u32, height: u32) -> Result<Scene> {
         Scene::new(Background::Level(0.0), self.occlude, self.seed)?;
-        Scene::new(self.background.open(width, height)?, self.occlude, self.seed)
+        let (bw, bh) = match &self.canvas {
+            Some(c) => {
+                c.check_views(width, height)?;
+                (c.width, c.height)
+            }
+            None => (width, height),
+        };
+        Ok(Scene { canvas: self.canvas, ..Scene::new(self.background.open(bw, bh)?, self.occlude, self.seed)? })
     }
 }
 
@@ -53,6 +64,7 @@ pub struct Scene {
     background: Background,
     occlude: f64,
     seed: u64,
+    canvas: Option<Canvas>,
 }
 
 impl Scene {
@@ -62,7 +74,7 @@ impl Scene {
         if !(0.0..1.0).contains(&occlude) {
             return Err(Error::invalid("occlude", occlude, "must be the share of the object's pixels to hide, in [0, 1)"));
         }
-        Ok(Scene { background, occlude, seed })
+        Ok(Scene { background, occlude, seed, canvas: None })
     }
 
     /// The background.
@@ -118,6 +130,31 @@ impl Scene {
         self.record(image, background, occlusion)
     }
 
+    /// Where the views go in a larger image, if they do.
+    pub fn canvas(&self) -> Option<&Canvas> {
+        self.canvas.as_ref()
+    }
+
+    /// Puts view `view` (its `pixels`, 8-bit, `spec`'s size and channels, its object where
+    /// `mask` is) somewhere on the scene's canvas ([`super::place`]): the occluders painted over
+    /// the object in the view's frame, the two scaled and placed over the canvas's background.
+    /// Returns the canvas's pixels and the record, its box set. None without a canvas.
+    pub fn place(&self, view: usize, image: &str, spec: ImageSpec, mask: &[bool], pixels: &[u8]) -> Option<(Vec<u8>, SceneRecord)> {
+        let canvas = self.canvas?;
+        let (w, h) = (spec.width as usize, spec.height as usize);
+        let mut layer = pixels.to_vec();
+        let occlusion = self.draw_occluders(view, spec, mask, &mut layer);
+        let opaque: Vec<bool> = (0..w * h).map(|k| mask[k] || occlusion.occluders.iter().any(|o| o.covers(k % w, k / w))).collect();
+        let cspec = canvas.spec(spec);
+        let mut out = vec![0u8; cspec.features()];
+        let background = self.draw_background(view, cspec, &mut out);
+        let bbox = canvas.draw_box(self.seed, view, spec.width, spec.height);
+        lay(&layer, &opaque, spec, bbox, &mut out, canvas.width as usize);
+        let mut record = self.record(image, background, occlusion);
+        record.bbox = Some(bbox);
+        Some((out, record))
+    }
+
     /// The record of a view named `image`.
     pub fn record(&self, image: &str, background: BackgroundDraw, occlusion: Occlusion) -> SceneRecord {
         SceneRecord {
@@ -128,6 +165,7 @@ impl Scene {
             hidden: occlusion.hidden,
             object_pixels: occlusion.object_pixels,
             occluders: occlusion.occluders,
+            bbox: None,
         }
     }
 }
@@ -147,16 +185,19 @@ pub struct SceneRecord {
     pub hidden: f64,
     /// The object's pixels (before occlusion).
     pub object_pixels: usize,
-    /// The occluders.
+    /// The occluders (in the view's own frame when the view was placed on a canvas).
     pub occluders: Vec<Occluder>,
+    /// Where the view's frame was placed on a canvas: left, top, width, height in the canvas's
+    /// pixels (None: the view fills its own frame).
+    pub bbox: Option<[f64; 4]>,
 }
 
 /// The header of `scene.csv`.
-pub const SCENE_CSV_HEADER: [&str; 7] = ["image", "background", "seed", "occlude", "hidden", "object_pixels", "occluders"];
+pub const SCENE_CSV_HEADER: [&str; 8] = ["image", "background", "seed", "occlude", "hidden", "object_pixels", "occluders", "box"];
 
 impl SceneRecord {
     /// The row's fields: the occluders as `rect CX CY HX HY` or `ellipse ...`, joined by `;`.
-    fn fields(&self) -> [String; 7] {
+    fn fields(&self) -> [String; 8] {
         let occluders: Vec<String> = self.occluders.iter().map(|o| o.to_string()).collect();
         [
             self.image.clone(),
@@ -166,6 +207,7 @@ impl SceneRecord {
             self.hidden.to_string(),
             self.object_pixels.to_string(),
             occluders.join(";"),
+            self.bbox.map(|b| b.map(|v| v.to_string()).join(" ")).unwrap_or_default(),
         ]
     }
 }
@@ -193,13 +235,18 @@ pub fn read_scene_csv(path: &Path) -> Result<Vec<SceneRecord>> {
         let row = row.map_err(|e| Error::parse(path, line, e.to_string()))?;
         let fields: Vec<&str> = row.iter().collect();
         if k == 0 {
-            if fields != SCENE_CSV_HEADER {
+            // Files written before the box column have the first seven.
+            if fields != SCENE_CSV_HEADER && fields != SCENE_CSV_HEADER[..7] {
                 return Err(Error::parse(path, 1, format!("expected the header {}", SCENE_CSV_HEADER.join(","))));
             }
             continue;
         }
         let bad = |what: &str| Error::parse(path, line, format!("{what}: '{}'", fields.join(",")));
-        let [image, background, seed, occlude, hidden, pixels, occluders] = fields[..] else { return Err(bad("expected 7 fields")) };
+        let (image, background, seed, occlude, hidden, pixels, occluders, bbox) = match fields[..] {
+            [a, b, c, d, e, f, g] => (a, b, c, d, e, f, g, ""),
+            [a, b, c, d, e, f, g, h] => (a, b, c, d, e, f, g, h),
+            _ => return Err(bad("expected 8 fields")),
+        };
         let number = |s: &str, name: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| bad(name));
         out.push(SceneRecord {
             image: image.to_string(),
@@ -213,6 +260,13 @@ pub fn read_scene_csv(path: &Path) -> Result<Vec<SceneRecord>> {
                 .filter(|s| !s.trim().is_empty())
                 .map(|s| Occluder::parse(s).ok_or_else(|| bad("not an occluder")))
                 .collect::<Result<Vec<_>>>()?,
+            bbox: match bbox.trim() {
+                "" => None,
+                b => {
+                    let v: Vec<f64> = b.split_whitespace().map(|x| number(x, "not a box")).collect::<Result<_>>()?;
+                    Some(<[f64; 4]>::try_from(v).map_err(|_| bad("not a box of four numbers"))?)
+                }
+            },
         });
     }
     Ok(out)
@@ -266,6 +320,7 @@ mod tests {
                 hidden: 0.2013,
                 object_pixels: 812,
                 occluders: vec![Occluder::new(OccluderShape::Rect, [10.5, 3.25], [4.0, 2.5]), Occluder::new(OccluderShape::Ellipse, [1.0, 2.0], [3.0, 4.0])],
+                bbox: Some([12.25, 40.0, 102.4, 76.8]),
             },
             SceneRecord {
                 image: "c.png".into(),
@@ -275,6 +330,7 @@ mod tests {
                 hidden: 0.0,
                 object_pixels: 0,
                 occluders: vec![],
+                bbox: None,
             },
         ];
         let mut bytes = Vec::new();

@@ -28,6 +28,7 @@
 //! bright pixels that were explained (`Fit::shown`), which the confidence takes into account.
 
 mod calibrate;
+mod locate;
 mod model;
 mod search;
 pub(crate) mod tuning;

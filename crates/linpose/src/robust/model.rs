@@ -8,7 +8,8 @@
 use super::{RobustSettings, Stage};
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
-use crate::model::{AnyModel, Method, ModelMeta, PoseModel, Storage, Tensor, TensorSet};
+use crate::image_io::ImageSpec;
+use crate::model::{AnyModel, Located, Method, ModelMeta, PoseModel, SceneSearch, Storage, Tensor, TensorSet};
 use crate::Result;
 use rayon::prelude::*;
 
@@ -148,5 +149,33 @@ impl PoseModel for Robust {
     }
     fn coefficients(&self) -> Option<&[f64]> {
         self.inner.coefficients()
+    }
+    fn scene_search(&self) -> Option<&dyn SceneSearch> {
+        Some(self)
+    }
+}
+
+impl SceneSearch for Robust {
+    /// Each scene searched for the box the stage's eigenspace explains best (`locate.rs`), the
+    /// box resampled to the training views' size and repaired as any query (when the check
+    /// says so).
+    fn locate(&self, scenes: &[f32], spec: ImageSpec) -> Result<Vec<Located>> {
+        let m = spec.features();
+        crate::model::check_queries(m, scenes.len(), "scene batch")?;
+        scenes
+            .par_chunks(m)
+            .map(|scene| {
+                let mut found = self.stage.locate(scene, spec)?;
+                if let Some((view, fit)) = self.stage.apply(&found.view) {
+                    found.view = view;
+                    found.shown = fit.shown;
+                    found.repaired = true;
+                }
+                Ok(found)
+            })
+            .collect()
+    }
+    fn method_model(&self) -> &dyn PoseModel {
+        &self.inner
     }
 }

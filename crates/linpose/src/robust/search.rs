@@ -33,26 +33,8 @@ pub(super) fn fit(stage: &Stage, xb: &[f32]) -> Fit {
     let mut scored: Vec<(i64, usize, f32, f32)> = Vec::new();
     let mut ratios = Vec::new();
     for (h, pred) in stage.preds.chunks_exact(mb).enumerate() {
+        let Some((gain, scale)) = gain(pred, stage.peaks[h], &stage.support, xb, &mut ratios) else { continue };
         let bright = tuning::BRIGHT * stage.peaks[h];
-        ratios.clear();
-        let (mut sum, mut count) = (0f32, 0usize);
-        for &i in support {
-            let p = pred[i as usize];
-            if p > bright {
-                ratios.push(xb[i as usize] / p);
-                sum += p;
-                count += 1;
-            }
-        }
-        if ratios.is_empty() {
-            continue;
-        }
-        let mid = ratios.len() / 2;
-        let gain = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
-        if !(gain > 0.0) {
-            continue;
-        }
-        let scale = gain * sum / count as f32;
         let theta = tuning::COARSE * scale;
         let (mut explained, mut missed) = (0usize, 0usize);
         for &i in support {
@@ -97,6 +79,30 @@ pub(super) fn fit(stage: &Stage, xb: &[f32]) -> Fit {
     };
     let shown = if object == 0 { 0.0 } else { seen as f64 / object as f64 };
     Fit { coef, inlier, shown, theta: tuning::ANNEAL[tuning::ANNEAL.len() - 1] * scale }
+}
+
+/// The gain in which the hypothesis whose binned image is `pred` (brightest `peak`) fits the
+/// binned query `xb` best, the median ratio of query to hypothesis over the hypothesis's bright
+/// pixels of the `support` ([`tuning::BRIGHT`] of its peak), and its mean bright pixel in that
+/// gain. None when it has no bright pixel, or the query is dark there. `ratios` is scratch.
+pub(super) fn gain(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios: &mut Vec<f32>) -> Option<(f32, f32)> {
+    let bright = tuning::BRIGHT * peak;
+    ratios.clear();
+    let (mut sum, mut count) = (0f32, 0usize);
+    for &i in support {
+        let p = pred[i as usize];
+        if p > bright {
+            ratios.push(xb[i as usize] / p);
+            sum += p;
+            count += 1;
+        }
+    }
+    if ratios.is_empty() {
+        return None;
+    }
+    let mid = ratios.len() / 2;
+    let gain = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
+    (gain > 0.0).then(|| (gain, gain * sum / count as f32))
 }
 
 /// Marks the binned pixels the coefficients `coef` explain within `theta` (outside the support:

@@ -81,3 +81,52 @@ fn the_confidence_flags_a_view_too_hidden_to_tell() {
     eprintln!("flagged: clear {clear:.2}, hidden {hidden:.2}");
     assert!(clear <= 0.4 && hidden >= 0.9, "flagged {clear:.2} of the clear views, {hidden:.2} of the hidden ones");
 }
+
+/// The duck between two training views, put at (x, y) and scale `s` in a `w` x `h` texture
+/// scene: the scene's features and the frame's box.
+fn in_scene(view: &Dataset, (w, h): (u32, u32), s: f64, seed: u64) -> (Vec<f32>, crate::image_io::ImageSpec, [f64; 4]) {
+    use crate::render::background::BackgroundSpec;
+    use crate::render::place::Canvas;
+    use crate::render::scene::SceneSpec;
+    let spec = view.spec();
+    let pixels: Vec<u8> = view.row(0).iter().map(|&v| (v * 255.0).round() as u8).collect();
+    let mask: Vec<bool> = pixels.iter().map(|&v| v > 0).collect();
+    let canvas = Canvas::new(w, h, [s, s]).unwrap();
+    let scene = SceneSpec { background: BackgroundSpec::Texture, occlude: 0.0, seed, canvas: Some(canvas) }.open(spec.width, spec.height).unwrap();
+    let (big, record) = scene.place(0, "duck", spec, &mask, &pixels).unwrap();
+    (big.iter().map(|&v| crate::image_io::feature_of_u8(v)).collect(), canvas.spec(spec), record.bbox.unwrap())
+}
+
+#[test]
+fn the_object_is_found_anywhere_in_a_larger_scene() {
+    let train = render("duck", "0:350:10", None);
+    let robust = Robust::fit(&train, AnyModel::new(RefinedParams::default().fit(&train).unwrap())).unwrap();
+    let plain = AnyModel::new(RefinedParams::default().fit(&train).unwrap());
+    assert!(plain.scene_search().is_none(), "only the robust stage searches scenes");
+    let search = robust.scene_search().unwrap();
+    let view = render("duck", "125", None);
+    let mut near = 0;
+    let placements = [(0.85, 1), (1.0, 2), (1.15, 3), (0.9, 4), (1.05, 5), (1.2, 6)];
+    for (s, seed) in placements {
+        let (scene, spec, truth) = in_scene(&view, (160, 120), s, seed);
+        let found = search.locate(&scene, spec).unwrap().remove(0);
+        let centre = |b: [f64; 4]| (b[0] + b[2] / 2.0, b[1] + b[3] / 2.0);
+        let (a, b) = (centre(found.bbox), centre(truth));
+        let off = (a.0 - b.0).hypot(a.1 - b.1);
+        let est = search.estimate_located(std::slice::from_ref(&found), 1).unwrap().remove(0);
+        let error = view.space().error_deg(&est.pose, view.pose(0));
+        eprintln!("scale {s}: box {:?} (truth {truth:?}), centre off {off:.2} px, pose off {error:.2} degrees, shown {:.2}", found.bbox, found.shown);
+        if off <= 3.0 && (found.scale / s - 1.0).abs() < 0.1 {
+            near += 1;
+            assert!(error < 5.0, "scale {s}: pose off by {error:.2} degrees");
+        }
+    }
+    // 64 x 48 views leave the search 16 x 12 coarse cells: most placements, not all, are found
+    // (COIL-20's 128 x 128 views: bench/locate.py).
+    assert!(near >= 4, "{near} of {} boxes within 3 pixels and 10% of the scale", placements.len());
+    // A scene smaller than the smallest scale's view is refused by its size.
+    let small = vec![0.5f32; 40 * 30];
+    let spec = crate::image_io::ImageSpec { width: 40, height: 30, color: crate::image_io::ColorMode::Gray };
+    let e = search.locate(&small, spec).unwrap_err().to_string();
+    assert!(e.contains("40x30"), "{e}");
+}

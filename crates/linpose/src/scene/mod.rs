@@ -20,6 +20,10 @@
 //! background). A view whose border is not a uniform backdrop, or where nothing but specks
 //! differs from it, is refused, naming the file.
 //!
+//! With a canvas ([`crate::render::place::Canvas`]), each view's object and occluders are
+//! scaled and placed somewhere on a larger image of the background instead, and `scene.csv`
+//! records the frame's box there.
+//!
 //! A view keeps its colour: gray views get gray backgrounds, colour views colour ones; 16-bit
 //! images are written as 8-bit. View i (counted over the objects in order) draws its scene from
 //! the scene's streams of i, so the same data set, scene and seed give the same bytes.
@@ -142,12 +146,22 @@ fn write_object(scene: &Scene, m: &Manifest, size: (u32, u32), first: usize, dir
                         context: "the data set's first image".into(),
                     });
                 }
-                let r = restage_view(scene, first + i, &names[i], &path, spec, &mut pixels)?;
+                let (r, png) = match scene.canvas() {
+                    Some(c) => {
+                        let object = find_object(&path, spec, &pixels)?;
+                        let (canvas, record) = scene.place(first + i, &names[i], spec, &object.mask, &pixels).expect("the scene has a canvas");
+                        (Restaged { object, record }, encode_png(&canvas, c.spec(spec))?)
+                    }
+                    None => {
+                        let r = restage_view(scene, first + i, &names[i], &path, spec, &mut pixels)?;
+                        (r, encode_png(&pixels, spec)?)
+                    }
+                };
                 let target = dir.join(&names[i]);
                 if let Some(parent) = target.parent() {
                     fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
                 }
-                fs::write(&target, encode_png(&pixels, spec)?).map_err(|e| Error::io(&target, e))?;
+                fs::write(&target, png).map_err(|e| Error::io(&target, e))?;
                 progress(1);
                 Ok(r)
             })

@@ -1,0 +1,52 @@
+//! Queries larger than the training views: a model that can find its object in a larger image
+//! (a scene) says so by [`PoseModel::scene_search`], and gives the object's box and the query the
+//! method takes. The robust stage is the one that can ([`crate::robust::Robust`]): it searches
+//! the scene for the box its training views' eigenspace explains best.
+
+use super::PoseModel;
+use crate::image_io::ImageSpec;
+use crate::Result;
+use serde::{Deserialize, Serialize};
+
+/// The object found in a scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Located {
+    /// The box of the training view's frame in the scene: left, top, width and height in
+    /// pixels, the scene's top-left corner at (0, 0).
+    pub bbox: [f64; 4],
+    /// The box's size over the training views' (the object's scale in the scene).
+    pub scale: f64,
+    /// The share of the object's pixels the estimate used: of the object's bright pixels in the
+    /// reconstruction, those the query explains (1 when the query needed no repair).
+    pub shown: f64,
+    /// Whether the query was repaired (its unexplained pixels replaced by the reconstruction).
+    pub repaired: bool,
+    /// The box resampled to the training views' size, repaired where it was: the query the
+    /// method takes.
+    #[serde(skip)]
+    pub view: Vec<f32>,
+}
+
+/// A model that finds its object in images larger than its training views.
+pub trait SceneSearch: Sync {
+    /// Finds the object in each of `scenes` (rows of `spec`'s features, each image larger than
+    /// the training views) and makes the query the method takes from it.
+    fn locate(&self, scenes: &[f32], spec: ImageSpec) -> Result<Vec<Located>>;
+
+    /// The method's own model, which takes [`Located::view`]; its confidence does not yet count
+    /// the hidden share ([`Located::shown`]), which [`SceneSearch::estimate_located`] does.
+    fn method_model(&self) -> &dyn PoseModel;
+
+    /// The estimates of located queries: the method's, its confidence scaled by the share of
+    /// the object each shows, as for a query of the training views' size.
+    fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<crate::confidence::Estimate>> {
+        let q: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
+        let mut est = self.method_model().estimate(&q, top)?;
+        for (e, f) in est.iter_mut().zip(found) {
+            if f.repaired {
+                crate::confidence::for_hidden(e, f.shown);
+            }
+        }
+        Ok(est)
+    }
+}

@@ -1,0 +1,341 @@
+//! The object anywhere in a larger image (a scene): the box, at a position and a scale within
+//! [`tuning::SCALE_LO`] to [`tuning::SCALE_HI`] of the training views' size, whose pixels the
+//! stage's hypotheses explain best; then the box resampled to the training views' size is the
+//! query.
+//!
+//! A window of the scene at scale s is read as the stage reads a view binned by b: cells of
+//! b s x b s scene pixels, each the mean of the scene under it (from the scene's integral image,
+//! exact at any real position and size), so one scene serves every position and scale without
+//! resampling it. A window is scored by the stage's hypotheses (the training views' binned
+//! images, each in the gain that fits the window best): the best hypothesis's score over its own
+//! silhouette, each cell explained counted 1 - (r / theta)^2 and each not explained -1
+//! ([`silhouette_score`]). Background and occluders explain nothing, so the score peaks where
+//! the object is, at its size.
+//!
+//! 1. **Coarse.** Every scale of a geometric ladder (steps of [`tuning::SCALE_RATIO`]) and every
+//!    position on a grid of one coarse cell, scored on cells of 2b s pixels (the hypotheses'
+//!    binned images binned by 2 more; [`tuning::COARSE_HYPOTHESES`] of them): about 2,600
+//!    windows of a quarter of the stage's pixels for a 320 x 240 scene and 128 x 128 views.
+//! 2. **Fine.** The best [`tuning::CANDIDATES`] windows (each at least a quarter of a window from
+//!    the others) are refined on the stage's own cells by a pattern search over the position and
+//!    the scale, the steps halved until they are under [`tuning::MIN_SHIFT`] pixels; the best
+//!    refined window is the object's box.
+
+use super::search::gain;
+use super::{tuning, Stage};
+use crate::image_io::{ColorMode, ImageSpec};
+use crate::model::Located;
+use crate::{Error, Result};
+use rayon::prelude::*;
+
+/// A scene's integral image: the sum of its pixels over [0, x) x [0, y) at any real point.
+struct Integral {
+    w: usize,
+    h: usize,
+    sums: Vec<f64>,
+}
+
+impl Integral {
+    fn new(img: &[f32], w: usize, h: usize) -> Self {
+        let mut sums = vec![0f64; (w + 1) * (h + 1)];
+        for y in 0..h {
+            let mut row = 0f64;
+            for x in 0..w {
+                row += img[y * w + x] as f64;
+                sums[(y + 1) * (w + 1) + x + 1] = sums[y * (w + 1) + x + 1] + row;
+            }
+        }
+        Integral { w, h, sums }
+    }
+
+    /// The sum over [0, x) x [0, y): bilinear between the pixel corners, which is exact for an
+    /// image constant on each pixel.
+    fn at(&self, x: f64, y: f64) -> f64 {
+        let (x, y) = (x.clamp(0.0, self.w as f64), y.clamp(0.0, self.h as f64));
+        let (i, j) = ((x as usize).min(self.w - 1), (y as usize).min(self.h - 1));
+        let (fx, fy) = (x - i as f64, y - j as f64);
+        let s = |i: usize, j: usize| self.sums[j * (self.w + 1) + i];
+        let top = s(i, j) + fx * (s(i + 1, j) - s(i, j));
+        let bottom = s(i, j + 1) + fx * (s(i + 1, j + 1) - s(i, j + 1));
+        top + fy * (bottom - top)
+    }
+
+    /// The means of `gw` x `gh` cells of `c` x `c` pixels from (x0, y0), row by row, into `out`;
+    /// `corners` is scratch.
+    fn cells(&self, (x0, y0): (f64, f64), c: f64, (gw, gh): (usize, usize), out: &mut [f32], corners: &mut Vec<f64>) {
+        corners.clear();
+        for j in 0..=gh {
+            let y = y0 + j as f64 * c;
+            corners.extend((0..=gw).map(|i| self.at(x0 + i as f64 * c, y)));
+        }
+        let inv = 1.0 / (c * c);
+        let g = |i: usize, j: usize| corners[j * (gw + 1) + i];
+        for j in 0..gh {
+            for i in 0..gw {
+                out[j * gw + i] = ((g(i + 1, j + 1) - g(i, j + 1) - g(i + 1, j) + g(i, j)) * inv) as f32;
+            }
+        }
+    }
+}
+
+/// The hypotheses at one resolution: cells of `cell` x `cell` view pixels, `gw` x `gh` of them.
+struct Level {
+    cell: usize,
+    grid: (usize, usize),
+    preds: Vec<f32>,
+    peaks: Vec<f32>,
+    support: Vec<u32>,
+}
+
+impl Level {
+    /// The stage's own cells.
+    fn fine(stage: &Stage) -> Level {
+        let s = stage.binning.spec();
+        Level {
+            cell: stage.binning.factor(),
+            grid: (s.width as usize, s.height as usize),
+            preds: stage.preds.clone(),
+            peaks: stage.peaks.clone(),
+            support: stage.support.clone(),
+        }
+    }
+
+    /// Its hypotheses `keep` alone.
+    fn only(&self, keep: &[usize]) -> Level {
+        let m = self.grid.0 * self.grid.1;
+        Level {
+            cell: self.cell,
+            grid: self.grid,
+            preds: keep.iter().flat_map(|&h| self.preds[h * m..(h + 1) * m].iter().copied()).collect(),
+            peaks: keep.iter().map(|&h| self.peaks[h]).collect(),
+            support: self.support.clone(),
+        }
+    }
+
+    /// `fine`'s cells binned by 2 (a pixel of the support where any of its four is), with at
+    /// most `most` of its hypotheses, taken evenly.
+    fn coarse(fine: &Level, most: usize) -> Level {
+        let (fw, fh) = fine.grid;
+        let (gw, gh) = (fw / 2, fh / 2);
+        let step = fine.peaks.len().div_ceil(most.max(1)).max(1);
+        let mut preds = Vec::with_capacity(fine.peaks.len() / step * gw * gh);
+        for p in fine.preds.chunks_exact(fw * fh).step_by(step) {
+            for j in 0..gh {
+                for i in 0..gw {
+                    let v = |di: usize, dj: usize| p[(2 * j + dj) * fw + 2 * i + di];
+                    preds.push(0.25 * (v(0, 0) + v(1, 0) + v(0, 1) + v(1, 1)));
+                }
+            }
+        }
+        let peaks = preds.chunks_exact(gw * gh).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
+        let mut on = vec![false; gw * gh];
+        for &k in &fine.support {
+            let (i, j) = (k as usize % fw / 2, k as usize / fw / 2);
+            if i < gw && j < gh {
+                on[j * gw + i] = true;
+            }
+        }
+        let support = (0..(gw * gh) as u32).filter(|&k| on[k as usize]).collect();
+        Level { cell: 2 * fine.cell, grid: (gw, gh), preds, peaks, support }
+    }
+
+    /// Each hypothesis's score on the window whose cells are `xb` ([`silhouette_score`]).
+    fn scores<'a>(&'a self, xb: &'a [f32], ratios: &'a mut Vec<f32>) -> impl Iterator<Item = f32> + 'a {
+        self.preds.chunks_exact(xb.len()).zip(&self.peaks).map(move |(p, &peak)| silhouette_score(p, peak, &self.support, xb, ratios))
+    }
+
+    /// The best hypothesis's score on the window whose cells are `xb`.
+    fn score(&self, xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
+        self.scores(xb, ratios).fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+/// A window: its top-left corner and scale, with its score.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    x: f64,
+    y: f64,
+    s: f64,
+    score: f32,
+}
+
+/// Scratch of one scoring thread.
+#[derive(Default)]
+struct Scratch {
+    xb: Vec<f32>,
+    corners: Vec<f64>,
+    ratios: Vec<f32>,
+}
+
+/// The search over one scene (see the module doc).
+struct Search {
+    scene: Integral,
+    /// The training views' width and height.
+    view: (f64, f64),
+}
+
+impl Search {
+    /// Whether a window of scale `s` at (x, y) lies in the scene.
+    fn fits(&self, x: f64, y: f64, s: f64) -> bool {
+        x >= 0.0 && y >= 0.0 && x + self.view.0 * s <= self.scene.w as f64 + 1e-9 && y + self.view.1 * s <= self.scene.h as f64 + 1e-9
+    }
+
+    /// The score of the window at (x, y) and scale `s` on `level`.
+    fn score(&self, level: &Level, x: f64, y: f64, s: f64, t: &mut Scratch) -> f32 {
+        let (gw, gh) = level.grid;
+        t.xb.resize(gw * gh, 0.0);
+        self.scene.cells((x, y), level.cell as f64 * s, level.grid, &mut t.xb, &mut t.corners);
+        level.score(&t.xb, &mut t.ratios)
+    }
+
+    /// Every window of the scales `scales` on a grid of half a coarse cell, scored on `level`.
+    fn coarse(&self, level: &Level, scales: &[f64]) -> Vec<Window> {
+        let rows: Vec<(f64, f64)> = scales
+            .iter()
+            .flat_map(|&s| {
+                let stride = tuning::STRIDE * level.cell as f64 * s;
+                let ny = ((self.scene.h as f64 - self.view.1 * s) / stride).floor().max(0.0) as usize + 1;
+                (0..ny).map(move |j| (s, j as f64 * stride))
+            })
+            .collect();
+        rows.par_iter()
+            .map_init(Scratch::default, |t, &(s, y)| {
+                let stride = tuning::STRIDE * level.cell as f64 * s;
+                let nx = ((self.scene.w as f64 - self.view.0 * s) / stride).floor().max(0.0) as usize + 1;
+                (0..nx)
+                    .map(|i| i as f64 * stride)
+                    .filter(|&x| self.fits(x, y, s))
+                    .map(|x| Window { x, y, s, score: self.score(level, x, y, s, t) })
+                    .collect::<Vec<_>>()
+            })
+            .flatten()
+            .collect()
+    }
+
+    /// The window `w` refined on `level` by a pattern search over position and scale (the
+    /// scale changed about the window's centre), from steps of `shift` pixels and `ratio`.
+    fn refine(&self, fine: &Level, mut w: Window, shift: f64, ratio: f64, t: &mut Scratch) -> Window {
+        // The hypotheses that explain the start best, alone.
+        let (gw, gh) = fine.grid;
+        t.xb.resize(gw * gh, 0.0);
+        self.scene.cells((w.x, w.y), fine.cell as f64 * w.s, fine.grid, &mut t.xb, &mut t.corners);
+        let mut ranked: Vec<(f32, usize)> = fine.scores(&t.xb, &mut t.ratios).enumerate().map(|(h, v)| (v, h)).collect();
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let keep: Vec<usize> = ranked.iter().take(tuning::FINE_HYPOTHESES).map(|r| r.1).collect();
+        let level = &fine.only(&keep);
+        w.score = self.score(level, w.x, w.y, w.s, t);
+        let (mut dx, mut ds) = (shift, ratio);
+        let mut evaluations = 0;
+        while dx >= tuning::MIN_SHIFT && evaluations < tuning::MAX_EVALUATIONS {
+            let mut moved = false;
+            for (mx, my, ms) in [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)] {
+                let s = w.s * (1.0 + ms * ds);
+                let (x, y) = (w.x + mx * dx - 0.5 * self.view.0 * (s - w.s), w.y + my * dx - 0.5 * self.view.1 * (s - w.s));
+                if !(tuning::SCALE_LO..=tuning::SCALE_HI).contains(&s) || !self.fits(x, y, s) {
+                    continue;
+                }
+                evaluations += 1;
+                let score = self.score(level, x, y, s, t);
+                if score > w.score {
+                    w = Window { x, y, s, score };
+                    moved = true;
+                }
+            }
+            if !moved {
+                dx *= 0.5;
+                ds *= 0.5;
+            }
+        }
+        w
+    }
+}
+
+/// The scales of the coarse search that fit a `scene` of views `view` (width, height): from
+/// [`tuning::SCALE_LO`] up by [`tuning::SCALE_RATIO`], and [`tuning::SCALE_HI`].
+fn scales(view: (f64, f64), scene: (f64, f64)) -> Vec<f64> {
+    let most = tuning::SCALE_HI.min(scene.0 / view.0).min(scene.1 / view.1);
+    let mut out = Vec::new();
+    let mut s = tuning::SCALE_LO;
+    while s < most {
+        out.push(s);
+        s *= tuning::SCALE_RATIO;
+    }
+    if most >= tuning::SCALE_LO {
+        out.push(most);
+    }
+    out
+}
+
+impl Stage {
+    /// The object in `scene` (gray features of `spec`, larger than the training views): its
+    /// box, and the box resampled to the training views' size (not yet repaired).
+    pub(crate) fn locate(&self, scene: &[f32], spec: ImageSpec) -> Result<Located> {
+        let full = self.binning.full();
+        let (w, h) = (full.width as usize, full.height as usize);
+        let (sw, sh) = (spec.width as usize, spec.height as usize);
+        if spec.color != ColorMode::Gray || scene.len() != sw * sh {
+            return Err(Error::invalid("scene", format!("{sw}x{sh} {:?}, {} values", spec.color, scene.len()), "a gray image of its size"));
+        }
+        let view = (w as f64, h as f64);
+        let ladder = scales(view, (sw as f64, sh as f64));
+        if ladder.is_empty() {
+            return Err(Error::invalid(
+                "scene",
+                format!("{sw}x{sh}"),
+                format!("at least the training views' {w}x{h} times {} (the smallest scale searched)", tuning::SCALE_LO),
+            ));
+        }
+        if scene.iter().any(|v| !v.is_finite()) {
+            return Err(Error::invalid("scene", "a value that is not finite", "finite pixel values"));
+        }
+        let search = Search { scene: Integral::new(scene, sw, sh), view };
+        let fine = Level::fine(self);
+        let coarse = Level::coarse(&fine, tuning::COARSE_HYPOTHESES);
+        let mut found = search.coarse(&coarse, &ladder);
+        found.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
+        let mut starts: Vec<Window> = Vec::new();
+        for c in found {
+            let apart = |o: &Window| {
+                let (dx, dy) = (c.x + 0.5 * view.0 * c.s - o.x - 0.5 * view.0 * o.s, c.y + 0.5 * view.1 * c.s - o.y - 0.5 * view.1 * o.s);
+                dx.hypot(dy) > tuning::APART * view.0.min(view.1) * c.s
+            };
+            if starts.iter().all(apart) {
+                starts.push(c);
+                if starts.len() == tuning::CANDIDATES {
+                    break;
+                }
+            }
+        }
+        let shift = 0.5 * tuning::STRIDE * coarse.cell as f64;
+        let ratio = 0.5 * (tuning::SCALE_RATIO - 1.0);
+        let best = starts
+            .par_iter()
+            .map_init(Scratch::default, |t, &c| search.refine(&fine, c, shift * c.s, ratio, t))
+            .reduce_with(|a, b| if b.score > a.score || (b.score == a.score && (b.s, b.y, b.x) < (a.s, a.y, a.x)) { b } else { a })
+            .expect("at least one window fits");
+        let mut view_px = vec![0f32; w * h];
+        search.scene.cells((best.x, best.y), best.s, (w, h), &mut view_px, &mut Vec::new());
+        Ok(Located { bbox: [best.x, best.y, view.0 * best.s, view.1 * best.s], scale: best.s, view: view_px, shown: 1.0, repaired: false })
+    }
+}
+
+/// The score of the hypothesis whose cells are `pred` (brightest `peak`) on the window whose
+/// cells are `xb`: over the hypothesis's silhouette (its cells of the support above
+/// [`tuning::SILHOUETTE`] of its peak), each cell the window explains in the hypothesis's best
+/// gain counts 1 - (r / theta)^2, each it does not -1 (theta as the robust fit scores
+/// hypotheses, [`tuning::COARSE`] of the mean bright cell). Cells the hypothesis leaves dark
+/// count nothing: the training views' backdrop is not the scene's, and dark clutter explaining
+/// it would outscore the object. None (minus infinity) for a hypothesis the window cannot scale.
+fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
+    let Some((gain, scale)) = gain(pred, peak, support, xb, ratios) else { return f32::NEG_INFINITY };
+    let (theta, silhouette) = (tuning::COARSE * scale, tuning::SILHOUETTE * peak);
+    let mut score = 0f32;
+    for &i in support {
+        let p = pred[i as usize];
+        if p > silhouette {
+            let r = (xb[i as usize] - gain * p).abs() / theta;
+            score += if r < 1.0 { 1.0 - r * r } else { -1.0 };
+        }
+    }
+    score
+}
