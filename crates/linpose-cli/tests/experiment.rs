@@ -198,3 +198,86 @@ fn quick_experiment_reports_every_runs_confidence() {
     }
     assert!(runs >= 4, "every method has a confidence on both objects");
 }
+
+/// `experiment --quick` on the duck alone, untimed, with `threads` threads, into `d/out`.
+fn untimed_quick_duck(d: &Dir, out: &str, threads: usize) {
+    let args = ["experiment", "--quick", "--objects", "duck", "--open-cases", "", "--noise", "0", "--size-steps", "36", "--no-timings", "--out", out];
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_linpose"))
+        .args(args)
+        .current_dir(d.path(""))
+        .env("RAYON_NUM_THREADS", threads.to_string())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "linpose {args:?}: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn quick_experiment_reports_scenes_plain_and_robust() {
+    let d = Dir::new();
+    untimed_quick_duck(&d, "a", 1);
+    untimed_quick_duck(&d, "b", 2);
+    // Untimed, the report is the same bytes with one thread or two, the scenes section's included.
+    for f in ["results.json", "report.md", "figures/scenes-error-vs-hidden.svg"] {
+        assert!(std::fs::read(d.path("a").join(f)).unwrap() == std::fs::read(d.path("b").join(f)).unwrap(), "{f} differs with 1 and 2 threads");
+    }
+    let md = std::fs::read_to_string(d.path("a/report.md")).unwrap();
+    for s in ["## Scenes: clutter and occluders", "### What the robust stage costs", "**Scenes.**", "figures/scenes-error-vs-hidden.svg"] {
+        assert!(md.contains(s), "report.md lacks {s}");
+    }
+    let r = json(&d.path("a/results.json"));
+    let s = &r["study"]["scenes"];
+    let rows = s["rows"].as_array().unwrap();
+    // Texture at 0, 10, ..., 50% hidden; the studio backdrop and noise at 0 and 20%; each method.
+    assert_eq!(rows.len(), 10 * 3, "one row per condition and method");
+    let row = |backdrop: &str, occlude: f64, method: &str| {
+        rows.iter().find(|x| x["backdrop"] == backdrop && x["occlude"].as_f64().unwrap() == occlude && x["method"] == method).unwrap()
+    };
+    for method in ["linear", "eigenspace", "refined"] {
+        for (backdrop, occlude) in [("studio", 0.0), ("studio", 0.2), ("texture", 0.0), ("texture", 0.2), ("texture", 0.5), ("noise", 0.2)] {
+            let x = row(backdrop, occlude, method);
+            assert_eq!(x["n_unseen"], 16, "{backdrop} {occlude} {method}");
+            assert!((x["hidden"].as_f64().unwrap() - occlude).abs() < 0.03, "{backdrop} {occlude}: hidden {}", x["hidden"]);
+            let cells = format!("| {backdrop} | {:.0}% | {:.1}% | {method} | ", 100.0 * occlude, 100.0 * x["hidden"].as_f64().unwrap());
+            assert!(md.contains(&cells), "the table has the row {cells}");
+        }
+        // Studio views pass the stage's check: the same answers.
+        let studio = row("studio", 0.0, method);
+        assert_eq!(studio["plain"], studio["robust"], "{method} on studio views");
+        // Over clutter with a fifth hidden, the stage repairs the views: far better than plain.
+        let x = row("texture", 0.2, method);
+        let (plain, robust) = (x["plain"]["mean_deg"].as_f64().unwrap(), x["robust"]["mean_deg"].as_f64().unwrap());
+        assert!(plain > 30.0 && robust < 0.5 * plain, "{method}, texture 20%: plain {plain:.1} degrees, robust {robust:.1}");
+        assert!(x["robust"]["gross"].as_u64().unwrap() < x["plain"]["gross"].as_u64().unwrap(), "{method}: gross errors");
+        assert_eq!(x["plain"]["per_query_us"], 0.0, "untimed");
+    }
+    let stages = s["stages"].as_array().unwrap();
+    assert_eq!(stages.len(), 1);
+    // The same views and models through the CLI: the report's robust eigenspace (its stage
+    // shared with the other methods) is what `train --robust` gives.
+    d.ok(&["synth", "--object", "duck", "--azimuth", "0:351:9", "--elevation", "32:77:9", "--size", "80x60", "--out", "duck"]);
+    d.ok(&[
+        "synth",
+        "--object",
+        "duck",
+        "--azimuth",
+        "6:342:48",
+        "--elevation",
+        "35:59:24",
+        "--size",
+        "80x60",
+        "--background",
+        "texture",
+        "--occlude",
+        "0.2",
+        "--out",
+        "tex20",
+    ]);
+    d.ok(&["train", "--data", "duck", "--train-step", "18", "--method", "eigenspace", "--no-normalize", "--robust", "--out", "robust.safetensors"]);
+    d.ok(&["eval", "--model", "robust.safetensors", "--data", "tex20", "--json", "tex20.json"]);
+    let e = json(&d.path("tex20.json"));
+    let x = row("texture", 0.2, "eigenspace");
+    let (a, b) = (x["robust"]["mean_deg"].as_f64().unwrap(), e["unseen"]["mean_deg"].as_f64().unwrap());
+    assert!((a - b).abs() <= 1e-9 * a.max(1.0), "report {a} vs direct {b}");
+    let model_bytes = std::fs::metadata(d.path("robust.safetensors")).unwrap().len();
+    assert!(model_bytes as f64 > stages[0]["stage_bytes"].as_f64().unwrap(), "the model file holds the stage");
+}

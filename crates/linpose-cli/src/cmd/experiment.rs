@@ -1,14 +1,21 @@
 //! `linpose experiment`: the paper's study, run and reported (the main job).
 
-use super::tuning::{ThreeParamsGrid, COARSE_STEP, JITTER_EXPOSURE, JITTER_SCALE, JITTER_SHIFT_PER_WIDTH, SIZE_STEPS, THREE_PARAMS, THREE_PARAMS_FULL};
+use super::tuning::{
+    SceneViewGrid, ThreeParamsGrid, COARSE_STEP, JITTER_EXPOSURE, JITTER_SCALE, JITTER_SHIFT_PER_WIDTH, SCENE_VIEWS, SCENE_VIEWS_FULL, SCENE_VIEWS_QUICK,
+    SIZE_STEPS, THREE_PARAMS, THREE_PARAMS_FULL,
+};
 use crate::common::{load_dataset, progress};
 use crate::report::{self, StudyInfo};
 use crate::study::recognition::{self, RecognitionStudy};
+use crate::study::scenes::{self, Backdrop, Condition, ScenesRow, ScenesStudy, StageCost};
 use crate::study::table1::{self, SizePoint};
 use crate::study::three_params::{self, ThreeParamsStudy};
+use crate::study::tuning::{SCENE_SHARES, SCENE_SIDE_SHARES};
 use crate::study::{normalization, run_object, ObjectResult, Run, StudyParams};
 use anyhow::Context;
-use linpose::image_io::ColorMode;
+use linpose::image_io::{ColorMode, ImageSpec};
+use linpose::render::background::Background;
+use linpose::render::scene::Scene;
 use linpose::render::synth::{self, PoseGrid};
 use linpose::render::{objects, Grid, Jitter, RenderParams};
 use linpose::{Dataset, Manifest, PoseModel, TrainSelection};
@@ -163,6 +170,20 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot create the report folder", tmp.display()))?;
     // The Table 1 figure's points of one pose parameter, from the first object.
     let mut ring_points: Vec<SizePoint> = Vec::new();
+    // The scenes section, on the built-in objects of the main study.
+    let scene_views = match (a.quick, a.full) {
+        (true, _) => SCENE_VIEWS_QUICK,
+        (false, true) => SCENE_VIEWS_FULL,
+        (false, false) => SCENE_VIEWS,
+    };
+    let scene_setup = SceneSetup {
+        grid: scene_grid(&scene_views)?,
+        views: format!("azimuth {} x elevation {}", scene_views.azimuth, scene_views.elevation),
+        render: render_params.clone(),
+        conditions: scenes::conditions(&SCENE_SHARES, if a.full { &SCENE_SHARES } else { &SCENE_SIDE_SHARES }),
+        seed: params.seed,
+    };
+    let (mut scene_rows, mut scene_stages, mut scene_s): (Vec<ScenesRow>, Vec<StageCost>, f64) = (vec![], vec![], 0.0);
     let result = (|| -> anyhow::Result<Studied> {
         let mut results = Vec::new();
         let mut kept = Vec::new();
@@ -214,8 +235,15 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
             if results.is_empty() {
                 ring_points = ring_sizes(name, &data, &params)?;
             }
-            // Every view kept (8-bit where exact) for the recognition study across the objects.
             let mask = data.manifest().training_mask(&TrainSelection::Step(params.train_step))?;
+            if let (Source::Builtin(n), false) = (src, open_cases.contains(name)) {
+                let t = Instant::now();
+                let (rows, stage) = scenes_of(n, &data.subset(&mask)?, &r.models, &scene_setup).with_context(|| format!("the scenes study on {name}"))?;
+                scene_s += t.elapsed().as_secs_f64();
+                scene_rows.extend(rows);
+                scene_stages.push(stage);
+            }
+            // Every view kept (8-bit where exact) for the recognition study across the objects.
             kept.push((data.subset(&mask)?, Views::keep(data)));
             results.push(r);
         }
@@ -254,6 +282,14 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     table1_sizes.extend(results.first().map(table1::from_sweep).unwrap_or_default());
     let (mut three_params, three_points) = three.unzip();
     table1_sizes.extend(three_points.unwrap_or_default());
+    let mut scenes_study = (!scene_rows.is_empty()).then(|| ScenesStudy {
+        views: scene_setup.views.clone(),
+        seed: scene_setup.seed,
+        conditions: scene_setup.conditions.clone(),
+        rows: scene_rows,
+        stages: scene_stages,
+        total_s: scene_s,
+    });
     let recognition = recognition.map(|mut s| {
         if a.no_timings {
             s.rows.iter_mut().for_each(|r| (r.fit_s, r.per_query_us) = (0.0, 0.0));
@@ -263,6 +299,11 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
     if a.no_timings {
         data_s = 0.0;
         table1_sizes.iter_mut().for_each(|p| p.cost.per_query_us = 0.0);
+        if let Some(s) = &mut scenes_study {
+            s.rows.iter_mut().for_each(|r| (r.plain.per_query_us, r.robust.per_query_us) = (0.0, 0.0));
+            s.stages.iter_mut().for_each(|t| t.fit_s = 0.0);
+            s.total_s = 0.0;
+        }
         if let Some(t) = &mut three_params {
             t.rows.iter_mut().for_each(|r| (r.fit_s, r.cost.per_query_us) = (0.0, 0.0));
             t.total_s = 0.0;
@@ -296,6 +337,7 @@ pub(crate) fn run(a: &ExperimentArgs) -> anyhow::Result<()> {
         total_s: if a.no_timings { 0.0 } else { t0.elapsed().as_secs_f64() },
         recognition,
         three_params,
+        scenes: scenes_study,
         table1_sizes,
     };
     let written = (|| -> anyhow::Result<()> {
@@ -355,6 +397,50 @@ fn three_params_study(name: &str, g: &ThreeParamsGrid, params: &StudyParams) -> 
     })?;
     bar.finish_and_clear();
     Ok((ThreeParamsStudy { total_s: t.elapsed().as_secs_f64(), ..study }, points, data_s))
+}
+
+/// What the scenes section renders and runs on each object.
+struct SceneSetup {
+    /// The views' poses (each condition's scene put on them).
+    grid: PoseGrid,
+    /// The views in words.
+    views: String,
+    /// The main study's render parameters (its image size, the studio backdrop).
+    render: RenderParams,
+    /// The conditions.
+    conditions: Vec<Condition>,
+    /// The scenes' seed.
+    seed: u64,
+}
+
+/// The pose grid of `g`.
+fn scene_grid(g: &SceneViewGrid) -> anyhow::Result<PoseGrid> {
+    Ok(PoseGrid::new(Grid::parse("elevation", g.elevation)?, Grid::parse("azimuth", g.azimuth)?)?)
+}
+
+/// The scenes section on the built-in object `name`: `models` (fitted on `train`) plain and
+/// robust on its views rendered into every condition's scenes.
+fn scenes_of(name: &str, train: &Dataset, models: &[linpose::AnyModel], s: &SceneSetup) -> anyhow::Result<(Vec<ScenesRow>, StageCost)> {
+    let mesh = objects::builtin(name)?;
+    let spec = ImageSpec { width: s.render.get_width(), height: s.render.get_height(), color: ColorMode::Gray };
+    let views = |c: Condition| -> linpose::Result<scenes::SceneViews> {
+        let background = match c.backdrop {
+            Backdrop::Studio => Background::Level(s.render.get_background()),
+            Backdrop::Texture => Background::Texture,
+            Backdrop::Noise => Background::Noise,
+        };
+        let grid = s.grid.clone().with_scene(Scene::new(background, c.occlude, s.seed)?);
+        let v = synth::render_scenes(&mesh, &grid, &s.render, &|_| {})?;
+        let hidden = if v.records.is_empty() { 0.0 } else { v.records.iter().map(|r| r.hidden).sum::<f64>() / v.records.len() as f64 };
+        Ok(scenes::SceneViews { data: Dataset::from_pixels(grid.manifest(Path::new(name))?, spec, v.pixels)?, hidden })
+    };
+    let bar = progress((1 + s.conditions.len()) as u64, &format!("{name}, scenes"));
+    let out = scenes::run(&scenes::ObjectScenes { object: name, train, plain: models, conditions: &s.conditions, views: &views }, s.seed, &|m| {
+        bar.set_message(m.to_string());
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    Ok(out)
 }
 
 /// The per-object studies, the seconds spent making or reading the data, and each object's
@@ -476,6 +562,9 @@ fn summary(info: &StudyInfo, results: &[ObjectResult], out: &Path) {
                 format!("{} ({})", r.gross, r.gross_flagged)
             );
         }
+    }
+    if let Some(text) = info.scenes.as_ref().and_then(report::scenes_finding) {
+        println!("{} ({:.1} s)", text.replace("**", ""), info.scenes.as_ref().map_or(0.0, |s| s.total_s));
     }
     println!("errors: unseen-view mean, degrees. Report: {}", out.join("report.html").display());
 }

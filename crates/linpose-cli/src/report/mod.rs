@@ -6,12 +6,15 @@ pub(crate) mod doc;
 mod normalization;
 pub(crate) mod plots;
 mod recognition;
+mod scenes;
 mod table1;
 mod three_params;
 
 use confidence::{confidence_finding, confidence_section};
 use normalization::{normalization_finding, normalization_section};
 use recognition::{recognition_finding, recognition_section};
+pub(crate) use scenes::scenes_finding;
+use scenes::scenes_section;
 use table1::{table1_figure, table1_finding};
 use three_params::{three_params_finding, three_params_section};
 
@@ -58,6 +61,9 @@ pub(crate) struct StudyInfo {
     /// The three-parameter section, on the first built-in object (none on the user's data).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub three_params: Option<crate::study::three_params::ThreeParamsStudy>,
+    /// The scenes section, on the built-in objects of the main study (none on the user's data).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scenes: Option<crate::study::scenes::ScenesStudy>,
     /// The Table 1 figure's points: every method fitted on nested training sets of one, two and
     /// three pose parameters.
     pub table1_sizes: Vec<crate::study::table1::SizePoint>,
@@ -227,6 +233,7 @@ pub(crate) fn build(info: &StudyInfo, objects: &[ObjectResult]) -> Result<Doc, S
     confidence_section(&mut b, objects)?;
     normalization_section(&mut b, objects, info.jitter_grid.as_deref());
     recognition_section(&mut b, info.recognition.as_ref(), info.left_out_step);
+    scenes_section(&mut b, info.scenes.as_ref())?;
 
     // Figures.
     b.push(Block::Heading(1, "Figures".into()));
@@ -359,6 +366,9 @@ fn findings(info: &StudyInfo, main: &[&ObjectResult], open: &[&ObjectResult]) ->
         out.push(text);
     }
     if let Some(text) = normalization_finding(&everything) {
+        out.push(text);
+    }
+    if let Some(text) = info.scenes.as_ref().and_then(scenes_finding) {
         out.push(text);
     }
     if let Some(text) = info.three_params.as_ref().and_then(three_params_finding) {

@@ -10,6 +10,7 @@
 
 pub(crate) mod normalization;
 pub(crate) mod recognition;
+pub(crate) mod scenes;
 pub(crate) mod table1;
 pub(crate) mod three_params;
 pub(crate) mod tuning;

@@ -32,6 +32,21 @@ impl Robust {
         Ok(AnyModel::new(Robust { stage: Stage::fit(train)?, inner }))
     }
 
+    /// The same stage in front of `inner`, another model fitted on the same training views (of
+    /// another method, say): the model [`Robust::fit`] of `inner` on those views gives, without
+    /// fitting the stage again. Refuses a model of another image size or colour.
+    pub fn with_inner(&self, inner: AnyModel) -> Result<AnyModel> {
+        let (have, got) = (self.meta().spec, inner.meta().spec);
+        if have != got {
+            return Err(crate::Error::invalid(
+                "robust stage",
+                format!("a model of {}x{} {:?} views", got.width, got.height, got.color),
+                format!("the stage is of {}x{} {:?} views", have.width, have.height, have.color),
+            ));
+        }
+        Ok(AnyModel::new(Robust { stage: self.stage.clone(), inner }))
+    }
+
     /// The stage's settings.
     pub fn settings(&self) -> &RobustSettings {
         self.stage.settings()
