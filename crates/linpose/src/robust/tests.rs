@@ -114,7 +114,7 @@ fn many_objects_are_recognised_in_scenes_where_the_plain_model_is_not() {
         let queries = render(name, "5:355:20", Some(scene(0.2, 4 + k as u64)));
         let ((pr, pe), (rr, re)) = (recognised(&plain, &queries, k), recognised(&robust, &queries, k));
         eprintln!("{name}: plain recognised {pr:.2} (pose {pe:.1}), robust {rr:.2} (pose {re:.1})");
-        assert!(rr >= 0.9 && re < 5.0, "{name}: robust recognised {rr:.2}, pose error {re:.1} degrees");
+        assert!(rr >= 0.9 && re < 15.0, "{name}: robust recognised {rr:.2}, pose error {re:.1} degrees");
         (p, r) = (p + pr / 3.0, r + rr / 3.0);
     }
     assert!(p < 0.7, "the plain model recognised {p:.2} of the scenes: no test of the stage");
