@@ -298,9 +298,9 @@ impl ObjectModel {
     /// ([`crate::robust`]) fitted on its training views in `objects` (those the model was
     /// fitted on; behind a normalisation stage, as it normalises them). A query the stage of the
     /// object the recogniser names cannot explain (a cluttered background, an occluder) is
-    /// fitted robustly by every object's stage, repaired by the fit that explains the most
-    /// pixels, and answered as repaired; every other query is answered as without the stage,
-    /// bit for bit. See `recognize/robust.rs`.
+    /// scored by every object's stage, repaired by the object whose training views match the
+    /// largest share of its bright pixels, and answered as repaired; every other query is
+    /// answered as without the stage, bit for bit. See `recognize/robust.rs`.
     pub fn with_robust(mut self, objects: &ObjectSet) -> Result<Self> {
         if objects.names() != self.names.as_slice() || objects.spec() != self.spec {
             return Err(Error::invalid("robust stage", "training views", "the objects and image size the model was fitted on"));
