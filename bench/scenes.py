@@ -3,6 +3,7 @@
 
   scenes.py [--coil DIR] [--objects 1-20] [--sets 0,0.2,0.4] [--methods eigenspace,refined]
             [--linpose BIN] [--python PY] [--peer PEER] [--no-peer] [--jobs 2] [--work DIR]
+            [--recognize]
 
 For each object: its studio views (coil2dir.py) and, per set, every view put into a scene by
 `linpose scene --background texture --occlude F --seed OBJECT`; a mixed data set holds the studio
@@ -10,7 +11,16 @@ views at multiples of 10 degrees (the training views) and the scene views betwee
 linpose trains each method on the studio views every 10 degrees, plain and with `--robust`, and
 `linpose eval` reads the mixed set: its unseen mean is the error over the scene views. The peer
 (`peer.py --train-step 10 --only eigenspace`) reads the mixed set the same way. (Recognition of
-the 20 objects read whole is not measured: a many-object model takes no robust stage yet.)
+the objects together: --recognize.)
+
+With --recognize: one many-object model of the objects (the universal eigenspace with refined
+pose models, no normalisation stage), plain and with `--robust`, trained on their studio views
+every 10 degrees, evaluated on the objects' mixed sets together, and on their studio views (the
+views between in the studio: the robust stage must leave them as they are); the peer
+(`recognize.py --train-step 10`) on the same mixed sets. Prints per set the recognition rate of
+the scene views (every object known, `--unknown off`, and under the calibrated unknown-object
+rule), their pose unseen mean (views recognised as their object) and the per-query time of
+eval, plain, robust and the peer's.
 
 Prints, per set and per method, the unseen mean over the objects (plain, robust, peer) and the
 per-query time of eval (predict seconds / views, over the mixed set: half studio views, half
@@ -31,6 +41,8 @@ ap.add_argument("--peer", default=os.path.join(root, "..", "shared", "peer", "pe
 ap.add_argument("--no-peer", action="store_true")
 ap.add_argument("--jobs", type=int, default=2)
 ap.add_argument("--work", default=None, help="working folder (default: a new temporary one)")
+ap.add_argument("--recognize", action="store_true", help="one many-object model of the objects (see the doc)")
+ap.add_argument("--peer-recognize", default=os.path.join(root, "..", "shared", "peer", "recognize.py"))
 a = ap.parse_args()
 
 work = a.work or tempfile.mkdtemp(prefix="scenes-")
@@ -96,6 +108,54 @@ def peer(o, f):
     run([a.python, a.peer, mixed(o, f), "--train-step", "10", "--only", "eigenspace", "--json", j])
     return json.load(open(j))["eigenspace"]["unseen"]["mean_deg"]
 
+
+
+
+def recognition():
+    """The many-object part (--recognize)."""
+    with cf.ThreadPoolExecutor(a.jobs) as ex:
+        for f in sets:
+            list(ex.map(lambda o: mixed(o, f), objects))
+    tag = a.objects.replace("-", "_")
+    models = {}
+    for robust in (False, True):
+        m = os.path.join(work, f"objects{tag}{'-robust' if robust else ''}.st")
+        if not os.path.exists(m):
+            run([a.linpose, "train", "--data", studio, "--train-step", "10", "--method", "refined", "--no-normalize", "--out", m] + (["--robust"] if robust else []))
+        models[robust] = m
+
+    def ev(model, data, name, *extra):
+        j = os.path.join(work, f"{name}.json")
+        run([a.linpose, "eval", "--model", model, "--data", data, "--json", j, *extra])
+        r = json.load(open(j))
+        return r["recognition"]["unseen"], (r["pose"]["unseen"] or {}).get("mean_deg", float("nan")), r["predict_s"] / max(1, r["n_eval"])
+
+    def peer_rec(f):
+        j = os.path.join(work, f"peer-rec{f}-{tag}.json")
+        if not os.path.exists(j):
+            d = os.path.join(work, f"mix{f}")
+            run([a.python, a.peer_recognize, *[os.path.join(d, f"obj{o}") for o in objects], "--train-step", "10", "--json", j])
+        e = json.load(open(j))["eigenspace"]
+        return e["recognition_unseen"], e["pose_unseen"]["mean_deg"], e["pose_unseen_recognised"]["mean_deg"], e["predict_s"] / json.load(open(j))["n_eval"]
+
+    print(f"COIL-20 objects {a.objects} as one model (universal recogniser, refined poses), trained on the studio views every 10 degrees")
+    print(f"{'set':>8} {'recognised (off) plain':>22} {'robust':>7} {'(calibrated) plain':>18} {'robust':>7} {'pose plain':>10} {'robust':>7} {'ms/query plain':>14} {'robust':>7} | peer: {'recognised':>10} {'pose':>7} {'pose rec.':>9} {'ms/q':>6}")
+    for f in ["studio"] + sets:
+        data = studio if f == "studio" else os.path.join(work, f"mix{f}")
+        r = {}
+        for robust in (False, True):
+            r[robust, "off"] = ev(models[robust], data, f"rec-{f}-{robust}-{tag}-off", "--unknown", "off")
+            r[robust, "cal"] = ev(models[robust], data, f"rec-{f}-{robust}-{tag}-cal")
+        p = peer_rec(f) if (f != "studio" and not a.no_peer) else (float("nan"),) * 4
+        print(f"{str(f):>8} {r[False, 'off'][0]:>22.4f} {r[True, 'off'][0]:>7.4f} {r[False, 'cal'][0]:>18.4f} {r[True, 'cal'][0]:>7.4f} "
+              f"{r[False, 'off'][1]:>10.3f} {r[True, 'off'][1]:>7.3f} {1e3 * r[False, 'off'][2]:>14.3f} {1e3 * r[True, 'off'][2]:>7.3f} | "
+              f"{p[0]:>16.4f} {p[1]:>7.3f} {p[2]:>9.3f} {1e3 * p[3]:>6.3f}")
+    print(f"work folder: {work}")
+
+
+if a.recognize:
+    recognition()
+    sys.exit(0)
 
 with cf.ThreadPoolExecutor(a.jobs) as ex:
     for f in sets:

@@ -84,8 +84,10 @@ fn objects_to_bytes(model: &ObjectModel) -> Result<Vec<u8>> {
         views: model.space().is_none().then(|| model.spec()),
         normalize: model.stage().cloned(),
         labels: model.labels().cloned(),
+        robust: Some(model.robust_settings()).filter(|r| !r.is_empty()),
     };
     let mut tensors = model.recognizer_tensors();
+    tensors.extend(model.robust_tensors());
     for (k, p) in model.pose_models().iter().enumerate() {
         tensors.extend(p.tensors().into_iter().map(|t| Tensor { name: format!("object.{k}.{}", t.name), ..t }));
     }
@@ -124,6 +126,10 @@ struct ObjectsHeader {
     /// reads the file and ignores them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     labels: Option<crate::recognize::Labels>,
+    /// Each object's robust stage's settings (absent: no robust stage); their arrays are
+    /// `robust.K.rows` and `robust.K.hypotheses`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    robust: Option<Vec<crate::robust::RobustSettings>>,
 }
 
 fn from_bytes(path: &Path, bytes: &[u8]) -> Result<AnyModel> {
@@ -189,15 +195,12 @@ fn objects_from_bytes(path: &Path, bytes: &[u8]) -> Result<ObjectModel> {
         poses.push(pose_model(meta, &set)?);
     }
     own.extend(rest);
-    ObjectModel::from_parts(
-        header.names,
-        header.settings,
-        &TensorSet { path: path.to_path_buf(), tensors: own },
-        poses,
-        header.views,
-        header.normalize,
-        header.labels,
-    )
+    let t = TensorSet { path: path.to_path_buf(), tensors: own };
+    let model = ObjectModel::from_parts(header.names, header.settings, &t, poses, header.views, header.normalize, header.labels)?;
+    match header.robust {
+        None => Ok(model),
+        Some(settings) => model.with_robust_parts(&settings, &t),
+    }
 }
 
 /// Whether the model file at `path` holds several objects ([`ObjectModel::load`]) rather than one

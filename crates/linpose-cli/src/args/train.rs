@@ -56,7 +56,8 @@ pub(crate) struct TrainArgs {
     /// The robust stage: a query the training views' eigenspace does not explain (a cluttered
     /// background, an occluder) has the pixels it cannot explain found and replaced by the
     /// robust reconstruction before the method sees it (stored in the model); a query it
-    /// explains goes as it is. Gray views fitted in memory.
+    /// explains goes as it is. Gray views fitted in memory. With many objects, each object has
+    /// its stage and the one whose fit explains the most pixels repairs the query.
     #[arg(long, conflicts_with = "stream")]
     pub robust: bool,
     /// With a data set of many objects: how a query's object is told (default: the first listed).

@@ -145,6 +145,9 @@ pub(crate) fn train(
     if fell_back {
         model = model.with_stage_choice(StageChoice::off("the training set is too large to choose its normalisation in memory"));
     }
+    if a.robust {
+        model = model.with_robust(&train).map_err(as_flag)?;
+    }
     bar.finish_and_clear();
     let fit_s = t1.elapsed().as_secs_f64();
     let file_bytes = model.save(out).context("writing the model")?;

@@ -75,9 +75,6 @@ pub(crate) fn run(a: &TrainArgs) -> anyhow::Result<()> {
             anyhow::bail!("{}: a data set of many objects is fitted in memory (not yet: --stream)", a.data.data.display());
         }
         let params = crate::cmd::objects::recognizer_params(a)?;
-        if a.robust {
-            anyhow::bail!("--robust: a data set of many objects takes no robust stage yet; train each object's model apart");
-        }
         return crate::cmd::objects::train(a, &params, method, &spec, rule);
     }
     if many_only {

@@ -63,6 +63,7 @@
 
 mod model;
 mod own;
+mod robust;
 mod tuning;
 
 #[cfg(test)]

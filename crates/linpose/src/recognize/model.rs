@@ -4,6 +4,7 @@
 //! every object's training views, as Murase & Nayar segment and normalise before recognising.
 
 use super::own::OwnSpaces;
+use super::robust::RobustObjects;
 use super::{checked_distances, Recognition, Recognize, Recognizer, RecognizerParams, Unknown};
 use crate::catalog::ObjectSet;
 use crate::confidence::{Estimate, Hypothesis};
@@ -113,6 +114,9 @@ pub struct ObjectModel {
     stage: Option<Normalizer>,
     /// The caller's labels for the objects, where the names do not say them ([`Labels`]).
     labels: Option<Labels>,
+    /// Each object's robust stage ([`ObjectModel::with_robust`], `robust.rs`); `None`: queries
+    /// go to the recogniser as they are (after the normalisation stage, if any).
+    robust: Option<RobustObjects>,
 }
 
 /// How a caller labels the objects where their names, as text, do not say it: each object's
@@ -215,6 +219,7 @@ impl ObjectModel {
             poses,
             stage: None,
             labels: None,
+            robust: None,
         }
     }
 
@@ -287,6 +292,48 @@ impl ObjectModel {
     /// The normalisation stage queries go through first, if the model has one.
     pub fn stage(&self) -> Option<&Normalizer> {
         self.stage.as_ref()
+    }
+
+    /// The same model behind a robust stage (gray views only): each object's robust stage
+    /// ([`crate::robust`]) fitted on its training views in `objects` (those the model was
+    /// fitted on; behind a normalisation stage, as it normalises them). A query the stage of the
+    /// object the recogniser names cannot explain (a cluttered background, an occluder) is
+    /// scored by every object's stage, repaired by the object whose training views match the
+    /// largest share of its bright pixels, and answered as repaired; every other query is
+    /// answered as without the stage, bit for bit. See `recognize/robust.rs`.
+    pub fn with_robust(mut self, objects: &ObjectSet) -> Result<Self> {
+        if objects.names() != self.names.as_slice() || objects.spec() != self.spec {
+            return Err(Error::invalid("robust stage", "training views", "the objects and image size the model was fitted on"));
+        }
+        let robust = match &self.stage {
+            None => RobustObjects::fit(objects)?,
+            Some(stage) => {
+                let normalised = objects.objects().iter().map(|d| stage.apply_dataset(d)).collect::<Result<Vec<Dataset>>>()?;
+                RobustObjects::fit(&ObjectSet::new(objects.names().to_vec(), normalised)?)?
+            }
+        };
+        self.robust = Some(robust);
+        Ok(self)
+    }
+
+    /// Each object's robust stage's settings, in the order of the objects (empty: the model
+    /// has no robust stage, [`ObjectModel::with_robust`]).
+    pub fn robust_settings(&self) -> Vec<crate::robust::RobustSettings> {
+        self.robust.as_ref().map_or_else(Vec::new, RobustObjects::settings)
+    }
+
+    /// The model with the robust stages of a model file (`settings` per object, arrays in `t`).
+    pub(crate) fn with_robust_parts(mut self, settings: &[crate::robust::RobustSettings], t: &TensorSet) -> Result<Self> {
+        if settings.len() != self.names.len() {
+            return Err(t.error(format!("damaged object model: {} robust stages for {} objects", settings.len(), self.names.len())));
+        }
+        self.robust = Some(RobustObjects::from_parts(self.spec, settings, t)?);
+        Ok(self)
+    }
+
+    /// The robust stages' arrays for a model file (none without them).
+    pub(crate) fn robust_tensors(&self) -> Vec<Tensor> {
+        self.robust.as_ref().map_or_else(Vec::new, RobustObjects::tensors)
     }
 
     /// The queries as the recogniser and the pose models take them: normalised by the stage
@@ -412,21 +459,74 @@ impl ObjectModel {
 
     /// Each query's distance to each object (rows of K values): the recogniser's measure.
     pub fn distances(&self, queries: &[f32]) -> Result<Vec<f64>> {
-        self.distances_of(&self.prepared(queries)?)
+        Ok(self.distances_of(self.prepared(queries)?)?.1)
     }
 
-    /// [`ObjectModel::distances`] of queries already prepared.
-    fn distances_of(&self, queries: &[f32]) -> Result<Vec<f64>> {
+    /// [`ObjectModel::distances`] of queries already prepared, through the robust stage as
+    /// [`ObjectModel::recognize`] (the nearest object's stage checks each query): the queries
+    /// as answered, repaired where they needed it, and their distances.
+    fn distances_of<'q>(&self, queries: Cow<'q, [f32]>) -> Result<(Cow<'q, [f32]>, Vec<f64>)> {
+        let k = self.names.len();
+        let mut d = self.distances_plain(&queries)?;
+        let named: Vec<usize> = d.chunks_exact(k).map(|row| (0..k).min_by(|&a, &b| row[a].total_cmp(&row[b])).expect("at least one object")).collect();
+        let (queries, fixes) = self.repaired(queries, &named);
+        if !fixes.is_empty() {
+            let m = self.spec.features();
+            let batch: Vec<f32> = fixes.iter().flat_map(|&(i, _)| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            for (&(i, _), row) in fixes.iter().zip(self.distances_plain(&batch)?.chunks_exact(k)) {
+                d[i * k..(i + 1) * k].copy_from_slice(row);
+            }
+        }
+        Ok((queries, d))
+    }
+
+    /// The recogniser's distances of queries as they are.
+    fn distances_plain(&self, queries: &[f32]) -> Result<Vec<f64>> {
         checked_distances(&*self.recognizer, queries, queries.len() / self.spec.features(), self.names.len())
     }
 
     /// Which object each query shows.
     pub fn recognize(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
-        self.recognize_of(&self.prepared(queries)?)
+        Ok(self.recognize_of(self.prepared(queries)?)?.recognitions)
     }
 
-    /// [`ObjectModel::recognize`] of queries already prepared.
-    fn recognize_of(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
+    /// [`ObjectModel::recognize`] of queries already prepared, through the robust stage when
+    /// the model has one: each query is recognised as it is, checked by the named object's
+    /// stage, and, where that stage cannot explain it, repaired (`robust.rs`) and recognised
+    /// again.
+    fn recognize_of<'q>(&self, queries: Cow<'q, [f32]>) -> Result<Answered<'q>> {
+        let mut recognitions = self.recognize_plain(&queries)?;
+        let named: Vec<usize> = recognitions.iter().map(|r| r.nearest).collect();
+        let (queries, fixes) = self.repaired(queries, &named);
+        if !fixes.is_empty() {
+            let m = self.spec.features();
+            let batch: Vec<f32> = fixes.iter().flat_map(|&(i, _)| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            for (&(i, _), r) in fixes.iter().zip(self.recognize_plain(&batch)?) {
+                recognitions[i] = r;
+            }
+        }
+        Ok(Answered { queries, recognitions, shown: fixes })
+    }
+
+    /// The queries with those the robust stage repairs in place (each checked by the stage of
+    /// the object `named` for it), and their places with the share of the object each shows;
+    /// the queries as they are without a robust stage or when none needs repair.
+    fn repaired<'q>(&self, queries: Cow<'q, [f32]>, named: &[usize]) -> (Cow<'q, [f32]>, Vec<(usize, f64)>) {
+        let Some(robust) = &self.robust else { return (queries, Vec::new()) };
+        let m = self.spec.features();
+        let fixes = robust.repair_batch(&queries, m, named);
+        if fixes.is_empty() {
+            return (queries, Vec::new());
+        }
+        let mut q = queries.into_owned();
+        for (i, r) in &fixes {
+            q[i * m..(i + 1) * m].copy_from_slice(&r.pixels);
+        }
+        (Cow::Owned(q), fixes.into_iter().map(|(i, r)| (i, r.shown)).collect())
+    }
+
+    /// The recogniser's and the second stage's answer for queries as they are.
+    fn recognize_plain(&self, queries: &[f32]) -> Result<Vec<Recognition>> {
         let mut rec = self.recognizer.recognize(queries, queries.len() / self.spec.features(), &self.settings.thresholds)?;
         self.check_own(queries, &mut rec);
         Ok(rec)
@@ -489,7 +589,7 @@ impl ObjectModel {
     /// Each query's object and, for a known one, its pose from that object's model with up to
     /// `top` hypotheses ([`PoseModel::estimate`]); queries of one object are estimated together.
     pub fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<ObjectEstimate>> {
-        self.estimate_of(&self.prepared(queries)?, top)
+        self.estimate_of(self.prepared(queries)?, top)
     }
 
     /// As [`ObjectModel::estimate`], where a query the normalisation stage refuses gets why,
@@ -497,9 +597,9 @@ impl ObjectModel {
     /// every query has its estimate.
     pub fn estimate_each(&self, queries: &[f32], top: usize) -> Result<Vec<std::result::Result<ObjectEstimate, Rejection>>> {
         check_queries(self.spec.features(), queries.len(), "query batch")?;
-        let Some(stage) = &self.stage else { return Ok(self.estimate_of(queries, top)?.into_iter().map(Ok).collect()) };
+        let Some(stage) = &self.stage else { return Ok(self.estimate_of(Cow::Borrowed(queries), top)?.into_iter().map(Ok).collect()) };
         let (rows, verdicts) = stage.apply_batch(queries);
-        let mut est = if rows.is_empty() { Vec::new() } else { self.estimate_of(&rows, top)? }.into_iter();
+        let mut est = if rows.is_empty() { Vec::new() } else { self.estimate_of(Cow::Owned(rows), top)? }.into_iter();
         Ok(verdicts.into_iter().map(|v| v.map_or_else(|| Ok(est.next().expect("one estimate per query the stage accepted")), Err)).collect())
     }
 
@@ -515,11 +615,10 @@ impl ObjectModel {
         if self.poses.is_empty() {
             return Err(Error::invalid("top", top, "this model was fitted without poses: it tells objects apart, with no pose hypotheses"));
         }
-        let q = self.prepared(queries)?;
         let (m, k) = (self.spec.features(), self.names.len());
+        let (q, d) = self.distances_of(self.prepared(queries)?)?;
         let n = q.len() / m;
         let top = top.max(1);
-        let d = self.distances_of(&q)?;
         let nearest: Vec<Vec<usize>> = (0..n)
             .map(|i| {
                 let row = &d[i * k..(i + 1) * k];
@@ -549,8 +648,8 @@ impl ObjectModel {
     }
 
     /// [`ObjectModel::estimate`] of queries already prepared.
-    fn estimate_of(&self, queries: &[f32], top: usize) -> Result<Vec<ObjectEstimate>> {
-        let rec = self.recognize_of(queries)?;
+    fn estimate_of(&self, queries: Cow<'_, [f32]>, top: usize) -> Result<Vec<ObjectEstimate>> {
+        let Answered { queries, recognitions: rec, shown } = self.recognize_of(queries)?;
         let m = self.spec.features();
         let mut poses: Vec<Option<Estimate>> = vec![None; rec.len()];
         for k in 0..self.poses.len() {
@@ -563,13 +662,18 @@ impl ObjectModel {
                 poses[i] = Some(e);
             }
         }
+        for (i, f) in shown {
+            if let Some(e) = &mut poses[i] {
+                crate::confidence::for_hidden(e, f);
+            }
+        }
         Ok(rec.into_iter().zip(poses).map(|(recognition, pose)| ObjectEstimate { recognition, pose }).collect())
     }
 
     /// Bytes of the numbers stored to serve queries, as [`PoseModel::model_bytes`] counts them:
-    /// the recogniser's (f32) and every pose model's.
+    /// the recogniser's (f32), every pose model's and the robust stages' (f32).
     pub fn model_bytes(&self) -> usize {
-        self.recognizer_bytes() + self.poses.iter().map(|p| p.model_bytes()).sum::<usize>()
+        self.recognizer_bytes() + self.poses.iter().map(|p| p.model_bytes()).sum::<usize>() + 4 * self.robust.as_ref().map_or(0, RobustObjects::numbers)
     }
 
     /// Bytes of the recogniser's numbers (f32).
@@ -652,8 +756,16 @@ impl ObjectModel {
             return Err(damaged(format!("own eigenspace dimensions {:?} for {k} objects", o.components)));
         }
         let own = OwnSpaces::from_parts(t, spec, o.bin, &o.components)?;
-        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses, stage, labels })
+        Ok(ObjectModel { names, spec, space, recognizer, own, settings, poses, stage, labels, robust: None })
     }
+}
+
+/// Queries as the model answered them: repaired by the robust stage where they needed it, with
+/// their recognitions and, for each repaired one, its place and the share of the object it shows.
+struct Answered<'q> {
+    queries: Cow<'q, [f32]>,
+    recognitions: Vec<Recognition>,
+    shown: Vec<(usize, f64)>,
 }
 
 /// Per object, the largest and the median held-out distance; an object too sparse to hold views

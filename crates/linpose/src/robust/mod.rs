@@ -35,6 +35,7 @@ pub(crate) mod tuning;
 
 pub use model::Robust;
 pub(crate) use model::META_KEY;
+pub(crate) use search::Coarse;
 
 use crate::binning::Binning;
 use crate::dataset::Dataset;
@@ -199,7 +200,17 @@ impl Stage {
 
     /// The robust fit of a binned query.
     pub(crate) fn fit_binned(&self, xb: &[f32]) -> Fit {
-        search::fit(self, xb)
+        self.fit_coarse(xb, &self.coarse(xb))
+    }
+
+    /// The first pass of the robust fit of a binned query: every hypothesis scored.
+    pub(crate) fn coarse(&self, xb: &[f32]) -> Coarse {
+        search::coarse(self, xb)
+    }
+
+    /// The robust fit of a binned query from its first pass.
+    pub(crate) fn fit_coarse(&self, xb: &[f32], coarse: &Coarse) -> Fit {
+        search::fit(self, xb, coarse)
     }
 
     /// The repaired query: `x`'s own pixels where `fit` explains their bin and its four

@@ -23,34 +23,55 @@ struct Best {
     seen: usize,
 }
 
-/// The robust fit of the binned query `xb` on `stage`.
-pub(super) fn fit(stage: &Stage, xb: &[f32]) -> Fit {
-    let anneal = &tuning::ANNEAL;
-    let k = stage.settings.rows;
+/// The first pass of the robust fit of one query on one stage: every hypothesis scored in its
+/// own gain.
+pub(crate) struct Coarse {
+    /// Per hypothesis scored, best first: (explained less missed binned pixels, the hypothesis,
+    /// its gain, its mean bright pixel in that gain).
+    scored: Vec<(i64, usize, f32, f32)>,
+    /// The largest share of a hypothesis's bright binned pixels that the query matches within
+    /// the coarse threshold: how much of the stage's object the query shows at best, whatever
+    /// else it shows. Many objects' stages compare by it (`crate::recognize`'s robust stage).
+    pub(crate) share: f64,
+}
+
+/// Scores every hypothesis of `stage` on the binned query `xb` (the first pass of [`fit`]).
+pub(super) fn coarse(stage: &Stage, xb: &[f32]) -> Coarse {
     let mb = xb.len();
     let support = &stage.support;
-    // 1. Score every hypothesis in its own gain.
     let mut scored: Vec<(i64, usize, f32, f32)> = Vec::new();
+    let mut share = 0f64;
     let mut ratios = Vec::new();
     for (h, pred) in stage.preds.chunks_exact(mb).enumerate() {
         let Some((gain, scale)) = gain(pred, stage.peaks[h], &stage.support, xb, &mut ratios) else { continue };
         let bright = tuning::BRIGHT * stage.peaks[h];
         let theta = tuning::COARSE * scale;
-        let (mut explained, mut missed) = (0usize, 0usize);
+        let (mut explained, mut missed, mut matched) = (0usize, 0usize, 0usize);
         for &i in support {
             let (x, p) = (xb[i as usize], gain * pred[i as usize]);
-            if (x - p).abs() < theta {
+            let ok = (x - p).abs() < theta;
+            if ok {
                 explained += 1;
             } else if p > gain * bright {
                 missed += 1;
             }
+            matched += (ok && p > gain * bright) as usize;
         }
+        share = share.max(matched as f64 / count as f64);
         scored.push((explained as i64 - missed as i64, h, gain, scale));
     }
     scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+    Coarse { scored, share }
+}
+
+/// The robust fit of the binned query `xb` on `stage`, its first pass `coarse` done.
+pub(super) fn fit(stage: &Stage, xb: &[f32], coarse: &Coarse) -> Fit {
+    let anneal = &tuning::ANNEAL;
+    let k = stage.settings.rows;
+    let mb = xb.len();
     // 2. Refine the best few; 3. keep the best scored.
     let mut best: Option<Best> = None;
-    for &(_, h, gain, scale) in scored.iter().take(tuning::REFINED) {
+    for &(_, h, gain, scale) in coarse.scored.iter().take(tuning::REFINED) {
         let mut coef: Vec<f64> = stage.hyps[h * k..(h + 1) * k].iter().map(|&v| (v * gain) as f64).collect();
         let mut inlier = vec![false; mb];
         let mut score = 0.0;

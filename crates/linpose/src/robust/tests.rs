@@ -130,3 +130,77 @@ fn the_object_is_found_anywhere_in_a_larger_scene() {
     let e = search.locate(&small, spec).unwrap_err().to_string();
     assert!(e.contains("40x30"), "{e}");
 }
+
+/// The objects' training views (every 10 degrees) as one set.
+fn objects(names: &[&str]) -> crate::ObjectSet {
+    crate::ObjectSet::new(names.iter().map(|n| n.to_string()).collect(), names.iter().map(|n| render(n, "0:350:10", None)).collect()).unwrap()
+}
+
+/// A many-object model of `names` (eigenspace pose models), plain and behind the robust stage.
+fn object_models(names: &[&str]) -> (crate::recognize::ObjectModel, crate::recognize::ObjectModel) {
+    use crate::recognize::{ObjectModel, RecognizerParams, Unknown};
+    let set = objects(names);
+    let pose = crate::Method::from_name("eigenspace").unwrap().default_spec();
+    let plain = ObjectModel::fit(&set, &RecognizerParams::default().unknown(Unknown::Off), &pose).unwrap();
+    let robust = plain.clone().with_robust(&set).unwrap();
+    (plain, robust)
+}
+
+/// The share of `model`'s answers naming `object`, and their mean pose error (recognised ones).
+fn recognised(model: &crate::recognize::ObjectModel, queries: &Dataset, object: usize) -> (f64, f64) {
+    let est = model.estimate(queries.features(), 1).unwrap();
+    let ok: Vec<usize> = (0..est.len()).filter(|&i| est[i].recognition.object == Some(object)).collect();
+    let err = ok.iter().map(|&i| queries.space().error_deg(&est[i].pose.as_ref().unwrap().pose, queries.pose(i))).sum::<f64>() / ok.len().max(1) as f64;
+    (ok.len() as f64 / est.len() as f64, err)
+}
+
+#[test]
+fn many_objects_are_recognised_in_scenes_where_the_plain_model_is_not() {
+    let names = ["duck", "pot", "cap"];
+    let (plain, robust) = object_models(&names);
+    let (mut p, mut r) = (0.0, 0.0);
+    for (k, name) in names.iter().enumerate() {
+        let queries = render(name, "5:355:20", Some(scene(0.2, 4 + k as u64)));
+        let ((pr, pe), (rr, re)) = (recognised(&plain, &queries, k), recognised(&robust, &queries, k));
+        eprintln!("{name}: plain recognised {pr:.2} (pose {pe:.1}), robust {rr:.2} (pose {re:.1})");
+        assert!(rr >= 0.9 && re < 15.0, "{name}: robust recognised {rr:.2}, pose error {re:.1} degrees");
+        (p, r) = (p + pr / 3.0, r + rr / 3.0);
+    }
+    assert!(p < 0.7, "the plain model recognised {p:.2} of the scenes: no test of the stage");
+}
+
+#[test]
+fn many_objects_answer_studio_queries_as_without_the_stage() {
+    let names = ["duck", "pot", "cap"];
+    let (plain, robust) = object_models(&names);
+    for name in names {
+        let q = render(name, "5:355:10", None);
+        let f = q.features();
+        assert_eq!(robust.estimate(f, 3).unwrap(), plain.estimate(f, 3).unwrap(), "{name}");
+        assert_eq!(robust.recognize(f).unwrap(), plain.recognize(f).unwrap(), "{name}");
+        assert_eq!(robust.distances(f).unwrap(), plain.distances(f).unwrap(), "{name}");
+        assert_eq!(robust.hypotheses(f, 2).unwrap(), plain.hypotheses(f, 2).unwrap(), "{name}");
+    }
+}
+
+#[test]
+fn the_stages_of_many_objects_survive_their_model_file() {
+    let (plain, robust) = object_models(&["duck", "cap"]);
+    assert!(plain.robust_settings().is_empty() && robust.robust_settings().len() == 2);
+    assert!(robust.model_bytes() > plain.model_bytes());
+    let back = crate::recognize::ObjectModel::from_bytes(std::path::Path::new("<bytes>"), &robust.to_bytes().unwrap()).unwrap();
+    assert_eq!(back.robust_settings(), robust.robust_settings());
+    let queries = render("cap", "10:350:40", Some(scene(0.2, 3)));
+    let est = back.estimate(queries.features(), 2).unwrap();
+    assert_eq!(est, robust.estimate(queries.features(), 2).unwrap());
+    assert_ne!(est, plain.estimate(queries.features(), 2).unwrap(), "the scenes were answered plainly");
+    let plain_back = crate::recognize::ObjectModel::from_bytes(std::path::Path::new("<bytes>"), &plain.to_bytes().unwrap()).unwrap();
+    assert!(plain_back.robust_settings().is_empty());
+}
+
+#[test]
+fn many_objects_take_the_stage_of_gray_views_of_their_own_objects() {
+    let (plain, _) = object_models(&["duck", "cap"]);
+    let e = plain.with_robust(&objects(&["duck", "pot"])).unwrap_err().to_string();
+    assert!(e.contains("robust stage"), "{e}");
+}
