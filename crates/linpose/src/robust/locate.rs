@@ -327,7 +327,7 @@ impl Stage {
 /// count nothing: the training views' backdrop is not the scene's, and dark clutter explaining
 /// it would outscore the object. None (minus infinity) for a hypothesis the window cannot scale.
 fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
-    let Some((gain, scale)) = gain(pred, peak, support, xb, ratios) else { return f32::NEG_INFINITY };
+    let Some((gain, scale, _)) = gain(pred, peak, support, xb, ratios) else { return f32::NEG_INFINITY };
     let (theta, silhouette) = (tuning::COARSE * scale, tuning::SILHOUETTE * peak);
     let mut score = 0f32;
     for &i in support {

@@ -43,7 +43,7 @@ pub(super) fn coarse(stage: &Stage, xb: &[f32]) -> Coarse {
     let mut share = 0f64;
     let mut ratios = Vec::new();
     for (h, pred) in stage.preds.chunks_exact(mb).enumerate() {
-        let Some((gain, scale)) = gain(pred, stage.peaks[h], &stage.support, xb, &mut ratios) else { continue };
+        let Some((gain, scale, count)) = gain(pred, stage.peaks[h], &stage.support, xb, &mut ratios) else { continue };
         let bright = tuning::BRIGHT * stage.peaks[h];
         let theta = tuning::COARSE * scale;
         let (mut explained, mut missed, mut matched) = (0usize, 0usize, 0usize);
@@ -105,8 +105,9 @@ pub(super) fn fit(stage: &Stage, xb: &[f32], coarse: &Coarse) -> Fit {
 /// The gain in which the hypothesis whose binned image is `pred` (brightest `peak`) fits the
 /// binned query `xb` best, the median ratio of query to hypothesis over the hypothesis's bright
 /// pixels of the `support` ([`tuning::BRIGHT`] of its peak), and its mean bright pixel in that
-/// gain. None when it has no bright pixel, or the query is dark there. `ratios` is scratch.
-pub(super) fn gain(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios: &mut Vec<f32>) -> Option<(f32, f32)> {
+/// gain, and the count of those pixels. None when it has no bright pixel, or the query is dark
+/// there. `ratios` is scratch.
+pub(super) fn gain(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios: &mut Vec<f32>) -> Option<(f32, f32, usize)> {
     let bright = tuning::BRIGHT * peak;
     ratios.clear();
     let (mut sum, mut count) = (0f32, 0usize);
@@ -123,7 +124,7 @@ pub(super) fn gain(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios:
     }
     let mid = ratios.len() / 2;
     let gain = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
-    (gain > 0.0).then(|| (gain, gain * sum / count as f32))
+    (gain > 0.0).then(|| (gain, gain * sum / count as f32, count))
 }
 
 /// Marks the binned pixels the coefficients `coef` explain within `theta` (outside the support:
