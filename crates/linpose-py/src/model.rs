@@ -257,6 +257,12 @@ impl Model {
         self.meta().normalize.as_ref().map(|n| serde_json::to_string(n).expect("the stage serialises"))
     }
 
+    /// Whether the model has the robust stage in front ([`linpose::robust::Robust`]).
+    #[getter]
+    fn robust(&self) -> bool {
+        self.inner.downcast_ref::<linpose::robust::Robust>().is_some()
+    }
+
     /// How the normalisation was decided (JSON: the rule, the choice and every candidate's
     /// held-out score), or None for a model fitted without a rule.
     #[getter]
@@ -312,9 +318,11 @@ impl Model {
 
 /// Fits `method` with `settings` (name, value) on the images `(x, height, width)` (rows of
 /// `height` x `width` pixels) at the poses `y` ((n, K) degrees) of the parameters `params`;
-/// `normalize`: `"auto"`, `None` or `"off"`, `"all"`, `"geometry"` or `"brightness"`.
+/// `stages`: `(normalize, robust)`, normalize `"auto"`, `None` or `"off"`, `"all"`, `"geometry"`
+/// or `"brightness"`, and robust whether the robust stage goes in front
+/// ([`linpose::robust::Robust`]).
 #[pyfunction]
-#[pyo3(signature = (method, settings, images, y, params, normalize=None))]
+#[pyo3(signature = (method, settings, images, y, params, stages=(None, false)))]
 pub(crate) fn fit(
     py: Python<'_>,
     method: &str,
@@ -322,8 +330,10 @@ pub(crate) fn fit(
     images: (Bound<'_, PyAny>, u32, u32),
     y: PyReadonlyArray2<'_, f64>,
     params: Vec<(String, Option<f64>)>,
-    normalize: Option<&str>,
+    stages: (Option<String>, bool),
 ) -> PyResult<Model> {
+    let (normalize, robust) = stages;
+    let normalize = normalize.as_deref();
     let (x, height, width) = images;
     let x = &x;
     let (_, _, spec) = method_of(method, settings)?;
@@ -351,7 +361,12 @@ pub(crate) fn fit(
                 Ok(pixels) => Dataset::from_u8(image, pixels, space, poses)?,
                 Err(features) => Dataset::new(image, features, space, poses)?,
             };
-            spec.fit_with_stage(&data, stage)
+            let model = spec.fit_with_stage(&data, stage)?;
+            if robust {
+                linpose::robust::Robust::fit(&data, model)
+            } else {
+                Ok(model)
+            }
         })
         .map_err(py_err)?;
     Ok(Model { inner })

@@ -95,7 +95,7 @@ class PoseEstimator(CoreModel, RegressorMixin, BaseEstimator):
         params = resolve_params(self.params, y2.shape[1])
         settings = self._settings()
         self._release()
-        model = _linpose.fit(self._method, settings, (X, shape[0], shape[1]), np.ascontiguousarray(y2), params, self.normalize)
+        model = _linpose.fit(self._method, settings, (X, shape[0], shape[1]), np.ascontiguousarray(y2), params, (self.normalize, bool(self.robust)))
         # What the model was fitted with, as the model holds it (its getters give the same values):
         # after a fit the interpreter's own data is out of the cache, and reading back through
         # the getters cost about 8 us of a 0.6 ms fit.
@@ -252,6 +252,11 @@ class LinearPose(PoseEstimator):
         model; queries too). ``"auto"`` chooses among off, brightness, geometry and all on
         held-out training views, as ``linpose train`` does (``stage_choice_`` says what it
         chose); ``"off"`` or ``None`` uses the images as they are; the others force it.
+    robust : bool, default=False
+        The robust stage (``linpose train --robust``; gray images): a query the training images'
+        eigenspace does not explain (a cluttered background, an occluder) has the pixels it
+        cannot explain found and replaced by the robust reconstruction before the model sees
+        it; a query it explains goes as it is, with the answer it gets without the stage.
 
     Attributes
     ----------
@@ -283,13 +288,14 @@ class LinearPose(PoseEstimator):
 
     _method = "linear"
 
-    def __init__(self, *, ridge=0.0, noise_level=None, center=False, params=None, image_shape=None, normalize="auto"):
+    def __init__(self, *, ridge=0.0, noise_level=None, center=False, params=None, image_shape=None, normalize="auto", robust=False):
         self.ridge = ridge
         self.noise_level = noise_level
         self.center = center
         self.params = params
         self.image_shape = image_shape
         self.normalize = normalize
+        self.robust = robust
 
     def _settings(self):
         s = []
@@ -348,7 +354,7 @@ class EigenspacePose(PoseEstimator):
         Instead of ``components``: the fewest eigenimages holding this fraction of the energy.
     manifold_step : float, default=0.5
         Resample the manifold every this many degrees along each pose axis.
-    params, image_shape, normalize
+    params, image_shape, normalize, robust
         As for :class:`LinearPose`.
 
     Attributes
@@ -359,13 +365,14 @@ class EigenspacePose(PoseEstimator):
 
     _method = "eigenspace"
 
-    def __init__(self, *, components=20, energy=None, manifold_step=0.5, params=None, image_shape=None, normalize="auto"):
+    def __init__(self, *, components=20, energy=None, manifold_step=0.5, params=None, image_shape=None, normalize="auto", robust=False):
         self.components = components
         self.energy = energy
         self.manifold_step = manifold_step
         self.params = params
         self.image_shape = image_shape
         self.normalize = normalize
+        self.robust = robust
 
     def _settings(self):
         s = [("manifold-step", _number(self.manifold_step))]
@@ -405,7 +412,7 @@ class RefinedPose(PoseEstimator):
         each query, or choose B among 1, 2 and 4 from held-out training views.
     interpolant : {"auto", "spline", "local"}, default="auto"
         How the manifold passes between training views.
-    params, image_shape, normalize
+    params, image_shape, normalize, robust
         As for :class:`LinearPose`.
 
     Attributes
@@ -416,7 +423,7 @@ class RefinedPose(PoseEstimator):
 
     _method = "refined"
 
-    def __init__(self, *, components="auto", resolution=0.5, bin="auto", interpolant="auto", params=None, image_shape=None, normalize="auto"):
+    def __init__(self, *, components="auto", resolution=0.5, bin="auto", interpolant="auto", params=None, image_shape=None, normalize="auto", robust=False):
         self.components = components
         self.resolution = resolution
         self.bin = bin
@@ -424,6 +431,7 @@ class RefinedPose(PoseEstimator):
         self.params = params
         self.image_shape = image_shape
         self.normalize = normalize
+        self.robust = robust
 
     def _settings(self):
         s = [("resolution", _number(self.resolution)), ("bin", _integer_or_auto(self.bin, "bin")), ("interpolant", str(self.interpolant))]
@@ -478,7 +486,7 @@ def from_model(model) -> PoseEstimator:
     if cls is None:
         raise ValueError(f"a model of method {model.method!r}, which this package has no estimator for")
     params = [tuple(p) for p in model.params]
-    est = cls(params=list(params), normalize=_stage(model))
+    est = cls(params=list(params), normalize=_stage(model), robust=model.robust)
     est.set_params(**cls._given(json.loads(model.settings_json).get("params", {})))
     est._set_fitted(model, len(params) == 1, tuple(model.image_shape), params, model.n_features)
     return est

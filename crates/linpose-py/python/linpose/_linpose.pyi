@@ -22,6 +22,7 @@ class Model:
     train_poses: npt.NDArray[np.float64]
     settings_json: str
     normalize_json: Optional[str]
+    robust: bool
     coefficients: Optional[npt.NDArray[np.float64]]
     model_bytes: int
     storage: Tuple[List[Tuple[str, int]], int]
@@ -48,7 +49,7 @@ def fit(
     images: Tuple[Images, int, int],
     y: npt.NDArray[np.float64],
     params: Params,
-    normalize: Optional[str] = None,
+    stages: Tuple[Optional[str], bool] = (None, False),
 ) -> Model: ...
 def load(path: Union[str, PathLike[str]]) -> Model: ...
 
