@@ -23,6 +23,7 @@
 
 use super::search::gain;
 use super::{tuning, Stage};
+use crate::binning::Binning;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::model::Located;
 use crate::{Error, Result};
@@ -114,19 +115,13 @@ impl Level {
 
     /// `fine`'s cells binned by 2 (a pixel of the support where any of its four is), with at
     /// most `most` of its hypotheses, taken evenly.
-    fn coarse(fine: &Level, most: usize) -> Level {
+    fn coarse(fine: &Level, most: usize) -> Result<Level> {
         let (fw, fh) = fine.grid;
+        let grid = ImageSpec { width: fw as u32, height: fh as u32, color: ColorMode::Gray };
+        let binning = Binning::new(grid, 2)?;
         let (gw, gh) = (fw / 2, fh / 2);
         let step = fine.peaks.len().div_ceil(most.max(1)).max(1);
-        let mut preds = Vec::with_capacity(fine.peaks.len() / step * gw * gh);
-        for p in fine.preds.chunks_exact(fw * fh).step_by(step) {
-            for j in 0..gh {
-                for i in 0..gw {
-                    let v = |di: usize, dj: usize| p[(2 * j + dj) * fw + 2 * i + di];
-                    preds.push(0.25 * (v(0, 0) + v(1, 0) + v(0, 1) + v(1, 1)));
-                }
-            }
-        }
+        let preds = binning.apply_all(&fine.preds.chunks_exact(fw * fh).step_by(step).flatten().copied().collect::<Vec<_>>());
         let peaks = preds.chunks_exact(gw * gh).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
         let mut on = vec![false; gw * gh];
         for &k in &fine.support {
@@ -136,7 +131,7 @@ impl Level {
             }
         }
         let support = (0..(gw * gh) as u32).filter(|&k| on[k as usize]).collect();
-        Level { cell: 2 * fine.cell, grid: (gw, gh), preds, peaks, support }
+        Ok(Level { cell: 2 * fine.cell, grid: (gw, gh), preds, peaks, support })
     }
 
     /// Each hypothesis's score on the window whose cells are `xb` ([`silhouette_score`]).
@@ -290,7 +285,7 @@ impl Stage {
         }
         let search = Search { scene: Integral::new(scene, sw, sh), view };
         let fine = Level::fine(self);
-        let coarse = Level::coarse(&fine, tuning::COARSE_HYPOTHESES);
+        let coarse = Level::coarse(&fine, tuning::COARSE_HYPOTHESES)?;
         let mut found = search.coarse(&coarse, &ladder);
         found.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
         let mut starts: Vec<Window> = Vec::new();
