@@ -116,7 +116,7 @@ pub struct ObjectModel {
     labels: Option<Labels>,
     /// Each object's robust stage ([`ObjectModel::with_robust`], `robust.rs`); `None`: queries
     /// go to the recogniser as they are (after the normalisation stage, if any).
-    robust: Option<RobustObjects>,
+    pub(super) robust: Option<RobustObjects>,
 }
 
 /// How a caller labels the objects where their names, as text, do not say it: each object's
@@ -294,48 +294,6 @@ impl ObjectModel {
         self.stage.as_ref()
     }
 
-    /// The same model behind a robust stage (gray views only): each object's robust stage
-    /// ([`crate::robust`]) fitted on its training views in `objects` (those the model was
-    /// fitted on; behind a normalisation stage, as it normalises them). A query the stage of the
-    /// object the recogniser names cannot explain (a cluttered background, an occluder) is
-    /// scored by every object's stage, repaired by the object whose training views match the
-    /// largest share of its bright pixels, and answered as repaired; every other query is
-    /// answered as without the stage, bit for bit. See `recognize/robust.rs`.
-    pub fn with_robust(mut self, objects: &ObjectSet) -> Result<Self> {
-        if objects.names() != self.names.as_slice() || objects.spec() != self.spec {
-            return Err(Error::invalid("robust stage", "training views", "the objects and image size the model was fitted on"));
-        }
-        let robust = match &self.stage {
-            None => RobustObjects::fit(objects)?,
-            Some(stage) => {
-                let normalised = objects.objects().iter().map(|d| stage.apply_dataset(d)).collect::<Result<Vec<Dataset>>>()?;
-                RobustObjects::fit(&ObjectSet::new(objects.names().to_vec(), normalised)?)?
-            }
-        };
-        self.robust = Some(robust);
-        Ok(self)
-    }
-
-    /// Each object's robust stage's settings, in the order of the objects (empty: the model
-    /// has no robust stage, [`ObjectModel::with_robust`]).
-    pub fn robust_settings(&self) -> Vec<crate::robust::RobustSettings> {
-        self.robust.as_ref().map_or_else(Vec::new, RobustObjects::settings)
-    }
-
-    /// The model with the robust stages of a model file (`settings` per object, arrays in `t`).
-    pub(crate) fn with_robust_parts(mut self, settings: &[crate::robust::RobustSettings], t: &TensorSet) -> Result<Self> {
-        if settings.len() != self.names.len() {
-            return Err(t.error(format!("damaged object model: {} robust stages for {} objects", settings.len(), self.names.len())));
-        }
-        self.robust = Some(RobustObjects::from_parts(self.spec, settings, t)?);
-        Ok(self)
-    }
-
-    /// The robust stages' arrays for a model file (none without them).
-    pub(crate) fn robust_tensors(&self) -> Vec<Tensor> {
-        self.robust.as_ref().map_or_else(Vec::new, RobustObjects::tensors)
-    }
-
     /// The queries as the recogniser and the pose models take them: normalised by the stage
     /// when there is one; a query the stage refuses is an error naming its place in the batch
     /// ([`ObjectModel::estimate_each`] answers the others).
@@ -471,9 +429,7 @@ impl ObjectModel {
         let named: Vec<usize> = d.chunks_exact(k).map(|row| (0..k).min_by(|&a, &b| row[a].total_cmp(&row[b])).expect("at least one object")).collect();
         let (queries, fixes) = self.repaired(queries, &named);
         if !fixes.is_empty() {
-            let m = self.spec.features();
-            let batch: Vec<f32> = fixes.iter().flat_map(|&(i, _)| queries[i * m..(i + 1) * m].iter().copied()).collect();
-            for (&(i, _), row) in fixes.iter().zip(self.distances_plain(&batch)?.chunks_exact(k)) {
+            for (&(i, _), row) in fixes.iter().zip(self.distances_plain(&self.rows_of(&queries, &fixes))?.chunks_exact(k)) {
                 d[i * k..(i + 1) * k].copy_from_slice(row);
             }
         }
@@ -499,30 +455,11 @@ impl ObjectModel {
         let named: Vec<usize> = recognitions.iter().map(|r| r.nearest).collect();
         let (queries, fixes) = self.repaired(queries, &named);
         if !fixes.is_empty() {
-            let m = self.spec.features();
-            let batch: Vec<f32> = fixes.iter().flat_map(|&(i, _)| queries[i * m..(i + 1) * m].iter().copied()).collect();
-            for (&(i, _), r) in fixes.iter().zip(self.recognize_plain(&batch)?) {
+            for (&(i, _), r) in fixes.iter().zip(self.recognize_plain(&self.rows_of(&queries, &fixes))?) {
                 recognitions[i] = r;
             }
         }
         Ok(Answered { queries, recognitions, shown: fixes })
-    }
-
-    /// The queries with those the robust stage repairs in place (each checked by the stage of
-    /// the object `named` for it), and their places with the share of the object each shows;
-    /// the queries as they are without a robust stage or when none needs repair.
-    fn repaired<'q>(&self, queries: Cow<'q, [f32]>, named: &[usize]) -> (Cow<'q, [f32]>, Vec<(usize, f64)>) {
-        let Some(robust) = &self.robust else { return (queries, Vec::new()) };
-        let m = self.spec.features();
-        let fixes = robust.repair_batch(&queries, m, named);
-        if fixes.is_empty() {
-            return (queries, Vec::new());
-        }
-        let mut q = queries.into_owned();
-        for (i, r) in &fixes {
-            q[i * m..(i + 1) * m].copy_from_slice(&r.pixels);
-        }
-        (Cow::Owned(q), fixes.into_iter().map(|(i, r)| (i, r.shown)).collect())
     }
 
     /// The recogniser's and the second stage's answer for queries as they are.

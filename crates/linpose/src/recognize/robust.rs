@@ -29,14 +29,17 @@
 //!   confidence ([`crate::confidence`]).
 //!
 //! The model file keeps each object's stage: its settings in the header, its arrays as
-//! `robust.K.rows` and `robust.K.hypotheses`.
+//! `robust.K.rows` and `robust.K.hypotheses`. The [`super::ObjectModel`] methods that fit,
+//! store and apply the stages are here too.
 
 use crate::catalog::ObjectSet;
+use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
 use crate::model::{Tensor, TensorSet};
 use crate::robust::{RobustSettings, Stage};
 use crate::{Error, Result};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Every object's robust stage, in the order of the objects.
 #[derive(Debug, Clone)]
@@ -128,5 +131,72 @@ impl RobustObjects {
     /// named (`named`), repaired: their places in the batch and their repairs.
     pub(crate) fn repair_batch(&self, queries: &[f32], m: usize, named: &[usize]) -> Vec<(usize, Repair)> {
         queries.par_chunks(m).zip(named).enumerate().filter_map(|(i, (x, &k))| self.repair(k, x).map(|r| (i, r))).collect()
+    }
+}
+
+impl super::ObjectModel {
+    /// The same model behind a robust stage (gray views only): each object's robust stage
+    /// ([`crate::robust`]) fitted on its training views in `objects` (those the model was
+    /// fitted on; behind a normalisation stage, as it normalises them). A query the stage of the
+    /// object the recogniser names cannot explain (a cluttered background, an occluder) is
+    /// scored by every object's stage, repaired by the object whose training views match the
+    /// largest share of its bright pixels, and answered as repaired; every other query is
+    /// answered as without the stage, bit for bit. See `recognize/robust.rs`.
+    pub fn with_robust(mut self, objects: &ObjectSet) -> Result<Self> {
+        if objects.names() != self.names() || objects.spec() != self.spec() {
+            return Err(Error::invalid("robust stage", "training views", "the objects and image size the model was fitted on"));
+        }
+        let robust = match self.stage() {
+            None => RobustObjects::fit(objects)?,
+            Some(stage) => {
+                let normalised = objects.objects().iter().map(|d| stage.apply_dataset(d)).collect::<Result<Vec<Dataset>>>()?;
+                RobustObjects::fit(&ObjectSet::new(objects.names().to_vec(), normalised)?)?
+            }
+        };
+        self.robust = Some(robust);
+        Ok(self)
+    }
+
+    /// Each object's robust stage's settings, in the order of the objects (empty: the model
+    /// has no robust stage, [`super::ObjectModel::with_robust`]).
+    pub fn robust_settings(&self) -> Vec<crate::robust::RobustSettings> {
+        self.robust.as_ref().map_or_else(Vec::new, RobustObjects::settings)
+    }
+
+    /// The model with the robust stages of a model file (`settings` per object, arrays in `t`).
+    pub(crate) fn with_robust_parts(mut self, settings: &[crate::robust::RobustSettings], t: &TensorSet) -> Result<Self> {
+        if settings.len() != self.names().len() {
+            return Err(t.error(format!("damaged object model: {} robust stages for {} objects", settings.len(), self.names().len())));
+        }
+        self.robust = Some(RobustObjects::from_parts(self.spec(), settings, t)?);
+        Ok(self)
+    }
+
+    /// The robust stages' arrays for a model file (none without them).
+    pub(crate) fn robust_tensors(&self) -> Vec<Tensor> {
+        self.robust.as_ref().map_or_else(Vec::new, RobustObjects::tensors)
+    }
+
+    /// The queries with those the robust stage repairs in place (each checked by the stage of
+    /// the object `named` for it), and their places with the share of the object each shows;
+    /// the queries as they are without a robust stage or when none needs repair.
+    pub(super) fn repaired<'q>(&self, queries: Cow<'q, [f32]>, named: &[usize]) -> (Cow<'q, [f32]>, Vec<(usize, f64)>) {
+        let Some(robust) = &self.robust else { return (queries, Vec::new()) };
+        let m = self.spec().features();
+        let fixes = robust.repair_batch(&queries, m, named);
+        if fixes.is_empty() {
+            return (queries, Vec::new());
+        }
+        let mut q = queries.into_owned();
+        for (i, r) in &fixes {
+            q[i * m..(i + 1) * m].copy_from_slice(&r.pixels);
+        }
+        (Cow::Owned(q), fixes.into_iter().map(|(i, r)| (i, r.shown)).collect())
+    }
+
+    /// The rows `fixes` names of `queries`, as one batch.
+    pub(super) fn rows_of(&self, queries: &[f32], fixes: &[(usize, f64)]) -> Vec<f32> {
+        let m = self.spec().features();
+        fixes.iter().flat_map(|&(i, _)| queries[i * m..(i + 1) * m].iter().copied()).collect()
     }
 }
