@@ -7,13 +7,14 @@
 //! (`tuning::MIN_PIXELS`), where the binned rows are the full rows binned (binning is linear,
 //! so coefficients found there reconstruct the full image):
 //!
-//! 1. **Check.** The query's least-squares reconstruction on the binned rows (its gain free)
+//! 1. **Check.** The query's least-squares reconstruction on the binned rows (its gain free;
+//!    the mean image and the leading `tuning::CHECK_COMPONENTS` eigenimages)
 //!    and the share of its energy in the pixels that reconstruction leaves dark (`dark_share`):
 //!    at most the threshold calibrated on the training set's own held-out views
 //!    (`calibrate.rs`), the query goes to the method as it is, bit for bit. The plain residual
 //!    off the eigenspace tells scenes from studio views less well: a view between the training
 //!    views leaves a residual on the object where its pose moves it, as large on some objects as
-//!    a scene's. This costs one binning and 2K products of M / b^2.
+//!    a scene's. This costs one binning and 2 K_c products of M / b^2 (K_c the check's rows).
 //! 2. **Hypothesize and test** (`search.rs`). Hypotheses are the training views' coefficients,
 //!    each with the gain that best fits the query (a median of ratios over its bright pixels);
 //!    each is scored by the pixels it explains; the best few are refined by re-solving the
@@ -67,7 +68,8 @@ pub(crate) struct Stage {
     rows: Vec<f32>,
     /// M_b x K: the binned rows, pixel by pixel.
     small: Vec<f32>,
-    /// K x K, row-major: the inverse of the binned rows' Gram matrix.
+    /// K_c x K_c, row-major: the inverse of the Gram matrix of the check's binned rows (the
+    /// first K_c, [`check_rows`]).
     ginv: Vec<f64>,
     /// H x K: the hypotheses' coefficients (1, y_h), the training views' coordinates.
     hyps: Vec<f32>,
@@ -135,15 +137,17 @@ impl Stage {
                 small[i * k + j] = v;
             }
         }
-        let mut gram = vec![0f64; k * k];
+        // The check's rows: the mean image and the leading eigenimages.
+        let kc = check_rows(k);
+        let mut gram = vec![0f64; kc * kc];
         for b in small.chunks_exact(k) {
-            for a in 0..k {
-                for c in 0..k {
-                    gram[a * k + c] += b[a] as f64 * b[c] as f64;
+            for a in 0..kc {
+                for c in 0..kc {
+                    gram[a * kc + c] += b[a] as f64 * b[c] as f64;
                 }
             }
         }
-        let ginv = search::invert(&gram, k).ok_or_else(|| Error::Numerical("the robust stage's binned rows are not independent".into()))?;
+        let ginv = search::invert(&gram, kc).ok_or_else(|| Error::Numerical("the robust stage's binned rows are not independent".into()))?;
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
         let n = hyps.len() / k;
         let step = n.div_ceil(tuning::MAX_HYPOTHESES).max(1);
@@ -186,7 +190,7 @@ impl Stage {
         let k = self.settings.rows;
         let mut xb = vec![0f32; self.binning.spec().features()];
         self.binning.apply(x, &mut xb, &mut Vec::new());
-        let share = dark_share(xb.len(), k, |i, j| self.small[i * k + j] as f64, &self.ginv, &xb);
+        let share = dark_share(xb.len(), check_rows(k), |i, j| self.small[i * k + j] as f64, &self.ginv, &xb);
         (xb, share)
     }
 
@@ -273,6 +277,12 @@ pub(crate) fn dark_share(mb: usize, k: usize, row: impl Fn(usize, usize) -> f64,
     let peak = recon.iter().fold(0f64, |a, &v| a.max(v));
     let dark: f64 = recon.iter().zip(xb).filter(|(&r, _)| r < tuning::DARK * peak).map(|(_, &v)| v as f64 * v as f64).sum();
     Some(dark / energy)
+}
+
+/// Rows of a stage of `k` rows that the check reconstructs on: the mean image and at most
+/// [`tuning::CHECK_COMPONENTS`] eigenimages (the leading ones), as its threshold was calibrated.
+fn check_rows(k: usize) -> usize {
+    k.min(tuning::CHECK_COMPONENTS + 1)
 }
 
 /// The binning of the robust fit for views of `spec`: the coarsest power of two that leaves at

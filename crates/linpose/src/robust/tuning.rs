@@ -8,11 +8,26 @@
 /// that a 128 x 128 query's robust fit stays well under a millisecond; not tuned further.
 pub(crate) const MIN_PIXELS: usize = 512;
 
-/// Eigenimages of the robust stage (besides the mean image, capped at N - 1). What it trades:
-/// each is one more unknown per re-solve (their cost grows with its square) and one more
-/// direction an outlier can be explained by; too few leave the object's own detail
-/// unexplained and flagged. Not tuned.
-pub(crate) const COMPONENTS: usize = 16;
+/// Eigenimages of the robust stage's fit (besides the mean image, capped at N - 1). What it
+/// trades: each is one more unknown per re-solve (their cost grows with its square), one more
+/// direction an outlier can be explained by, and M more numbers in the model; too few leave the
+/// object's own detail (and a pose between the training views) unexplained, so that detail is
+/// taken for an outlier and replaced by the reconstruction, which pulls the pose toward the
+/// hypothesis the fit started from. Measured on COIL-20 in texture scenes (refined, trained
+/// every 10 degrees, the views between; unseen mean at 0 / 20 / 40% hidden), set on objects 1,
+/// 3, 6, 9, 12, 16, 18 and 19: 16 eigenimages 5.25 / 11.8 / 17.9 degrees, 24 2.33 / 6.22 /
+/// 15.6, 32 1.79 / 5.67 / 14.3, 35 (every one) 2.44 / 5.22 / 15.4; reported on the other twelve:
+/// 16 1.02 / 1.52 / 6.20, 32 0.91 / 1.29 / 6.14. A robust query costs about twice the fit of 16
+/// (`python3 bench/scenes.py`).
+pub(crate) const COMPONENTS: usize = 32;
+
+/// Eigenimages of the check (besides the mean image; the leading ones of the stage's): the
+/// check's reconstruction and its threshold's calibration (`calibrate.rs`) use these alone, so
+/// a studio query pays for them and not for [`COMPONENTS`]. What it trades: more explain a view
+/// between the training views better (fewer studio views sent to the fit) and explain a
+/// background better too (fewer scenes caught), at 2 products of the binned image each. The
+/// threshold's factor ([`THRESHOLD_FACTOR`]) was set with 16; not tuned.
+pub(crate) const CHECK_COMPONENTS: usize = 16;
 
 /// A query goes to the robust fit when the share of its energy where its reconstruction is
 /// dark exceeds this many times the training set's own level (the geometric mean of the largest
