@@ -89,16 +89,13 @@ struct Level {
 }
 
 impl Level {
-    /// The stage's own cells.
+    /// The stage's own cells, the hypotheses as the check's rows render them (the mean image and
+    /// the leading eigenimages, `super::check_rows`): the search's constants were set on those,
+    /// and the finer detail of the fit's further eigenimages does not help find the object.
     fn fine(stage: &Stage) -> Level {
         let s = stage.binning.spec();
-        Level {
-            cell: stage.binning.factor(),
-            grid: (s.width as usize, s.height as usize),
-            preds: stage.preds.clone(),
-            peaks: stage.peaks.clone(),
-            support: stage.support.clone(),
-        }
+        let (preds, peaks) = stage.silhouettes();
+        Level { cell: stage.binning.factor(), grid: (s.width as usize, s.height as usize), preds, peaks, support: stage.support.clone() }
     }
 
     /// Its hypotheses `keep` alone.

@@ -164,6 +164,23 @@ impl Stage {
         Ok(Stage { settings, binning, m, rows, small, ginv, hyps, preds, peaks, support })
     }
 
+    /// The hypotheses' binned images on the check's rows alone ([`check_rows`]), H x M_b, and
+    /// each one's brightest value.
+    fn silhouettes(&self) -> (Vec<f32>, Vec<f32>) {
+        let k = self.settings.rows;
+        let kc = check_rows(k);
+        if kc == k {
+            return (self.preds.clone(), self.peaks.clone());
+        }
+        let mut preds = Vec::with_capacity(self.preds.len());
+        for h in self.hyps.chunks_exact(k) {
+            preds.extend(self.small.chunks_exact(k).map(|b| b[..kc].iter().zip(&h[..kc]).map(|(&u, &v)| u * v).sum::<f32>()));
+        }
+        let mb = self.binning.spec().features();
+        let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
+        (preds, peaks)
+    }
+
     /// Its settings.
     pub(crate) fn settings(&self) -> &RobustSettings {
         &self.settings
