@@ -100,7 +100,8 @@ def evaluate(model, data, tag):
     if not os.path.exists(j):
         raise SystemExit(f"eval of {model} on {data} failed:\n{r.stderr}")
     r = json.load(open(j))
-    return r["unseen"]["mean_deg"], r["predict_s"] / max(1, r["n_eval"])
+    c = r.get("confidence") or {}
+    return r["unseen"]["mean_deg"], r["predict_s"] / max(1, r["n_eval"]), (c.get("n", 0), c.get("gross", 0), c.get("flagged", 0), c.get("gross_flagged", 0))
 
 
 def peer(o, f):
@@ -176,5 +177,14 @@ for f in sets:
         pl = [evals[(f, o, m, False)] for o in objects]
         rb = [evals[(f, o, m, True)] for o in objects]
         print(f"{f:>6.1f} {m:>10} {mean([x[0] for x in pl]):>8.3f} {mean([x[0] for x in rb]):>8.3f} {p:>8.3f} {1e3 * mean([x[1] for x in pl]):>15.3f} {1e3 * mean([x[1] for x in rb]):>7.3f}")
+print("the confidence over the scene views (all objects pooled): gross errors (> 20 degrees) flagged, and estimates not gross flagged (false flags)")
+print(f"{'hidden':>6} {'method':>10} {'gross plain':>11} {'flagged':>8} {'false':>7} {'gross robust':>12} {'flagged':>8} {'false':>7}")
+for f in sets:
+    for m in methods:
+        cols = []
+        for r in (False, True):
+            n, g, fl, gf = (sum(evals[(f, o, m, r)][2][i] for o in objects) for i in range(4))
+            cols.append(f"{g:>11d} {gf / g if g else float('nan'):>8.3f} {(fl - gf) / (n - g) if n > g else float('nan'):>7.3f}")
+        print(f"{f:>6.1f} {m:>10} {cols[0]} {' ' + cols[1]}")
 print("per object (robust refined):", " ".join(f"{o}:{evals[(f, o, 'refined', True)][0]:.2f}" for f in sets for o in objects) if "refined" in methods else "")
 print(f"work folder: {work}")

@@ -112,15 +112,12 @@ impl Estimate {
     }
 }
 
-/// Takes into account how much of the object a repaired query shows (`shown`, the share of the
-/// robust reconstruction's bright pixels the query explains, [`crate::robust::Robust`]): the
-/// confidence and every hypothesis's score are scaled by the share's place between
-/// [`SHOWN_LOW`](crate::tuning::confidence::SHOWN_LOW) (nothing to tell from: 0) and
-/// [`SHOWN_HIGH`](crate::tuning::confidence::SHOWN_HIGH) (as clear as a whole view: unchanged).
-pub(crate) fn for_hidden(est: &mut Estimate, shown: f64) {
-    use crate::tuning::confidence::{SHOWN_HIGH, SHOWN_LOW};
-    let f = ((shown - SHOWN_LOW) / (SHOWN_HIGH - SHOWN_LOW)).clamp(0.0, 1.0);
-    let f = if f.is_nan() { 0.0 } else { f };
+/// Takes into account how much of the object a repaired query shows: `clear` is the
+/// probability that a robust fit showing that share reads the pose right, as the robust stage
+/// calibrated it on its own training views ([`crate::robust::Robust`]); the confidence and every
+/// hypothesis's score are scaled by it, the rest of the probability going to no pose at all.
+pub(crate) fn for_hidden(est: &mut Estimate, clear: f64) {
+    let f = if clear.is_nan() { 0.0 } else { clear.clamp(0.0, 1.0) };
     est.confidence *= f;
     est.hypotheses.iter_mut().for_each(|h| h.score *= f);
 }

@@ -28,20 +28,6 @@ pub(crate) mod confidence {
     /// method) and shift little probability: alternatives beyond the best few score near 0. Not
     /// tuned.
     pub(crate) const MAX_HYPOTHESES: usize = 8;
-
-    /// A repaired query showing at most this share of its object's expected bright pixels
-    /// (`crate::robust`) gets confidence 0: too little of it is left to tell its pose. What it
-    /// trades: higher flags more partly hidden views that were still read right; lower lets
-    /// more views hidden past telling through. Set on the rendered duck (64 x 48, trained every
-    /// 10 degrees, queried between in texture scenes): 12 views 10% hidden showed 0.53-0.71,
-    /// 12 views 80% hidden 0.19-0.46; 0.3 and [`SHOWN_HIGH`] 0.5 scale the first by 1 and the
-    /// second by 0 to 0.8.
-    pub(crate) const SHOWN_LOW: f64 = 0.3;
-
-    /// A repaired query showing at least this share of its object's expected bright pixels keeps
-    /// the confidence its method gives the repaired image; between [`SHOWN_LOW`] and this the
-    /// confidence is scaled linearly. What it trades and how it was set: as [`SHOWN_LOW`].
-    pub(crate) const SHOWN_HIGH: f64 = 0.5;
 }
 
 /// [`crate::second_look`]'s constants.

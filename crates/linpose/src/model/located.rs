@@ -33,20 +33,11 @@ pub trait SceneSearch: Sync {
     /// the training views) and makes the query the method takes from it.
     fn locate(&self, scenes: &[f32], spec: ImageSpec) -> Result<Vec<Located>>;
 
-    /// The method's own model, which takes [`Located::view`]; its confidence does not yet count
-    /// the hidden share ([`Located::shown`]), which [`SceneSearch::estimate_located`] does.
+    /// The method's own model, which takes [`Located::view`].
     fn method_model(&self) -> &dyn PoseModel;
 
-    /// The estimates of located queries: the method's, its confidence scaled by the share of
-    /// the object each shows, as for a query of the training views' size.
-    fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<crate::confidence::Estimate>> {
-        let q: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
-        let mut est = self.method_model().estimate(&q, top)?;
-        for (e, f) in est.iter_mut().zip(found) {
-            if f.repaired {
-                crate::confidence::for_hidden(e, f.shown);
-            }
-        }
-        Ok(est)
-    }
+    /// The estimates of located queries: the method's, the confidence of a repaired one scaled
+    /// by how far a query showing its share of the object ([`Located::shown`]) can be trusted,
+    /// as for a query of the training views' size.
+    fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<crate::confidence::Estimate>>;
 }

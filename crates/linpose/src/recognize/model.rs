@@ -459,7 +459,7 @@ impl ObjectModel {
                 recognitions[i] = r;
             }
         }
-        Ok(Answered { queries, recognitions, shown: fixes })
+        Ok(Answered { queries, recognitions, clear: fixes })
     }
 
     /// The recogniser's and the second stage's answer for queries as they are.
@@ -586,7 +586,7 @@ impl ObjectModel {
 
     /// [`ObjectModel::estimate`] of queries already prepared.
     fn estimate_of(&self, queries: Cow<'_, [f32]>, top: usize) -> Result<Vec<ObjectEstimate>> {
-        let Answered { queries, recognitions: rec, shown } = self.recognize_of(queries)?;
+        let Answered { queries, recognitions: rec, clear } = self.recognize_of(queries)?;
         let m = self.spec.features();
         let mut poses: Vec<Option<Estimate>> = vec![None; rec.len()];
         for k in 0..self.poses.len() {
@@ -599,7 +599,7 @@ impl ObjectModel {
                 poses[i] = Some(e);
             }
         }
-        for (i, f) in shown {
+        for (i, f) in clear {
             if let Some(e) = &mut poses[i] {
                 crate::confidence::for_hidden(e, f);
             }
@@ -698,11 +698,12 @@ impl ObjectModel {
 }
 
 /// Queries as the model answered them: repaired by the robust stage where they needed it, with
-/// their recognitions and, for each repaired one, its place and the share of the object it shows.
+/// their recognitions and, for each repaired one, its place and the probability that a fit
+/// showing its share of the object reads the pose right.
 struct Answered<'q> {
     queries: Cow<'q, [f32]>,
     recognitions: Vec<Recognition>,
-    shown: Vec<(usize, f64)>,
+    clear: Vec<(usize, f64)>,
 }
 
 /// Per object, the largest and the median held-out distance; an object too sparse to hold views

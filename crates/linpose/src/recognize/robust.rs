@@ -47,10 +47,11 @@ pub(crate) struct RobustObjects {
     stages: Vec<Stage>,
 }
 
-/// A query repaired: the repaired pixels and the share of the object it shows.
+/// A query repaired: the repaired pixels and the probability that a fit showing its share of
+/// the object reads the pose right (the repairing object's `Stage::clear`).
 pub(crate) struct Repair {
     pub(crate) pixels: Vec<f32>,
-    pub(crate) shown: f64,
+    pub(crate) clear: f64,
 }
 
 impl RobustObjects {
@@ -124,7 +125,7 @@ impl RobustObjects {
             .expect("at least one object");
         let stage = &self.stages[best];
         let fit = stage.fit_coarse(&xb, &coarse);
-        Some(Repair { pixels: stage.repair(x, &fit), shown: fit.shown })
+        Some(Repair { pixels: stage.repair(x, &fit), clear: stage.clear(fit.shown) })
     }
 
     /// The queries of a batch (rows of M) that need repair, each with the object the recogniser
@@ -178,7 +179,8 @@ impl super::ObjectModel {
     }
 
     /// The queries with those the robust stage repairs in place (each checked by the stage of
-    /// the object `named` for it), and their places with the share of the object each shows;
+    /// the object `named` for it), and their places with the probability that each reads its
+    /// pose right given the share of the object it shows (`Stage::clear`);
     /// the queries as they are without a robust stage or when none needs repair.
     pub(super) fn repaired<'q>(&self, queries: Cow<'q, [f32]>, named: &[usize]) -> (Cow<'q, [f32]>, Vec<(usize, f64)>) {
         let Some(robust) = &self.robust else { return (queries, Vec::new()) };
@@ -191,7 +193,7 @@ impl super::ObjectModel {
         for (i, r) in &fixes {
             q[i * m..(i + 1) * m].copy_from_slice(&r.pixels);
         }
-        (Cow::Owned(q), fixes.into_iter().map(|(i, r)| (i, r.shown)).collect())
+        (Cow::Owned(q), fixes.into_iter().map(|(i, r)| (i, r.clear)).collect())
     }
 
     /// The rows `fixes` names of `queries`, as one batch.

@@ -26,9 +26,12 @@
 //!    takes the repaired image as a studio view.
 //!
 //! The fit also says how much of the object the query shows: the share of the reconstruction's
-//! bright pixels that were explained (`Fit::shown`), which the confidence takes into account.
+//! bright pixels that were explained (`Fit::shown`). How much a pose can be read from such a
+//! share is calibrated on the training views themselves when the stage is fitted
+//! (`hidden.rs`), and scales the repaired query's confidence.
 
 mod calibrate;
+mod hidden;
 mod locate;
 mod model;
 mod search;
@@ -55,6 +58,12 @@ pub struct RobustSettings {
     /// The share of a query's energy where its reconstruction is dark above which it is fitted
     /// robustly.
     pub threshold: f64,
+    /// The probability that a repaired query reads its pose right against the share of its
+    /// object it shows (`s`): 1 / (1 + exp(-(a + b s))) for these [a, b], calibrated on the
+    /// training views when the stage was fitted. Absent in model files written before the
+    /// calibration, whose stages keep a fixed linear ramp (0 at a share of 0.3, 1 at 0.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hidden: Option<[f64; 2]>,
 }
 
 /// The robust stage (see the module doc).
@@ -108,9 +117,11 @@ impl Stage {
         let hyps: Vec<f32> = p.coords.chunks_exact(l).flat_map(|y| std::iter::once(1.0).chain(y.iter().copied())).map(|v| v as f32).collect();
         let binning = binning_of(spec);
         let threshold = calibrate::threshold(train, binning)? * tuning::THRESHOLD_FACTOR;
-        let settings = RobustSettings { bin: binning.factor(), rows: l + 1, threshold };
+        let settings = RobustSettings { bin: binning.factor(), rows: l + 1, threshold, hidden: None };
         debug_assert_eq!(rows.len(), (l + 1) * m);
-        Stage::new(spec, settings, rows, hyps)
+        let mut stage = Stage::new(spec, settings, rows, hyps)?;
+        stage.settings.hidden = Some(hidden::calibrate(&stage, train));
+        Ok(stage)
     }
 
     /// The stage from its settings and arrays (a model file's), the derived arrays computed.
@@ -126,6 +137,9 @@ impl Stage {
         }
         if !(settings.threshold.is_finite() && settings.threshold >= 0.0) || rows.iter().chain(&hyps).any(|v| !v.is_finite()) {
             return Err(Error::invalid("robust stage", settings.threshold, "a finite threshold and finite rows"));
+        }
+        if settings.hidden.is_some_and(|h| !h.iter().all(|v| v.is_finite())) {
+            return Err(Error::invalid("robust stage", format!("hidden-share calibration {:?}", settings.hidden), "two finite numbers"));
         }
         let binning = Binning::new(spec, settings.bin)?;
         let mb = binning.spec().features();
@@ -149,8 +163,7 @@ impl Stage {
         }
         let ginv = search::invert(&gram, kc).ok_or_else(|| Error::Numerical("the robust stage's binned rows are not independent".into()))?;
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
-        let n = hyps.len() / k;
-        let step = n.div_ceil(tuning::MAX_HYPOTHESES).max(1);
+        let step = hypothesis_step(hyps.len() / k);
         let hyps: Vec<f32> = hyps.chunks_exact(k).step_by(step).flatten().copied().collect();
         let mut preds = Vec::with_capacity(hyps.len() / k * mb);
         for h in hyps.chunks_exact(k) {
@@ -204,11 +217,23 @@ impl Stage {
     /// The query `x` (M features) binned, with the share of its energy in the pixels its
     /// least-squares reconstruction leaves dark ([`dark_share`]); None for a query of no energy.
     pub(crate) fn check(&self, x: &[f32]) -> (Vec<f32>, Option<f64>) {
-        let k = self.settings.rows;
         let mut xb = vec![0f32; self.binning.spec().features()];
         self.binning.apply(x, &mut xb, &mut Vec::new());
-        let share = dark_share(xb.len(), check_rows(k), |i, j| self.small[i * k + j] as f64, &self.ginv, &xb);
+        let share = self.dark_share_binned(&xb);
         (xb, share)
+    }
+
+    /// [`dark_share`] of the binned query `xb` on the stage's rows.
+    fn dark_share_binned(&self, xb: &[f32]) -> Option<f64> {
+        let k = self.settings.rows;
+        dark_share(xb.len(), check_rows(k), |i, j| self.small[i * k + j] as f64, &self.ginv, xb)
+    }
+
+    /// The probability that a repaired query whose fit shows `shown` of the object reads its
+    /// pose right, as the stage's calibration says (`hidden.rs`): what its confidence is
+    /// scaled by.
+    pub(crate) fn clear(&self, shown: f64) -> f64 {
+        hidden::clear(self.settings.hidden, shown)
     }
 
     /// Whether `x` needs the robust fit: its residual above the threshold.
@@ -300,6 +325,12 @@ pub(crate) fn dark_share(mb: usize, k: usize, row: impl Fn(usize, usize) -> f64,
 /// [`tuning::CHECK_COMPONENTS`] eigenimages (the leading ones), as its threshold was calibrated.
 fn check_rows(k: usize) -> usize {
     k.min(tuning::CHECK_COMPONENTS + 1)
+}
+
+/// The stage keeps every this many of `n` training views as hypotheses (at most
+/// [`tuning::MAX_HYPOTHESES`], taken evenly).
+fn hypothesis_step(n: usize) -> usize {
+    n.div_ceil(tuning::MAX_HYPOTHESES).max(1)
 }
 
 /// The binning of the robust fit for views of `spec`: the coarsest power of two that leaves at

@@ -23,7 +23,8 @@ pub struct Robust {
 /// The metadata key of the stage's settings in a model file.
 pub(crate) const META_KEY: &str = "linpose.robust";
 
-/// A query's place in its batch and its repaired pixels, with the share of the object it shows.
+/// A query's place in its batch and its repaired pixels, with the probability that a fit showing
+/// that share of the object reads the pose right (`Stage::clear`).
 type Repaired = (usize, Vec<f32>, f64);
 
 impl Robust {
@@ -68,7 +69,7 @@ impl Robust {
     fn repaired(&self, queries: &[f32]) -> Result<Vec<Repaired>> {
         let m = self.meta().spec.features();
         crate::model::check_queries(m, queries.len(), "query batch")?;
-        Ok(queries.par_chunks(m).enumerate().filter_map(|(i, x)| self.stage.apply(x).map(|(r, f)| (i, r, f.shown))).collect())
+        Ok(queries.par_chunks(m).enumerate().filter_map(|(i, x)| self.stage.apply(x).map(|(r, f)| (i, r, self.stage.clear(f.shown)))).collect())
     }
 
     /// The batch with its repaired queries in place.
@@ -141,8 +142,8 @@ impl PoseModel for Robust {
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
         let fixes = self.repaired(queries)?;
         let mut est = self.inner.estimate(&self.with_repairs(queries, &fixes), top)?;
-        for (i, _, shown) in &fixes {
-            crate::confidence::for_hidden(&mut est[*i], *shown);
+        for (i, _, clear) in &fixes {
+            crate::confidence::for_hidden(&mut est[*i], *clear);
         }
         Ok(est)
     }
@@ -192,5 +193,15 @@ impl SceneSearch for Robust {
     }
     fn method_model(&self) -> &dyn PoseModel {
         &self.inner
+    }
+    fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<Estimate>> {
+        let q: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
+        let mut est = self.inner.estimate(&q, top)?;
+        for (e, f) in est.iter_mut().zip(found) {
+            if f.repaired {
+                crate::confidence::for_hidden(e, self.stage.clear(f.shown));
+            }
+        }
+        Ok(est)
     }
 }
