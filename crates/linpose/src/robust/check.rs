@@ -95,8 +95,8 @@ impl Basis for Binned {
 /// the training views leave dark there and the query does not. A studio view between the
 /// training views differs from its reconstruction where the object is, so this share stays near
 /// 0; a background, or an occluder over the backdrop, puts energy where the object is not. None
-/// for a query of no energy (or of a value not finite). `scratch` holds the reconstruction (M_b
-/// + 2K values, kept for the next call). Costs 2K M_b multiply-adds in f64.
+/// for a query of no energy (or of a value not finite). `scratch` holds the reconstruction, p
+/// and the coefficients (kept for the next call). Costs 2K M_b multiply-adds in f64.
 pub(crate) fn dark_share(basis: &impl Basis, xb: &[f32], scratch: &mut Vec<f64>) -> Option<f64> {
     let (k, mb) = basis.shape();
     assert_eq!(xb.len(), mb, "a binned query of {mb} pixels");
@@ -120,5 +120,5 @@ pub(crate) fn dark_share(basis: &impl Basis, xb: &[f32], scratch: &mut Vec<f64>)
             dark += if r < dim { e } else { 0.0 };
         }
     }
-    (energy > 0.0 && energy.is_finite()).then(|| dark / energy)
+    (energy > 0.0 && energy.is_finite()).then_some(dark / energy)
 }
