@@ -1,8 +1,8 @@
 //! Scenes: the robust stage's query costs. The duck on a turntable every 10 degrees at 128 x 128
 //! (36 training views, refined, behind the robust stage); criterion measures one query of the
 //! view between two training views on a textured background with 20% of the object hidden (the
-//! robust fit, the repair and the method), the same view in the studio (the check alone, then
-//! the method), and the search for it in a 320 x 240 scene (at scale 1.13 at (97.6, 41.3)):
+//! robust fit, the repair and the method), the same view in the studio (the check, then the
+//! method; and the check alone: `Robust::repair`, which a studio view passes), and the search for it in a 320 x 240 scene (at scale 1.13 at (97.6, 41.3)):
 //! the box, then the robust fit and the repair of the view found (`SceneSearch::locate`), and
 //! the estimate after it.
 //!
@@ -49,6 +49,9 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("robust stage, 128 x 128 views");
     g.sample_size(20);
     g.bench_function("one studio query (check, then the method)", |b| b.iter(|| model.estimate(black_box(studio.row(0)), 1).unwrap()));
+    let robust = model.downcast_ref::<Robust>().expect("a robust model");
+    assert!(robust.repair(studio.row(0)).is_none(), "the studio view passes the check");
+    g.bench_function("the check alone, one studio view", |b| b.iter(|| robust.repair(black_box(studio.row(0)))));
     g.bench_function("one query, textured background, 20% hidden", |b| b.iter(|| model.estimate(black_box(hidden.row(0)), 1).unwrap()));
     g.bench_function("one 320 x 240 scene: search and repair", |b| b.iter(|| search.locate(black_box(&big), big_spec).unwrap()));
     g.bench_function("one 320 x 240 scene: search, repair and estimate", |b| {

@@ -83,7 +83,8 @@ impl Binning {
     }
 
     /// Bins one image `x` (features of [`Self::full`]) into `out` (features of [`Self::spec`]),
-    /// with `acc` as scratch.
+    /// with `acc` as scratch. Gray images binned by 2 or 4 go through a body built for the SIMD
+    /// level (the same sums in the same order).
     pub(crate) fn apply(&self, x: &[f32], out: &mut [f32], acc: &mut Vec<f32>) {
         let ch = self.full.color.channels();
         let (w, b) = (self.full.width as usize, self.factor);
@@ -94,6 +95,12 @@ impl Binning {
         let (row, span, orow) = (w * ch, wb * b * ch, wb * ch);
         let scale = 1.0 / (b * b) as f32;
         acc.resize(span, 0.0);
+        if ch == 1 && b == 2 {
+            return gray_means::<2>(Level::detect(), x, w, out, acc);
+        }
+        if ch == 1 && b == 4 {
+            return gray_means::<4>(Level::detect(), x, w, out, acc);
+        }
         for (yo, o) in out.chunks_exact_mut(orow).enumerate().take(hb) {
             let top = yo * b * row;
             acc.copy_from_slice(&x[top..top + span]);
@@ -101,17 +108,13 @@ impl Binning {
                 let src = &x[top + r * row..top + r * row + span];
                 acc.iter_mut().zip(src).for_each(|(a, &v)| *a += v);
             }
-            if ch == 1 && b == 2 {
-                o.iter_mut().zip(acc.chunks_exact(2)).for_each(|(o, p)| *o = (p[0] + p[1]) * scale);
-            } else {
-                for (xo, px) in o.chunks_exact_mut(ch).enumerate() {
-                    for (c, v) in px.iter_mut().enumerate() {
-                        let mut sum = acc[xo * b * ch + c];
-                        for k in 1..b {
-                            sum += acc[(xo * b + k) * ch + c];
-                        }
-                        *v = sum * scale;
+            for (xo, px) in o.chunks_exact_mut(ch).enumerate() {
+                for (c, v) in px.iter_mut().enumerate() {
+                    let mut sum = acc[xo * b * ch + c];
+                    for k in 1..b {
+                        sum += acc[(xo * b + k) * ch + c];
                     }
+                    *v = sum * scale;
                 }
             }
         }
@@ -194,6 +197,38 @@ impl Binning {
         let mut out = vec![0.0; xs.len() / m * mb];
         out.par_chunks_mut(mb).zip(xs.par_chunks_exact(m)).for_each_init(Vec::new, |acc, (o, x)| self.apply(x, o, acc));
         out
+    }
+}
+
+crate::kernels::dispatch! {
+    /// [`gray_means_body`] at `level`.
+    fn gray_means<const B: usize>(x: &[f32], w: usize, out: &mut [f32], acc: &mut [f32]) = gray_means_body;
+}
+
+/// The block means by B (2 or 4) of a gray image `x` of width `w` into `out` (binned rows of
+/// `acc.len() / B`), in [`Binning::apply`]'s order: the B rows of a block added down each column
+/// into `acc`, then each group of B added across and scaled by 1 / B^2 (the robust stage's check
+/// bins every query so).
+#[inline(always)]
+fn gray_means_body<const B: usize>(x: &[f32], w: usize, out: &mut [f32], acc: &mut [f32]) {
+    let span = acc.len();
+    let wb = span / B;
+    assert!(wb > 0 && span == wb * B && span <= w && out.len().is_multiple_of(wb) && x.len() >= out.len() / wb * B * w);
+    let scale = 1.0 / (B * B) as f32;
+    for (yo, o) in out.chunks_exact_mut(wb).enumerate() {
+        let top = yo * B * w;
+        acc.copy_from_slice(&x[top..top + span]);
+        for r in 1..B {
+            let src = &x[top + r * w..top + r * w + span];
+            acc.iter_mut().zip(src).for_each(|(a, &v)| *a += v);
+        }
+        for (o, p) in o.iter_mut().zip(acc.chunks_exact(B)) {
+            let mut sum = p[0];
+            for &v in &p[1..] {
+                sum += v;
+            }
+            *o = sum * scale;
+        }
     }
 }
 
@@ -284,6 +319,41 @@ mod tests {
             assert_eq!(out.len(), want.len());
             for (j, (&v, &e)) in out.iter().zip(&want).enumerate() {
                 assert!((v as f64 - e).abs() < 1e-6, "{w}x{h} by {b}, value {j}: {v} against {e}");
+            }
+        }
+    }
+
+    /// Each binned value of a gray image in f32 in the order the module doc gives: the b rows
+    /// of its block added down each column, then the b columns across, then scaled.
+    fn in_order(x: &[f32], s: ImageSpec, b: usize) -> Vec<f32> {
+        let (w, wb, hb) = (s.width as usize, s.width as usize / b, s.height as usize / b);
+        let column = |yo: usize, c: usize| (1..b).fold(x[yo * b * w + c], |a, r| a + x[(yo * b + r) * w + c]);
+        (0..hb).flat_map(|yo| (0..wb).map(move |xo| (1..b).fold(column(yo, xo * b), |a, k| a + column(yo, xo * b + k)) * (1.0 / (b * b) as f32))).collect()
+    }
+
+    #[test]
+    fn gray_blocks_are_their_means_summed_in_order() {
+        // By 2 and 4 (a body built for each SIMD level: every level checked) and by 3 (the
+        // general loop).
+        for (w, h, b) in [(9, 7, 2), (33, 16, 4), (131, 13, 4), (130, 9, 2), (10, 9, 3)] {
+            let s = spec(w, h, ColorMode::Gray);
+            let x: Vec<f32> = (0..s.features()).map(|i| ((i * 37) % 101) as f32 / 101.0 - 0.2).collect();
+            let bin = Binning::new(s, b).unwrap();
+            let (want, near) = (in_order(&x, s, b), naive(&x, s, b));
+            let mut out = vec![0f32; bin.spec().features()];
+            bin.apply(&x, &mut out, &mut Vec::new());
+            assert_eq!(out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), want.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "{w}x{h} by {b}");
+            assert!(out.iter().zip(&near).all(|(&v, &e)| (v as f64 - e).abs() < 1e-6), "{w}x{h} by {b}: the means");
+            if b == 2 || b == 4 {
+                for level in Level::supported() {
+                    let mut o = vec![0f32; out.len()];
+                    let mut acc = vec![0f32; bin.spec().width as usize * b];
+                    match b {
+                        2 => gray_means::<2>(level, &x, w as usize, &mut o, &mut acc),
+                        _ => gray_means::<4>(level, &x, w as usize, &mut o, &mut acc),
+                    }
+                    assert!(o.iter().zip(&want).all(|(a, e)| a.to_bits() == e.to_bits()), "{w}x{h} by {b}, {level:?}");
+                }
             }
         }
     }

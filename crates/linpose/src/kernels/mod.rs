@@ -3,7 +3,8 @@
 //! integer sums, with [`levels`]), the 8-bit query products ([`dot_u8`] in f32; [`dot_q`] exact
 //! in integers against weights in 16-bit fixed point, for the eigenspace where AVX-512 VNNI
 //! runs it; [`dot_w`] the same for the 16-bit block sums of binned images) and the refined
-//! eigenspace's coarse scan ([`scan`]).
+//! eigenspace's coarse scan ([`scan`]), and the robust stage's check ([`recon`]: a query's
+//! least-squares reconstruction on binned rows, in f64).
 //!
 //! Each kernel has one portable body written so that it computes exactly the same operations in
 //! the same order as its intrinsics version (fused multiply-adds, one accumulator per lane), so
@@ -29,6 +30,7 @@ pub(crate) mod kdtree;
 pub(crate) mod lattice;
 pub(crate) mod levels;
 pub(crate) mod noise;
+pub(crate) mod recon;
 // Peak-rate measurements: for the benches and the tests only.
 #[cfg(any(test, feature = "bench"))]
 pub(crate) mod peak;

@@ -1,5 +1,6 @@
 //! The robust stage's threshold from the training set itself, by the stage's check (the share of
-//! a view's energy where its reconstruction is dark, `super::dark_share`), binned as the stage
+//! a view's energy where its reconstruction is dark, `super::check::dark_share`, in f64 as the
+//! stage's check adds it), binned as the stage
 //! bins: the training views against the eigenspace of all of them (in-sample: no step from a
 //! training view, an underestimate for a query between them), and views left out against the
 //! eigenspace of the others (a step from the nearest, twice a query's half step: an
@@ -7,6 +8,7 @@
 //! a step from its nearest training view; a query beyond a multiple of it
 //! ([`super::tuning::THRESHOLD_FACTOR`]) holds something the training views never showed.
 
+use super::check::{dark_share, Basis};
 use super::tuning;
 use crate::binning::Binning;
 use crate::dataset::Dataset;
@@ -61,12 +63,44 @@ fn worst(fit: &[&Vec<f64>], test: &[&Vec<f64>], mb: usize) -> Result<f64> {
         }
     }
     let ginv = super::search::invert(&gram, k).ok_or_else(|| Error::Numerical("the robust stage's held-out eigenspace is singular".into()))?;
-    let mut most: f64 = 0.0;
+    let held = Held { rows, k, mb, ginv };
+    let (mut most, mut scratch) = (0f64, Vec::new());
     for v in test {
         let xb: Vec<f32> = v.iter().map(|&x| x as f32).collect();
-        most = most.max(super::dark_share(mb, k, |i, j| rows[j * mb + i], &ginv, &xb).unwrap_or(0.0));
+        most = most.max(dark_share(&held, &xb, &mut scratch).unwrap_or(0.0));
     }
     Ok(most)
+}
+
+/// A held-out eigenspace's binned rows (f64, K x M_b one after another) for the check's
+/// statistic, its products added in the check's order.
+struct Held {
+    rows: Vec<f64>,
+    k: usize,
+    mb: usize,
+    ginv: Vec<f64>,
+}
+
+impl Basis for Held {
+    fn shape(&self) -> (usize, usize) {
+        (self.k, self.mb)
+    }
+    fn ginv(&self) -> &[f64] {
+        &self.ginv
+    }
+    fn project(&self, xb: &[f32], p: &mut [f64]) {
+        p.fill(0.0);
+        for (i, &v) in xb.iter().enumerate() {
+            if v != 0.0 {
+                p.iter_mut().enumerate().for_each(|(j, a)| *a += self.rows[j * self.mb + i] * v as f64);
+            }
+        }
+    }
+    fn reconstruct(&self, coef: &[f64], recon: &mut [f64]) {
+        for (i, r) in recon.iter_mut().enumerate() {
+            *r = coef.iter().enumerate().map(|(j, &c)| self.rows[j * self.mb + i] * c).sum();
+        }
+    }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {

@@ -8,8 +8,8 @@
 //! so coefficients found there reconstruct the full image):
 //!
 //! 1. **Check.** The query's least-squares reconstruction on the binned rows (its gain free;
-//!    the mean image and the leading `tuning::CHECK_COMPONENTS` eigenimages)
-//!    and the share of its energy in the pixels that reconstruction leaves dark (`dark_share`):
+//!    the mean image and the leading `tuning::CHECK_COMPONENTS` eigenimages) and the share of
+//!    its energy in the pixels that reconstruction leaves dark (`check::dark_share`):
 //!    at most the threshold calibrated on the training set's own held-out views
 //!    (`calibrate.rs`), the query goes to the method as it is, bit for bit. The plain residual
 //!    off the eigenspace tells scenes from studio views less well: a view between the training
@@ -31,6 +31,7 @@
 //! (`hidden.rs`), and scales the repaired query's confidence.
 
 mod calibrate;
+mod check;
 mod hidden;
 mod locate;
 mod model;
@@ -46,6 +47,7 @@ use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::manifold::pca::{self, Dimension};
 use crate::{Error, Result};
+use check::Binned;
 use serde::{Deserialize, Serialize};
 
 /// What a stage records besides its arrays.
@@ -75,11 +77,11 @@ pub(crate) struct Stage {
     m: usize,
     /// K x M: the mean unit-energy training image, then the eigenimages.
     rows: Vec<f32>,
-    /// M_b x K: the binned rows, pixel by pixel.
-    small: Vec<f32>,
-    /// K_c x K_c, row-major: the inverse of the Gram matrix of the check's binned rows (the
-    /// first K_c, [`check_rows`]).
-    ginv: Vec<f64>,
+    /// The binned rows (the fit reads them pixel by pixel).
+    binned: Binned,
+    /// The check's binned rows (the first K_c, [`check_rows`]), with the inverse of their Gram
+    /// matrix (`check.rs`).
+    checked: Binned,
     /// H x K: the hypotheses' coefficients (1, y_h), the training views' coordinates.
     hyps: Vec<f32>,
     /// H x M_b: the hypotheses' binned images.
@@ -143,38 +145,25 @@ impl Stage {
         }
         let binning = Binning::new(spec, settings.bin)?;
         let mb = binning.spec().features();
-        let mut small = vec![0f32; mb * k];
-        let (mut out, mut acc) = (vec![0f32; mb], Vec::new());
-        for (j, r) in rows.chunks_exact(m).enumerate() {
-            binning.apply(r, &mut out, &mut acc);
-            for (i, &v) in out.iter().enumerate() {
-                small[i * k + j] = v;
-            }
+        let mut cols = vec![0f32; k * mb];
+        let mut acc = Vec::new();
+        for (r, out) in rows.chunks_exact(m).zip(cols.chunks_exact_mut(mb)) {
+            binning.apply(r, out, &mut acc);
         }
-        // The check's rows: the mean image and the leading eigenimages.
         let kc = check_rows(k);
-        let mut gram = vec![0f64; kc * kc];
-        for b in small.chunks_exact(k) {
-            for a in 0..kc {
-                for c in 0..kc {
-                    gram[a * kc + c] += b[a] as f64 * b[c] as f64;
-                }
-            }
-        }
-        let ginv = search::invert(&gram, kc).ok_or_else(|| Error::Numerical("the robust stage's binned rows are not independent".into()))?;
+        let checked = Binned::new(cols[..kc * mb].to_vec(), kc)?;
+        let binned = Binned::new(cols, k)?;
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
         let step = hypothesis_step(hyps.len() / k);
         let hyps: Vec<f32> = hyps.chunks_exact(k).step_by(step).flatten().copied().collect();
         let mut preds = Vec::with_capacity(hyps.len() / k * mb);
         for h in hyps.chunks_exact(k) {
-            preds.extend(small.chunks_exact(k).map(|b| b.iter().zip(h).map(|(&u, &v)| u * v).sum::<f32>()));
+            preds.extend(binned.pixels().map(|b| b.iter().zip(h).map(|(&u, &v)| u * v).sum::<f32>()));
         }
         let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
-        let most: Vec<f32> = (0..k).map(|j| small.chunks_exact(k).fold(0f32, |a, b| a.max(b[j].abs()))).collect();
-        let support = (0..mb as u32)
-            .filter(|&i| small[i as usize * k..(i as usize + 1) * k].iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top))
-            .collect();
-        Ok(Stage { settings, binning, m, rows, small, ginv, hyps, preds, peaks, support })
+        let most: Vec<f32> = (0..k).map(|j| binned.pixels().fold(0f32, |a, b| a.max(b[j].abs()))).collect();
+        let support = (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
+        Ok(Stage { settings, binning, m, rows, binned, checked, hyps, preds, peaks, support })
     }
 
     /// The hypotheses' binned images on the check's rows alone ([`check_rows`]), H x M_b, and
@@ -187,7 +176,7 @@ impl Stage {
         }
         let mut preds = Vec::with_capacity(self.preds.len());
         for h in self.hyps.chunks_exact(k) {
-            preds.extend(self.small.chunks_exact(k).map(|b| b[..kc].iter().zip(&h[..kc]).map(|(&u, &v)| u * v).sum::<f32>()));
+            preds.extend(self.binned.pixels().map(|b| b[..kc].iter().zip(&h[..kc]).map(|(&u, &v)| u * v).sum::<f32>()));
         }
         let mb = self.binning.spec().features();
         let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
@@ -215,7 +204,8 @@ impl Stage {
     }
 
     /// The query `x` (M features) binned, with the share of its energy in the pixels its
-    /// least-squares reconstruction leaves dark ([`dark_share`]); None for a query of no energy.
+    /// least-squares reconstruction leaves dark ([`check::dark_share`]); None for a query of no
+    /// energy.
     pub(crate) fn check(&self, x: &[f32]) -> (Vec<f32>, Option<f64>) {
         let mut xb = vec![0f32; self.binning.spec().features()];
         self.binning.apply(x, &mut xb, &mut Vec::new());
@@ -225,8 +215,7 @@ impl Stage {
 
     /// [`dark_share`] of the binned query `xb` on the stage's rows.
     fn dark_share_binned(&self, xb: &[f32]) -> Option<f64> {
-        let k = self.settings.rows;
-        dark_share(xb.len(), check_rows(k), |i, j| self.small[i * k + j] as f64, &self.ginv, xb)
+        check::dark_share(&self.checked, xb, &mut Vec::new())
     }
 
     /// The probability that a repaired query whose fit shows `shown` of the object reads its
@@ -294,31 +283,6 @@ impl Stage {
         let fit = self.fit_binned(&xb);
         Some((self.repair(x, &fit), fit))
     }
-}
-
-/// The share of the binned query `xb`'s energy in the pixels where its least-squares
-/// reconstruction on the rows (`row(i, j)`: binned pixel i of row j, K rows with the inverse
-/// Gram matrix `ginv`, the gain free) is under [`tuning::DARK`] of its brightest: what the
-/// training views leave dark there and the query does not. A studio view between the training
-/// views differs from its reconstruction where the object is, so this share stays near 0; a
-/// background, or an occluder over the backdrop, puts energy where the object is not. None for a
-/// query of no energy.
-pub(crate) fn dark_share(mb: usize, k: usize, row: impl Fn(usize, usize) -> f64, ginv: &[f64], xb: &[f32]) -> Option<f64> {
-    let energy: f64 = xb.iter().map(|&v| v as f64 * v as f64).sum();
-    if !(energy > 0.0 && energy.is_finite()) {
-        return None;
-    }
-    let mut p = vec![0f64; k];
-    for (i, &v) in xb.iter().enumerate() {
-        if v != 0.0 {
-            p.iter_mut().enumerate().for_each(|(j, a)| *a += row(i, j) * v as f64);
-        }
-    }
-    let coef: Vec<f64> = (0..k).map(|a| (0..k).map(|c| ginv[a * k + c] * p[c]).sum()).collect();
-    let recon: Vec<f64> = (0..mb).map(|i| (0..k).map(|j| row(i, j) * coef[j]).sum()).collect();
-    let peak = recon.iter().fold(0f64, |a, &v| a.max(v));
-    let dark: f64 = recon.iter().zip(xb).filter(|(&r, _)| r < tuning::DARK * peak).map(|(_, &v)| v as f64 * v as f64).sum();
-    Some(dark / energy)
 }
 
 /// Rows of a stage of `k` rows that the check reconstructs on: the mean image and at most

@@ -130,13 +130,12 @@ pub(super) fn gain(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios:
 /// Marks the binned pixels the coefficients `coef` explain within `theta` (outside the support:
 /// those the query leaves dark); returns the count on the support.
 fn mark(stage: &Stage, xb: &[f32], coef: &[f64], theta: f32, inlier: &mut [bool]) -> (usize, f64) {
-    let k = coef.len();
     inlier.iter_mut().zip(xb).for_each(|(v, &x)| *v = x.abs() < theta);
     let c: Vec<f32> = coef.iter().map(|&v| v as f32).collect();
     let (mut count, mut fit) = (0, 0f64);
     for &i in &stage.support {
         let i = i as usize;
-        let r: f32 = stage.small[i * k..(i + 1) * k].iter().zip(&c).map(|(&u, &a)| u * a).sum();
+        let r: f32 = stage.binned.pixel(i).iter().zip(&c).map(|(&u, &a)| u * a).sum();
         let e = (xb[i] - r).abs() / theta;
         let ok = e < 1.0;
         inlier[i] = ok;
@@ -159,7 +158,7 @@ fn solve_on(stage: &Stage, xb: &[f32], inlier: &[bool]) -> Option<Vec<f64>> {
         if !inlier[i] {
             continue;
         }
-        b64.iter_mut().zip(&stage.small[i * k..(i + 1) * k]).for_each(|(d, &s)| *d = s as f64);
+        b64.iter_mut().zip(stage.binned.pixel(i)).for_each(|(d, &s)| *d = s as f64);
         let x = xb[i] as f64;
         for r in 0..k {
             let br = b64[r];
@@ -179,12 +178,11 @@ fn solve_on(stage: &Stage, xb: &[f32], inlier: &[bool]) -> Option<Vec<f64>> {
 /// The reconstruction's bright binned pixels (at least [`tuning::BRIGHT`] of `scale`) and how
 /// many of them `inlier` marks.
 fn object_seen(stage: &Stage, coef: &[f64], inlier: &[bool], scale: f32) -> (usize, usize) {
-    let k = coef.len();
     let c: Vec<f32> = coef.iter().map(|&v| v as f32).collect();
     let (mut object, mut seen) = (0usize, 0usize);
     for &i in &stage.support {
         let i = i as usize;
-        let r: f32 = stage.small[i * k..(i + 1) * k].iter().zip(&c).map(|(&u, &a)| u * a).sum();
+        let r: f32 = stage.binned.pixel(i).iter().zip(&c).map(|(&u, &a)| u * a).sum();
         if r > tuning::BRIGHT * scale {
             object += 1;
             seen += inlier[i] as usize;

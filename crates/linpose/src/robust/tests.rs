@@ -11,11 +11,15 @@ use crate::robust::Robust;
 use crate::{AnyModel, Dataset, EigenspaceParams, Estimator, PoseModel, RefinedParams};
 
 fn render(object: &str, azimuth: &str, scene: Option<Scene>) -> Dataset {
+    render_at(object, azimuth, scene, (64, 48))
+}
+
+fn render_at(object: &str, azimuth: &str, scene: Option<Scene>, (w, h): (u32, u32)) -> Dataset {
     let mut grid = PoseGrid::new(Grid::parse("elevation", "30").unwrap(), Grid::parse("azimuth", azimuth).unwrap()).unwrap();
     if let Some(s) = scene {
         grid = grid.with_scene(s);
     }
-    let params = RenderParams::default().width(64).height(48);
+    let params = RenderParams::default().width(w).height(h);
     dataset(&objects::builtin(object).unwrap(), &grid, &params, std::path::Path::new("<render>"), &|_| {}).unwrap()
 }
 
@@ -28,6 +32,73 @@ fn mean_error(model: &dyn PoseModel, data: &Dataset) -> f64 {
 
 fn scene(occlude: f64, seed: u64) -> Scene {
     Scene::new(Background::Texture, occlude, seed).unwrap()
+}
+
+/// The check's statistic by its formula, as the stage computed it before its products were
+/// vectorised: the stage's full rows binned, their Gram matrix inverted, then p = S^T xb, the
+/// coefficients and the reconstruction, each a plain f64 sum through a closure `row(i, j)`.
+fn reference_share(stage: &super::Stage, x: &[f32]) -> Option<f64> {
+    let (k, mb) = (stage.settings.rows, stage.binning.spec().features());
+    let bin = |v: &[f32]| {
+        let mut out = vec![0f32; mb];
+        stage.binning.apply(v, &mut out, &mut Vec::new());
+        out
+    };
+    let rows: Vec<Vec<f32>> = stage.rows.chunks_exact(stage.m).map(bin).collect();
+    let row = |i: usize, j: usize| rows[j][i] as f64;
+    let mut gram = vec![0f64; k * k];
+    for i in 0..mb {
+        for a in 0..k {
+            for c in 0..k {
+                gram[a * k + c] += row(i, a) * row(i, c);
+            }
+        }
+    }
+    let ginv = super::search::invert(&gram, k).unwrap();
+    let xb = bin(x);
+    let energy: f64 = xb.iter().map(|&v| v as f64 * v as f64).sum();
+    if !(energy > 0.0 && energy.is_finite()) {
+        return None;
+    }
+    let mut p = vec![0f64; k];
+    for (i, &v) in xb.iter().enumerate() {
+        if v != 0.0 {
+            p.iter_mut().enumerate().for_each(|(j, a)| *a += row(i, j) * v as f64);
+        }
+    }
+    let coef: Vec<f64> = (0..k).map(|a| (0..k).map(|c| ginv[a * k + c] * p[c]).sum()).collect();
+    let recon: Vec<f64> = (0..mb).map(|i| (0..k).map(|j| row(i, j) * coef[j]).sum()).collect();
+    let peak = recon.iter().fold(0f64, |a, &v| a.max(v));
+    let dark: f64 = recon.iter().zip(&xb).filter(|(&r, _)| r < super::tuning::DARK * peak).map(|(_, &v)| v as f64 * v as f64).sum();
+    Some(dark / energy)
+}
+
+#[test]
+fn the_check_is_its_formula_to_the_last_bit() {
+    // Views binned by 2 (64 x 48) and by 4 (128 x 96): studio views between the training views
+    // and texture scenes 0-40% hidden. The vectorised products add in the formula's order, so
+    // the tolerance is 0; the shares must also fall on both sides of the threshold.
+    for size in [(64, 48), (128, 96)] {
+        let train = render_at("duck", "0:350:10", None, size);
+        let stage = super::Stage::fit(&train).unwrap();
+        let mut sides = [0usize; 2];
+        let sets = [("studio", None), ("texture", Some(scene(0.0, 7))), ("20% hidden", Some(scene(0.2, 8))), ("40% hidden", Some(scene(0.4, 9)))];
+        for (set, s) in sets {
+            let q = render_at("duck", "5:355:20", s, size);
+            for i in 0..q.len() {
+                let (xb, share) = stage.check(q.row(i));
+                assert_eq!(xb.len(), stage.binning.spec().features());
+                let want = reference_share(&stage, q.row(i));
+                assert_eq!(share.map(f64::to_bits), want.map(f64::to_bits), "{size:?}, {set}, view {i}: {share:?} against {want:?}");
+                sides[(share.unwrap() > stage.settings.threshold) as usize] += 1;
+            }
+        }
+        eprintln!("{size:?}: binned by {}, {} views within the threshold, {} beyond", stage.settings.bin, sides[0], sides[1]);
+        assert!(sides[0] >= 18 && sides[1] >= 18, "{size:?}: {sides:?} within and beyond the threshold");
+    }
+    // A query of no energy has no share.
+    let stage = super::Stage::fit(&render("duck", "0:350:30", None)).unwrap();
+    assert_eq!(stage.check(&vec![0.0; 64 * 48]).1, None);
 }
 
 #[test]

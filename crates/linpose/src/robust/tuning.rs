@@ -51,7 +51,7 @@ pub(crate) const THRESHOLD_FACTOR: f64 = 2.0;
 pub(crate) const LEFT_OUT: usize = 24;
 
 /// A binned pixel is dark in a reconstruction under this share of the reconstruction's
-/// brightest (the check's statistic, `super::dark_share`). What it trades: higher takes in the
+/// brightest (the check's statistic, `super::check::dark_share`). What it trades: higher takes in the
 /// object's own dim parts, where a pose between the training views leaves residual; lower leaves
 /// fewer pixels to see a background in. Not tuned.
 pub(crate) const DARK: f64 = 0.1;
