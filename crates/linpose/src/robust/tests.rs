@@ -38,13 +38,14 @@ fn scene(occlude: f64, seed: u64) -> Scene {
 /// vectorised: the stage's full rows binned, their Gram matrix inverted, then p = S^T xb, the
 /// coefficients and the reconstruction, each a plain f64 sum through a closure `row(i, j)`.
 fn reference_share(stage: &super::Stage, x: &[f32]) -> Option<f64> {
-    let (k, mb) = (stage.settings.rows, stage.binning.spec().features());
+    // The check reconstructs on the mean image and the leading eigenimages alone.
+    let (k, mb) = (super::check_rows(stage.settings.rows), stage.binning.spec().features());
     let bin = |v: &[f32]| {
         let mut out = vec![0f32; mb];
         stage.binning.apply(v, &mut out, &mut Vec::new());
         out
     };
-    let rows: Vec<Vec<f32>> = stage.rows.chunks_exact(stage.m).map(bin).collect();
+    let rows: Vec<Vec<f32>> = stage.rows.chunks_exact(stage.m).take(k).map(bin).collect();
     let row = |i: usize, j: usize| rows[j][i] as f64;
     let mut gram = vec![0f64; k * k];
     for i in 0..mb {
@@ -156,8 +157,10 @@ fn the_confidence_flags_a_view_too_hidden_to_tell() {
         let error = light.space().error_deg(&el[i].pose, light.pose(i));
         let (fl, fh) = (factor(light.row(i)), factor(heavy.row(i)));
         eprintln!(
-            "view {i}: 10% hidden off {error:.1} (factor {fl:.2}, confidence {:.2}), 80% hidden factor {fh:.2}, confidence {:.2}",
-            el[i].confidence, eh[i].confidence
+            "view {i}: 10% hidden off {error:.1} (factor {fl:.2}, confidence {:.2}), 80% hidden off {:.1} factor {fh:.2}, confidence {:.2}",
+            el[i].confidence,
+            heavy.space().error_deg(&eh[i].pose, heavy.pose(i)),
+            eh[i].confidence
         );
         if error <= crate::confidence::GROSS_DEG {
             right += 1;
