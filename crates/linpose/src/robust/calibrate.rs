@@ -108,7 +108,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// The mean of the unit-energy views `fit` and their leading eigenimages (at most
-/// [`tuning::CHECK_COMPONENTS`], and only those of a non-negligible eigenvalue), rows of `mb`.
+/// [`tuning::COMPONENTS`], and only those of a non-negligible eigenvalue), rows of `mb`.
 fn half_rows(fit: &[&Vec<f64>], mb: usize) -> Result<Vec<f64>> {
     let n = fit.len();
     let mut mean = vec![0f64; mb];
@@ -121,7 +121,7 @@ fn half_rows(fit: &[&Vec<f64>], mb: usize) -> Result<Vec<f64>> {
         g.self_adjoint_eigen(Side::Lower).map_err(|e| Error::Numerical(format!("eigendecomposition of the robust stage's held-out Gram matrix: {e:?}")))?;
     let top = evd.S()[n - 1].max(0.0);
     let mut rows = mean;
-    for j in (0..n).rev().take(tuning::CHECK_COMPONENTS.min(n - 1)) {
+    for j in (0..n).rev().take(tuning::COMPONENTS.min(n - 1)) {
         let lambda = evd.S()[j];
         if !(lambda > top * 1e-9) {
             break;

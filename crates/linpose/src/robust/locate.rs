@@ -89,13 +89,16 @@ struct Level {
 }
 
 impl Level {
-    /// The stage's own cells, the hypotheses as the check's rows render them (the mean image and
-    /// the leading eigenimages, `super::check_rows`): the search's constants were set on those,
-    /// and the finer detail of the fit's further eigenimages does not help find the object.
+    /// The stage's own cells.
     fn fine(stage: &Stage) -> Level {
         let s = stage.binning.spec();
-        let (preds, peaks) = stage.silhouettes();
-        Level { cell: stage.binning.factor(), grid: (s.width as usize, s.height as usize), preds, peaks, support: stage.support.clone() }
+        Level {
+            cell: stage.binning.factor(),
+            grid: (s.width as usize, s.height as usize),
+            preds: stage.preds.clone(),
+            peaks: stage.peaks.clone(),
+            support: stage.support.clone(),
+        }
     }
 
     /// Its hypotheses `keep` alone.

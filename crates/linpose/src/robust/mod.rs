@@ -7,14 +7,14 @@
 //! (`tuning::MIN_PIXELS`), where the binned rows are the full rows binned (binning is linear,
 //! so coefficients found there reconstruct the full image):
 //!
-//! 1. **Check.** The query's least-squares reconstruction on the binned rows (its gain free;
-//!    the mean image and the leading `tuning::CHECK_COMPONENTS` eigenimages) and the share of
-//!    its energy in the pixels that reconstruction leaves dark (`check::dark_share`):
+//! 1. **Check.** The query's least-squares reconstruction on the binned rows (its gain free)
+//!    and the share of its energy in the pixels that reconstruction leaves dark
+//!    (`check::dark_share`):
 //!    at most the threshold calibrated on the training set's own held-out views
 //!    (`calibrate.rs`), the query goes to the method as it is, bit for bit. The plain residual
 //!    off the eigenspace tells scenes from studio views less well: a view between the training
 //!    views leaves a residual on the object where its pose moves it, as large on some objects as
-//!    a scene's. This costs one binning and 2 K_c products of M / b^2 (K_c the check's rows).
+//!    a scene's. This costs one binning and 2K products of M / b^2.
 //! 2. **Hypothesize and test** (`search.rs`). Hypotheses are the training views' coefficients,
 //!    each with the gain that best fits the query (a median of ratios over its bright pixels);
 //!    each is scored by the pixels it explains; the best few are refined by re-solving the
@@ -77,11 +77,8 @@ pub(crate) struct Stage {
     m: usize,
     /// K x M: the mean unit-energy training image, then the eigenimages.
     rows: Vec<f32>,
-    /// The binned rows (the fit reads them pixel by pixel).
+    /// The binned rows, with the inverse of their Gram matrix (the check's, `check.rs`).
     binned: Binned,
-    /// The check's binned rows (the first K_c, [`check_rows`]), with the inverse of their Gram
-    /// matrix (`check.rs`).
-    checked: Binned,
     /// H x K: the hypotheses' coefficients (1, y_h), the training views' coordinates.
     hyps: Vec<f32>,
     /// H x M_b: the hypotheses' binned images.
@@ -150,8 +147,6 @@ impl Stage {
         for (r, out) in rows.chunks_exact(m).zip(cols.chunks_exact_mut(mb)) {
             binning.apply(r, out, &mut acc);
         }
-        let kc = check_rows(k);
-        let checked = Binned::new(cols[..kc * mb].to_vec(), kc)?;
         let binned = Binned::new(cols, k)?;
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
         let step = hypothesis_step(hyps.len() / k);
@@ -163,24 +158,7 @@ impl Stage {
         let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
         let most: Vec<f32> = (0..k).map(|j| binned.pixels().fold(0f32, |a, b| a.max(b[j].abs()))).collect();
         let support = (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
-        Ok(Stage { settings, binning, m, rows, binned, checked, hyps, preds, peaks, support })
-    }
-
-    /// The hypotheses' binned images on the check's rows alone ([`check_rows`]), H x M_b, and
-    /// each one's brightest value.
-    fn silhouettes(&self) -> (Vec<f32>, Vec<f32>) {
-        let k = self.settings.rows;
-        let kc = check_rows(k);
-        if kc == k {
-            return (self.preds.clone(), self.peaks.clone());
-        }
-        let mut preds = Vec::with_capacity(self.preds.len());
-        for h in self.hyps.chunks_exact(k) {
-            preds.extend(self.binned.pixels().map(|b| b[..kc].iter().zip(&h[..kc]).map(|(&u, &v)| u * v).sum::<f32>()));
-        }
-        let mb = self.binning.spec().features();
-        let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
-        (preds, peaks)
+        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, support })
     }
 
     /// Its settings.
@@ -215,7 +193,7 @@ impl Stage {
 
     /// [`dark_share`] of the binned query `xb` on the stage's rows.
     fn dark_share_binned(&self, xb: &[f32]) -> Option<f64> {
-        check::dark_share(&self.checked, xb, &mut Vec::new())
+        check::dark_share(&self.binned, xb, &mut Vec::new())
     }
 
     /// The probability that a repaired query whose fit shows `shown` of the object reads its
@@ -283,12 +261,6 @@ impl Stage {
         let fit = self.fit_binned(&xb);
         Some((self.repair(x, &fit), fit))
     }
-}
-
-/// Rows of a stage of `k` rows that the check reconstructs on: the mean image and at most
-/// [`tuning::CHECK_COMPONENTS`] eigenimages (the leading ones), as its threshold was calibrated.
-fn check_rows(k: usize) -> usize {
-    k.min(tuning::CHECK_COMPONENTS + 1)
 }
 
 /// The stage keeps every this many of `n` training views as hypotheses (at most

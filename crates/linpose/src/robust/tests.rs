@@ -38,14 +38,13 @@ fn scene(occlude: f64, seed: u64) -> Scene {
 /// vectorised: the stage's full rows binned, their Gram matrix inverted, then p = S^T xb, the
 /// coefficients and the reconstruction, each a plain f64 sum through a closure `row(i, j)`.
 fn reference_share(stage: &super::Stage, x: &[f32]) -> Option<f64> {
-    // The check reconstructs on the mean image and the leading eigenimages alone.
-    let (k, mb) = (super::check_rows(stage.settings.rows), stage.binning.spec().features());
+    let (k, mb) = (stage.settings.rows, stage.binning.spec().features());
     let bin = |v: &[f32]| {
         let mut out = vec![0f32; mb];
         stage.binning.apply(v, &mut out, &mut Vec::new());
         out
     };
-    let rows: Vec<Vec<f32>> = stage.rows.chunks_exact(stage.m).take(k).map(bin).collect();
+    let rows: Vec<Vec<f32>> = stage.rows.chunks_exact(stage.m).map(bin).collect();
     let row = |i: usize, j: usize| rows[j][i] as f64;
     let mut gram = vec![0f64; k * k];
     for i in 0..mb {

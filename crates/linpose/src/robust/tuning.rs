@@ -23,14 +23,6 @@ pub(crate) const MIN_PIXELS: usize = 512;
 /// 0.78-0.88).
 pub(crate) const COMPONENTS: usize = 16;
 
-/// Eigenimages of the check (besides the mean image; the leading ones of the stage's): the
-/// check's reconstruction and its threshold's calibration (`calibrate.rs`) use these alone, so
-/// a studio query pays for them and not for [`COMPONENTS`]. What it trades: more explain a view
-/// between the training views better (fewer studio views sent to the fit) and explain a
-/// background better too (fewer scenes caught), at 2 products of the binned image each. The
-/// threshold's factor ([`THRESHOLD_FACTOR`]) was set with 16; not tuned.
-pub(crate) const CHECK_COMPONENTS: usize = 16;
-
 /// A query goes to the robust fit when the share of its energy where its reconstruction is
 /// dark exceeds this many times the training set's own level (the geometric mean of the largest
 /// in-sample and the largest left-out share, see `calibrate.rs`). What it trades: lower sends
