@@ -2,7 +2,7 @@
 """COIL-20 objects anywhere in 320 x 240 scenes: the robust stage's search for the box, and the pose.
 
   locate.py [--coil DIR] [--objects 1-20] [--sets 0,0.2,0.4] [--canvas 320x240] [--scale 0.8:1.2]
-            [--method refined] [--linpose BIN] [--jobs 2] [--work DIR]
+            [--background texture] [--method refined] [--linpose BIN] [--jobs 2] [--work DIR]
 
 For each object: its studio views (coil2dir.py); `linpose train --robust --train-step 10` on
 them; per set, every view put somewhere in a 320 x 240 textured scene at a random scale in
@@ -24,6 +24,7 @@ ap.add_argument("--objects", default="1-20")
 ap.add_argument("--sets", default="0,0.2,0.4")
 ap.add_argument("--canvas", default="320x240")
 ap.add_argument("--scale", default="0.8:1.2")
+ap.add_argument("--background", default="texture", help="scene's --background (texture, noise, a folder, or a level: 0 is the studio's black)")
 ap.add_argument("--method", default="refined")
 ap.add_argument("--linpose", default=os.path.join(root, "target", "release", "linpose"))
 ap.add_argument("--jobs", type=int, default=2)
@@ -56,16 +57,16 @@ def train(o):
 
 
 def scenes(o, f):
-    out = os.path.join(work, f"canvas{f}", f"obj{o}")
+    out = os.path.join(work, f"canvas{a.background.replace(os.sep, '_')}{f}", f"obj{o}")
     if not os.path.exists(os.path.join(out, "scene.csv")):
         run([a.linpose, "scene", "--data", os.path.join(studio, f"obj{o}"), "--out", out, "--canvas", a.canvas, "--scale", a.scale,
-             "--background", "texture", "--occlude", str(f), "--seed", str(o)])
+             "--background", a.background, "--occlude", str(f), "--seed", str(o)])
     return out
 
 
 def evaluate(o, f):
     model, data = train(o), scenes(o, f)
-    j = os.path.join(work, f"e{f}-{o}.json")
+    j = os.path.join(work, f"e{a.background.replace(os.sep, '_')}{f}-{o}.json")
     r = subprocess.run([a.linpose, "eval", "--model", model, "--data", data, "--json", j], capture_output=True, text=True)
     if not os.path.exists(j):
         raise SystemExit(f"eval of {model} on {data} failed:\n{r.stderr}")
@@ -89,7 +90,7 @@ def pct(xs, q):
     return xs[min(len(xs) - 1, int(q * len(xs)))]
 
 
-print(f"COIL-20 objects {a.objects}, {a.method} --robust trained on the studio views every 10 degrees; every view in a {a.canvas} texture scene at scale {a.scale}")
+print(f"COIL-20 objects {a.objects}, {a.method} --robust trained on the studio views every 10 degrees; every view in a {a.canvas} scene ({a.background} background) at scale {a.scale}")
 print(f"{'hidden':>6} {'views':>6} {'centre<=3px':>12} {'median px':>10} {'p95 px':>8} {'scale err':>10} {'unseen deg':>11} {'ms/scene':>9} {'refused':>8}")
 for f in sets:
     c = [x for o in objects for x in res[(f, o)]["centre"]]

@@ -18,9 +18,16 @@
 //!    windows of a quarter of the stage's pixels for a 320 x 240 scene and 128 x 128 views.
 //! 2. **Fine.** The best [`tuning::CANDIDATES`] windows (each at least a quarter of a window from
 //!    the others) are refined on the stage's own cells by a pattern search over the position and
-//!    the scale, the steps halved until they are under [`tuning::MIN_SHIFT`] pixels; the best
-//!    refined window is the object's box.
+//!    the scale, the steps halved until they are under [`tuning::MIN_SHIFT`] pixels, scored by
+//!    the hypotheses that explain the window best and the poses halfway to their neighbours in
+//!    the eigenspace (a query between two training views is placed best by a pose between
+//!    them); the best refined window wins.
+//! 3. **Polish.** [`tuning::POLISH`] times: the robust fit of the window (`search.rs`), then the
+//!    pattern search again, at half the steps, with the fit's reconstruction alone as the
+//!    hypothesis: its coefficients are free, so it follows the query's pose between the
+//!    training views, and its silhouette places the box.
 
+use super::check::Basis;
 use super::search::gain;
 use super::{tuning, Stage};
 use crate::binning::Binning;
@@ -101,16 +108,34 @@ impl Level {
         }
     }
 
-    /// Its hypotheses `keep` alone.
-    fn only(&self, keep: &[usize]) -> Level {
+    /// Its hypotheses `keep`, each with the poses halfway to its [`tuning::NEIGHBOURS`] nearest
+    /// hypotheses in the eigenspace (`coords`, H x K: the hypotheses' coefficients): the mean of
+    /// the two binned images, which are linear in the coefficients. The training views lie a
+    /// step apart on the object's manifold in the eigenspace, and a query between two of them
+    /// is placed best by a point between them: the nearer view alone fits it best a few pixels
+    /// off wherever the pose moves the object in the frame (the parametric eigenspace's
+    /// interpolation, for the search).
+    fn around(&self, keep: &[usize], coords: &[f32]) -> Level {
         let m = self.grid.0 * self.grid.1;
-        Level {
-            cell: self.cell,
-            grid: self.grid,
-            preds: keep.iter().flat_map(|&h| self.preds[h * m..(h + 1) * m].iter().copied()).collect(),
-            peaks: keep.iter().map(|&h| self.peaks[h]).collect(),
-            support: self.support.clone(),
+        let k = coords.len() / self.peaks.len();
+        let coord = |h: usize| &coords[h * k..(h + 1) * k];
+        let pred = |h: usize| &self.preds[h * m..(h + 1) * m];
+        let mut pairs: Vec<(usize, usize)> = keep.iter().map(|&h| (h, h)).collect();
+        for &h in keep {
+            let mut near: Vec<(f32, usize)> =
+                (0..self.peaks.len()).filter(|&n| n != h).map(|n| (coord(n).iter().zip(coord(h)).map(|(a, b)| (a - b) * (a - b)).sum::<f32>(), n)).collect();
+            near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            pairs.extend(near.iter().take(tuning::NEIGHBOURS).map(|&(_, n)| (h, n)));
         }
+        let preds: Vec<f32> = pairs.iter().flat_map(|&(h, n)| pred(h).iter().zip(pred(n)).map(|(&u, &v)| 0.5 * (u + v))).collect();
+        let peaks = preds.chunks_exact(m).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
+        Level { cell: self.cell, grid: self.grid, preds, peaks, support: self.support.clone() }
+    }
+
+    /// The single hypothesis whose cells are `pred`, on this level's cells.
+    fn single(&self, pred: Vec<f32>) -> Level {
+        let peak = pred.iter().fold(0f32, |a, &v| a.max(v));
+        Level { cell: self.cell, grid: self.grid, preds: pred, peaks: vec![peak], support: self.support.clone() }
     }
 
     /// `fine`'s cells binned by 2 (a pixel of the support where any of its four is), with at
@@ -207,17 +232,23 @@ impl Search {
             .collect()
     }
 
-    /// The window `w` refined on `level` by a pattern search over position and scale (the
-    /// scale changed about the window's centre), from steps of `shift` pixels and `ratio`.
-    fn refine(&self, fine: &Level, mut w: Window, shift: f64, ratio: f64, t: &mut Scratch) -> Window {
-        // The hypotheses that explain the start best, alone.
+    /// The window `w` refined on the stage's cells (`fine`, whose hypotheses' coefficients are
+    /// `coords`): the hypotheses that explain it best and the poses between them and their
+    /// neighbours ([`Level::around`]), then a pattern search ([`Self::pattern`]).
+    fn refine(&self, fine: &Level, coords: &[f32], w: Window, shift: f64, ratio: f64, t: &mut Scratch) -> Window {
         let (gw, gh) = fine.grid;
         t.xb.resize(gw * gh, 0.0);
         self.scene.cells((w.x, w.y), fine.cell as f64 * w.s, fine.grid, &mut t.xb, &mut t.corners);
         let mut ranked: Vec<(f32, usize)> = fine.scores(&t.xb, &mut t.ratios).enumerate().map(|(h, v)| (v, h)).collect();
         ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let keep: Vec<usize> = ranked.iter().take(tuning::FINE_HYPOTHESES).map(|r| r.1).collect();
-        let level = &fine.only(&keep);
+        self.pattern(&fine.around(&keep, coords), w, shift, ratio, t)
+    }
+
+    /// The window `w` moved on `level` by a pattern search over position and scale (the scale
+    /// changed about the window's centre), from steps of `shift` pixels and `ratio`, halved
+    /// until under [`tuning::MIN_SHIFT`] pixels.
+    fn pattern(&self, level: &Level, mut w: Window, shift: f64, ratio: f64, t: &mut Scratch) -> Window {
         w.score = self.score(level, w.x, w.y, w.s, t);
         let (mut dx, mut ds) = (shift, ratio);
         let mut evaluations = 0;
@@ -305,9 +336,22 @@ impl Stage {
         let ratio = 0.5 * (tuning::SCALE_RATIO - 1.0);
         let best = starts
             .par_iter()
-            .map_init(Scratch::default, |t, &c| search.refine(&fine, c, shift * c.s, ratio, t))
+            .map_init(Scratch::default, |t, &c| search.refine(&fine, &self.hyps, c, shift * c.s, ratio, t))
             .reduce_with(|a, b| if b.score > a.score || (b.score == a.score && (b.s, b.y, b.x) < (a.s, a.y, a.x)) { b } else { a })
             .expect("at least one window fits");
+        // 3. The box placed by the robust fit's own reconstruction, which is not bound to a
+        //    training view's pose.
+        let mut best = best;
+        let mut t = Scratch::default();
+        let mut recon = vec![0f64; fine.grid.0 * fine.grid.1];
+        for _ in 0..tuning::POLISH {
+            t.xb.resize(recon.len(), 0.0);
+            search.scene.cells((best.x, best.y), fine.cell as f64 * best.s, fine.grid, &mut t.xb, &mut t.corners);
+            let fit = self.fit_binned(&t.xb);
+            Basis::reconstruct(&self.binned, &fit.coef, &mut recon);
+            let level = fine.single(recon.iter().map(|&v| v as f32).collect());
+            best = search.pattern(&level, best, 0.5 * shift * best.s, 0.5 * ratio, &mut t);
+        }
         let mut view_px = vec![0f32; w * h];
         search.scene.cells((best.x, best.y), best.s, (w, h), &mut view_px, &mut Vec::new());
         Ok(Located { bbox: [best.x, best.y, view.0 * best.s, view.1 * best.s], scale: best.s, view: view_px, shown: 1.0, repaired: false })

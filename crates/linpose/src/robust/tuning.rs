@@ -139,6 +139,29 @@ pub(crate) const COARSE_HYPOTHESES: usize = 18;
 /// place. Not tuned.
 pub(crate) const FINE_HYPOTHESES: usize = 3;
 
+/// Neighbours in the eigenspace of each hypothesis of a fine search whose pose halfway to it is
+/// scored too (`locate.rs`, `Level::around`). What it trades: each adds a hypothesis to every
+/// window the fine search scores; with none, a query between two training views is placed by
+/// the nearer view alone, a few pixels off where the pose moves the object in the frame. Set on
+/// COIL-20 in 320 x 240 texture scenes (`python3 bench/locate.py`, all 20 objects, nothing
+/// hidden; box centres within 3 pixels): 0.887 with none, 0.903 with 2 (and 0.905 with the
+/// quarter-way poses too); the rest of the search as here, before [`POLISH`]. On data it was
+/// not set on: see [`POLISH`].
+pub(crate) const NEIGHBOURS: usize = 2;
+
+/// Rounds of the search's polish (`locate.rs`): the robust fit of the box found, then a pattern
+/// search with its reconstruction as the one hypothesis. What it trades: each round is one
+/// robust fit (about a millisecond for 128 x 128 views) and a short pattern search; the
+/// reconstruction follows a pose between the training views, which the training views' own
+/// images do not. Developed on COIL-20's 320 x 240 texture scenes, nothing hidden, with
+/// [`NEIGHBOURS`] 2: within 3 pixels 0.903 with none, 0.912 with 1, 0.915 with 2. The two
+/// together on the 13 objects outside the search's development objects (2, 3, 5, 9 and 19)
+/// and the two examined for the failures (6, 18), at 0 / 20 / 40% hidden: boxes within 3
+/// pixels 0.967 / 0.858 / 0.453 without them, 0.983 / 0.886 / 0.471 with them; unseen mean
+/// 3.25 / 13.7 / 49.2 degrees against 1.74 / 12.2 / 46.3. The search and repair of one scene
+/// (`cargo bench -p linpose --bench scene`, the duck): 17.3 against 20.5 ms.
+pub(crate) const POLISH: usize = 2;
+
 /// A hypothesis's silhouette for the search's score: its cells above this share of its
 /// brightest. What it trades: the cells it leaves out count nothing either way; counting every
 /// cell (the robust fit's score, where the backdrop is the training views') lets dark clutter
