@@ -21,8 +21,9 @@
 //!    coefficients on the pixels they explain and finding those again; the one that explains the
 //!    most pixels is kept (the minimum-description-length choice of the paper, at a fixed cost
 //!    per pixel).
-//! 3. **Repair.** The query's own pixels are kept where their bin and its four neighbours are
-//!    explained; every other pixel is the reconstruction in the query's gain. The method then
+//! 3. **Repair** (`repair.rs`). The query's own pixels are kept where their bin and its four
+//!    neighbours are explained, or lie in a small island of unexplained bins within the
+//!    object; every other pixel is the reconstruction in the query's gain. The method then
 //!    takes the repaired image as a studio view.
 //!
 //! The fit also says how much of the object the query shows: the share of the reconstruction's
@@ -35,6 +36,7 @@ mod check;
 mod hidden;
 mod locate;
 mod model;
+mod repair;
 mod search;
 pub(crate) mod tuning;
 
@@ -224,35 +226,6 @@ impl Stage {
     /// The robust fit of a binned query from its first pass.
     pub(crate) fn fit_coarse(&self, xb: &[f32], coarse: &Coarse) -> Fit {
         search::fit(self, xb, coarse)
-    }
-
-    /// The repaired query: `x`'s own pixels where `fit` explains their bin and its four
-    /// neighbours or the pixel itself, the reconstruction elsewhere.
-    pub(crate) fn repair(&self, x: &[f32], fit: &Fit) -> Vec<f32> {
-        let s = self.binning.spec();
-        let (wb, hb) = (s.width as usize, s.height as usize);
-        let b = self.binning.factor();
-        let w = self.binning.full().width as usize;
-        let keep: Vec<bool> = (0..wb * hb)
-            .map(|i| {
-                let (xo, yo) = (i % wb, i / wb);
-                let ok = |x: usize, y: usize| fit.inlier[y * wb + x];
-                ok(xo, yo) && (xo == 0 || ok(xo - 1, yo)) && (xo + 1 == wb || ok(xo + 1, yo)) && (yo == 0 || ok(xo, yo - 1)) && (yo + 1 == hb || ok(xo, yo + 1))
-            })
-            .collect();
-        let coef: Vec<f32> = fit.coef.iter().map(|&c| c as f32).collect();
-        let mut out = x.to_vec();
-        for (i, v) in out.iter_mut().enumerate() {
-            let (xo, yo) = ((i % w) / b, (i / w) / b);
-            if xo < wb && yo < hb && keep[yo * wb + xo] {
-                continue;
-            }
-            let r: f32 = coef.iter().enumerate().map(|(j, &c)| c * self.rows[j * self.m + i]).sum();
-            if !((*v - r).abs() < fit.theta) {
-                *v = r;
-            }
-        }
-        out
     }
 
     /// The query `x` repaired when it needs it (None: it goes as it is), with its fit.
