@@ -96,9 +96,9 @@ pub(crate) const ANNEAL: [f32; 6] = [0.3, 0.26, 0.22, 0.18, 0.14, 0.1];
 /// twelve objects other than 1, 3, 6, 9, 12, 16, 18 and 19; those eight 5.23 / 11.7 / 17.9):
 /// 0.05 0.95 / 1.47 / 6.17 and 4.55 / 11.1 / 17.9; 0.1 0.93 / 1.50 / 6.15 and 4.55 / 11.2 /
 /// 17.9 (the value chosen with both groups in view). Groups of any size (1.0) took the twelve
-/// at 20% hidden to 2.64. Removing every
-/// unexplained stroke one bin thin on the object instead (an opening) took the eight at 0% to
-/// 3.36 but the twelve at 40% to 7.21: a striped occluder is such strokes too.
+/// at 20% hidden to 2.64. Removing every unexplained stroke one bin thin on the object instead
+/// (an opening) took the eight at 0% to 3.36 but the twelve at 40% to 7.21: a striped occluder
+/// is such strokes too.
 pub(crate) const SPECK: f64 = 0.05;
 
 /// Binned pixels the model leaves dark in every training view (every row of the stage at most
