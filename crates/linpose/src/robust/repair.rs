@@ -3,14 +3,15 @@
 //!
 //! A binned pixel the fit explains is the query's own when its four neighbours are explained
 //! too (the bins at an occluder's or the background's edge mix both). A bin the fit does not
-//! explain is replaced, except in a speck: a group of unexplained bins (8-connected) that lies
-//! wholly on the reconstruction's bright pixels and holds fewer than [`tuning::SPECK`] of them.
-//! The eigenspace reconstructs an object's fine detail (print, edges, a car's interior) only
-//! roughly, so a textured object leaves such specks unexplained all over itself; replaced, they
-//! become the reconstruction's blur, which the method reads as a neighbouring pose, or as the
-//! pose half a turn away when the object looks alike from behind. An occluder or the background
-//! is not a speck: it reaches the object's outline or covers more of it. Inside a bin not kept,
-//! a pixel is still kept when it is within the fit's threshold of the reconstruction.
+//! explain is replaced, except in a speck: a group of unexplained bins on the object (the
+//! reconstruction's bright bins, 8-connected through the object alone) holding fewer than
+//! [`tuning::SPECK`] of them. The eigenspace reconstructs an object's fine detail (print,
+//! edges, a car's interior) only roughly, so a textured object leaves such specks unexplained
+//! all over itself, at its outline too; replaced, they become the reconstruction's blur, which
+//! the method reads as a neighbouring pose, or as the pose half a turn away when the object
+//! looks alike from behind. The background is not on the object, and an occluder hides more of
+//! it than a speck. Inside a bin not kept, a pixel is still kept when it is within the fit's
+//! threshold of the reconstruction.
 
 use super::check::Basis;
 use super::{tuning, Fit, Stage};
@@ -76,14 +77,14 @@ impl Stage {
                 for ny in y.saturating_sub(1)..(y + 2).min(hb) {
                     for nx in x.saturating_sub(1)..(x + 2).min(wb) {
                         let n = ny * wb + nx;
-                        if !fit.inlier[n] && !seen[n] {
+                        if !fit.inlier[n] && !seen[n] && bright[n] == bright[start] {
                             seen[n] = true;
                             group.push(n);
                         }
                     }
                 }
             }
-            if (group.len() as f64) < most && group.iter().all(|&i| bright[i]) {
+            if bright[start] && (group.len() as f64) < most {
                 group.iter().for_each(|&i| explained[i] = true);
             }
         }

@@ -197,11 +197,11 @@ fn the_hidden_share_calibration_is_reproducible_and_old_settings_still_read() {
 /// scene: the scene's features and the frame's box.
 #[test]
 fn the_repair_keeps_the_object_s_specks_and_replaces_an_occluder() {
-    // A studio view of the duck (128 x 128, binned by 4) fitted as a query, then two regions
-    // of its bins marked unexplained and their pixels changed: one bin on the object (a speck,
-    // under tuning::SPECK of the object's bright bins) and a block of 6 x 6 bins beside it (more
-    // than that share, or reaching past the object's outline). The repair keeps the speck's
-    // pixels as the query has them and replaces the block's by the reconstruction.
+    // A studio view of the duck (128 x 128, binned by 4) fitted as a query, then two parts of
+    // the object marked unexplained and their pixels changed: one bin on its left (a speck,
+    // under tuning::SPECK of the object's bright bins) and every bright bin right of its
+    // middle (an occluder over much of it). The repair keeps the speck's pixels as the query has
+    // them and replaces the occluder's by the reconstruction.
     let train = render_at("duck", "0:350:10", None, (128, 128));
     let stage = super::Stage::fit(&train).unwrap();
     let x = train.row(3).to_vec();
@@ -211,25 +211,23 @@ fn the_repair_keeps_the_object_s_specks_and_replaces_an_occluder() {
     let w = 128;
     let mut recon = vec![0f64; xb.len()];
     super::check::Basis::reconstruct(&stage.binned, &fit.coef, &mut recon);
-    // The speck: the reconstruction's brightest bin, away from the grid's edge.
-    let hb = xb.len() / wb;
-    let speck =
-        (0..xb.len()).filter(|&i| (2..wb - 8).contains(&(i % wb)) && (2..hb - 8).contains(&(i / wb))).max_by(|&a, &c| recon[a].total_cmp(&recon[c])).unwrap();
+    let peak = recon.iter().fold(0f64, |a, &v| a.max(v));
+    let object: Vec<usize> = (0..xb.len()).filter(|&i| recon[i] > 0.5 * peak).collect();
+    let middle = object.iter().map(|&i| i % wb).sum::<usize>() / object.len();
+    let occluder: Vec<usize> = object.iter().copied().filter(|&i| i % wb >= middle).collect();
+    let speck = object.iter().copied().filter(|&i| i % wb + 3 <= middle).max_by(|&a, &c| recon[a].total_cmp(&recon[c])).unwrap();
     fit.inlier.iter_mut().for_each(|v| *v = true);
     fit.inlier[speck] = false;
-    // The block: 6 x 6 bins, 3 bins right of the speck.
-    let (sx, sy) = (speck % wb + 4, speck / wb);
-    let block: Vec<usize> = (0..36).map(|k| (sy + k / 6) * wb + sx + k % 6).collect();
-    block.iter().for_each(|&i| fit.inlier[i] = false);
+    occluder.iter().for_each(|&i| fit.inlier[i] = false);
     let mut q = x.clone();
     let pixels = |bin: usize| (0..b * b).map(move |k| (bin / wb * b + k / b) * w + bin % wb * b + k % b);
-    for bin in std::iter::once(speck).chain(block.iter().copied()) {
+    for bin in std::iter::once(speck).chain(occluder.iter().copied()) {
         pixels(bin).for_each(|i| q[i] += 0.5);
     }
     let out = stage.repair(&q, &fit);
     assert!(pixels(speck).all(|i| out[i] == q[i]), "the speck's own pixels are kept");
-    let replaced = block.iter().flat_map(|&bin| pixels(bin)).filter(|&i| out[i] != q[i]).count();
-    assert_eq!(replaced, block.len() * b * b, "every pixel of the block is replaced");
+    let replaced = occluder.iter().flat_map(|&bin| pixels(bin)).filter(|&i| out[i] != q[i]).count();
+    assert_eq!(replaced, occluder.len() * b * b, "every pixel of the occluder ({} bins) is replaced", occluder.len());
 }
 
 fn in_scene(view: &Dataset, (w, h): (u32, u32), s: f64, seed: u64) -> (Vec<f32>, crate::image_io::ImageSpec, [f64; 4]) {

@@ -86,19 +86,20 @@ pub(crate) const COARSE: f32 = 0.25;
 /// against 0.1 lost more of the object (object 6: 9.1 against 3.2 degrees in texture alone).
 pub(crate) const ANNEAL: [f32; 6] = [0.3, 0.26, 0.22, 0.18, 0.14, 0.1];
 
-/// A group of unexplained bins lying wholly on the object (the reconstruction's bright bins)
-/// and holding fewer than this share of them is the object's own detail that the eigenspace
-/// reconstructs only roughly, and the repair keeps the query's pixels there (`repair.rs`).
-/// What it trades: higher keeps an occluder that lies wholly inside the object; lower replaces
-/// more of a textured object's detail by the reconstruction's blur. Measured on COIL-20 in
-/// texture scenes (refined, trained every 10 degrees, the views between; unseen mean at 0 / 20
-/// / 40% hidden, `python3 bench/scenes.py`), against no specks (1.02 / 1.52 / 6.20 on the
-/// twelve objects other than 1, 3, 6, 9, 12, 16, 18 and 19; those eight 5.23 / 11.7 / 17.9):
-/// 0.05 0.95 / 1.47 / 6.17 and 4.55 / 11.1 / 17.9; 0.1 0.93 / 1.50 / 6.15 and 4.55 / 11.2 /
-/// 17.9 (the value chosen with both groups in view). Groups of any size (1.0) took the twelve
-/// at 20% hidden to 2.64. Removing every unexplained stroke one bin thin on the object instead
-/// (an opening) took the eight at 0% to 3.36 but the twelve at 40% to 7.21: a striped occluder
-/// is such strokes too.
+/// A group of unexplained bins on the object (the reconstruction's bright bins, connected
+/// through the object alone) holding fewer than this share of them is the object's own detail
+/// that the eigenspace reconstructs only roughly, and the repair keeps the query's pixels there
+/// (`repair.rs`). What it trades: higher keeps more of an occluder's pieces on the object;
+/// lower replaces more of a textured object's detail by the reconstruction's blur. Measured on
+/// COIL-20 in texture scenes (refined, trained every 10 degrees, the views between; unseen mean
+/// at 0 / 20 / 40% hidden, `python3 bench/scenes.py`), on the twelve objects other than 1, 3,
+/// 6, 9, 12, 16, 18 and 19 and on those eight: no specks 1.02 / 1.52 / 6.20 and 5.23 / 11.7 /
+/// 17.9; 0.05 0.87 / 1.47 / 6.11 and 3.86 / 10.2 / 17.8; 0.1 0.84 / 2.01 / 6.12 and 2.57 / 9.62
+/// / 18.0; 0.025 0.92 / 1.45 / 6.13 and 3.91 / 11.1 / 17.8 (chosen with both groups in view).
+/// Groups that had to lie wholly on the object (connected through the background too) gained
+/// less: 0.95 / 1.47 / 6.17 and 4.55 / 11.1 / 17.9 at 0.05. Removing every unexplained stroke
+/// one bin thin on the object instead (an opening) took the eight at 0% to 3.36 but the twelve
+/// at 40% to 7.21: a striped occluder is such strokes too.
 pub(crate) const SPECK: f64 = 0.05;
 
 /// Binned pixels the model leaves dark in every training view (every row of the stage at most
