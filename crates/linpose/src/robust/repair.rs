@@ -12,9 +12,18 @@
 //! looks alike from behind. The background is not on the object, and an occluder hides more of
 //! it than a speck. Inside a bin not kept, a pixel is still kept when it is within the fit's
 //! threshold of the reconstruction.
-
+//!
+//! The pixels not kept are filled by a reconstruction solved again at full resolution, by least
+//! squares on the pixels kept. The binned fit's coefficients are solved on the bins its last,
+//! tight threshold explains, which leave out the object's detail it reconstructs least well
+//! (half of a toy car's bins); over those, and over what an occluder hides, the fit
+//! extrapolates. The pixels kept hold that detail, at full resolution. On COIL-20 in texture
+//! scenes (refined, the views between the training views; 0 / 20 / 40% hidden) the fill took
+//! the unseen mean from 2.07 / 4.96 / 10.8 to 2.00 / 4.53 / 9.37 degrees.
 use super::check::Basis;
-use super::{tuning, Fit, Stage};
+use super::{search, tuning, Fit, Stage};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
 
 impl Stage {
     /// The repaired query: `x`'s own pixels where `fit` keeps their bin (see the module doc) or
@@ -33,18 +42,47 @@ impl Stage {
             })
             .collect();
         let coef: Vec<f32> = fit.coef.iter().map(|&c| c as f32).collect();
+        let kept: Vec<bool> = x
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let (xo, yo) = ((i % w) / b, (i / w) / b);
+                (xo < wb && yo < hb && keep[yo * wb + xo]) || (v - self.reconstruct_at(&coef, i)).abs() < fit.theta
+            })
+            .collect();
+        let coef = self.resolve(x, &kept).map_or(coef, |c| c.iter().map(|&v| v as f32).collect());
         let mut out = x.to_vec();
         for (i, v) in out.iter_mut().enumerate() {
-            let (xo, yo) = ((i % w) / b, (i / w) / b);
-            if xo < wb && yo < hb && keep[yo * wb + xo] {
-                continue;
-            }
-            let r: f32 = coef.iter().enumerate().map(|(j, &c)| c * self.rows[j * self.m + i]).sum();
-            if !((*v - r).abs() < fit.theta) {
-                *v = r;
+            if !kept[i] {
+                *v = self.reconstruct_at(&coef, i);
             }
         }
         out
+    }
+
+    /// Pixel `i` of the reconstruction from `coef` on the full rows.
+    pub(super) fn reconstruct_at(&self, coef: &[f32], i: usize) -> f32 {
+        coef.iter().enumerate().map(|(j, &c)| c * self.rows[j * self.m + i]).sum()
+    }
+
+    /// The least-squares coefficients of `x` on the full rows over its `kept` pixels; None when
+    /// fewer than twice as many pixels as rows are kept (as the fit's re-solves stop, `search.rs`)
+    /// or the rows are dependent there.
+    fn resolve(&self, x: &[f32], kept: &[bool]) -> Option<Vec<f64>> {
+        let k = self.settings.rows;
+        let at: Vec<usize> = (0..self.m).filter(|&i| kept[i]).collect();
+        if at.len() < 2 * k {
+            return None;
+        }
+        let a = Mat::<f64>::from_fn(at.len(), k, |p, j| f64::from(self.rows[j * self.m + at[p]]));
+        let v = Mat::<f64>::from_fn(at.len(), 1, |p, _| f64::from(x[at[p]]));
+        let mut gram = Mat::<f64>::zeros(k, k);
+        let mut rhs = Mat::<f64>::zeros(k, 1);
+        matmul(gram.as_mut(), Accum::Replace, a.transpose(), a.as_ref(), 1.0, Par::Seq);
+        matmul(rhs.as_mut(), Accum::Replace, a.transpose(), v.as_ref(), 1.0, Par::Seq);
+        let mut g: Vec<f64> = (0..k * k).map(|e| gram[(e / k, e % k)]).collect();
+        let mut c: Vec<f64> = (0..k).map(|j| rhs[(j, 0)]).collect();
+        search::cholesky_solve(&mut g, k, &mut c).then_some(c)
     }
 
     /// `fit`'s explained bins (a `wb` x `hb` grid) with its specks (see the module doc) counted

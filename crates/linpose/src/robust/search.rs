@@ -193,7 +193,7 @@ fn object_seen(stage: &Stage, coef: &[f64], inlier: &[bool], scale: f32) -> (usi
 
 /// Solves A x = b in place (A symmetric positive definite, k x k row-major, overwritten by its
 /// Cholesky factor; b by x); false when A is not positive definite.
-fn cholesky_solve(a: &mut [f64], k: usize, b: &mut [f64]) -> bool {
+pub(super) fn cholesky_solve(a: &mut [f64], k: usize, b: &mut [f64]) -> bool {
     for j in 0..k {
         let mut d = a[j * k + j];
         for p in 0..j {

@@ -230,6 +230,37 @@ fn the_repair_keeps_the_object_s_specks_and_replaces_an_occluder() {
     assert_eq!(replaced, occluder.len() * b * b, "every pixel of the occluder ({} bins) is replaced", occluder.len());
 }
 
+#[test]
+fn the_fill_is_solved_again_on_the_pixels_kept() {
+    // A query in the span of the stage's rows (a studio view's reconstruction, 128 x 128) with
+    // the bright bins right of the object's middle hidden (their pixels changed, marked
+    // unexplained), and a fit whose coefficients are off (its eigenimages' weights at 0.8, as
+    // a fit on a subset of the object extrapolates): the hidden pixels are filled with the
+    // query's own values, solved again on the pixels kept.
+    let train = render_at("duck", "0:350:10", None, (128, 128));
+    let stage = super::Stage::fit(&train).unwrap();
+    let (xb, _) = stage.check(train.row(3));
+    let mut fit = stage.fit_binned(&xb);
+    let coef: Vec<f32> = fit.coef.iter().map(|&c| c as f32).collect();
+    let x: Vec<f32> = (0..stage.m).map(|i| stage.reconstruct_at(&coef, i)).collect();
+    let (wb, b, w) = (stage.binning.spec().width as usize, stage.binning.factor(), 128);
+    let mut recon = vec![0f64; xb.len()];
+    super::check::Basis::reconstruct(&stage.binned, &fit.coef, &mut recon);
+    let peak = recon.iter().fold(0f64, |a, &v| a.max(v));
+    let object: Vec<usize> = (0..xb.len()).filter(|&i| recon[i] > 0.5 * peak).collect();
+    let middle = object.iter().map(|&i| i % wb).sum::<usize>() / object.len();
+    let hidden: Vec<usize> = object.into_iter().filter(|&i| i % wb >= middle).collect();
+    fit.inlier.iter_mut().for_each(|v| *v = true);
+    hidden.iter().for_each(|&i| fit.inlier[i] = false);
+    fit.coef.iter_mut().skip(1).for_each(|c| *c *= 0.8);
+    let pixels: Vec<usize> = hidden.iter().flat_map(|&bin| (0..b * b).map(move |k| (bin / wb * b + k / b) * w + bin % wb * b + k % b)).collect();
+    let mut q = x.clone();
+    pixels.iter().for_each(|&i| q[i] += 0.5);
+    let out = stage.repair(&q, &fit);
+    let worst = pixels.iter().map(|&i| (out[i] - x[i]).abs()).fold(0f32, f32::max);
+    assert!(worst < 1e-3, "the hidden pixels are the query's own values to {worst}");
+}
+
 fn in_scene(view: &Dataset, (w, h): (u32, u32), s: f64, seed: u64) -> (Vec<f32>, crate::image_io::ImageSpec, [f64; 4]) {
     use crate::render::background::BackgroundSpec;
     use crate::render::place::Canvas;
