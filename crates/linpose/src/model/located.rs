@@ -25,6 +25,10 @@ pub struct Located {
     /// method takes.
     #[serde(skip)]
     pub view: Vec<f32>,
+    /// The bins of the view the repair kept whole, and the fit's threshold: what the answer to a
+    /// repaired view is checked against (`crate::robust`); empty when not repaired.
+    #[serde(skip)]
+    pub(crate) kept: (Vec<u32>, f32),
 }
 
 /// A model that finds its object in images larger than its training views.

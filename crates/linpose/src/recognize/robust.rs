@@ -61,7 +61,7 @@ impl RobustObjects {
             .objects()
             .par_iter()
             .zip(objects.names())
-            .map(|(d, name)| Stage::fit(d).map_err(|e| Error::invalid("robust stage", format!("object '{name}'"), e.to_string())))
+            .map(|(d, name)| Stage::fit(d).map(Stage::without_views).map_err(|e| Error::invalid("robust stage", format!("object '{name}'"), e.to_string())))
             .collect::<Result<Vec<Stage>>>()?;
         Self::of(stages)
     }
@@ -85,7 +85,7 @@ impl RobustObjects {
                 let name = format!("robust.{k}.hypotheses");
                 let h = t.tensors.iter().find(|x| x.name == name).map_or(0, |x| x.shape.first().copied().unwrap_or(0));
                 let hyps = t.f32(&name, &[h, s.rows])?;
-                Stage::new(spec, *s, rows, hyps).map_err(|e| t.error(format!("damaged robust stage of object {k}: {e}")))
+                Stage::new(spec, *s, rows, hyps, None).map_err(|e| t.error(format!("damaged robust stage of object {k}: {e}")))
             })
             .collect::<Result<Vec<Stage>>>()?;
         Self::of(stages).map_err(|e| t.error(format!("damaged robust stages: {e}")))

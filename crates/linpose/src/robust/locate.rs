@@ -354,7 +354,14 @@ impl Stage {
         }
         let mut view_px = vec![0f32; w * h];
         search.scene.cells((best.x, best.y), best.s, (w, h), &mut view_px, &mut Vec::new());
-        Ok(Located { bbox: [best.x, best.y, view.0 * best.s, view.1 * best.s], scale: best.s, view: view_px, shown: 1.0, repaired: false })
+        Ok(Located {
+            bbox: [best.x, best.y, view.0 * best.s, view.1 * best.s],
+            scale: best.s,
+            view: view_px,
+            shown: 1.0,
+            repaired: false,
+            kept: (Vec::new(), 0.0),
+        })
     }
 }
 

@@ -39,10 +39,13 @@ mod model;
 mod repair;
 mod search;
 pub(crate) mod tuning;
+mod verify;
 
 pub use model::Robust;
 pub(crate) use model::META_KEY;
 pub(crate) use search::Coarse;
+pub(crate) use verify::Evidence;
+use verify::Views;
 
 use crate::binning::Binning;
 use crate::dataset::Dataset;
@@ -89,6 +92,9 @@ pub(crate) struct Stage {
     peaks: Vec<f32>,
     /// The binned pixels where some row has energy.
     support: Vec<u32>,
+    /// The training views binned, with their poses: what a repaired query's answer is checked
+    /// against (`verify.rs`); None in model files written before the check.
+    views: Option<Views>,
 }
 
 /// A robust fit of one query.
@@ -120,13 +126,14 @@ impl Stage {
         let threshold = calibrate::threshold(train, binning)? * tuning::THRESHOLD_FACTOR;
         let settings = RobustSettings { bin: binning.factor(), rows: l + 1, threshold, hidden: None };
         debug_assert_eq!(rows.len(), (l + 1) * m);
-        let mut stage = Stage::new(spec, settings, rows, hyps)?;
+        let views = Views::of(train, binning);
+        let mut stage = Stage::new(spec, settings, rows, hyps, Some(views))?;
         stage.settings.hidden = Some(hidden::calibrate(&stage, train));
         Ok(stage)
     }
 
     /// The stage from its settings and arrays (a model file's), the derived arrays computed.
-    pub(crate) fn new(spec: ImageSpec, settings: RobustSettings, rows: Vec<f32>, hyps: Vec<f32>) -> Result<Stage> {
+    pub(crate) fn new(spec: ImageSpec, settings: RobustSettings, rows: Vec<f32>, hyps: Vec<f32>, views: Option<Views>) -> Result<Stage> {
         let m = spec.features();
         let k = settings.rows;
         if k == 0 || rows.len() != k * m || !hyps.len().is_multiple_of(k) || hyps.is_empty() {
@@ -144,6 +151,9 @@ impl Stage {
         }
         let binning = Binning::new(spec, settings.bin)?;
         let mb = binning.spec().features();
+        if views.as_ref().is_some_and(|v| v.arrays().0.len() % mb != 0) {
+            return Err(Error::invalid("robust stage", "training views", format!("views of {mb} binned pixels")));
+        }
         let mut cols = vec![0f32; k * mb];
         let mut acc = Vec::new();
         for (r, out) in rows.chunks_exact(m).zip(cols.chunks_exact_mut(mb)) {
@@ -160,7 +170,7 @@ impl Stage {
         let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
         let most: Vec<f32> = (0..k).map(|j| binned.pixels().fold(0f32, |a, b| a.max(b[j].abs()))).collect();
         let support = (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
-        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, support })
+        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, support, views })
     }
 
     /// Its settings.
@@ -178,9 +188,22 @@ impl Stage {
         &self.hyps
     }
 
+    /// Its training views binned and their poses (None: a stage read from a model file written
+    /// before the answer's check).
+    pub(crate) fn views(&self) -> Option<(&[f32], &[f64])> {
+        self.views.as_ref().map(Views::arrays)
+    }
+
+    /// The same stage without its training views (a many-object model's, which does not check
+    /// its answers against them).
+    pub(crate) fn without_views(mut self) -> Stage {
+        self.views = None;
+        self
+    }
+
     /// Numbers it stores.
     pub(crate) fn len(&self) -> usize {
-        self.rows.len() + self.hyps.len()
+        self.rows.len() + self.hyps.len() + self.views.as_ref().map_or(0, Views::len)
     }
 
     /// The query `x` (M features) binned, with the share of its energy in the pixels its
@@ -228,11 +251,14 @@ impl Stage {
         search::fit(self, xb, coarse)
     }
 
-    /// The query `x` repaired when it needs it (None: it goes as it is), with its fit.
-    pub(crate) fn apply(&self, x: &[f32]) -> Option<(Vec<f32>, Fit)> {
+    /// The query `x` repaired when it needs it (None: it goes as it is), with its fit and what
+    /// the answer is checked against.
+    pub(crate) fn apply(&self, x: &[f32]) -> Option<(Vec<f32>, Fit, Evidence)> {
         let xb = self.needs(x)?;
         let fit = self.fit_binned(&xb);
-        Some((self.repair(x, &fit), fit))
+        let (out, kept) = self.repaired(x, &fit);
+        let evidence = self.evidence(xb, &fit, &kept);
+        Some((out, fit, evidence))
     }
 }
 

@@ -5,7 +5,7 @@
 //! keeps the stage: its settings as the `linpose.robust` metadata, its arrays as
 //! `robust.rows` and `robust.hypotheses`.
 
-use super::{RobustSettings, Stage};
+use super::{tuning, Evidence, RobustSettings, Stage, Views};
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
@@ -16,7 +16,7 @@ use rayon::prelude::*;
 /// A fitted model whose queries go through the robust stage first.
 #[derive(Debug)]
 pub struct Robust {
-    stage: Stage,
+    pub(super) stage: Stage,
     inner: AnyModel,
 }
 
@@ -24,8 +24,9 @@ pub struct Robust {
 pub(crate) const META_KEY: &str = "linpose.robust";
 
 /// A query's place in its batch and its repaired pixels, with the probability that a fit showing
-/// that share of the object reads the pose right (`Stage::clear`).
-type Repaired = (usize, Vec<f32>, f64);
+/// that share of the object reads the pose right (`Stage::clear`) and what its answer is checked
+/// against (`verify.rs`).
+type Repaired = (usize, Vec<f32>, f64, Evidence);
 
 impl Robust {
     /// `inner` (fitted on `train`) behind a robust stage fitted on `train`.
@@ -62,27 +63,56 @@ impl Robust {
     /// goes as it is), else the repaired image and the share of the object it shows (the
     /// reconstruction's bright pixels that the query explains).
     pub fn repair(&self, x: &[f32]) -> Option<(Vec<f32>, f64)> {
-        self.stage.apply(x).map(|(r, fit)| (r, fit.shown))
+        self.stage.apply(x).map(|(r, fit, _)| (r, fit.shown))
     }
 
     /// The queries of a batch that need the robust fit, repaired.
     fn repaired(&self, queries: &[f32]) -> Result<Vec<Repaired>> {
         let m = self.meta().spec.features();
         crate::model::check_queries(m, queries.len(), "query batch")?;
-        Ok(queries.par_chunks(m).enumerate().filter_map(|(i, x)| self.stage.apply(x).map(|(r, f)| (i, r, self.stage.clear(f.shown)))).collect())
+        Ok(queries.par_chunks(m).enumerate().filter_map(|(i, x)| self.stage.apply(x).map(|(r, f, e)| (i, r, self.stage.clear(f.shown), e))).collect())
     }
 
-    /// The batch with its repaired queries in place.
-    fn with_repairs<'q>(&self, queries: &'q [f32], fixes: &[Repaired]) -> std::borrow::Cow<'q, [f32]> {
-        if fixes.is_empty() {
-            return queries.into();
+    /// The method's estimates of the repaired queries `fixes`, each checked against the query's
+    /// own pixels (`verify.rs`: the method's candidates, at least [`tuning::ANSWERS`] asked for,
+    /// the one the kept pixels support first), with `top` hypotheses and its confidence scaled
+    /// by the share of the object shown.
+    fn verified(&self, fixes: &[Repaired], top: usize) -> Result<Vec<Estimate>> {
+        let q: Vec<f32> = fixes.iter().flat_map(|(_, r, _, _)| r.iter().copied()).collect();
+        let checks: Vec<(f64, &Evidence)> = fixes.iter().map(|(_, _, clear, e)| (*clear, e)).collect();
+        self.verified_rows(&q, &checks, top)
+    }
+
+    /// [`Robust::verified`] of the repaired queries `q` (rows of M), each with its probability
+    /// of reading right and what it is checked against.
+    fn verified_rows(&self, q: &[f32], checks: &[(f64, &Evidence)], top: usize) -> Result<Vec<Estimate>> {
+        if checks.is_empty() {
+            return Ok(Vec::new());
         }
-        let m = self.meta().spec.features();
-        let mut q = queries.to_vec();
-        for (i, r, _) in fixes {
-            q[i * m..(i + 1) * m].copy_from_slice(r);
+        let mut est = self.inner.estimate(q, top.max(tuning::ANSWERS))?;
+        let space = &self.meta().space;
+        for (e, (clear, evidence)) in est.iter_mut().zip(checks) {
+            let poses: Vec<&[f64]> = e.hypotheses.iter().map(|h| h.pose.as_slice()).collect();
+            let j = self.stage.verify(evidence, &poses, space);
+            if j > 0 {
+                let h = e.hypotheses.remove(j);
+                e.pose.clone_from(&h.pose);
+                e.confidence = h.score;
+                e.hypotheses.insert(0, h);
+            }
+            e.hypotheses.truncate(top.max(1));
+            crate::confidence::for_hidden(e, *clear);
         }
-        q.into()
+        Ok(est)
+    }
+
+    /// `out` (rows of P, one per query) with the verified poses of the repaired queries `fixes`.
+    fn put_verified(&self, fixes: &[Repaired], out: &mut [f64]) -> Result<()> {
+        let p = self.meta().space.len();
+        for ((i, _, _, _), e) in fixes.iter().zip(self.verified(fixes, 1)?) {
+            out[i * p..(i + 1) * p].copy_from_slice(&e.pose);
+        }
+        Ok(())
     }
 
     /// The model back from a file's parts: `inner` behind the stage of `settings` and `tensors`.
@@ -90,9 +120,20 @@ impl Robust {
         let spec = inner.meta().spec;
         let k = settings.rows;
         let rows = tensors.f32("robust.rows", &[k, spec.features()])?;
-        let h = tensors.tensors.iter().find(|t| t.name == "robust.hypotheses").map_or(0, |t| t.shape.first().copied().unwrap_or(0));
+        let rows_of = |name: &str| tensors.tensors.iter().find(|t| t.name == name).map(|t| t.shape.clone());
+        let h = rows_of("robust.hypotheses").map_or(0, |s| s.first().copied().unwrap_or(0));
         let hyps = tensors.f32("robust.hypotheses", &[h, k])?;
-        let stage = Stage::new(spec, settings, rows, hyps).map_err(|e| tensors.error(format!("damaged robust stage: {e}")))?;
+        // The training views the answers are checked against: absent in files written before.
+        let views = match rows_of("robust.views") {
+            None => None,
+            Some(shape) => {
+                let (n, mb) = (shape.first().copied().unwrap_or(0), shape.get(1).copied().unwrap_or(0));
+                let p = inner.meta().space.len();
+                let v = Views::new(tensors.f32("robust.views", &[n, mb])?, tensors.f64("robust.poses", &[n, p])?, mb, p);
+                Some(v.map_err(|e| tensors.error(format!("damaged robust stage: {e}")))?)
+            }
+        };
+        let stage = Stage::new(spec, settings, rows, hyps, views).map_err(|e| tensors.error(format!("damaged robust stage: {e}")))?;
         Ok(AnyModel::new(Robust { stage, inner }))
     }
 }
@@ -106,7 +147,8 @@ impl PoseModel for Robust {
     }
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         let fixes = self.repaired(queries)?;
-        self.inner.predict_into(&self.with_repairs(queries, &fixes), out)
+        self.inner.predict_into(queries, out)?;
+        self.put_verified(&fixes, out)
     }
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
         let m = self.meta().spec.features();
@@ -121,7 +163,7 @@ impl PoseModel for Robust {
         let p = self.meta().space.len();
         let n = queries.len() / m;
         let mut fixed = vec![false; n];
-        fixes.iter().for_each(|(i, _, _)| fixed[*i] = true);
+        fixes.iter().for_each(|(i, _, _, _)| fixed[*i] = true);
         let plain: Vec<usize> = (0..n).filter(|&i| !fixed[i]).collect();
         if !plain.is_empty() {
             let q: Vec<u8> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
@@ -131,19 +173,13 @@ impl PoseModel for Robust {
                 out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
             }
         }
-        let q: Vec<f32> = fixes.iter().flat_map(|(_, r, _)| r.iter().copied()).collect();
-        let mut o = vec![0.0; fixes.len() * p];
-        self.inner.predict_into(&q, &mut o)?;
-        for (k, (i, _, _)) in fixes.iter().enumerate() {
-            out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
-        }
-        Ok(())
+        self.put_verified(&fixes, out)
     }
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
         let fixes = self.repaired(queries)?;
-        let mut est = self.inner.estimate(&self.with_repairs(queries, &fixes), top)?;
-        for (i, _, clear) in &fixes {
-            crate::confidence::for_hidden(&mut est[*i], *clear);
+        let mut est = self.inner.estimate(queries, top)?;
+        for ((i, _, _, _), e) in fixes.iter().zip(self.verified(&fixes, top)?) {
+            est[*i] = e;
         }
         Ok(est)
     }
@@ -158,6 +194,11 @@ impl PoseModel for Robust {
         let k = self.stage.settings().rows;
         t.push(Tensor::f32("robust.rows", vec![k, self.stage.rows().len() / k], self.stage.rows().to_vec()));
         t.push(Tensor::f32("robust.hypotheses", vec![self.stage.hypotheses().len() / k, k], self.stage.hypotheses().to_vec()));
+        if let Some((views, poses)) = self.stage.views() {
+            let n = poses.len() / self.meta().space.len();
+            t.push(Tensor::f32("robust.views", vec![n, views.len() / n], views.to_vec()));
+            t.push(Tensor::f64("robust.poses", vec![n, poses.len() / n], poses.to_vec()));
+        }
         t
     }
     fn to_bytes(&self) -> Result<Vec<u8>> {
@@ -182,8 +223,9 @@ impl SceneSearch for Robust {
             .par_chunks(m)
             .map(|scene| {
                 let mut found = self.stage.locate(scene, spec)?;
-                if let Some((view, fit)) = self.stage.apply(&found.view) {
+                if let Some((view, fit, evidence)) = self.stage.apply(&found.view) {
                     found.view = view;
+                    found.kept = (evidence.kept, evidence.theta);
                     found.shown = fit.shown;
                     found.repaired = true;
                 }
@@ -197,10 +239,12 @@ impl SceneSearch for Robust {
     fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<Estimate>> {
         let q: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
         let mut est = self.inner.estimate(&q, top)?;
-        for (e, f) in est.iter_mut().zip(found) {
-            if f.repaired {
-                crate::confidence::for_hidden(e, self.stage.clear(f.shown));
-            }
+        let fixed: Vec<usize> = (0..found.len()).filter(|&i| found[i].repaired).collect();
+        let evidence: Vec<Evidence> = fixed.iter().map(|&i| self.stage.evidence_of(&found[i].view, found[i].kept.0.clone(), found[i].kept.1)).collect();
+        let checks: Vec<(f64, &Evidence)> = fixed.iter().zip(&evidence).map(|(&i, e)| (self.stage.clear(found[i].shown), e)).collect();
+        let rows: Vec<f32> = fixed.iter().flat_map(|&i| found[i].view.iter().copied()).collect();
+        for (&i, e) in fixed.iter().zip(self.verified_rows(&rows, &checks, top)?) {
+            est[i] = e;
         }
         Ok(est)
     }

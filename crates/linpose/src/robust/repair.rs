@@ -21,6 +21,7 @@
 //! scenes (refined, the views between the training views; 0 / 20 / 40% hidden) the fill took
 //! the unseen mean from 2.07 / 4.96 / 10.8 to 2.00 / 4.53 / 9.37 degrees.
 use super::check::Basis;
+use super::verify::Evidence;
 use super::{search, tuning, Fit, Stage};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
@@ -29,6 +30,11 @@ impl Stage {
     /// The repaired query: `x`'s own pixels where `fit` keeps their bin (see the module doc) or
     /// the pixel itself is explained, the reconstruction elsewhere.
     pub(crate) fn repair(&self, x: &[f32], fit: &Fit) -> Vec<f32> {
+        self.repaired(x, fit).0
+    }
+
+    /// [`Stage::repair`], with the pixels it kept as the query's own.
+    pub(crate) fn repaired(&self, x: &[f32], fit: &Fit) -> (Vec<f32>, Vec<bool>) {
         let s = self.binning.spec();
         let (wb, hb) = (s.width as usize, s.height as usize);
         let b = self.binning.factor();
@@ -57,7 +63,26 @@ impl Stage {
                 *v = self.reconstruct_at(&coef, i);
             }
         }
-        out
+        (out, kept)
+    }
+
+    /// What the answer to the query `xb` (binned) repaired by `fit`, keeping its pixels `kept`,
+    /// is checked against (`verify.rs`): the support's bins whose every pixel was kept.
+    pub(crate) fn evidence(&self, xb: Vec<f32>, fit: &Fit, kept: &[bool]) -> Evidence {
+        let (wb, b) = (self.binning.spec().width as usize, self.binning.factor());
+        let w = self.binning.full().width as usize;
+        let whole = |bin: usize| (0..b * b).all(|k| kept[(bin / wb * b + k / b) * w + bin % wb * b + k % b]);
+        let kept = self.support.iter().copied().filter(|&i| whole(i as usize)).collect();
+        Evidence { xb, kept, theta: fit.theta }
+    }
+
+    /// The evidence of a repaired view `view` whose bins `kept` were kept whole by a fit of
+    /// threshold `theta` (the kept bins' pixels are the query's own, so binning the repaired
+    /// view gives the query's values there).
+    pub(crate) fn evidence_of(&self, view: &[f32], kept: Vec<u32>, theta: f32) -> Evidence {
+        let mut xb = vec![0f32; self.binning.spec().features()];
+        self.binning.apply(view, &mut xb, &mut Vec::new());
+        Evidence { xb, kept, theta }
     }
 
     /// Pixel `i` of the reconstruction from `coef` on the full rows.

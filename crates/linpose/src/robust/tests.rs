@@ -137,6 +137,34 @@ fn the_stage_survives_its_model_file() {
     assert_eq!(b.settings(), robust.downcast_ref::<Robust>().unwrap().settings());
     let queries = render("duck", "10:350:40", Some(scene(0.2, 3)));
     assert_eq!(back.predict(queries.features()).unwrap(), robust.predict(queries.features()).unwrap());
+    let (views, poses) = b.stage.views().expect("the training views read back");
+    assert_eq!((views.len(), poses.len()), (18 * b.stage.binning.spec().features(), 18 * 2));
+    // A file written before the answer's check (no views) still reads, and checks nothing.
+    let t: Vec<_> = robust.tensors().into_iter().filter(|t| !t.name.starts_with("robust.views") && t.name != "robust.poses").collect();
+    let mut meta = std::collections::BTreeMap::new();
+    meta.insert(super::META_KEY, serde_json::to_string(b.settings()).unwrap());
+    meta.insert("method", robust.meta().method.clone());
+    meta.insert("linpose.meta", serde_json::to_string(robust.meta()).unwrap());
+    let old = crate::model::file::write_parts(meta, t).unwrap();
+    let back = AnyModel::from_bytes(std::path::Path::new("<bytes>"), &old).unwrap();
+    assert!(back.downcast_ref::<Robust>().unwrap().stage.views().is_none());
+    assert_eq!(back.predict(render("duck", "10:350:40", None).features()).unwrap(), robust.predict(render("duck", "10:350:40", None).features()).unwrap());
+}
+
+#[test]
+fn the_answer_is_the_candidate_the_query_s_own_pixels_support() {
+    // A training view of the duck as the query, every bin of the stage's support kept: of its
+    // own pose and the pose half a turn away, the check picks its own, in either order.
+    let train = render_at("duck", "0:350:10", None, (128, 128));
+    let stage = super::Stage::fit(&train).unwrap();
+    let x = train.row(4).to_vec();
+    let (xb, _) = stage.check(&x);
+    let fit = stage.fit_binned(&xb);
+    let evidence = stage.evidence(xb, &fit, &vec![true; x.len()]);
+    let space = train.space();
+    let (right, wrong) = (train.pose(4).to_vec(), vec![train.pose(4)[0], train.pose(4)[1] + 180.0]);
+    assert_eq!(stage.verify(&evidence, &[&wrong, &right], space), 1);
+    assert_eq!(stage.verify(&evidence, &[&right, &wrong], space), 0);
 }
 
 #[test]

@@ -102,6 +102,12 @@ pub(crate) const ANNEAL: [f32; 6] = [0.3, 0.26, 0.22, 0.18, 0.14, 0.1];
 /// at 40% to 7.21: a striped occluder is such strokes too.
 pub(crate) const SPECK: f64 = 0.05;
 
+/// The method's candidate poses of a repaired query that its check against the training views
+/// compares (`verify.rs`): its estimate and its best alternatives. What it trades: each costs a
+/// pass over the kept bins; more let a farther alternative win on an accident of the kept
+/// pixels. 3 is eval's default `--top`, the candidates it was measured with; not tuned.
+pub(crate) const ANSWERS: usize = 3;
+
 /// Binned pixels the model leaves dark in every training view (every row of the stage at most
 /// this share of its largest in absolute value) are left out of the fit: they constrain no
 /// coefficient, and the query's value there is explained only when dark. Not tuned.
