@@ -438,8 +438,7 @@ fn evaluate_scenes(model: &dyn PoseModel, search: &dyn crate::model::SceneSearch
             }
         }
     }
-    let views: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
-    let est = search.method_model().predict(&views)?;
+    let est = search.predict_located(&found)?;
     let predict_s = t0.elapsed().as_secs_f64();
     let estimates = if opt.top > 0 { Some(search.estimate_located(&found, opt.top)?) } else { None };
     let model_bytes = model.model_bytes();

@@ -48,7 +48,7 @@ fn scene_estimate(
             let e = search.estimate_located(&found, t as usize)?.remove(0);
             (e.pose.clone(), Some(e))
         }
-        None => (search.method_model().predict(&found[0].view)?, None),
+        None => (search.predict_located(&found[..1])?, None),
     };
     Ok((pose, est, found.into_iter().next()))
 }

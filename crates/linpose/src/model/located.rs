@@ -40,6 +40,14 @@ pub trait SceneSearch: Sync {
     /// The method's own model, which takes [`Located::view`].
     fn method_model(&self) -> &dyn PoseModel;
 
+    /// The poses of located queries (rows of P): the method's on each [`Located::view`], unless
+    /// the search checks the answers to the views it repaired (the robust stage does, against
+    /// the view's own pixels), when they are [`SceneSearch::estimate_located`]'s.
+    fn predict_located(&self, found: &[Located]) -> Result<Vec<f64>> {
+        let views: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
+        self.method_model().predict(&views)
+    }
+
     /// The estimates of located queries: the method's, the confidence of a repaired one scaled
     /// by how far a query showing its share of the object ([`Located::shown`]) can be trusted,
     /// as for a query of the training views' size.

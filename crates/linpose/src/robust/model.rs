@@ -236,6 +236,20 @@ impl SceneSearch for Robust {
     fn method_model(&self) -> &dyn PoseModel {
         &self.inner
     }
+    fn predict_located(&self, found: &[Located]) -> Result<Vec<f64>> {
+        let views: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
+        let mut out = self.inner.predict(&views)?;
+        let fixed: Vec<usize> = (0..found.len()).filter(|&i| found[i].repaired).collect();
+        if fixed.is_empty() {
+            return Ok(out);
+        }
+        let p = self.meta().space.len();
+        let repaired: Vec<Located> = fixed.iter().map(|&i| found[i].clone()).collect();
+        for (&i, e) in fixed.iter().zip(self.estimate_located(&repaired, 1)?) {
+            out[i * p..(i + 1) * p].copy_from_slice(&e.pose);
+        }
+        Ok(out)
+    }
     fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<Estimate>> {
         let q: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
         let mut est = self.inner.estimate(&q, top)?;

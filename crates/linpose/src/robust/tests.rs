@@ -319,6 +319,7 @@ fn the_object_is_found_anywhere_in_a_larger_scene() {
         let (a, b) = (centre(found.bbox), centre(truth));
         let off = (a.0 - b.0).hypot(a.1 - b.1);
         let est = search.estimate_located(std::slice::from_ref(&found), 1).unwrap().remove(0);
+        assert_eq!(search.predict_located(std::slice::from_ref(&found)).unwrap(), est.pose, "the pose is the checked estimate's");
         let error = view.space().error_deg(&est.pose, view.pose(0));
         eprintln!("scale {s}: box {:?} (truth {truth:?}), centre off {off:.2} px, pose off {error:.2} degrees, shown {:.2}", found.bbox, found.shown);
         if off <= 3.0 && (found.scale / s - 1.0).abs() < 0.1 {

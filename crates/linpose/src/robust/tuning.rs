@@ -108,6 +108,13 @@ pub(crate) const SPECK: f64 = 0.05;
 /// pixels. 3 is eval's default `--top`, the candidates it was measured with; not tuned.
 pub(crate) const ANSWERS: usize = 3;
 
+/// An alternative candidate replaces the method's estimate of a repaired query when McNemar's
+/// statistic on the kept bins one explains and the other does not, (b - c)^2 / (b + c), exceeds
+/// this (`verify.rs`): the chi-square point of one degree of freedom at 5%, not tuned. What it
+/// trades: lower follows the kept bins, which lean to the fit's pose, more often; higher leaves
+/// more of the method's flips.
+pub(crate) const DISAGREE: f64 = 3.84;
+
 /// Binned pixels the model leaves dark in every training view (every row of the stage at most
 /// this share of its largest in absolute value) are left out of the fit: they constrain no
 /// coefficient, and the query's value there is explained only when dark. Not tuned.
