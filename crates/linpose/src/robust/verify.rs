@@ -6,8 +6,9 @@
 //! half a turn away. The query's own pixels, those the repair kept, still tell the two apart.
 //! So each of the method's distinct candidates (its estimate and its alternatives, at least
 //! [`crate::confidence::GROSS_DEG`] apart) is compared with the kept bins: the training views
-//! nearest the candidate's pose, the two mixed by closeness (a pose between two training views
-//! looks much like their mean), in the gain that fits the query (`search::gain`). The candidate
+//! nearest the candidate's pose (the two either side on a ring, P + 1 for P pose parameters),
+//! mixed by closeness (a pose between training views looks much like their mean), in the gain
+//! that fits the query (`search::gain`). The candidate
 //! whose view explains significantly more kept bins within the fit's threshold than the
 //! method's estimate is the answer (McNemar's test on the bins one explains and the other does
 //! not, at 5%): the kept bins were chosen by the fit, so they lean to the fit's pose, and a
@@ -92,25 +93,27 @@ impl Views {
         self.binned.len() + self.poses.len()
     }
 
-    /// The view at `pose`: the two training views nearest it in `space`, weighted by closeness.
+    /// The view at `pose`: the P + 1 training views nearest it in `space` (P pose parameters:
+    /// the corners of the simplex of a lattice around it, the two either side on a ring), each
+    /// weighted by the inverse of its distance; the view itself at a training pose.
     fn at(&self, pose: &[f64], space: &PoseSpace) -> Vec<f32> {
         let p = self.poses.len() / (self.binned.len() / self.mb);
-        let mut near = [(f64::INFINITY, 0usize); 2];
-        for (i, q) in self.poses.chunks_exact(p).enumerate() {
-            let d = space.error_deg(q, pose);
-            if d < near[0].0 {
-                near = [(d, i), near[0]];
-            } else if d < near[1].0 {
-                near[1] = (d, i);
-            }
-        }
+        let mut near: Vec<(f64, usize)> = self.poses.chunks_exact(p).enumerate().map(|(i, q)| (space.error_deg(q, pose), i)).collect();
+        let k = (p + 1).min(near.len());
+        near.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
+        near.truncate(k);
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
         let view = |i: usize| &self.binned[i * self.mb..(i + 1) * self.mb];
-        let [(d1, a), (d2, b)] = near;
-        if !(d1 + d2 > 0.0) || !d2.is_finite() {
-            return view(a).to_vec();
+        if !(near[0].0 > 0.0) {
+            return view(near[0].1).to_vec();
         }
-        let (wa, wb) = ((d2 / (d1 + d2)) as f32, (d1 / (d1 + d2)) as f32);
-        view(a).iter().zip(view(b)).map(|(&u, &v)| wa * u + wb * v).collect()
+        let total: f64 = near.iter().map(|&(d, _)| 1.0 / d).sum();
+        let mut out = vec![0f32; self.mb];
+        for &(d, i) in &near {
+            let w = (1.0 / d / total) as f32;
+            out.iter_mut().zip(view(i)).for_each(|(o, &v)| *o += w * v);
+        }
+        out
     }
 }
 
