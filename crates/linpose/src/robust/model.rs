@@ -138,6 +138,13 @@ impl Robust {
     }
 }
 
+/// The places in a batch of `n` queries of those not among the repaired `fixes`.
+fn plain_of(n: usize, fixes: &[Repaired]) -> Vec<usize> {
+    let mut fixed = vec![false; n];
+    fixes.iter().for_each(|(i, _, _, _)| fixed[*i] = true);
+    (0..n).filter(|&i| !fixed[i]).collect()
+}
+
 impl PoseModel for Robust {
     fn method(&self) -> &'static Method {
         self.inner.method()
@@ -147,7 +154,19 @@ impl PoseModel for Robust {
     }
     fn predict_into(&self, queries: &[f32], out: &mut [f64]) -> Result<()> {
         let fixes = self.repaired(queries)?;
-        self.inner.predict_into(queries, out)?;
+        if fixes.is_empty() {
+            return self.inner.predict_into(queries, out);
+        }
+        let (m, p) = (self.meta().spec.features(), self.meta().space.len());
+        let plain = plain_of(queries.len() / m, &fixes);
+        if !plain.is_empty() {
+            let q: Vec<f32> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            let mut o = vec![0.0; plain.len() * p];
+            self.inner.predict_into(&q, &mut o)?;
+            for (k, &i) in plain.iter().enumerate() {
+                out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
+            }
+        }
         self.put_verified(&fixes, out)
     }
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
@@ -161,10 +180,7 @@ impl PoseModel for Robust {
         // The queries the eigenspace explains through the method's 8-bit path, the repaired
         // ones through its f32 path.
         let p = self.meta().space.len();
-        let n = queries.len() / m;
-        let mut fixed = vec![false; n];
-        fixes.iter().for_each(|(i, _, _, _)| fixed[*i] = true);
-        let plain: Vec<usize> = (0..n).filter(|&i| !fixed[i]).collect();
+        let plain = plain_of(queries.len() / m, &fixes);
         if !plain.is_empty() {
             let q: Vec<u8> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
             let mut o = vec![0.0; plain.len() * p];
@@ -177,11 +193,22 @@ impl PoseModel for Robust {
     }
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
         let fixes = self.repaired(queries)?;
-        let mut est = self.inner.estimate(queries, top)?;
-        for ((i, _, _, _), e) in fixes.iter().zip(self.verified(&fixes, top)?) {
-            est[*i] = e;
+        if fixes.is_empty() {
+            return self.inner.estimate(queries, top);
         }
-        Ok(est)
+        let m = self.meta().spec.features();
+        let n = queries.len() / m;
+        let plain = plain_of(n, &fixes);
+        let q: Vec<f32> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let mut est: Vec<Option<Estimate>> = (0..n).map(|_| None).collect();
+        let plain_est = if plain.is_empty() { Vec::new() } else { self.inner.estimate(&q, top)? };
+        for (&i, e) in plain.iter().zip(plain_est) {
+            est[i] = Some(e);
+        }
+        for ((i, _, _, _), e) in fixes.iter().zip(self.verified(&fixes, top)?) {
+            est[*i] = Some(e);
+        }
+        Ok(est.into_iter().map(|e| e.expect("every query estimated, plainly or repaired")).collect())
     }
     fn model_bytes(&self) -> usize {
         self.inner.model_bytes() + self.stage.len() * 4
