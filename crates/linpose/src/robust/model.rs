@@ -106,6 +106,23 @@ impl Robust {
         Ok(est)
     }
 
+    /// `out` (rows of P, one per query) with the poses of the queries of `queries` (rows of M)
+    /// that are not among the repaired `fixes`, by `predict` on them as one batch.
+    fn answer_plain<T: Copy>(&self, queries: &[T], fixes: &[Repaired], out: &mut [f64], predict: impl Fn(&[T], &mut [f64]) -> Result<()>) -> Result<()> {
+        let (m, p) = (self.meta().spec.features(), self.meta().space.len());
+        let plain = plain_of(queries.len() / m, fixes);
+        if plain.is_empty() {
+            return Ok(());
+        }
+        let q: Vec<T> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let mut o = vec![0.0; plain.len() * p];
+        predict(&q, &mut o)?;
+        for (k, &i) in plain.iter().enumerate() {
+            out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
+        }
+        Ok(())
+    }
+
     /// `out` (rows of P, one per query) with the verified poses of the repaired queries `fixes`.
     fn put_verified(&self, fixes: &[Repaired], out: &mut [f64]) -> Result<()> {
         let p = self.meta().space.len();
@@ -157,16 +174,7 @@ impl PoseModel for Robust {
         if fixes.is_empty() {
             return self.inner.predict_into(queries, out);
         }
-        let (m, p) = (self.meta().spec.features(), self.meta().space.len());
-        let plain = plain_of(queries.len() / m, &fixes);
-        if !plain.is_empty() {
-            let q: Vec<f32> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
-            let mut o = vec![0.0; plain.len() * p];
-            self.inner.predict_into(&q, &mut o)?;
-            for (k, &i) in plain.iter().enumerate() {
-                out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
-            }
-        }
+        self.answer_plain(queries, &fixes, out, |q, o| self.inner.predict_into(q, o))?;
         self.put_verified(&fixes, out)
     }
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
@@ -179,16 +187,7 @@ impl PoseModel for Robust {
         }
         // The queries the eigenspace explains through the method's 8-bit path, the repaired
         // ones through its f32 path.
-        let p = self.meta().space.len();
-        let plain = plain_of(queries.len() / m, &fixes);
-        if !plain.is_empty() {
-            let q: Vec<u8> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
-            let mut o = vec![0.0; plain.len() * p];
-            self.inner.predict_u8_into(&q, &mut o)?;
-            for (k, &i) in plain.iter().enumerate() {
-                out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
-            }
-        }
+        self.answer_plain(queries, &fixes, out, |q, o| self.inner.predict_u8_into(q, o))?;
         self.put_verified(&fixes, out)
     }
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {

@@ -151,15 +151,22 @@ fn the_stage_survives_its_model_file() {
     assert_eq!(back.predict(render("duck", "10:350:40", None).features()).unwrap(), robust.predict(render("duck", "10:350:40", None).features()).unwrap());
 }
 
+/// The duck at 128 x 128 (binned by 4) trained every 10 degrees, its stage, and its training
+/// view `row` fitted as a query: the training views, the stage, the view, binned, and its fit.
+fn fitted_view(row: usize) -> (Dataset, super::Stage, Vec<f32>, Vec<f32>, super::Fit) {
+    let train = render_at("duck", "0:350:10", None, (128, 128));
+    let stage = super::Stage::fit(&train).unwrap();
+    let x = train.row(row).to_vec();
+    let (xb, _) = stage.check(&x);
+    let fit = stage.fit_binned(&xb);
+    (train, stage, x, xb, fit)
+}
+
 #[test]
 fn the_answer_is_the_candidate_the_query_s_own_pixels_support() {
     // A training view of the duck as the query, every bin of the stage's support kept: of its
     // own pose and the pose half a turn away, the check picks its own, in either order.
-    let train = render_at("duck", "0:350:10", None, (128, 128));
-    let stage = super::Stage::fit(&train).unwrap();
-    let x = train.row(4).to_vec();
-    let (xb, _) = stage.check(&x);
-    let fit = stage.fit_binned(&xb);
+    let (train, stage, x, xb, fit) = fitted_view(4);
     let evidence = stage.evidence(xb, &fit, &vec![true; x.len()]);
     let space = train.space();
     let (right, wrong) = (train.pose(4).to_vec(), vec![train.pose(4)[0], train.pose(4)[1] + 180.0]);
@@ -230,11 +237,7 @@ fn the_repair_keeps_the_object_s_specks_and_replaces_an_occluder() {
     // under tuning::SPECK of the object's bright bins) and every bright bin right of its
     // middle (an occluder over much of it). The repair keeps the speck's pixels as the query has
     // them and replaces the occluder's by the reconstruction.
-    let train = render_at("duck", "0:350:10", None, (128, 128));
-    let stage = super::Stage::fit(&train).unwrap();
-    let x = train.row(3).to_vec();
-    let (xb, _) = stage.check(&x);
-    let mut fit = stage.fit_binned(&xb);
+    let (_, stage, x, xb, mut fit) = fitted_view(3);
     let (wb, b) = (stage.binning.spec().width as usize, stage.binning.factor());
     let w = 128;
     let mut recon = vec![0f64; xb.len()];
@@ -265,10 +268,7 @@ fn the_fill_is_solved_again_on_the_pixels_kept() {
     // unexplained), and a fit whose coefficients are off (its eigenimages' weights at 0.8, as
     // a fit on a subset of the object extrapolates): the hidden pixels are filled with the
     // query's own values, solved again on the pixels kept.
-    let train = render_at("duck", "0:350:10", None, (128, 128));
-    let stage = super::Stage::fit(&train).unwrap();
-    let (xb, _) = stage.check(train.row(3));
-    let mut fit = stage.fit_binned(&xb);
+    let (_, stage, _, xb, mut fit) = fitted_view(3);
     let coef: Vec<f32> = fit.coef.iter().map(|&c| c as f32).collect();
     let x: Vec<f32> = (0..stage.m).map(|i| stage.reconstruct_at(&coef, i)).collect();
     let (wb, b, w) = (stage.binning.spec().width as usize, stage.binning.factor(), 128);
