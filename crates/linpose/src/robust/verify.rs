@@ -8,12 +8,11 @@
 //! [`crate::confidence::GROSS_DEG`] apart) is compared with the kept bins: the training views
 //! nearest the candidate's pose (the two either side on a ring, P + 1 for P pose parameters),
 //! mixed by closeness (a pose between training views looks much like their mean), in the gain
-//! that fits the query (`search::gain`). The candidate
-//! whose view explains significantly more kept bins within the fit's threshold than the
-//! method's estimate is the answer (McNemar's test on the bins one explains and the other does
-//! not, at 5%): the kept bins were chosen by the fit, so they lean to the fit's pose, and a
-//! method that read the pose right from a fit gone wrong keeps its answer unless the pixels
-//! clearly say otherwise.
+//! that fits the query (`search::gain`). A candidate whose view explains significantly more kept
+//! bins within the fit's threshold than the method's estimate is the answer (McNemar's test on
+//! the bins one explains and the other does not, at 5%): the kept bins were chosen by the fit,
+//! so they lean to the fit's pose, and a method that read the pose right from a fit gone wrong
+//! keeps its answer unless the pixels clearly say otherwise.
 //!
 //! The stage keeps its training views binned as it bins a query (N x M_b: 36 views of 128 x 128
 //! binned by 4 are 36 K numbers) and their poses. On COIL-20 in texture scenes (refined, the
@@ -119,8 +118,9 @@ impl Views {
 
 impl Stage {
     /// Which of `candidates` (poses in `space`, the method's order) the query's kept bins
-    /// support: the first whose view explains the most of them (see the module doc); 0 when the
-    /// stage keeps no views.
+    /// support: the first, unless a later one's view explains significantly more of them than
+    /// the best before it (see the module doc); the first when the stage keeps no views or the
+    /// first's view cannot be put in the query's gain.
     pub(crate) fn verify(&self, evidence: &Evidence, candidates: &[&[f64]], space: &PoseSpace) -> usize {
         let Some(views) = &self.views else { return 0 };
         let mut ratios = Vec::new();
@@ -128,7 +128,12 @@ impl Stage {
         for (c, pose) in candidates.iter().enumerate() {
             let pred = views.at(pose, space);
             let peak = pred.iter().fold(0f32, |a, &v| a.max(v));
-            let Some((gain, _, _)) = search::gain(&pred, peak, &evidence.kept, &evidence.xb, &mut ratios) else { continue };
+            let Some((gain, _, _)) = search::gain(&pred, peak, &evidence.kept, &evidence.xb, &mut ratios) else {
+                if c == 0 {
+                    return 0;
+                }
+                continue;
+            };
             let explained: Vec<bool> = evidence.kept.iter().map(|&i| (evidence.xb[i as usize] - gain * pred[i as usize]).abs() < evidence.theta).collect();
             if best.as_ref().is_none_or(|(_, b)| better(&explained, b)) {
                 best = Some((c, explained));
