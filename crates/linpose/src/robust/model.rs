@@ -106,14 +106,13 @@ impl Robust {
         Ok(est)
     }
 
-    /// `out` (rows of P, one per query) with the poses of the queries of `queries` (rows of M)
-    /// that are not among the repaired `fixes`, by `predict` on them as one batch.
-    fn answer_plain<T: Copy>(&self, queries: &[T], fixes: &[Repaired], out: &mut [f64], predict: impl Fn(&[T], &mut [f64]) -> Result<()>) -> Result<()> {
-        let (m, p) = (self.meta().spec.features(), self.meta().space.len());
-        let plain = plain_of(queries.len() / m, fixes);
+    /// `out` (rows of P, one per query) with the poses of the queries of `queries` (rows of M) at
+    /// the places `plain`, by `predict` on them as one batch.
+    fn answer_plain<T: Copy>(&self, queries: &[T], plain: &[usize], out: &mut [f64], predict: impl Fn(&[T], &mut [f64]) -> Result<()>) -> Result<()> {
         if plain.is_empty() {
             return Ok(());
         }
+        let (m, p) = (self.meta().spec.features(), self.meta().space.len());
         let q: Vec<T> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
         let mut o = vec![0.0; plain.len() * p];
         predict(&q, &mut o)?;
@@ -121,6 +120,28 @@ impl Robust {
             out[i * p..(i + 1) * p].copy_from_slice(&o[k * p..(k + 1) * p]);
         }
         Ok(())
+    }
+
+    /// The estimates of a batch of `n` queries: the method's on those at the places `plain`
+    /// (`queries`, rows of M), `checked` (one per place in `fixed`, in order) on the others.
+    fn merged(&self, queries: &[f32], plain: &[usize], top: usize, fixed: &[usize], checked: Vec<Estimate>) -> Result<Vec<Estimate>> {
+        let m = self.meta().spec.features();
+        let n = plain.len() + fixed.len();
+        let q: Vec<f32> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let plain_est = if plain.is_empty() { Vec::new() } else { self.inner.estimate(&q, top)? };
+        let mut est: Vec<Option<Estimate>> = (0..n).map(|_| None).collect();
+        for (&i, e) in plain.iter().zip(plain_est).chain(fixed.iter().zip(checked)) {
+            est[i] = Some(e);
+        }
+        Ok(est.into_iter().map(|e| e.expect("every query estimated, plainly or repaired")).collect())
+    }
+
+    /// The checked estimates of the located views at the places `fixed` (those repaired).
+    fn checked_located(&self, found: &[Located], fixed: &[usize], top: usize) -> Result<Vec<Estimate>> {
+        let evidence: Vec<Evidence> = fixed.iter().map(|&i| self.stage.evidence_of(&found[i].view, found[i].kept.0.clone(), found[i].kept.1)).collect();
+        let checks: Vec<(f64, &Evidence)> = fixed.iter().zip(&evidence).map(|(&i, e)| (self.stage.clear(found[i].shown), e)).collect();
+        let rows: Vec<f32> = fixed.iter().flat_map(|&i| found[i].view.iter().copied()).collect();
+        self.verified_rows(&rows, &checks, top)
     }
 
     /// `out` (rows of P, one per query) with the verified poses of the repaired queries `fixes`.
@@ -174,7 +195,8 @@ impl PoseModel for Robust {
         if fixes.is_empty() {
             return self.inner.predict_into(queries, out);
         }
-        self.answer_plain(queries, &fixes, out, |q, o| self.inner.predict_into(q, o))?;
+        let plain = plain_of(queries.len() / self.meta().spec.features(), &fixes);
+        self.answer_plain(queries, &plain, out, |q, o| self.inner.predict_into(q, o))?;
         self.put_verified(&fixes, out)
     }
     fn predict_u8_into(&self, queries: &[u8], out: &mut [f64]) -> Result<()> {
@@ -187,7 +209,7 @@ impl PoseModel for Robust {
         }
         // The queries the eigenspace explains through the method's 8-bit path, the repaired
         // ones through its f32 path.
-        self.answer_plain(queries, &fixes, out, |q, o| self.inner.predict_u8_into(q, o))?;
+        self.answer_plain(queries, &plain_of(queries.len() / m, &fixes), out, |q, o| self.inner.predict_u8_into(q, o))?;
         self.put_verified(&fixes, out)
     }
     fn estimate(&self, queries: &[f32], top: usize) -> Result<Vec<Estimate>> {
@@ -195,19 +217,9 @@ impl PoseModel for Robust {
         if fixes.is_empty() {
             return self.inner.estimate(queries, top);
         }
-        let m = self.meta().spec.features();
-        let n = queries.len() / m;
-        let plain = plain_of(n, &fixes);
-        let q: Vec<f32> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
-        let mut est: Vec<Option<Estimate>> = (0..n).map(|_| None).collect();
-        let plain_est = if plain.is_empty() { Vec::new() } else { self.inner.estimate(&q, top)? };
-        for (&i, e) in plain.iter().zip(plain_est) {
-            est[i] = Some(e);
-        }
-        for ((i, _, _, _), e) in fixes.iter().zip(self.verified(&fixes, top)?) {
-            est[*i] = Some(e);
-        }
-        Ok(est.into_iter().map(|e| e.expect("every query estimated, plainly or repaired")).collect())
+        let plain = plain_of(queries.len() / self.meta().spec.features(), &fixes);
+        let fixed: Vec<usize> = fixes.iter().map(|f| f.0).collect();
+        self.merged(queries, &plain, top, &fixed, self.verified(&fixes, top)?)
     }
     fn model_bytes(&self) -> usize {
         self.inner.model_bytes() + self.stage.len() * 4
@@ -264,28 +276,23 @@ impl SceneSearch for Robust {
     }
     fn predict_located(&self, found: &[Located]) -> Result<Vec<f64>> {
         let views: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
-        let mut out = self.inner.predict(&views)?;
-        let fixed: Vec<usize> = (0..found.len()).filter(|&i| found[i].repaired).collect();
-        if fixed.is_empty() {
-            return Ok(out);
-        }
+        let (fixed, plain) = repaired_or_not(found);
         let p = self.meta().space.len();
-        let repaired: Vec<Located> = fixed.iter().map(|&i| found[i].clone()).collect();
-        for (&i, e) in fixed.iter().zip(self.estimate_located(&repaired, 1)?) {
+        let mut out = vec![0.0; found.len() * p];
+        self.answer_plain(&views, &plain, &mut out, |q, o| self.inner.predict_into(q, o))?;
+        for (&i, e) in fixed.iter().zip(self.checked_located(found, &fixed, 1)?) {
             out[i * p..(i + 1) * p].copy_from_slice(&e.pose);
         }
         Ok(out)
     }
     fn estimate_located(&self, found: &[Located], top: usize) -> Result<Vec<Estimate>> {
-        let q: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
-        let mut est = self.inner.estimate(&q, top)?;
-        let fixed: Vec<usize> = (0..found.len()).filter(|&i| found[i].repaired).collect();
-        let evidence: Vec<Evidence> = fixed.iter().map(|&i| self.stage.evidence_of(&found[i].view, found[i].kept.0.clone(), found[i].kept.1)).collect();
-        let checks: Vec<(f64, &Evidence)> = fixed.iter().zip(&evidence).map(|(&i, e)| (self.stage.clear(found[i].shown), e)).collect();
-        let rows: Vec<f32> = fixed.iter().flat_map(|&i| found[i].view.iter().copied()).collect();
-        for (&i, e) in fixed.iter().zip(self.verified_rows(&rows, &checks, top)?) {
-            est[i] = e;
-        }
-        Ok(est)
+        let views: Vec<f32> = found.iter().flat_map(|f| f.view.iter().copied()).collect();
+        let (fixed, plain) = repaired_or_not(found);
+        self.merged(&views, &plain, top, &fixed, self.checked_located(found, &fixed, top)?)
     }
+}
+
+/// The places of the located views that were repaired, and of the others.
+fn repaired_or_not(found: &[Located]) -> (Vec<usize>, Vec<usize>) {
+    (0..found.len()).partition(|&i| found[i].repaired)
 }
