@@ -90,6 +90,8 @@ pub(crate) struct Stage {
     preds: Vec<f32>,
     /// Per hypothesis: its brightest binned value.
     peaks: Vec<f32>,
+    /// The hypotheses on the support, as the first pass reads them.
+    table: search::Table,
     /// The binned pixels where some row has energy.
     support: Vec<u32>,
     /// The training views binned, with their poses: what a repaired query's answer is checked
@@ -167,10 +169,12 @@ impl Stage {
         for h in hyps.chunks_exact(k) {
             preds.extend(binned.pixels().map(|b| b.iter().zip(h).map(|(&u, &v)| u * v).sum::<f32>()));
         }
-        let peaks = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
+        let peaks: Vec<f32> = preds.chunks_exact(mb).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
         let most: Vec<f32> = (0..k).map(|j| binned.pixels().fold(0f32, |a, b| a.max(b[j].abs()))).collect();
-        let support = (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
-        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, support, views })
+        let support: Vec<u32> =
+            (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
+        let table = search::Table::new(&preds, &peaks, &support);
+        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views })
     }
 
     /// Its settings.

@@ -35,30 +35,80 @@ pub(crate) struct Coarse {
     pub(crate) share: f64,
 }
 
+/// The hypotheses' binned images laid out for the first pass: each one's values on the stage's
+/// support, one hypothesis after another, and its bright pixels (at least [`tuning::BRIGHT`] of
+/// its brightest), so that the pass reads contiguous arrays and the median gain reads only the
+/// bright pixels. Made with the stage.
+#[derive(Debug, Clone)]
+pub(crate) struct Table {
+    /// H x S: hypothesis h's value at the support's j-th pixel.
+    values: Vec<f32>,
+    /// Per hypothesis, its bright pixels (positions in the support), one after another.
+    bright: Vec<u32>,
+    /// Where each hypothesis's bright pixels start in `bright` (H + 1 values).
+    starts: Vec<usize>,
+    /// Per hypothesis, the sum of its bright pixels (in the support's order).
+    sums: Vec<f32>,
+}
+
+impl Table {
+    /// The table of the hypotheses' binned images `preds` (H x M_b) of brightest `peaks` on
+    /// `support`.
+    pub(crate) fn new(preds: &[f32], peaks: &[f32], support: &[u32]) -> Table {
+        let mb = preds.len() / peaks.len().max(1);
+        let (mut values, mut bright, mut starts, mut sums) = (Vec::with_capacity(peaks.len() * support.len()), Vec::new(), vec![0], Vec::new());
+        for (pred, &peak) in preds.chunks_exact(mb.max(1)).zip(peaks) {
+            let level = tuning::BRIGHT * peak;
+            let mut sum = 0f32;
+            for (j, &i) in support.iter().enumerate() {
+                let p = pred[i as usize];
+                values.push(p);
+                if p > level {
+                    bright.push(j as u32);
+                    sum += p;
+                }
+            }
+            starts.push(bright.len());
+            sums.push(sum);
+        }
+        Table { values, bright, starts, sums }
+    }
+}
+
 /// Scores every hypothesis of `stage` on the binned query `xb` (the first pass of [`fit`]).
 pub(super) fn coarse(stage: &Stage, xb: &[f32]) -> Coarse {
-    let mb = xb.len();
-    let support = &stage.support;
+    let table = &stage.table;
+    let s = stage.support.len();
+    let xs: Vec<f32> = stage.support.iter().map(|&i| xb[i as usize]).collect();
     let mut scored: Vec<(i64, usize, f32, f32)> = Vec::new();
     let mut share = 0f64;
     let mut ratios = Vec::new();
-    for (h, pred) in stage.preds.chunks_exact(mb).enumerate() {
-        let Some((gain, scale, count)) = gain(pred, stage.peaks[h], &stage.support, xb, &mut ratios) else { continue };
-        let bright = tuning::BRIGHT * stage.peaks[h];
+    for (h, ps) in table.values.chunks_exact(s.max(1)).enumerate() {
+        let bright = &table.bright[table.starts[h]..table.starts[h + 1]];
+        if bright.is_empty() {
+            continue;
+        }
+        ratios.clear();
+        ratios.extend(bright.iter().map(|&j| xs[j as usize] / ps[j as usize]));
+        let mid = ratios.len() / 2;
+        let gain = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
+        if !(gain > 0.0) {
+            continue;
+        }
+        let count = bright.len();
+        let scale = gain * table.sums[h] / count as f32;
+        let level = tuning::BRIGHT * stage.peaks[h];
         let theta = tuning::COARSE * scale;
-        let (mut explained, mut missed, mut matched) = (0usize, 0usize, 0usize);
-        for &i in support {
-            let (x, p) = (xb[i as usize], gain * pred[i as usize]);
-            let ok = (x - p).abs() < theta;
-            if ok {
-                explained += 1;
-            } else if p > gain * bright {
-                missed += 1;
-            }
-            matched += (ok && p > gain * bright) as usize;
+        let (mut explained, mut missed, mut matched) = (0u32, 0u32, 0u32);
+        for (&x, &p) in xs.iter().zip(ps) {
+            let ok = (x - gain * p).abs() < theta;
+            let lit = p > level;
+            explained += ok as u32;
+            missed += (!ok && lit) as u32;
+            matched += (ok && lit) as u32;
         }
         share = share.max(matched as f64 / count as f64);
-        scored.push((explained as i64 - missed as i64, h, gain, scale));
+        scored.push((i64::from(explained) - i64::from(missed), h, gain, scale));
     }
     scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
     Coarse { scored, share }
