@@ -22,7 +22,8 @@
 //!    most pixels is kept (the minimum-description-length choice of the paper, at a fixed cost
 //!    per pixel).
 //! 3. **Repair** (`repair.rs`). The query's own pixels are kept where their bin and its four
-//!    neighbours are explained, or lie in a small island of unexplained bins within the
+//!    neighbours are explained (within a tolerance that the training views' own detail widens,
+//!    `detail.rs`), or lie in a small island of unexplained bins within the
 //!    object; every other pixel is the reconstruction from coefficients solved again at full
 //!    resolution on the pixels kept. The method then takes the repaired image as a studio view.
 //!
@@ -33,6 +34,7 @@
 
 mod calibrate;
 mod check;
+mod detail;
 mod hidden;
 mod locate;
 mod model;
@@ -53,6 +55,7 @@ use crate::image_io::{ColorMode, ImageSpec};
 use crate::manifold::pca::{self, Dimension};
 use crate::{Error, Result};
 use check::Binned;
+use detail::Detail;
 use serde::{Deserialize, Serialize};
 
 /// What a stage records besides its arrays.
@@ -97,6 +100,9 @@ pub(crate) struct Stage {
     /// The training views binned, with their poses: what a repaired query's answer is checked
     /// against (`verify.rs`); None in model files written before the check.
     views: Option<Views>,
+    /// Where the eigenspace leaves the training views' own detail unexplained: the repair's
+    /// tolerance (`detail.rs`); None without the views.
+    detail: Option<Detail>,
 }
 
 /// A robust fit of one query.
@@ -162,6 +168,10 @@ impl Stage {
             binning.apply(r, out, &mut acc);
         }
         let binned = Binned::new(cols, k)?;
+        let detail = views.as_ref().and_then(|v| {
+            let (vb, poses) = v.arrays();
+            Detail::of(vb, &binned, poses.len() / (vb.len() / mb).max(1))
+        });
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
         let step = hypothesis_step(hyps.len() / k);
         let hyps: Vec<f32> = hyps.chunks_exact(k).step_by(step).flatten().copied().collect();
@@ -174,7 +184,7 @@ impl Stage {
         let support: Vec<u32> =
             (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
         let table = search::Table::new(&preds, &peaks, &support);
-        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views })
+        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views, detail })
     }
 
     /// Its settings.
@@ -202,6 +212,7 @@ impl Stage {
     /// its answers against them).
     pub(crate) fn without_views(mut self) -> Stage {
         self.views = None;
+        self.detail = None;
         self
     }
 

@@ -205,9 +205,11 @@ fn the_confidence_flags_a_view_too_hidden_to_tell() {
     }
     let n = light.len();
     // Lightly hidden: read right, and the calibration leaves their confidence to the method
-    // (whose own confidence flags some: a third of them).
+    // (whose own confidence flags some: 4 of the 12 when the repair replaced the duck's detail
+    // too, 5 since it keeps it, `detail.rs`; COIL-20's false flags stayed 2.5 / 10 / 23% at 0 /
+    // 20 / 40% hidden, `bench/scenes.py`).
     assert!(
-        right == n && right_scaled_under == 0 && light_flagged * 5 <= n * 2,
+        right == n && right_scaled_under == 0 && light_flagged * 2 <= n,
         "10% hidden: {right} of {n} read right, {right_scaled_under} scaled under the flag, {light_flagged} flagged"
     );
     assert!(heavy_flagged == n, "80% hidden: {heavy_flagged} of {n} flagged");
@@ -322,9 +324,14 @@ fn the_object_is_found_anywhere_in_a_larger_scene() {
         assert_eq!(search.predict_located(std::slice::from_ref(&found)).unwrap(), est.pose, "the pose is the checked estimate's");
         let error = view.space().error_deg(&est.pose, view.pose(0));
         eprintln!("scale {s}: box {:?} (truth {truth:?}), centre off {off:.2} px, pose off {error:.2} degrees, shown {:.2}", found.bbox, found.shown);
+        // Within a training step (10 degrees): the box's scale is off by up to 7% on these 64 x
+        // 48 views, and the repair keeps the query's own pixels on the object (`detail.rs`),
+        // which a window off in scale leaves a few degrees off (0.9 - 5.6 degrees here; on
+        // COIL-20's 128 x 128 views in 320 x 240 scenes the repair's tolerance took the located
+        // pose from 4.57 to 4.16 degrees, `bench/locate.py`).
         if off <= 3.0 && (found.scale / s - 1.0).abs() < 0.1 {
             near += 1;
-            assert!(error < 5.0, "scale {s}: pose off by {error:.2} degrees");
+            assert!(error < 10.0, "scale {s}: pose off by {error:.2} degrees");
         }
     }
     // 64 x 48 views leave the search 16 x 12 coarse cells: most placements, not all, are found
@@ -409,4 +416,34 @@ fn many_objects_take_the_stage_of_gray_views_of_their_own_objects() {
     let (plain, _) = object_models(&["duck", "cap"]);
     let e = plain.with_robust(&objects(&["duck", "pot"])).unwrap_err().to_string();
     assert!(e.contains("robust stage"), "{e}");
+}
+
+#[test]
+fn the_repair_keeps_the_object_s_own_detail_and_still_finds_the_occluder() {
+    // The duck (128 x 128, trained every 10 degrees) between its training views, over a
+    // texture and 20% hidden, against the same views in the studio: the pixels where the two
+    // differ are the outliers. The tolerance the training views' own residuals set
+    // (`detail.rs`) keeps much more of the object's own pixels than the fit's one threshold
+    // (a stage without its views), and hardly more of the outliers.
+    let train = render_at("duck", "0:350:10", None, (128, 128));
+    let stage = super::Stage::fit(&train).unwrap();
+    let single = stage.clone().without_views();
+    let studio = render_at("duck", "5:355:30", None, (128, 128));
+    let scenes = render_at("duck", "5:355:30", Some(scene(0.2, 1)), (128, 128));
+    let (mut lost, mut kept_out) = ([0f64; 2], [0f64; 2]);
+    for i in 0..studio.len() {
+        let (s, q) = (studio.row(i), scenes.row(i));
+        let (xb, _) = stage.check(q);
+        let fit = stage.fit_binned(&xb);
+        let outlier: Vec<bool> = s.iter().zip(q).map(|(a, b)| a != b).collect();
+        let object = |p: usize| !outlier[p] && s[p] > 0.04;
+        let share = |n: usize, d: usize| n as f64 / d.max(1) as f64 / studio.len() as f64;
+        for (j, st) in [&stage, &single].into_iter().enumerate() {
+            let (_, kept) = st.repaired(q, &fit);
+            lost[j] += share((0..s.len()).filter(|&p| object(p) && !kept[p]).count(), (0..s.len()).filter(|&p| object(p)).count());
+            kept_out[j] += share((0..s.len()).filter(|&p| outlier[p] && kept[p]).count(), outlier.iter().filter(|&&o| o).count());
+        }
+    }
+    assert!(lost[0] < 0.6 * lost[1], "object's own pixels replaced: {:.3} with the training views' detail, {:.3} without", lost[0], lost[1]);
+    assert!(kept_out[0] < kept_out[1] + 0.02, "outliers kept: {:.3} with the training views' detail, {:.3} without", kept_out[0], kept_out[1]);
 }
