@@ -4,7 +4,7 @@
 //! every object's training views, as Murase & Nayar segment and normalise before recognising.
 
 use super::own::OwnSpaces;
-use super::robust::RobustObjects;
+use super::robust::{Patched, RobustObjects};
 use super::{checked_distances, Recognition, Recognize, Recognizer, RecognizerParams, Unknown};
 use crate::catalog::ObjectSet;
 use crate::confidence::{Estimate, Hypothesis};
@@ -423,13 +423,13 @@ impl ObjectModel {
     /// [`ObjectModel::distances`] of queries already prepared, through the robust stage as
     /// [`ObjectModel::recognize`] (the nearest object's stage checks each query): the queries
     /// as answered, repaired where they needed it, and their distances.
-    fn distances_of<'q>(&self, queries: Cow<'q, [f32]>) -> Result<(Cow<'q, [f32]>, Vec<f64>)> {
+    fn distances_of<'q>(&self, queries: Cow<'q, [f32]>) -> Result<(Patched<'q>, Vec<f64>)> {
         let k = self.names.len();
         let mut d = self.distances_plain(&queries)?;
         let named: Vec<usize> = d.chunks_exact(k).map(|row| (0..k).min_by(|&a, &b| row[a].total_cmp(&row[b])).expect("at least one object")).collect();
         let (queries, fixes) = self.repaired(queries, &named);
         if !fixes.is_empty() {
-            for (&(i, _), row) in fixes.iter().zip(self.distances_plain(&self.rows_of(&queries, &fixes))?.chunks_exact(k)) {
+            for (&(i, _), row) in fixes.iter().zip(self.distances_plain(queries.repaired_rows())?.chunks_exact(k)) {
                 d[i * k..(i + 1) * k].copy_from_slice(row);
             }
         }
@@ -455,7 +455,7 @@ impl ObjectModel {
         let named: Vec<usize> = recognitions.iter().map(|r| r.nearest).collect();
         let (queries, fixes) = self.repaired(queries, &named);
         if !fixes.is_empty() {
-            for (&(i, _), r) in fixes.iter().zip(self.recognize_plain(&self.rows_of(&queries, &fixes))?) {
+            for (&(i, _), r) in fixes.iter().zip(self.recognize_plain(queries.repaired_rows())?) {
                 recognitions[i] = r;
             }
         }
@@ -552,9 +552,9 @@ impl ObjectModel {
         if self.poses.is_empty() {
             return Err(Error::invalid("top", top, "this model was fitted without poses: it tells objects apart, with no pose hypotheses"));
         }
-        let (m, k) = (self.spec.features(), self.names.len());
+        let k = self.names.len();
         let (q, d) = self.distances_of(self.prepared(queries)?)?;
-        let n = q.len() / m;
+        let n = q.len();
         let top = top.max(1);
         let nearest: Vec<Vec<usize>> = (0..n)
             .map(|i| {
@@ -571,7 +571,7 @@ impl ObjectModel {
             if idx.is_empty() {
                 continue;
             }
-            let batch: Vec<f32> = idx.iter().flat_map(|&i| q[i * m..(i + 1) * m].iter().copied()).collect();
+            let batch: Vec<f32> = idx.iter().flat_map(|&i| q.row(i).iter().copied()).collect();
             for (&i, e) in idx.iter().zip(self.poses[o].estimate(&batch, top)?) {
                 out[i].extend(e.hypotheses.into_iter().map(|pose| ObjectHypothesis { object: o, distance: d[i * k + o], pose }));
             }
@@ -587,14 +587,13 @@ impl ObjectModel {
     /// [`ObjectModel::estimate`] of queries already prepared.
     fn estimate_of(&self, queries: Cow<'_, [f32]>, top: usize) -> Result<Vec<ObjectEstimate>> {
         let Answered { queries, recognitions: rec, clear } = self.recognize_of(queries)?;
-        let m = self.spec.features();
         let mut poses: Vec<Option<Estimate>> = vec![None; rec.len()];
         for k in 0..self.poses.len() {
             let idx: Vec<usize> = (0..rec.len()).filter(|&i| rec[i].object == Some(k)).collect();
             if idx.is_empty() {
                 continue;
             }
-            let batch: Vec<f32> = idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+            let batch: Vec<f32> = idx.iter().flat_map(|&i| queries.row(i).iter().copied()).collect();
             for (&i, e) in idx.iter().zip(self.poses[k].estimate(&batch, top)?) {
                 poses[i] = Some(e);
             }
@@ -701,7 +700,7 @@ impl ObjectModel {
 /// their recognitions and, for each repaired one, its place and the probability that a fit
 /// showing its share of the object reads the pose right.
 struct Answered<'q> {
-    queries: Cow<'q, [f32]>,
+    queries: Patched<'q>,
     recognitions: Vec<Recognition>,
     clear: Vec<(usize, f64)>,
 }

@@ -41,6 +41,38 @@ use crate::{Error, Result};
 use rayon::prelude::*;
 use std::borrow::Cow;
 
+/// A batch of queries (rows of M) with the rows the robust stage repaired replaced; the other
+/// rows are read from the batch as it came, which is not copied (a batch of studio views with
+/// one repaired among them would otherwise be copied whole).
+pub(super) struct Patched<'q> {
+    base: Cow<'q, [f32]>,
+    m: usize,
+    /// The repaired rows' places, ascending.
+    places: Vec<usize>,
+    /// Their pixels, one row after another.
+    pixels: Vec<f32>,
+}
+
+impl Patched<'_> {
+    /// Rows in the batch.
+    pub(super) fn len(&self) -> usize {
+        self.base.len() / self.m
+    }
+
+    /// Row `i`, as repaired where it was.
+    pub(super) fn row(&self, i: usize) -> &[f32] {
+        match self.places.binary_search(&i) {
+            Ok(j) => &self.pixels[j * self.m..(j + 1) * self.m],
+            Err(_) => &self.base[i * self.m..(i + 1) * self.m],
+        }
+    }
+
+    /// The repaired rows, one after another, in the order of their places.
+    pub(super) fn repaired_rows(&self) -> &[f32] {
+        &self.pixels
+    }
+}
+
 /// Every object's robust stage, in the order of the objects.
 #[derive(Debug, Clone)]
 pub(crate) struct RobustObjects {
@@ -178,27 +210,15 @@ impl super::ObjectModel {
         self.robust.as_ref().map_or_else(Vec::new, RobustObjects::tensors)
     }
 
-    /// The queries with those the robust stage repairs in place (each checked by the stage of
+    /// The queries with those the robust stage repairs replaced (each checked by the stage of
     /// the object `named` for it), and their places with the probability that each reads its
-    /// pose right given the share of the object it shows (`Stage::clear`);
-    /// the queries as they are without a robust stage or when none needs repair.
-    pub(super) fn repaired<'q>(&self, queries: Cow<'q, [f32]>, named: &[usize]) -> (Cow<'q, [f32]>, Vec<(usize, f64)>) {
-        let Some(robust) = &self.robust else { return (queries, Vec::new()) };
+    /// pose right given the share of the object it shows (`Stage::clear`); the queries as they
+    /// are without a robust stage or when none needs repair.
+    pub(super) fn repaired<'q>(&self, queries: Cow<'q, [f32]>, named: &[usize]) -> (Patched<'q>, Vec<(usize, f64)>) {
         let m = self.spec().features();
-        let fixes = robust.repair_batch(&queries, m, named);
-        if fixes.is_empty() {
-            return (queries, Vec::new());
-        }
-        let mut q = queries.into_owned();
-        for (i, r) in &fixes {
-            q[i * m..(i + 1) * m].copy_from_slice(&r.pixels);
-        }
-        (Cow::Owned(q), fixes.into_iter().map(|(i, r)| (i, r.clear)).collect())
-    }
-
-    /// The rows `fixes` names of `queries`, as one batch.
-    pub(super) fn rows_of(&self, queries: &[f32], fixes: &[(usize, f64)]) -> Vec<f32> {
-        let m = self.spec().features();
-        fixes.iter().flat_map(|&(i, _)| queries[i * m..(i + 1) * m].iter().copied()).collect()
+        let fixes = self.robust.as_ref().map_or_else(Vec::new, |r| r.repair_batch(&queries, m, named));
+        let places = fixes.iter().map(|f| f.0).collect();
+        let pixels = fixes.iter().flat_map(|(_, r)| r.pixels.iter().copied()).collect();
+        (Patched { base: queries, m, places, pixels }, fixes.into_iter().map(|(i, r)| (i, r.clear)).collect())
     }
 }
