@@ -25,10 +25,21 @@ pub struct Located {
     /// method takes.
     #[serde(skip)]
     pub view: Vec<f32>,
-    /// The bins of the view the repair kept whole, and the fit's threshold: what the answer to a
-    /// repaired view is checked against (`crate::robust`); empty when not repaired.
+    /// What the answer to a repaired view is checked against (`crate::robust`); empty when not
+    /// repaired.
     #[serde(skip)]
-    pub(crate) kept: (Vec<u32>, f32),
+    pub(crate) kept: Kept,
+}
+
+/// What the robust stage's check of a repaired view's answer needs besides the view.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Kept {
+    /// The bins of the view the repair kept whole.
+    pub(crate) bins: Vec<u32>,
+    /// The fit's threshold.
+    pub(crate) theta: f32,
+    /// The pose of the training view nearest the fit (None: no training views kept).
+    pub(crate) fit_pose: Option<Vec<f64>>,
 }
 
 /// A model that finds its object in images larger than its training views.

@@ -17,6 +17,7 @@ pub(crate) mod split;
 mod tensor;
 mod tuning;
 
+pub(crate) use located::Kept;
 pub use located::{Located, SceneSearch};
 pub(crate) use method::Stream;
 pub use method::{Method, MethodOption, MethodSpec, Origin, Settings};

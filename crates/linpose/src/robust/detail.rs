@@ -65,22 +65,36 @@ impl Detail {
         Some(Detail { coords, residual, near: p + 1, mb })
     }
 
-    /// The tolerance at each binned pixel of `support` (others keep `theta`) of a fit of
-    /// coefficients `coef` (the first its gain) and threshold `theta`; None when the gain is not
-    /// positive.
-    pub(crate) fn tolerance(&self, coef: &[f64], theta: f32, support: &[u32]) -> Option<Vec<f32>> {
+    /// The training view nearest a fit of coefficients `coef` (the first its gain) in the
+    /// eigenspace, per unit gain; None when the gain is not positive.
+    pub(crate) fn nearest(&self, coef: &[f64]) -> Option<usize> {
+        self.nearest_n(coef, 1).map(|v| v[0].1)
+    }
+
+    /// The `n` training views nearest a fit of coefficients `coef` (squared distance, index),
+    /// in no order; None when the gain is not positive.
+    fn nearest_n(&self, coef: &[f64], n: usize) -> Option<Vec<(f32, usize)>> {
         let gain = coef[0];
         if !(gain > 0.0 && gain.is_finite()) {
             return None;
         }
         let d = coef.len() - 1;
-        let mb = self.mb;
         let y: Vec<f32> = coef[1..].iter().map(|&c| (c / gain) as f32).collect();
         let mut near: Vec<(f32, usize)> =
             self.coords.chunks_exact(d).enumerate().map(|(i, c)| (c.iter().zip(&y).map(|(a, b)| (a - b) * (a - b)).sum(), i)).collect();
-        let n = self.near.min(near.len());
+        let n = n.min(near.len());
         near.select_nth_unstable_by(n - 1, |a, b| a.0.total_cmp(&b.0));
         near.truncate(n);
+        Some(near)
+    }
+
+    /// The tolerance at each binned pixel of `support` (others keep `theta`) of a fit of
+    /// coefficients `coef` (the first its gain) and threshold `theta`; None when the gain is not
+    /// positive.
+    pub(crate) fn tolerance(&self, coef: &[f64], theta: f32, support: &[u32]) -> Option<Vec<f32>> {
+        let near = self.nearest_n(coef, self.near)?;
+        let mb = self.mb;
+        let gain = coef[0];
         let scale = tuning::DETAIL * gain as f32;
         let mut tol = vec![theta; mb];
         for &i in support {

@@ -32,6 +32,7 @@ use super::search::gain;
 use super::{tuning, Stage};
 use crate::binning::Binning;
 use crate::image_io::{ColorMode, ImageSpec};
+use crate::model::Kept;
 use crate::model::Located;
 use crate::{Error, Result};
 use rayon::prelude::*;
@@ -360,7 +361,7 @@ impl Stage {
             view: view_px,
             shown: 1.0,
             repaired: false,
-            kept: (Vec::new(), 0.0),
+            kept: Kept::default(),
         })
     }
 }

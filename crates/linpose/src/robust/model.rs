@@ -5,11 +5,12 @@
 //! keeps the stage: its settings as the `linpose.robust` metadata, its arrays as
 //! `robust.rows` and `robust.hypotheses`.
 
+use super::verify::Answer;
 use super::{tuning, Evidence, RobustSettings, Stage, Views};
 use crate::confidence::Estimate;
 use crate::dataset::Dataset;
 use crate::image_io::ImageSpec;
-use crate::model::{AnyModel, Located, Method, ModelMeta, PoseModel, SceneSearch, Storage, Tensor, TensorSet};
+use crate::model::{AnyModel, Kept, Located, Method, ModelMeta, PoseModel, SceneSearch, Storage, Tensor, TensorSet};
 use crate::Result;
 use rayon::prelude::*;
 
@@ -93,7 +94,17 @@ impl Robust {
         let space = &self.meta().space;
         for (e, (clear, evidence)) in est.iter_mut().zip(checks) {
             let poses: Vec<&[f64]> = e.hypotheses.iter().map(|h| h.pose.as_slice()).collect();
-            let j = self.stage.verify(evidence, &poses, space);
+            let j = match self.stage.answer(evidence, &poses, space) {
+                Answer::Method(j) => j,
+                Answer::Fit(pose) => {
+                    // Not the method's: its score is 0, so the answer is flagged; its distance
+                    // is unknown in the method's metric, so it is put at the farthest of the
+                    // method's.
+                    let distance = e.hypotheses.iter().map(|h| h.distance).fold(0.0, f64::max);
+                    e.hypotheses.push(crate::confidence::Hypothesis { pose: pose.to_vec(), score: 0.0, distance });
+                    e.hypotheses.len() - 1
+                }
+            };
             if j > 0 {
                 let h = e.hypotheses.remove(j);
                 e.pose.clone_from(&h.pose);
@@ -138,7 +149,7 @@ impl Robust {
 
     /// The checked estimates of the located views at the places `fixed` (those repaired).
     fn checked_located(&self, found: &[Located], fixed: &[usize], top: usize) -> Result<Vec<Estimate>> {
-        let evidence: Vec<Evidence> = fixed.iter().map(|&i| self.stage.evidence_of(&found[i].view, found[i].kept.0.clone(), found[i].kept.1)).collect();
+        let evidence: Vec<Evidence> = fixed.iter().map(|&i| self.stage.evidence_of(&found[i].view, &found[i].kept)).collect();
         let checks: Vec<(f64, &Evidence)> = fixed.iter().zip(&evidence).map(|(&i, e)| (self.stage.clear(found[i].shown), e)).collect();
         let rows: Vec<f32> = fixed.iter().flat_map(|&i| found[i].view.iter().copied()).collect();
         self.verified_rows(&rows, &checks, top)
@@ -263,7 +274,7 @@ impl SceneSearch for Robust {
                 let mut found = self.stage.locate(scene, spec)?;
                 if let Some((view, fit, evidence)) = self.stage.apply(&found.view) {
                     found.view = view;
-                    found.kept = (evidence.kept, evidence.theta);
+                    found.kept = Kept { bins: evidence.kept, theta: evidence.theta, fit_pose: evidence.fit_pose };
                     found.shown = fit.shown;
                     found.repaired = true;
                 }

@@ -27,6 +27,7 @@
 use super::check::Basis;
 use super::verify::Evidence;
 use super::{search, tuning, Fit, Stage};
+use crate::model::Kept;
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
 
@@ -72,22 +73,26 @@ impl Stage {
     }
 
     /// What the answer to the query `xb` (binned) repaired by `fit`, keeping its pixels `kept`,
-    /// is checked against (`verify.rs`): the support's bins whose every pixel was kept.
+    /// is checked against (`verify.rs`): the support's bins whose every pixel was kept, and the
+    /// pose of the training view nearest the fit.
     pub(crate) fn evidence(&self, xb: Vec<f32>, fit: &Fit, kept: &[bool]) -> Evidence {
         let (wb, b) = (self.binning.spec().width as usize, self.binning.factor());
         let w = self.binning.full().width as usize;
         let whole = |bin: usize| (0..b * b).all(|k| kept[(bin / wb * b + k / b) * w + bin % wb * b + k % b]);
         let kept = self.support.iter().copied().filter(|&i| whole(i as usize)).collect();
-        Evidence { xb, kept, theta: fit.theta }
+        let fit_pose = match (&self.detail, &self.views) {
+            (Some(d), Some(v)) => d.nearest(&fit.coef).map(|i| v.pose(i)),
+            _ => None,
+        };
+        Evidence { fit_pose, xb, kept, theta: fit.theta }
     }
 
-    /// The evidence of a repaired view `view` whose bins `kept` were kept whole by a fit of
-    /// threshold `theta` (the kept bins' pixels are the query's own, so binning the repaired
-    /// view gives the query's values there).
-    pub(crate) fn evidence_of(&self, view: &[f32], kept: Vec<u32>, theta: f32) -> Evidence {
+    /// The evidence of a repaired view `view` of which a fit kept `kept` (the kept bins are the
+    /// query's own pixels, so binning the repaired view gives the query's values there).
+    pub(crate) fn evidence_of(&self, view: &[f32], kept: &Kept) -> Evidence {
         let mut xb = vec![0f32; self.binning.spec().features()];
         self.binning.apply(view, &mut xb, &mut Vec::new());
-        Evidence { xb, kept, theta }
+        Evidence { fit_pose: kept.fit_pose.clone(), xb, kept: kept.bins.clone(), theta: kept.theta }
     }
 
     /// Pixel `i` of the reconstruction from `coef` on the full rows.

@@ -175,6 +175,24 @@ fn the_answer_is_the_candidate_the_query_s_own_pixels_support() {
 }
 
 #[test]
+fn the_fit_s_own_pose_answers_when_no_candidate_of_the_method_is_near_it() {
+    // A training view of the duck as the query, every bin of the support kept: the training view
+    // nearest the fit is the view itself. A method whose only candidate is half a turn away is
+    // overruled by the fit's pose; one within a few degrees of it keeps its answer, and the fit's
+    // pose is not offered against it.
+    use super::verify::Answer;
+    let (train, stage, x, xb, fit) = fitted_view(4);
+    let evidence = stage.evidence(xb, &fit, &vec![true; x.len()]);
+    let space = train.space();
+    let right = train.pose(4).to_vec();
+    assert_eq!(evidence.fit_pose.as_deref(), Some(right.as_slice()));
+    let wrong = vec![right[0], right[1] + 180.0];
+    assert_eq!(stage.answer(&evidence, &[&wrong], space), Answer::Fit(&right));
+    let near = vec![right[0], right[1] + 5.0];
+    assert_eq!(stage.answer(&evidence, &[&near], space), Answer::Method(0));
+}
+
+#[test]
 fn the_confidence_flags_a_view_too_hidden_to_tell() {
     let train = render("duck", "0:350:10", None);
     let robust = Robust::fit(&train, AnyModel::new(EigenspaceParams::default().fit(&train).unwrap())).unwrap();
