@@ -36,8 +36,8 @@ pub(crate) struct Detail {
 
 impl Detail {
     /// The detail of the binned training views `views` (N x M_b) on `binned`, whose poses have
-    /// `p` parameters. Views the rows cannot put in a positive gain are left out; None when none
-    /// is left.
+    /// `p` parameters, in their order. A view the rows cannot put in a positive gain is never
+    /// nearest a fit and widens nothing. None when the rows are the mean image alone.
     pub(crate) fn of(views: &[f32], binned: &Binned, p: usize) -> Option<Detail> {
         let (k, mb) = binned.shape();
         if k < 2 {
@@ -72,7 +72,7 @@ impl Detail {
     }
 
     /// The `n` training views nearest a fit of coefficients `coef` (squared distance, index),
-    /// in no order; None when the gain is not positive.
+    /// in no order; None when the gain is not positive or there are no views.
     fn nearest_n(&self, coef: &[f64], n: usize) -> Option<Vec<(f32, usize)>> {
         let gain = coef[0];
         if !(gain > 0.0 && gain.is_finite()) {
@@ -83,6 +83,9 @@ impl Detail {
         let mut near: Vec<(f32, usize)> =
             self.coords.chunks_exact(d).enumerate().map(|(i, c)| (c.iter().zip(&y).map(|(a, b)| (a - b) * (a - b)).sum(), i)).collect();
         let n = n.min(near.len());
+        if n == 0 {
+            return None;
+        }
         near.select_nth_unstable_by(n - 1, |a, b| a.0.total_cmp(&b.0));
         near.truncate(n);
         Some(near)
