@@ -168,10 +168,7 @@ impl Stage {
             binning.apply(r, out, &mut acc);
         }
         let binned = Binned::new(cols, k)?;
-        let detail = views.as_ref().and_then(|v| {
-            let (vb, poses) = v.arrays();
-            Detail::of(vb, &binned, poses.len() / (vb.len() / mb).max(1))
-        });
+        let detail = views.as_ref().and_then(|v| Detail::of(v.arrays().0, &binned, v.params()));
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
         let step = hypothesis_step(hyps.len() / k);
         let hyps: Vec<f32> = hyps.chunks_exact(k).step_by(step).flatten().copied().collect();

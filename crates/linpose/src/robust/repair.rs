@@ -44,8 +44,10 @@ impl Stage {
         let (wb, hb) = (s.width as usize, s.height as usize);
         let b = self.binning.factor();
         let w = self.binning.full().width as usize;
-        let inlier = self.explained(x, fit);
-        let explained = self.with_specks(fit, &inlier, wb, hb);
+        let mut recon = vec![0f64; wb * hb];
+        self.binned.reconstruct(&fit.coef, &mut recon);
+        let inlier = self.explained(x, fit, &recon);
+        let explained = self.with_specks(fit, &inlier, &recon, wb, hb);
         let keep: Vec<bool> = (0..wb * hb)
             .map(|i| {
                 let (xo, yo) = (i % wb, i / wb);
@@ -122,13 +124,10 @@ impl Stage {
 
     /// The binned pixels `fit` explains in the query `x`: its inliers, and the bins of the
     /// support whose residual is within their tolerance ([`Stage::tolerance`]).
-    fn explained(&self, x: &[f32], fit: &Fit) -> Vec<bool> {
+    fn explained(&self, x: &[f32], fit: &Fit, recon: &[f64]) -> Vec<bool> {
         let Some(tol) = self.tolerance(fit) else { return fit.inlier.clone() };
-        let mb = self.binning.spec().features();
-        let mut xb = vec![0f32; mb];
+        let mut xb = vec![0f32; recon.len()];
         self.binning.apply(x, &mut xb, &mut Vec::new());
-        let mut recon = vec![0f64; mb];
-        self.binned.reconstruct(&fit.coef, &mut recon);
         let mut inlier = fit.inlier.clone();
         for &i in &self.support {
             let i = i as usize;
@@ -148,13 +147,11 @@ impl Stage {
 
     /// The explained bins `inlier` of `fit` (a `wb` x `hb` grid) with its specks (see the module
     /// doc) counted as explained.
-    fn with_specks(&self, fit: &Fit, inlier: &[bool], wb: usize, hb: usize) -> Vec<bool> {
+    fn with_specks(&self, fit: &Fit, inlier: &[bool], recon: &[f64], wb: usize, hb: usize) -> Vec<bool> {
         let mut explained = inlier.to_vec();
         if fit.theta <= 0.0 {
             return explained;
         }
-        let mut recon = vec![0f64; wb * hb];
-        self.binned.reconstruct(&fit.coef, &mut recon);
         // The fit's threshold is its last share of the mean bright pixel (`search.rs`).
         let scale = fit.theta / tuning::ANNEAL[tuning::ANNEAL.len() - 1];
         let bright: Vec<bool> = recon.iter().map(|&v| v > f64::from(tuning::BRIGHT * scale)).collect();

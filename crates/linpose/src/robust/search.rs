@@ -85,16 +85,9 @@ pub(super) fn coarse(stage: &Stage, xb: &[f32]) -> Coarse {
     let mut ratios = Vec::new();
     for (h, ps) in table.values.chunks_exact(s.max(1)).enumerate() {
         let bright = &table.bright[table.starts[h]..table.starts[h + 1]];
-        if bright.is_empty() {
-            continue;
-        }
         ratios.clear();
         ratios.extend(bright.iter().map(|&j| xs[j as usize] / ps[j as usize]));
-        let mid = ratios.len() / 2;
-        let gain = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
-        if !(gain > 0.0) {
-            continue;
-        }
+        let Some(gain) = median_gain(&mut ratios) else { continue };
         let count = bright.len();
         let scale = gain * table.sums[h] / count as f32;
         let level = tuning::BRIGHT * stage.peaks[h];
@@ -169,12 +162,19 @@ pub(super) fn gain(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios:
             count += 1;
         }
     }
+    let gain = median_gain(ratios)?;
+    Some((gain, gain * sum / count as f32, count))
+}
+
+/// The median of the ratios of query to hypothesis over a hypothesis's bright pixels (reordered
+/// in place): the gain that fits the query best; None when there are none or it is not positive.
+fn median_gain(ratios: &mut [f32]) -> Option<f32> {
     if ratios.is_empty() {
         return None;
     }
     let mid = ratios.len() / 2;
     let gain = *ratios.select_nth_unstable_by(mid, f32::total_cmp).1;
-    (gain > 0.0).then(|| (gain, gain * sum / count as f32, count))
+    (gain > 0.0).then_some(gain)
 }
 
 /// Marks the binned pixels the coefficients `coef` explain within `theta` (outside the support:

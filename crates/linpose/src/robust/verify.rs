@@ -98,8 +98,13 @@ impl Views {
 
     /// The pose of training view `i`.
     pub(crate) fn pose(&self, i: usize) -> Vec<f64> {
-        let p = self.poses.len() / (self.binned.len() / self.mb);
+        let p = self.params();
         self.poses[i * p..(i + 1) * p].to_vec()
+    }
+
+    /// P, the pose parameters of a view.
+    pub(crate) fn params(&self) -> usize {
+        self.poses.len() / (self.binned.len() / self.mb)
     }
 
     /// The binned views (N x M_b) and their poses (N x P).
@@ -116,7 +121,7 @@ impl Views {
     /// the corners of the simplex of a lattice around it, the two either side on a ring), each
     /// weighted by the inverse of its distance; the view itself at a training pose.
     fn at(&self, pose: &[f64], space: &PoseSpace) -> Vec<f32> {
-        let p = self.poses.len() / (self.binned.len() / self.mb);
+        let p = self.params();
         let mut near: Vec<(f64, usize)> = self.poses.chunks_exact(p).enumerate().map(|(i, q)| (space.error_deg(q, pose), i)).collect();
         let k = (p + 1).min(near.len());
         near.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
