@@ -4,27 +4,35 @@
 //! robust fit, the repair and the method), the same view in the studio (the check, then the
 //! method; and the check alone: `Robust::repair`, which a studio view passes), and the search for it in a 320 x 240 scene (at scale 1.13 at (97.6, 41.3)):
 //! the box, then the robust fit and the repair of the view found (`SceneSearch::locate`), and
-//! the estimate after it.
+//! the estimate after it. Then many objects: 20 procedural objects (`render::random`, seeds
+//! 200..220) trained the same way as one model (the default recogniser, refined pose models),
+//! plain and behind the robust stage: one studio query between two training views, whose check
+//! (the named object's stage) it passes, and a batch of 20 such views, one per object.
 //!
 //! cargo bench -p linpose --bench scene
 use criterion::{criterion_group, criterion_main, Criterion};
 use linpose::image_io::ImageSpec;
+use linpose::recognize::{ObjectModel, RecognizerParams};
 use linpose::render::background::Background;
 use linpose::render::place::Canvas;
 use linpose::render::scene::{Scene, SceneSpec};
 use linpose::render::synth::{dataset, PoseGrid};
-use linpose::render::{objects, Grid, RenderParams};
+use linpose::render::{objects, random, Grid, Mesh, RenderParams};
 use linpose::robust::Robust;
-use linpose::{Dataset, Estimator, PoseModel, RefinedParams};
+use linpose::{Dataset, Estimator, MethodSpec, ObjectSet, PoseModel, RefinedParams};
 use std::hint::black_box;
 
 fn render(azimuth: &str, scene: Option<Scene>) -> Dataset {
+    render_mesh(&objects::builtin("duck").unwrap(), azimuth, scene)
+}
+
+fn render_mesh(mesh: &Mesh, azimuth: &str, scene: Option<Scene>) -> Dataset {
     let mut grid = PoseGrid::new(Grid::parse("elevation", "30").unwrap(), Grid::parse("azimuth", azimuth).unwrap()).unwrap();
     if let Some(s) = scene {
         grid = grid.with_scene(s);
     }
     let params = RenderParams::default().width(128).height(128);
-    dataset(&objects::builtin("duck").unwrap(), &grid, &params, std::path::Path::new("<render>"), &|_| {}).unwrap()
+    dataset(mesh, &grid, &params, std::path::Path::new("<render>"), &|_| {}).unwrap()
 }
 
 fn bench(c: &mut Criterion) {
@@ -60,6 +68,28 @@ fn bench(c: &mut Criterion) {
             search.estimate_located(&f, 1).unwrap()
         })
     });
+    g.finish();
+    many_objects(c);
+}
+
+/// Many objects' studio queries, plain and behind the robust stage.
+fn many_objects(c: &mut Criterion) {
+    let meshes: Vec<Mesh> = (200..220).map(|s| random::random(s).unwrap()).collect();
+    let set = ObjectSet::new((200..220).map(|s| format!("s{s}")).collect(), meshes.iter().map(|m| render_mesh(m, "0:350:10", None)).collect()).unwrap();
+    let pose: MethodSpec = RefinedParams::default().into();
+    let plain = ObjectModel::fit(&set, &RecognizerParams::default(), &pose).unwrap();
+    let robust = plain.clone().with_robust(&set).unwrap();
+    let between: Vec<f32> = meshes.iter().enumerate().flat_map(|(k, m)| render_mesh(m, &format!("{}", 5 + 10 * (7 * k % 36)), None).row(0).to_vec()).collect();
+    let one = &between[..set.spec().features()];
+    let (p, r) = (plain.estimate(&between, 1).unwrap(), robust.estimate(&between, 1).unwrap());
+    let same = p.iter().zip(&r).filter(|(a, b)| a.pose.as_ref().map(|e| &e.pose) == b.pose.as_ref().map(|e| &e.pose)).count();
+    println!("many objects: {same} of {} studio views answered the same plain and behind the robust stage", p.len());
+    let mut g = c.benchmark_group("20 objects, 128 x 128 views, refined");
+    g.sample_size(20);
+    g.bench_function("one studio query, plain", |b| b.iter(|| plain.estimate(black_box(one), 1).unwrap()));
+    g.bench_function("one studio query, behind the robust stage", |b| b.iter(|| robust.estimate(black_box(one), 1).unwrap()));
+    g.bench_function("20 studio queries, plain", |b| b.iter(|| plain.estimate(black_box(&between), 1).unwrap()));
+    g.bench_function("20 studio queries, behind the robust stage", |b| b.iter(|| robust.estimate(black_box(&between), 1).unwrap()));
     g.finish();
 }
 
