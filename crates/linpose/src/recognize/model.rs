@@ -483,7 +483,12 @@ impl ObjectModel {
         if idx.is_empty() {
             return;
         }
-        let batch: Vec<f32> = idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        // A batch the recogniser accepted whole is read as it is (no copy).
+        let batch: Cow<[f32]> = if idx.len() == rec.len() {
+            Cow::Borrowed(queries)
+        } else {
+            Cow::Owned(idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect())
+        };
         let binned = own.binned(&batch);
         let mb = binned.len() / idx.len();
         let named: Vec<usize> = idx.iter().map(|&i| measured(&rec[i]).expect("measured")).collect();
@@ -593,8 +598,7 @@ impl ObjectModel {
             if idx.is_empty() {
                 continue;
             }
-            let batch: Vec<f32> = idx.iter().flat_map(|&i| queries.row(i).iter().copied()).collect();
-            for (&i, e) in idx.iter().zip(self.poses[k].estimate(&batch, top)?) {
+            for (&i, e) in idx.iter().zip(self.poses[k].estimate(&queries.rows(&idx), top)?) {
                 poses[i] = Some(e);
             }
         }

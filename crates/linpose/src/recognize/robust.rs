@@ -67,6 +67,17 @@ impl Patched<'_> {
         }
     }
 
+    /// Rows `idx` (ascending), one after another: borrowed from the batch when they are one run
+    /// of it with none repaired (a batch of one object's views), else copied.
+    pub(super) fn rows(&self, idx: &[usize]) -> Cow<'_, [f32]> {
+        match (idx.first(), idx.last()) {
+            (Some(&a), Some(&b)) if b - a + 1 == idx.len() && !self.places.iter().any(|p| (a..=b).contains(p)) => {
+                Cow::Borrowed(&self.base[a * self.m..(b + 1) * self.m])
+            }
+            _ => Cow::Owned(idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect()),
+        }
+    }
+
     /// The repaired rows, one after another, in the order of their places.
     pub(super) fn repaired_rows(&self) -> &[f32] {
         &self.pixels
@@ -220,5 +231,27 @@ impl super::ObjectModel {
         let places = fixes.iter().map(|f| f.0).collect();
         let pixels = fixes.iter().flat_map(|(_, r)| r.pixels.iter().copied()).collect();
         (Patched { base: queries, m, places, pixels }, fixes.into_iter().map(|(i, r)| (i, r.clear)).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Patched;
+    use std::borrow::Cow;
+
+    #[test]
+    fn a_run_of_rows_none_repaired_is_borrowed_and_any_other_is_copied_as_repaired() {
+        let base: Vec<f32> = (0..12).map(|v| v as f32).collect();
+        let patched = Patched { base: Cow::Borrowed(&base), m: 2, places: vec![4], pixels: vec![-1.0, -2.0] };
+        let run = patched.rows(&[1, 2, 3]);
+        assert!(matches!(run, Cow::Borrowed(_)));
+        assert_eq!(&*run, &[2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+        let with_repaired = patched.rows(&[3, 4, 5]);
+        assert!(matches!(with_repaired, Cow::Owned(_)));
+        assert_eq!(&*with_repaired, &[6.0, 7.0, -1.0, -2.0, 10.0, 11.0]);
+        let gaps = patched.rows(&[0, 2]);
+        assert!(matches!(gaps, Cow::Owned(_)));
+        assert_eq!(&*gaps, &[0.0, 1.0, 4.0, 5.0]);
+        assert!(patched.rows(&[]).is_empty());
     }
 }
