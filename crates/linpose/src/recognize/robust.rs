@@ -67,15 +67,17 @@ impl Patched<'_> {
         }
     }
 
-    /// Rows `idx` (ascending), one after another: borrowed from the batch when they are one run
-    /// of it with none repaired (a batch of one object's views), else copied.
+    /// Rows `idx` (strictly ascending), one after another: borrowed from the batch when they
+    /// are one run of it with none repaired (a batch of one object's views), else copied.
     pub(super) fn rows(&self, idx: &[usize]) -> Cow<'_, [f32]> {
-        match (idx.first(), idx.last()) {
-            (Some(&a), Some(&b)) if b - a + 1 == idx.len() && !self.places.iter().any(|p| (a..=b).contains(p)) => {
-                Cow::Borrowed(&self.base[a * self.m..(b + 1) * self.m])
+        debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "rows in strictly ascending order");
+        if let (Some(&a), Some(&b)) = (idx.first(), idx.last()) {
+            let after = self.places.partition_point(|&p| p < a);
+            if b.checked_sub(a) == Some(idx.len() - 1) && self.places.get(after).is_none_or(|&p| p > b) {
+                return Cow::Borrowed(&self.base[a * self.m..(b + 1) * self.m]);
             }
-            _ => Cow::Owned(idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect()),
         }
+        Cow::Owned(idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect())
     }
 
     /// The repaired rows, one after another, in the order of their places.
@@ -252,6 +254,7 @@ mod tests {
         let gaps = patched.rows(&[0, 2]);
         assert!(matches!(gaps, Cow::Owned(_)));
         assert_eq!(&*gaps, &[0.0, 1.0, 4.0, 5.0]);
+        assert!(matches!(patched.rows(&[5]), Cow::Borrowed(_)));
         assert!(patched.rows(&[]).is_empty());
     }
 }
