@@ -190,6 +190,17 @@ impl Dataset {
 
 pub use crate::kernels::Rows;
 
+/// The rows `idx` (strictly ascending) of `rows` (rows of `m` values), one after another:
+/// borrowed when they are one run of `rows` (a batch taken whole, or one object's views), else
+/// copied.
+pub(crate) fn rows_at<'a, T: Copy>(rows: &'a [T], m: usize, idx: &[usize]) -> std::borrow::Cow<'a, [T]> {
+    debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "rows in strictly ascending order");
+    match (idx.first(), idx.last()) {
+        (Some(&a), Some(&b)) if b.checked_sub(a) == Some(idx.len() - 1) => std::borrow::Cow::Borrowed(&rows[a * m..(b + 1) * m]),
+        _ => std::borrow::Cow::Owned(idx.iter().flat_map(|&i| rows[i * m..(i + 1) * m].iter().copied()).collect()),
+    }
+}
+
 /// The first image of `manifest` when it is 8-bit gray (colour turned gray): its size and
 /// pixels, where [`load_gray8_into`] starts; `None` when it is not.
 pub fn first_gray8(manifest: &Manifest) -> Result<Option<(ImageSpec, Vec<u8>)>> {

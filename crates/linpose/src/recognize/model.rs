@@ -483,12 +483,7 @@ impl ObjectModel {
         if idx.is_empty() {
             return;
         }
-        // A batch the recogniser accepted whole is read as it is (no copy).
-        let batch: Cow<[f32]> = if idx.len() == rec.len() {
-            Cow::Borrowed(queries)
-        } else {
-            Cow::Owned(idx.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect())
-        };
+        let batch = crate::dataset::rows_at(queries, m, &idx);
         let binned = own.binned(&batch);
         let mb = binned.len() / idx.len();
         let named: Vec<usize> = idx.iter().map(|&i| measured(&rec[i]).expect("measured")).collect();

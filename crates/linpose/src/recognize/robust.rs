@@ -70,14 +70,15 @@ impl Patched<'_> {
     /// Rows `idx` (strictly ascending), one after another: borrowed from the batch when they
     /// are one run of it with none repaired (a batch of one object's views), else copied.
     pub(super) fn rows(&self, idx: &[usize]) -> Cow<'_, [f32]> {
-        debug_assert!(idx.windows(2).all(|w| w[0] < w[1]), "rows in strictly ascending order");
-        if let (Some(&a), Some(&b)) = (idx.first(), idx.last()) {
-            let after = self.places.partition_point(|&p| p < a);
-            if b.checked_sub(a) == Some(idx.len() - 1) && self.places.get(after).is_none_or(|&p| p > b) {
-                return Cow::Borrowed(&self.base[a * self.m..(b + 1) * self.m]);
-            }
+        let repaired = match (idx.first(), idx.last()) {
+            (Some(&a), Some(&b)) => self.places.get(self.places.partition_point(|&p| p < a)).is_some_and(|&p| p <= b),
+            _ => false,
+        };
+        if repaired {
+            Cow::Owned(idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect())
+        } else {
+            crate::dataset::rows_at(&self.base, self.m, idx)
         }
-        Cow::Owned(idx.iter().flat_map(|&i| self.row(i).iter().copied()).collect())
     }
 
     /// The repaired rows, one after another, in the order of their places.

@@ -124,7 +124,7 @@ impl Robust {
             return Ok(());
         }
         let (m, p) = (self.meta().spec.features(), self.meta().space.len());
-        let q: Vec<T> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let q = crate::dataset::rows_at(queries, m, plain);
         let mut o = vec![0.0; plain.len() * p];
         predict(&q, &mut o)?;
         for (k, &i) in plain.iter().enumerate() {
@@ -138,7 +138,7 @@ impl Robust {
     fn merged(&self, queries: &[f32], plain: &[usize], top: usize, fixed: &[usize], checked: Vec<Estimate>) -> Result<Vec<Estimate>> {
         let m = self.meta().spec.features();
         let n = plain.len() + fixed.len();
-        let q: Vec<f32> = plain.iter().flat_map(|&i| queries[i * m..(i + 1) * m].iter().copied()).collect();
+        let q = crate::dataset::rows_at(queries, m, plain);
         let plain_est = if plain.is_empty() { Vec::new() } else { self.inner.estimate(&q, top)? };
         let mut est: Vec<Option<Estimate>> = (0..n).map(|_| None).collect();
         for (&i, e) in plain.iter().zip(plain_est).chain(fixed.iter().zip(checked)) {
