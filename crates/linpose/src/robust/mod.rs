@@ -24,8 +24,8 @@
 //! 3. **Repair** (`repair.rs`). The query's own pixels are kept where their bin and its four
 //!    neighbours are explained (within a tolerance that the training views' own detail widens,
 //!    `detail.rs`), or lie in a small island of unexplained bins within the object; every
-//!    other pixel is the reconstruction from coefficients solved again at full
-//!    resolution on the pixels kept. The method then takes the repaired image as a studio view.
+//!    other pixel is the reconstruction from coefficients solved again at full resolution on
+//!    the pixels kept. The method then takes the repaired image as a studio view.
 //!
 //! The fit also says how much of the object the query shows: the share of the reconstruction's
 //! bright pixels that were explained (`Fit::shown`). How much a pose can be read from such a

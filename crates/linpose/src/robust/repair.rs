@@ -9,9 +9,9 @@
 //! bins on the object (the reconstruction's bright bins, 8-connected through the object alone)
 //! holding fewer than [`tuning::SPECK`] of them. The eigenspace reconstructs an object's fine
 //! detail (print, edges, a car's interior) only roughly, so a textured object leaves such specks
-//! unexplained all over itself, at its outline too; replaced, they become the reconstruction's blur, which
-//! the method reads as a neighbouring pose, or as the pose half a turn away when the object
-//! looks alike from behind. The background is not on the object, and an occluder hides more of
+//! unexplained all over itself, at its outline too; replaced, they become the reconstruction's
+//! blur, which the method reads as a neighbouring pose, or as the pose half a turn away when the
+//! object looks alike from behind. The background is not on the object, and an occluder hides more of
 //! it than a speck. Inside a bin not kept, a pixel is still kept when it is within the fit's
 //! threshold of the reconstruction.
 //!
