@@ -39,6 +39,7 @@ mod hidden;
 mod locate;
 mod model;
 mod repair;
+mod reread;
 mod search;
 pub(crate) mod tuning;
 mod verify;
@@ -53,9 +54,11 @@ use crate::binning::Binning;
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::manifold::pca::{self, Dimension};
+use crate::pose::PoseSpace;
 use crate::{Error, Result};
 use check::Binned;
 use detail::Detail;
+use reread::Reread;
 use serde::{Deserialize, Serialize};
 
 /// What a stage records besides its arrays.
@@ -103,6 +106,9 @@ pub(crate) struct Stage {
     /// Where the eigenspace leaves the training views' own detail unexplained: the repair's
     /// tolerance (`detail.rs`); None without the views.
     detail: Option<Detail>,
+    /// The training views interpolated over their pose lattice: what a repaired query's answer
+    /// is read again against (`reread.rs`); None without the views or a lattice.
+    reread: Option<Reread>,
 }
 
 /// A robust fit of one query.
@@ -169,6 +175,7 @@ impl Stage {
         }
         let binned = Binned::new(cols, k)?;
         let detail = views.as_ref().and_then(|v| Detail::of(v.arrays().0, &binned, v.params()));
+        let reread = views.as_ref().and_then(|v| Reread::of(v.arrays().0, v.arrays().1, v.space(), binning.spec()));
         // Hypotheses: at most MAX_HYPOTHESES of the training views, taken evenly.
         let step = hypothesis_step(hyps.len() / k);
         let hyps: Vec<f32> = hyps.chunks_exact(k).step_by(step).flatten().copied().collect();
@@ -181,7 +188,7 @@ impl Stage {
         let support: Vec<u32> =
             (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
         let table = search::Table::new(&preds, &peaks, &support);
-        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views, detail })
+        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views, detail, reread })
     }
 
     /// Its settings.
@@ -210,7 +217,14 @@ impl Stage {
     pub(crate) fn without_views(mut self) -> Stage {
         self.views = None;
         self.detail = None;
+        self.reread = None;
         self
+    }
+
+    /// The answer `pose` (in `space`) to the query of `evidence` read again from the query's
+    /// own pixels (`reread.rs`); `pose` itself without the training views on a lattice.
+    pub(crate) fn reread(&self, evidence: &Evidence, pose: &[f64], space: &PoseSpace) -> Vec<f64> {
+        self.reread.as_ref().map_or_else(|| pose.to_vec(), |r| r.pose(evidence, pose, space))
     }
 
     /// Numbers it stores.

@@ -111,6 +111,11 @@ impl Robust {
                 e.confidence = h.score;
                 e.hypotheses.insert(0, h);
             }
+            // The answer read again from the query's own pixels (`reread.rs`).
+            e.pose = self.stage.reread(evidence, &e.pose, space);
+            if let Some(h) = e.hypotheses.first_mut() {
+                h.pose.clone_from(&e.pose);
+            }
             e.hypotheses.truncate(top.max(1));
             crate::confidence::for_hidden(e, *clear);
         }
@@ -177,8 +182,8 @@ impl Robust {
             None => None,
             Some(shape) => {
                 let (n, mb) = (shape.first().copied().unwrap_or(0), shape.get(1).copied().unwrap_or(0));
-                let p = inner.meta().space.len();
-                let v = Views::new(tensors.f32("robust.views", &[n, mb])?, tensors.f64("robust.poses", &[n, p])?, mb, p);
+                let space = &inner.meta().space;
+                let v = Views::new(tensors.f32("robust.views", &[n, mb])?, tensors.f64("robust.poses", &[n, space.len()])?, mb, space.clone());
                 Some(v.map_err(|e| tensors.error(format!("damaged robust stage: {e}")))?)
             }
         };

@@ -465,3 +465,25 @@ fn the_repair_keeps_the_object_s_own_detail_and_still_finds_the_occluder() {
     assert!(lost[0] < 0.6 * lost[1], "object's own pixels replaced: {:.3} with the training views' detail, {:.3} without", lost[0], lost[1]);
     assert!(kept_out[0] < kept_out[1] + 0.02, "outliers kept: {:.3} with the training views' detail, {:.3} without", kept_out[0], kept_out[1]);
 }
+
+/// The reread (`reread.rs`) takes an answer a few degrees off back to the pose of a view between
+/// the training views, from its binned pixels alone, and keeps it within half a knot interval of
+/// where it started; a stage without its views leaves the answer as it is.
+#[test]
+fn the_answer_is_read_again_from_the_query_s_own_pixels() {
+    let train = render_at("duck", "0:350:10", None, (96, 72));
+    let stage = super::Stage::fit(&train).unwrap();
+    let between = render_at("duck", "45:45:1", None, (96, 72));
+    let (xb, _) = stage.check(between.row(0));
+    let evidence = super::Evidence { fit_pose: None, xb, kept: Vec::new(), theta: 0.02 };
+    let space = train.space();
+    let truth = between.pose(0);
+    for off in [-3.0, 3.0] {
+        let start = [truth[0], truth[1] + off];
+        let read = stage.reread(&evidence, &start, space);
+        assert!(space.error_deg(&read, truth) < 1.0, "from {start:?}: {read:?}");
+        assert!((read[1] - start[1]).abs() <= 5.0 + 1e-9, "{read:?} beyond half a knot interval of {start:?}");
+    }
+    let bare = stage.clone().without_views();
+    assert_eq!(bare.reread(&evidence, &[truth[0], truth[1] + 3.0], space), vec![truth[0], truth[1] + 3.0]);
+}

@@ -252,3 +252,13 @@ pub(crate) const LEGACY_SHOWN_LOW: f64 = 0.3;
 /// See [`LEGACY_SHOWN_LOW`]: at least this share keeps the method's confidence; between the two
 /// it is scaled linearly.
 pub(crate) const LEGACY_SHOWN_HIGH: f64 = 0.5;
+
+/// How many times a repaired query's answer is read again from its own pixels (`reread.rs`),
+/// the bins it shows found again at each new pose. What it trades: each costs a climb of a few
+/// surface evaluations; one leaves the bins found at a pose up to a few degrees off. Not tuned
+/// (the prototype's 3; the reading stops as soon as the pose no longer moves).
+pub(crate) const REREADS: usize = 3;
+
+/// The lattice (degrees) the reread climbs on (`reread.rs`): the eigenspace's manifold step
+/// and the refined method's default reporting lattice (the paper's 0.5 degrees). Not tuned.
+pub(crate) const REREAD_STEP: f64 = 0.5;

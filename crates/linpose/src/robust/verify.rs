@@ -51,6 +51,8 @@ pub(crate) struct Views {
     /// N x P.
     poses: Vec<f64>,
     mb: usize,
+    /// The pose space of the poses.
+    space: PoseSpace,
 }
 
 /// What a repaired query's answer is checked against: the query binned, the bins of the stage's
@@ -73,11 +75,12 @@ impl Views {
         for (i, v) in binned.chunks_exact_mut(mb).enumerate() {
             binning.apply(train.row(i), v, &mut acc);
         }
-        Views { binned, poses: train.poses().to_vec(), mb }
+        Views { binned, poses: train.poses().to_vec(), mb, space: train.space().clone() }
     }
 
-    /// The views from a model file's arrays: `binned` (N x `mb`) and `poses` (N x `p`).
-    pub(crate) fn new(binned: Vec<f32>, poses: Vec<f64>, mb: usize, p: usize) -> Result<Views> {
+    /// The views from a model file's arrays: `binned` (N x `mb`) and `poses` (N x P in `space`).
+    pub(crate) fn new(binned: Vec<f32>, poses: Vec<f64>, mb: usize, space: PoseSpace) -> Result<Views> {
+        let p = space.len();
         let n = poses.len() / p.max(1);
         if mb == 0
             || p == 0
@@ -93,7 +96,7 @@ impl Views {
                 format!("whole finite views of {mb} binned pixels and poses of {p} values, as many of each"),
             ));
         }
-        Ok(Views { binned, poses, mb })
+        Ok(Views { binned, poses, mb, space })
     }
 
     /// The pose of training view `i`.
@@ -104,7 +107,12 @@ impl Views {
 
     /// P, the pose parameters of a view.
     pub(crate) fn params(&self) -> usize {
-        self.poses.len() / (self.binned.len() / self.mb)
+        self.space.len()
+    }
+
+    /// The pose space of the views' poses.
+    pub(crate) fn space(&self) -> &PoseSpace {
+        &self.space
     }
 
     /// The binned views (N x M_b) and their poses (N x P).
