@@ -26,6 +26,10 @@
 //!    `detail.rs`), or lie in a small island of unexplained bins within the object; every
 //!    other pixel is the reconstruction from coefficients solved again at full resolution on
 //!    the pixels kept. The method then takes the repaired image as a studio view.
+//! 4. **Check and read again** (`verify.rs`, `reread.rs`). Of the method's candidates, the one
+//!    the kept pixels support is the answer; its pose is then read again from the query's own
+//!    binned pixels against the training views interpolated between their poses, within half a
+//!    training interval.
 //!
 //! The fit also says how much of the object the query shows: the share of the reconstruction's
 //! bright pixels that were explained (`Fit::shown`). How much a pose can be read from such a
