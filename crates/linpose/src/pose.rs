@@ -199,7 +199,8 @@ impl PoseSpace {
         self.param_errors(truth, est).collect()
     }
 
-    fn param_errors<'a>(&'a self, truth: &'a [f64], est: &'a [f64]) -> impl Iterator<Item = f64> + 'a {
+    /// [`PoseSpace::param_errors_deg`] as an iterator.
+    pub(crate) fn param_errors<'a>(&'a self, truth: &'a [f64], est: &'a [f64]) -> impl Iterator<Item = f64> + 'a {
         self.params.iter().zip(truth.iter().zip(est)).map(|(p, (&a, &b))| match p.period {
             Some(t) => wrapped_diff(a, b, t),
             None => (a - b).abs(),

@@ -48,13 +48,7 @@ impl Stage {
         self.binned.reconstruct(&fit.coef, &mut recon);
         let inlier = self.explained(x, fit, &recon);
         let explained = self.with_specks(fit, &inlier, &recon, wb, hb);
-        let keep: Vec<bool> = (0..wb * hb)
-            .map(|i| {
-                let (xo, yo) = (i % wb, i / wb);
-                let ok = |x: usize, y: usize| explained[y * wb + x];
-                ok(xo, yo) && (xo == 0 || ok(xo - 1, yo)) && (xo + 1 == wb || ok(xo + 1, yo)) && (yo == 0 || ok(xo, yo - 1)) && (yo + 1 == hb || ok(xo, yo + 1))
-            })
-            .collect();
+        let keep = with_neighbours(&explained, wb, hb);
         let coef: Vec<f32> = fit.coef.iter().map(|&c| c as f32).collect();
         let kept: Vec<bool> = x
             .iter()
@@ -186,4 +180,16 @@ impl Stage {
         }
         explained
     }
+}
+
+/// The bins of a `wb` x `hb` grid that are `explained` with their four neighbours (those inside
+/// the grid): the bins at an occluder's or the background's edge mix both.
+pub(super) fn with_neighbours(explained: &[bool], wb: usize, hb: usize) -> Vec<bool> {
+    (0..wb * hb)
+        .map(|i| {
+            let (xo, yo) = (i % wb, i / wb);
+            let ok = |x: usize, y: usize| explained[y * wb + x];
+            ok(xo, yo) && (xo == 0 || ok(xo - 1, yo)) && (xo + 1 == wb || ok(xo + 1, yo)) && (yo == 0 || ok(xo, yo - 1)) && (yo + 1 == hb || ok(xo, yo + 1))
+        })
+        .collect()
 }

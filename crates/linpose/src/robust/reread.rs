@@ -39,7 +39,7 @@
 //! nothing hidden: on objects whose print the views interpolate badly, 16, 17 and 20, the
 //! reread drifts within its half interval). Studio queries never reach it.
 
-use super::{search, tuning, Evidence};
+use super::{repair, search, tuning, Evidence};
 use crate::dataset::Dataset;
 use crate::image_io::{ColorMode, ImageSpec};
 use crate::manifold::folds::interpolation_variance;
@@ -99,7 +99,7 @@ impl Reread {
         let mb = self.sigma.len();
         let xb = &evidence.xb;
         let all: Vec<u32> = (0..mb as u32).collect();
-        let (mut f, mut ratios, mut own) = (vec![0f64; mb], Vec::new(), vec![false; mb]);
+        let (mut f, mut ratios) = (vec![0f64; mb], Vec::new());
         let mut pred = vec![0f32; mb];
         let mut t = start.to_vec();
         self.surface.clamp(&mut t);
@@ -109,29 +109,15 @@ impl Reread {
             let peak = pred.iter().fold(0f32, |a, &v| a.max(v));
             let Some((gain, _, _)) = search::gain(&pred, peak, &all, xb, &mut ratios) else { break };
             let near: Vec<bool> = (0..mb).map(|i| (xb[i] - gain * pred[i]).abs() < evidence.theta.max(tuning::DETAIL * gain * self.sigma[i])).collect();
-            for (i, o) in own.iter_mut().enumerate() {
-                let (x, y) = (i % self.wb, i / self.wb);
-                let ok = |x: usize, y: usize| near[y * self.wb + x];
-                *o = ok(x, y)
-                    && (x == 0 || ok(x - 1, y))
-                    && (x + 1 == self.wb || ok(x + 1, y))
-                    && (y == 0 || ok(x, y - 1))
-                    && (y + 1 == self.hb || ok(x, y + 1));
-            }
+            let own = repair::with_neighbours(&near, self.wb, self.hb);
             let bins: Vec<usize> = (0..mb).filter(|&i| own[i]).collect();
             if bins.is_empty() {
                 break;
             }
-            let centre = t.clone();
-            let mut g = vec![0f64; mb];
             let before = t.clone();
+            let mut g = vec![0f64; mb];
             self.surface.climb_by(&mut t, tuning::REREAD_STEP, |pose| {
-                let far = pose.iter().zip(&centre).zip(&self.reach).zip(space.params()).any(|(((&a, &c), &r), p)| {
-                    let d = a - c;
-                    let d = p.period.map_or(d.abs(), |per| (d.rem_euclid(per)).min((-d).rem_euclid(per)));
-                    d > r + 1e-9
-                });
-                if far {
+                if space.param_errors(&before, pose).zip(&self.reach).any(|(d, &r)| d > r + 1e-9) {
                     return f64::INFINITY;
                 }
                 self.surface.eval(pose, &mut g, None);
