@@ -7,17 +7,19 @@
 //! b s x b s scene pixels, each the mean of the scene under it (from the scene's integral image,
 //! exact at any real position and size), so one scene serves every position and scale without
 //! resampling it. A window is scored by the stage's hypotheses (the training views' binned
-//! images, each in the gain that fits the window best): the best hypothesis's score over its own
-//! silhouette, each cell explained counted 1 - (r / theta)^2 and each not explained -1
-//! ([`silhouette_score`]). Background and occluders explain nothing, so the score peaks where
-//! the object is, at its size.
+//! images, each in the gain that fits the window best): the best hypothesis's score, the share
+//! of its silhouette the window explains less the cells just outside it that go on like the
+//! object ([`silhouette_score`]). Background and occluders explain nothing, and the object ends
+//! where the hypothesis's silhouette does, so the score peaks where the object is, at its size.
 //!
 //! 1. **Coarse.** Every scale of a geometric ladder (steps of [`tuning::SCALE_RATIO`]) and every
 //!    position on a grid of one coarse cell, scored on cells of 2b s pixels (the hypotheses'
 //!    binned images binned by 2 more; [`tuning::COARSE_HYPOTHESES`] of them): about 2,600
 //!    windows of a quarter of the stage's pixels for a 320 x 240 scene and 128 x 128 views.
 //! 2. **Fine.** The best [`tuning::CANDIDATES`] windows (each at least a quarter of a window from
-//!    the others) are refined on the stage's own cells by a pattern search over the position and
+//!    the others), and the four windows a coarse step from each (the fine score's peak is a few
+//!    pixels wide, and the coarse one's may lie a step off it), are refined on the stage's own
+//!    cells by a pattern search over the position and
 //!    the scale, the steps halved until they are under [`tuning::MIN_SHIFT`] pixels, scored by
 //!    the hypotheses that explain the window best and the poses halfway to their neighbours in
 //!    the eigenspace (a query between two training views is placed best by a pose between
@@ -94,19 +96,24 @@ struct Level {
     preds: Vec<f32>,
     peaks: Vec<f32>,
     support: Vec<u32>,
+    /// Each hypothesis's silhouette and its rim.
+    shapes: Vec<Shape>,
 }
 
 impl Level {
+    /// The level of the hypotheses `preds` (`grid` cells each, on the `support`), on cells of
+    /// `cell` x `cell` view pixels.
+    fn new(cell: usize, grid: (usize, usize), preds: Vec<f32>, support: Vec<u32>) -> Level {
+        let m = grid.0 * grid.1;
+        let peaks: Vec<f32> = preds.chunks_exact(m).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
+        let shapes = preds.chunks_exact(m).zip(&peaks).map(|(p, &peak)| Shape::new(p, peak, &support, grid)).collect();
+        Level { cell, grid, preds, peaks, support, shapes }
+    }
+
     /// The stage's own cells.
     fn fine(stage: &Stage) -> Level {
         let s = stage.binning.spec();
-        Level {
-            cell: stage.binning.factor(),
-            grid: (s.width as usize, s.height as usize),
-            preds: stage.preds.clone(),
-            peaks: stage.peaks.clone(),
-            support: stage.support.clone(),
-        }
+        Level::new(stage.binning.factor(), (s.width as usize, s.height as usize), stage.preds.clone(), stage.support.clone())
     }
 
     /// Its hypotheses `keep`, each with the poses halfway to its [`tuning::NEIGHBOURS`] nearest
@@ -129,14 +136,12 @@ impl Level {
             pairs.extend(near.iter().take(tuning::NEIGHBOURS).map(|&(_, n)| (h, n)));
         }
         let preds: Vec<f32> = pairs.iter().flat_map(|&(h, n)| pred(h).iter().zip(pred(n)).map(|(&u, &v)| 0.5 * (u + v))).collect();
-        let peaks = preds.chunks_exact(m).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
-        Level { cell: self.cell, grid: self.grid, preds, peaks, support: self.support.clone() }
+        Level::new(self.cell, self.grid, preds, self.support.clone())
     }
 
     /// The single hypothesis whose cells are `pred`, on this level's cells.
     fn single(&self, pred: Vec<f32>) -> Level {
-        let peak = pred.iter().fold(0f32, |a, &v| a.max(v));
-        Level { cell: self.cell, grid: self.grid, preds: pred, peaks: vec![peak], support: self.support.clone() }
+        Level::new(self.cell, self.grid, pred, self.support.clone())
     }
 
     /// `fine`'s cells binned by 2 (a pixel of the support where any of its four is), with at
@@ -148,7 +153,6 @@ impl Level {
         let (gw, gh) = (fw / 2, fh / 2);
         let step = fine.peaks.len().div_ceil(most.max(1)).max(1);
         let preds = binning.apply_all(&fine.preds.chunks_exact(fw * fh).step_by(step).flatten().copied().collect::<Vec<_>>());
-        let peaks = preds.chunks_exact(gw * gh).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
         let mut on = vec![false; gw * gh];
         for &k in &fine.support {
             let (i, j) = (k as usize % fw / 2, k as usize / fw / 2);
@@ -157,12 +161,16 @@ impl Level {
             }
         }
         let support = (0..(gw * gh) as u32).filter(|&k| on[k as usize]).collect();
-        Ok(Level { cell: 2 * fine.cell, grid: (gw, gh), preds, peaks, support })
+        Ok(Level::new(2 * fine.cell, (gw, gh), preds, support))
     }
 
     /// Each hypothesis's score on the window whose cells are `xb` ([`silhouette_score`]).
     fn scores<'a>(&'a self, xb: &'a [f32], ratios: &'a mut Vec<f32>) -> impl Iterator<Item = f32> + 'a {
-        self.preds.chunks_exact(xb.len()).zip(&self.peaks).map(move |(p, &peak)| silhouette_score(p, peak, &self.support, xb, ratios))
+        self.preds
+            .chunks_exact(xb.len())
+            .zip(&self.peaks)
+            .zip(&self.shapes)
+            .map(move |((p, &peak), shape)| silhouette_score(p, peak, &self.support, shape, xb, ratios))
     }
 
     /// The best hypothesis's score on the window whose cells are `xb`.
@@ -335,7 +343,21 @@ impl Stage {
         }
         let shift = 0.5 * tuning::STRIDE * coarse.cell as f64;
         let ratio = 0.5 * (tuning::SCALE_RATIO - 1.0);
-        let best = starts
+        // Each candidate and the four windows a coarse step from it: the fine score's peak is a
+        // few pixels wide, and the coarse one's may lie a step or more off it.
+        let step = tuning::STRIDE * coarse.cell as f64;
+        let tries: Vec<Window> = starts
+            .iter()
+            .flat_map(|&c| {
+                [(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)].map(|(dx, dy)| Window {
+                    x: c.x + dx * step * c.s,
+                    y: c.y + dy * step * c.s,
+                    ..c
+                })
+            })
+            .filter(|w| search.fits(w.x, w.y, w.s))
+            .collect();
+        let best = tries
             .par_iter()
             .map_init(Scratch::default, |t, &c| search.refine(&fine, &self.hyps, c, shift * c.s, ratio, t))
             .reduce_with(|a, b| if b.score > a.score || (b.score == a.score && (b.s, b.y, b.x) < (a.s, a.y, a.x)) { b } else { a })
@@ -366,23 +388,108 @@ impl Stage {
     }
 }
 
-/// The score of the hypothesis whose cells are `pred` (brightest `peak`) on the window whose
-/// cells are `xb`: over the hypothesis's silhouette (its cells of the support above
-/// [`tuning::SILHOUETTE`] of its peak), each cell the window explains in the hypothesis's best
-/// gain counts 1 - (r / theta)^2, each it does not -1 (theta as the robust fit scores
-/// hypotheses, [`tuning::COARSE`] of the mean bright cell). Cells the hypothesis leaves dark
-/// count nothing: the training views' backdrop is not the scene's, and dark clutter explaining
-/// it would outscore the object. None (minus infinity) for a hypothesis the window cannot scale.
-fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
+/// A hypothesis's silhouette (its cells of the support above [`tuning::SILHOUETTE`] of its
+/// peak) and its rim (the cells outside the silhouette next to it, each with a neighbour inside).
+struct Shape {
+    inside: Vec<u32>,
+    rim: Vec<(u32, u32)>,
+}
+
+impl Shape {
+    fn new(pred: &[f32], peak: f32, support: &[u32], (gw, gh): (usize, usize)) -> Shape {
+        let silhouette = tuning::SILHOUETTE * peak;
+        let on = |i: usize, j: usize| pred[j * gw + i] > silhouette;
+        let inside = support.iter().copied().filter(|&k| pred[k as usize] > silhouette).collect();
+        let mut rim = Vec::new();
+        for j in 0..gh {
+            for i in (0..gw).filter(|&i| !on(i, j)) {
+                let next = [(i.wrapping_sub(1), j), (i + 1, j), (i, j.wrapping_sub(1)), (i, j + 1)];
+                if let Some(&(a, b)) = next.iter().find(|&&(a, b)| a < gw && b < gh && on(a, b)) {
+                    rim.push(((j * gw + i) as u32, (b * gw + a) as u32));
+                }
+            }
+        }
+        Shape { inside, rim }
+    }
+}
+
+/// The score of the hypothesis whose cells are `pred` (brightest `peak`, silhouette and rim
+/// `shape`) on the window whose cells are `xb`, in the hypothesis's best gain, with theta as the
+/// robust fit scores hypotheses ([`tuning::COARSE`] of the mean bright cell):
+///
+/// - each cell of the silhouette the window explains counts 1 - (r / theta)^2, each it does not
+///   -1;
+/// - each cell of the rim that the window explains as the silhouette's cell next to it counts
+///   -(1 - (r / theta)^2): the object ends where the hypothesis ends, and a window whose scene
+///   goes on like the object past the silhouette's edge is inside something larger (a part of
+///   the object, a stretch of flat clutter), not on the object;
+/// - the sum over the silhouette's cells: the share of the silhouette explained, so that a view
+///   whose object fills more of its frame (and so more cells) does not outscore one that fills
+///   less by explaining a part of the object at a smaller scale (a cup's bowl alone, from a view
+///   where its handle hides, fits the bowl of a view whose handle shows).
+///
+/// Cells the hypothesis leaves dark count nothing otherwise: the training views' backdrop is
+/// not the scene's, and dark clutter explaining it would outscore the object. None (minus
+/// infinity) for a hypothesis the window cannot scale or with no silhouette.
+fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], shape: &Shape, xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
+    if shape.inside.is_empty() {
+        return f32::NEG_INFINITY;
+    }
     let Some((gain, scale, _)) = gain(pred, peak, support, xb, ratios) else { return f32::NEG_INFINITY };
-    let (theta, silhouette) = (tuning::COARSE * scale, tuning::SILHOUETTE * peak);
+    let theta = tuning::COARSE * scale;
     let mut score = 0f32;
-    for &i in support {
-        let p = pred[i as usize];
-        if p > silhouette {
-            let r = (xb[i as usize] - gain * p).abs() / theta;
-            score += if r < 1.0 { 1.0 - r * r } else { -1.0 };
+    for &i in &shape.inside {
+        let r = (xb[i as usize] - gain * pred[i as usize]).abs() / theta;
+        score += if r < 1.0 { 1.0 - r * r } else { -1.0 };
+    }
+    for &(out, next) in &shape.rim {
+        let r = (xb[out as usize] - gain * pred[next as usize]).abs() / theta;
+        if r < 1.0 {
+            score -= 1.0 - r * r;
         }
     }
-    score
+    score / shape.inside.len() as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 16 x 16 hypothesis: a shaded square on cells 4..12, dark elsewhere.
+    fn square() -> (Vec<f32>, Vec<u32>) {
+        let pred = (0..256).map(|k| if (4..12).contains(&(k % 16)) && (4..12).contains(&(k / 16)) { 0.5 + 0.05 * (k % 16) as f32 } else { 0.0 }).collect();
+        (pred, (0..256).collect())
+    }
+
+    #[test]
+    fn the_score_is_the_share_of_the_silhouette_explained_less_a_rim_that_goes_on_like_the_object() {
+        let (pred, support) = square();
+        let shape = Shape::new(&pred, 1.05, &support, (16, 16));
+        assert_eq!(shape.inside.len(), 64);
+        assert_eq!(shape.rim.len(), 32);
+        let mut ratios = Vec::new();
+        // The object (twice as bright) on a backdrop that explains nothing of it.
+        let on_object: Vec<f32> = pred.iter().map(|&p| if p > 0.0 { 2.0 * p } else { 0.0 }).collect();
+        let object = silhouette_score(&pred, 1.05, &support, &shape, &on_object, &mut ratios);
+        assert!((object - 1.0).abs() < 1e-6, "{object}");
+        // The same, inside something larger: past the square's edge the scene goes on as its
+        // edge cells are (a window on a part of a larger object, or on flat clutter).
+        let mut inside_more = on_object.clone();
+        for &(out, next) in &shape.rim {
+            inside_more[out as usize] = on_object[next as usize];
+        }
+        let part = silhouette_score(&pred, 1.05, &support, &shape, &inside_more, &mut ratios);
+        assert!((part - 0.5).abs() < 1e-6, "{part}: 32 rim cells of 64 count against");
+        // Half the silhouette unexplained.
+        let mut half = on_object.clone();
+        for &k in shape.inside.iter().take(32) {
+            half[k as usize] = 10.0;
+        }
+        let halved = silhouette_score(&pred, 1.05, &support, &shape, &half, &mut ratios);
+        assert!(halved < 0.1 && halved > -1.0, "{halved}");
+        // A hypothesis with no silhouette scores nothing.
+        let dark = vec![0f32; 256];
+        let none = Shape::new(&dark, 0.0, &support, (16, 16));
+        assert_eq!(silhouette_score(&dark, 0.0, &support, &none, &on_object, &mut ratios), f32::NEG_INFINITY);
+    }
 }
