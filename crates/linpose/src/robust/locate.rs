@@ -19,11 +19,10 @@
 //! 2. **Fine.** The best [`tuning::CANDIDATES`] windows (each at least a quarter of a window from
 //!    the others), and the four windows a coarse step from each (the fine score's peak is a few
 //!    pixels wide, and the coarse one's may lie a step off it), are refined on the stage's own
-//!    cells by a pattern search over the position and
-//!    the scale, the steps halved until they are under [`tuning::MIN_SHIFT`] pixels, scored by
-//!    the hypotheses that explain the window best and the poses halfway to their neighbours in
-//!    the eigenspace (a query between two training views is placed best by a pose between
-//!    them); the best refined window wins.
+//!    cells by a pattern search over the position and the scale, the steps halved until they
+//!    are under [`tuning::MIN_SHIFT`] pixels, scored by the hypotheses that explain the window
+//!    best and the poses halfway to their neighbours in the eigenspace (a query between two
+//!    training views is placed best by a pose between them); the best refined window wins.
 //! 3. **Polish.** [`tuning::POLISH`] times: the robust fit of the window (`search.rs`), then the
 //!    pattern search again, at half the steps, with the fit's reconstruction alone as the
 //!    hypothesis: its coefficients are free, so it follows the query's pose between the
