@@ -215,9 +215,8 @@ pub(crate) const POLISH: usize = 2;
 /// A hypothesis's silhouette for the search's score: its cells above this share of its
 /// brightest (its rim, the cells just outside, count against a window whose scene goes on like
 /// the object there; `locate.rs`). What it trades: the other cells it leaves out count nothing
-/// either way; counting every
-/// cell (the robust fit's score, where the backdrop is the training views') lets dark clutter
-/// that matches the backdrop outscore the object. On the development objects (see
+/// either way; counting every cell (the robust fit's score, where the backdrop is the training
+/// views') lets dark clutter that matches the backdrop outscore the object. On the development objects (see
 /// [`COARSE_HYPOTHESES`]), with 36 hypotheses: 0.81 within 3 pixels at 0.1 against 0.72 counting
 /// every cell; with 3 candidates: 0.05 gave 0.61, 0.1 0.63, 0.3 0.54 (all before the rim and the
 /// share of the silhouette, with a sum over its cells).
