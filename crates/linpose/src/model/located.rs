@@ -40,6 +40,8 @@ pub(crate) struct Kept {
     pub(crate) theta: f32,
     /// The pose of the training view nearest the fit (None: no training views kept).
     pub(crate) fit_pose: Option<Vec<f64>>,
+    /// The pose the box was settled with (None: not settled).
+    pub(crate) settled: Option<Vec<f64>>,
 }
 
 /// A model that finds its object in images larger than its training views.

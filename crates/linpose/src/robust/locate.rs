@@ -39,14 +39,14 @@ use crate::{Error, Result};
 use rayon::prelude::*;
 
 /// A scene's integral image: the sum of its pixels over [0, x) x [0, y) at any real point.
-struct Integral {
-    w: usize,
-    h: usize,
+pub(super) struct Integral {
+    pub(super) w: usize,
+    pub(super) h: usize,
     sums: Vec<f64>,
 }
 
 impl Integral {
-    fn new(img: &[f32], w: usize, h: usize) -> Self {
+    pub(super) fn new(img: &[f32], w: usize, h: usize) -> Self {
         let mut sums = vec![0f64; (w + 1) * (h + 1)];
         for y in 0..h {
             let mut row = 0f64;
@@ -72,7 +72,7 @@ impl Integral {
 
     /// The means of `gw` x `gh` cells of `c` x `c` pixels from (x0, y0), row by row, into `out`;
     /// `corners` is scratch.
-    fn cells(&self, (x0, y0): (f64, f64), c: f64, (gw, gh): (usize, usize), out: &mut [f32], corners: &mut Vec<f64>) {
+    pub(super) fn cells(&self, (x0, y0): (f64, f64), c: f64, (gw, gh): (usize, usize), out: &mut [f32], corners: &mut Vec<f64>) {
         corners.clear();
         for j in 0..=gh {
             let y = y0 + j as f64 * c;
@@ -196,13 +196,13 @@ struct Scratch {
 }
 
 /// The search over one scene (see the module doc).
-struct Search {
-    scene: Integral,
+struct Search<'a> {
+    scene: &'a Integral,
     /// The training views' width and height.
     view: (f64, f64),
 }
 
-impl Search {
+impl Search<'_> {
     /// Whether a window of scale `s` at (x, y) lies in the scene.
     fn fits(&self, x: f64, y: f64, s: f64) -> bool {
         x >= 0.0 && y >= 0.0 && x + self.view.0 * s <= self.scene.w as f64 + 1e-9 && y + self.view.1 * s <= self.scene.h as f64 + 1e-9
@@ -301,9 +301,9 @@ fn scales(view: (f64, f64), scene: (f64, f64)) -> Vec<f64> {
 }
 
 impl Stage {
-    /// The object in `scene` (gray features of `spec`, larger than the training views): its
-    /// box, and the box resampled to the training views' size (not yet repaired).
-    pub(crate) fn locate(&self, scene: &[f32], spec: ImageSpec) -> Result<Located> {
+    /// The integral image of `scene` (gray features of `spec`), which must be larger than the
+    /// training views at the smallest scale searched.
+    pub(super) fn scene(&self, scene: &[f32], spec: ImageSpec) -> Result<Integral> {
         let full = self.binning.full();
         let (w, h) = (full.width as usize, full.height as usize);
         let (sw, sh) = (spec.width as usize, spec.height as usize);
@@ -322,7 +322,16 @@ impl Stage {
         if scene.iter().any(|v| !v.is_finite()) {
             return Err(Error::invalid("scene", "a value that is not finite", "finite pixel values"));
         }
-        let search = Search { scene: Integral::new(scene, sw, sh), view };
+        Ok(Integral::new(scene, sw, sh))
+    }
+
+    /// The object in `scene` (from [`Stage::scene`]): its box, and the box resampled to the
+    /// training views' size (not yet repaired).
+    pub(super) fn locate(&self, scene: &Integral) -> Result<Located> {
+        let full = self.binning.full();
+        let view = (full.width as f64, full.height as f64);
+        let ladder = scales(view, (scene.w as f64, scene.h as f64));
+        let search = Search { scene, view };
         let fine = Level::fine(self);
         let coarse = Level::coarse(&fine, tuning::COARSE_HYPOTHESES)?;
         let mut found = search.coarse(&coarse, &ladder);
@@ -374,16 +383,18 @@ impl Stage {
             let level = fine.single(recon.iter().map(|&v| v as f32).collect());
             best = search.pattern(&level, best, 0.5 * shift * best.s, 0.5 * ratio, &mut t);
         }
-        let mut view_px = vec![0f32; w * h];
-        search.scene.cells((best.x, best.y), best.s, (w, h), &mut view_px, &mut Vec::new());
-        Ok(Located {
-            bbox: [best.x, best.y, view.0 * best.s, view.1 * best.s],
-            scale: best.s,
-            view: view_px,
-            shown: 1.0,
-            repaired: false,
-            kept: Kept::default(),
-        })
+        Ok(self.cut(scene, [best.x, best.y, view.0 * best.s, view.1 * best.s]))
+    }
+
+    /// The box `bbox` (left, top, width, height) of `scene`, resampled to the training views'
+    /// size (not yet repaired).
+    pub(super) fn cut(&self, scene: &Integral, bbox: [f64; 4]) -> Located {
+        let full = self.binning.full();
+        let (w, h) = (full.width as usize, full.height as usize);
+        let scale = bbox[2] / w as f64;
+        let mut view = vec![0f32; w * h];
+        scene.cells((bbox[0], bbox[1]), scale, (w, h), &mut view, &mut Vec::new());
+        Located { bbox, scale, view, shown: 1.0, repaired: false, kept: Kept::default() }
     }
 }
 

@@ -45,6 +45,7 @@ mod model;
 mod repair;
 mod reread;
 mod search;
+mod settle;
 pub(crate) mod tuning;
 mod verify;
 

@@ -111,8 +111,12 @@ impl Robust {
                 e.confidence = h.score;
                 e.hypotheses.insert(0, h);
             }
-            // The answer read again from the query's own pixels (`reread.rs`).
-            e.pose = self.stage.reread(evidence, &e.pose, space);
+            // The answer read again from the query's own pixels (`reread.rs`), or for a located
+            // view the pose its box was settled with (`settle.rs`).
+            e.pose = match &evidence.settled {
+                Some(pose) => pose.clone(),
+                None => self.stage.reread(evidence, &e.pose, space),
+            };
             if let Some(h) = e.hypotheses.first_mut() {
                 h.pose.clone_from(&e.pose);
             }
@@ -158,6 +162,16 @@ impl Robust {
         let checks: Vec<(f64, &Evidence)> = fixed.iter().zip(&evidence).map(|(&i, e)| (self.stage.clear(found[i].shown), e)).collect();
         let rows: Vec<f32> = fixed.iter().flat_map(|&i| found[i].view.iter().copied()).collect();
         self.verified_rows(&rows, &checks, top)
+    }
+
+    /// `found`'s view repaired, when the check says so.
+    fn repair_located(&self, found: &mut Located) {
+        if let Some((view, fit, evidence)) = self.stage.apply(&found.view) {
+            found.view = view;
+            found.kept = Kept { bins: evidence.kept, theta: evidence.theta, fit_pose: evidence.fit_pose, settled: None };
+            found.shown = fit.shown;
+            found.repaired = true;
+        }
     }
 
     /// `out` (rows of P, one per query) with the verified poses of the repaired queries `fixes`.
@@ -269,19 +283,25 @@ impl PoseModel for Robust {
 impl SceneSearch for Robust {
     /// Each scene searched for the box the stage's eigenspace explains best (`locate.rs`), the
     /// box resampled to the training views' size and repaired as any query (when the check
-    /// says so).
+    /// says so); a repaired view's box is then settled with the pose answered from it
+    /// (`settle.rs`), and cut and repaired again.
     fn locate(&self, scenes: &[f32], spec: ImageSpec) -> Result<Vec<Located>> {
         let m = spec.features();
         crate::model::check_queries(m, scenes.len(), "scene batch")?;
         scenes
             .par_chunks(m)
             .map(|scene| {
-                let mut found = self.stage.locate(scene, spec)?;
-                if let Some((view, fit, evidence)) = self.stage.apply(&found.view) {
-                    found.view = view;
-                    found.kept = Kept { bins: evidence.kept, theta: evidence.theta, fit_pose: evidence.fit_pose };
-                    found.shown = fit.shown;
-                    found.repaired = true;
+                let scene = self.stage.scene(scene, spec)?;
+                let mut found = self.stage.locate(&scene)?;
+                self.repair_located(&mut found);
+                if found.repaired {
+                    let evidence = self.stage.evidence_of(&found.view, &found.kept);
+                    let answer = self.verified_rows(&found.view, &[(self.stage.clear(found.shown), &evidence)], 1)?.remove(0).pose;
+                    if let Some((bbox, pose)) = self.stage.settle(&scene, found.bbox, &answer, found.kept.theta, &self.meta().space) {
+                        found = self.stage.cut(&scene, bbox);
+                        self.repair_located(&mut found);
+                        found.kept.settled = Some(pose);
+                    }
                 }
                 Ok(found)
             })

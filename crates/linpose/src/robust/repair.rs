@@ -80,7 +80,7 @@ impl Stage {
             (Some(d), Some(v)) => d.nearest(&fit.coef).map(|i| v.pose(i)),
             _ => None,
         };
-        Evidence { fit_pose, xb, kept, theta: fit.theta }
+        Evidence { fit_pose, xb, kept, theta: fit.theta, settled: None }
     }
 
     /// The evidence of a repaired view `view` of which a fit kept `kept` (the kept bins are the
@@ -88,7 +88,7 @@ impl Stage {
     pub(crate) fn evidence_of(&self, view: &[f32], kept: &Kept) -> Evidence {
         let mut xb = vec![0f32; self.binning.spec().features()];
         self.binning.apply(view, &mut xb, &mut Vec::new());
-        Evidence { fit_pose: kept.fit_pose.clone(), xb, kept: kept.bins.clone(), theta: kept.theta }
+        Evidence { fit_pose: kept.fit_pose.clone(), xb, kept: kept.bins.clone(), theta: kept.theta, settled: kept.settled.clone() }
     }
 
     /// Pixel `i` of the reconstruction from `coef` on the full rows.

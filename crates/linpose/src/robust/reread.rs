@@ -53,16 +53,16 @@ use crate::pose::PoseSpace;
 #[derive(Debug, Clone)]
 pub(crate) struct Reread {
     /// The binned training views' surface over their pose lattice.
-    surface: Surface,
+    pub(super) surface: Surface,
     /// Per binned pixel: its interpolation error (root mean square, per unit gain).
-    sigma: Vec<f32>,
+    pub(super) sigma: Vec<f32>,
     /// Per binned pixel: the weight of its squared residual.
-    weight: Vec<f64>,
+    pub(super) weight: Vec<f64>,
     /// Per pose parameter: half the widest interval between its training values.
-    reach: Vec<f64>,
+    pub(super) reach: Vec<f64>,
     /// The binned image's width and height.
-    wb: usize,
-    hb: usize,
+    pub(super) wb: usize,
+    pub(super) hb: usize,
 }
 
 impl Reread {
@@ -95,27 +95,41 @@ impl Reread {
         Some(Reread { surface, sigma, weight, reach, wb: binned.width as usize, hb: binned.height as usize })
     }
 
+    /// The bins of the binned query `xb` that are its own at `pose` (see the module doc), with
+    /// the fit's threshold `theta`; None when there are none or the view at `pose` cannot be put
+    /// in the query's gain.
+    pub(super) fn own(&self, pose: &[f64], xb: &[f32], theta: f32) -> Option<Vec<usize>> {
+        let mb = self.sigma.len();
+        let all: Vec<u32> = (0..mb as u32).collect();
+        let mut f = vec![0f64; mb];
+        self.surface.eval(pose, &mut f, None);
+        let pred: Vec<f32> = f.iter().map(|&v| v as f32).collect();
+        let peak = pred.iter().fold(0f32, |a, &v| a.max(v));
+        let (gain, _, _) = search::gain(&pred, peak, &all, xb, &mut Vec::new())?;
+        let near: Vec<bool> = (0..mb).map(|i| (xb[i] - gain * pred[i]).abs() < theta.max(tuning::DETAIL * gain * self.sigma[i])).collect();
+        let own = repair::with_neighbours(&near, self.wb, self.hb);
+        let bins: Vec<usize> = (0..mb).filter(|&i| own[i]).collect();
+        (!bins.is_empty()).then_some(bins)
+    }
+
+    /// The weighted products over `bins` of the view `g` and the binned query `xb`: [g.x, g.g,
+    /// x.x], each bin weighted by its interpolation error (see the module doc).
+    pub(super) fn products(&self, bins: &[usize], g: &[f64], xb: &[f32]) -> [f64; 3] {
+        bins.iter().fold([0.0; 3], |[fq, ff, qq], &i| {
+            let (w, v, q) = (self.weight[i], g[i], f64::from(xb[i]));
+            [fq + w * v * q, ff + w * v * v, qq + w * q * q]
+        })
+    }
+
     /// The pose `start` (in `space`) read again from the query's binned pixels of `evidence`
     /// (see the module doc); `start` itself when the view there cannot be put in the query's gain.
     pub(crate) fn pose(&self, evidence: &Evidence, start: &[f64], space: &PoseSpace) -> Vec<f64> {
         let mb = self.sigma.len();
         let xb = &evidence.xb;
-        let all: Vec<u32> = (0..mb as u32).collect();
-        let (mut f, mut ratios) = (vec![0f64; mb], Vec::new());
-        let mut pred = vec![0f32; mb];
         let mut t = start.to_vec();
         self.surface.clamp(&mut t);
         for _ in 0..tuning::REREADS {
-            self.surface.eval(&t, &mut f, None);
-            pred.iter_mut().zip(&f).for_each(|(p, &v)| *p = v as f32);
-            let peak = pred.iter().fold(0f32, |a, &v| a.max(v));
-            let Some((gain, _, _)) = search::gain(&pred, peak, &all, xb, &mut ratios) else { break };
-            let near: Vec<bool> = (0..mb).map(|i| (xb[i] - gain * pred[i]).abs() < evidence.theta.max(tuning::DETAIL * gain * self.sigma[i])).collect();
-            let own = repair::with_neighbours(&near, self.wb, self.hb);
-            let bins: Vec<usize> = (0..mb).filter(|&i| own[i]).collect();
-            if bins.is_empty() {
-                break;
-            }
+            let Some(bins) = self.own(&t, xb, evidence.theta) else { break };
             let before = t.clone();
             let mut g = vec![0f64; mb];
             self.surface.climb_by(&mut t, tuning::REREAD_STEP, |pose| {
@@ -123,13 +137,7 @@ impl Reread {
                     return f64::INFINITY;
                 }
                 self.surface.eval(pose, &mut g, None);
-                let (mut fq, mut ff, mut qq) = (0.0, 0.0, 0.0);
-                for &i in &bins {
-                    let (w, v, q) = (self.weight[i], g[i], f64::from(xb[i]));
-                    fq += w * v * q;
-                    ff += w * v * v;
-                    qq += w * q * q;
-                }
+                let [fq, ff, qq] = self.products(&bins, &g, xb);
                 if ff > 0.0 {
                     qq - fq * fq / ff
                 } else {

@@ -342,24 +342,46 @@ fn the_object_is_found_anywhere_in_a_larger_scene() {
         assert_eq!(search.predict_located(std::slice::from_ref(&found)).unwrap(), est.pose, "the pose is the checked estimate's");
         let error = view.space().error_deg(&est.pose, view.pose(0));
         eprintln!("scale {s}: box {:?} (truth {truth:?}), centre off {off:.2} px, pose off {error:.2} degrees, shown {:.2}", found.bbox, found.shown);
-        // Within a training step (10 degrees): the box's scale is off by up to 7% on these 64 x
-        // 48 views, and the repair keeps the query's own pixels on the object (`detail.rs`),
-        // which a window off in scale leaves a few degrees off (0.9 - 5.6 degrees here; on
-        // COIL-20's 128 x 128 views in 320 x 240 scenes the repair's tolerance took the located
-        // pose from 4.57 to 4.16 degrees, `bench/locate.py`).
-        if off <= 3.0 && (found.scale / s - 1.0).abs() < 0.1 {
+        // The box and the pose settled together (`settle.rs`): 0.2 - 0.9 degrees here, the box's
+        // scale within 2% (before the settle, 0 - 4.8 degrees and up to 6% off in scale).
+        if off <= 3.0 && (found.scale / s - 1.0).abs() < 0.05 {
             near += 1;
-            assert!(error < 10.0, "scale {s}: pose off by {error:.2} degrees");
+            assert!(error < 2.0, "scale {s}: pose off by {error:.2} degrees");
         }
     }
-    // 64 x 48 views leave the search 16 x 12 coarse cells: most placements, not all, are found
-    // (COIL-20's 128 x 128 views: bench/locate.py).
-    assert!(near >= 4, "{near} of {} boxes within 3 pixels and 10% of the scale", placements.len());
+    // 64 x 48 views leave the search 16 x 12 coarse cells: most placements are found (all six
+    // here; COIL-20's 128 x 128 views: bench/locate.py).
+    assert!(near >= 5, "{near} of {} boxes within 3 pixels and 5% of the scale", placements.len());
     // A scene smaller than the smallest scale's view is refused by its size.
     let small = vec![0.5f32; 40 * 30];
     let spec = crate::image_io::ImageSpec { width: 40, height: 30, color: crate::image_io::ColorMode::Gray };
     let e = search.locate(&small, spec).unwrap_err().to_string();
     assert!(e.contains("40x30"), "{e}");
+}
+
+#[test]
+fn a_training_view_in_a_scene_settles_at_its_own_box_and_pose() {
+    // The duck's training view at 120 degrees (128 x 128) pasted into a scene at scale 1.1: the
+    // settle started at the view's own box and pose stays there; started 2.5 pixels and 4
+    // degrees off, it comes back to within half a pixel and 1.5 degrees (the pose and the box
+    // trade against each other along a flat valley: 0.24 pixels and 0.87 degrees here).
+    let train = render_at("duck", "0:350:10", None, (128, 128));
+    let stage = super::Stage::fit(&train).unwrap();
+    let space = train.space();
+    let (scene, spec, truth) = in_scene(&render_at("duck", "120", None, (128, 128)), (320, 240), 1.1, 9);
+    let scene = stage.scene(&scene, spec).unwrap();
+    let (_, _, evidence) = stage.apply(&stage.cut(&scene, truth).view).expect("a view on a textured background needs the repair");
+    let centre = |b: [f64; 4]| (b[0] + b[2] / 2.0, b[1] + b[3] / 2.0);
+    let off = |b: [f64; 4]| (centre(b).0 - centre(truth).0).hypot(centre(b).1 - centre(truth).1);
+    let (bbox, pose) = stage.settle(&scene, truth, &[30.0, 120.0], evidence.theta, space).expect("the duck's poses are a lattice");
+    assert!(off(bbox) < 0.25 && space.error_deg(&pose, &[30.0, 120.0]) < 0.25, "from the truth to {bbox:?} at {pose:?}");
+    let start = [truth[0] + 2.0, truth[1] - 1.5, truth[2], truth[3]];
+    let (bbox, pose) = stage.settle(&scene, start, &[30.0, 124.0], evidence.theta, space).unwrap();
+    let error = space.error_deg(&pose, &[30.0, 120.0]);
+    eprintln!("settled: box {bbox:?} (truth {truth:?}), centre off {:.2} px, pose {pose:?}", off(bbox));
+    assert!(off(bbox) < 0.5, "the centre {:.2} pixels off", off(bbox));
+    assert!((bbox[2] / truth[2] - 1.0).abs() < 0.02, "the width {} against {}", bbox[2], truth[2]);
+    assert!(error < 1.5, "the pose {error:.2} degrees off");
 }
 
 /// The objects' training views (every 10 degrees) as one set.
@@ -475,7 +497,7 @@ fn the_answer_is_read_again_from_the_query_s_own_pixels() {
     let stage = super::Stage::fit(&train).unwrap();
     let between = render_at("duck", "45:45:1", None, (96, 72));
     let (xb, _) = stage.check(between.row(0));
-    let evidence = super::Evidence { fit_pose: None, xb, kept: Vec::new(), theta: 0.02 };
+    let evidence = super::Evidence { fit_pose: None, xb, kept: Vec::new(), theta: 0.02, settled: None };
     let space = train.space();
     let truth = between.pose(0);
     for off in [-3.0, 3.0] {

@@ -268,3 +268,14 @@ pub(crate) const REREADS: usize = 3;
 /// The lattice (degrees) the reread climbs on (`reread.rs`): the eigenspace's manifold step
 /// and the refined method's default reporting lattice (the paper's 0.5 degrees). Not tuned.
 pub(crate) const REREAD_STEP: f64 = 0.5;
+
+/// The settle's first step for the box's centre (`settle.rs`), in pixels at scale 1 (the pose's
+/// first step is twice [`REREAD_STEP`], the scale's half a step of [`SCALE_RATIO`]). What it
+/// trades: larger steps jump farther from the search's box at more evaluations a halving. Not
+/// tuned.
+pub(crate) const SETTLE_SHIFT: f64 = 1.0;
+
+/// Times the settle's steps are halved (`settle.rs`): from [`SETTLE_SHIFT`] to an eighth of a
+/// pixel, from a degree to an eighth. What it trades: each halving is one more sweep of 2 (P + 3)
+/// evaluations at least. Not tuned.
+pub(crate) const SETTLE_HALVINGS: usize = 3;

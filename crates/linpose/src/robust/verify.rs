@@ -64,6 +64,9 @@ pub(crate) struct Evidence {
     pub(super) xb: Vec<f32>,
     pub(super) kept: Vec<u32>,
     pub(super) theta: f32,
+    /// The pose a located view's box was settled with (`settle.rs`): the answer's pose in place
+    /// of the reread's; None for any other query.
+    pub(super) settled: Option<Vec<f64>>,
 }
 
 impl Views {
