@@ -31,6 +31,10 @@
 //!    binned pixels against the training views interpolated between their poses, within half a
 //!    training interval.
 //!
+//! In a scene larger than the training views, the box is found first (`locate.rs`) and its
+//! view goes through 1-4; the box and the answer's pose are then settled together
+//! (`settle.rs`), and the box cut again.
+//!
 //! The fit also says how much of the object the query shows: the share of the reconstruction's
 //! bright pixels that were explained (`Fit::shown`). How much a pose can be read from such a
 //! share is calibrated on the training views themselves when the stage is fitted
