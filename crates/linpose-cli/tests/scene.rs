@@ -141,6 +141,16 @@ fn a_robust_model_finds_its_object_in_larger_scenes() {
     let json = d.ok(&["predict", "--model", "r.st", "--json", "--top", "2", "big/e040.0_a010.0.png"]);
     let j: serde_json::Value = serde_json::from_str(json.trim()).unwrap();
     assert_eq!(j["box"].as_array().unwrap().len(), 4);
+    // A black scene beside the others: named with why in the report, every other scene
+    // answered, and the exit status says one has no estimate.
+    image::GrayImage::new(160, 120).save(d.path("big/e040.0_a030.0.png")).unwrap();
+    d.fails(&["eval", "--model", "r.st", "--data", "big", "--json", "black.json"], &["1 of 36 images have no estimate"]);
+    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path("black.json")).unwrap()).unwrap();
+    assert_eq!(r["n_eval"].as_u64(), Some(35));
+    let rejected = r["rejected"].as_array().unwrap();
+    assert_eq!(rejected.len(), 1);
+    assert_eq!(rejected[0]["image"].as_str(), Some("e040.0_a030.0.png"));
+    assert!(rejected[0]["reason"].as_str().unwrap().contains("black"), "{}", rejected[0]);
     // A model without the robust stage refuses the larger image by its size.
     d.ok(&["train", "--data", "studio", "--train-step", "20", "--method", "refined", "--normalize", "off", "--out", "p.st"]);
     d.fails(&["predict", "--model", "p.st", "--strict", "big/e040.0_a010.0.png"], &["160", "120", "64", "48"]);

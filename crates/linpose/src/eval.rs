@@ -285,7 +285,7 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
         }
         None => (model, q, vec![None; data.len()]),
     };
-    let mut kept: Vec<usize> = (0..data.len()).filter(|&i| refused[i].is_none()).collect();
+    let kept: Vec<usize> = (0..data.len()).filter(|&i| refused[i].is_none()).collect();
     let mut rejected: Vec<(usize, Rejected)> =
         (0..data.len()).filter_map(|i| refused[i].clone().map(|reason| (i, Rejected { image: data.manifest().images()[i].clone(), reason }))).collect();
     if kept.is_empty() {
@@ -295,37 +295,18 @@ pub fn evaluate(model: &dyn PoseModel, data: &Dataset, opt: &EvalOptions) -> Res
         });
     }
     let t0 = Instant::now();
-    let mut q = q;
-    let mut usable;
-    let est = match model.predict(q) {
-        Ok(est) => est,
-        Err(first) => {
-            // Some query the model refuses (an all-black image cannot be scaled): each query
-            // alone, those refused counted apart with why, the others estimated together as
-            // they would be without them (a query's estimate does not depend on its batch).
-            let ok: Vec<usize> = (0..kept.len())
-                .filter(|&i| match model.predict(&q[i * m..(i + 1) * m]) {
-                    Ok(_) => true,
-                    Err(e) => {
-                        let reason = match e {
-                            Error::InvalidParameter { name: "query", reason, .. } => reason,
-                            e => e.to_string(),
-                        };
-                        rejected.push((kept[i], Rejected { image: data.manifest().images()[kept[i]].clone(), reason }));
-                        false
-                    }
-                })
-                .collect();
-            if ok.is_empty() {
-                return Err(first);
-            }
-            usable = Vec::with_capacity(ok.len() * m);
-            ok.iter().for_each(|&i| usable.extend_from_slice(&q[i * m..(i + 1) * m]));
-            kept = ok.iter().map(|&i| kept[i]).collect();
-            q = &usable;
-            model.predict(q)?
-        }
+    // Some query the model refuses (an all-black image cannot be scaled): counted apart with why.
+    let Answered { ok, refused, est } =
+        answer_each(kept.len(), |rows| if rows.len() == kept.len() { model.predict(q) } else { model.predict(&crate::dataset::rows_at(q, m, rows)) })?;
+    let usable;
+    let q = if refused.is_empty() {
+        q
+    } else {
+        usable = crate::dataset::rows_at(q, m, &ok);
+        &usable[..]
     };
+    rejected.extend(refused.into_iter().map(|(i, reason)| (kept[i], Rejected { image: data.manifest().images()[kept[i]].clone(), reason })));
+    let kept: Vec<usize> = ok.iter().map(|&i| kept[i]).collect();
     rejected.sort_by_key(|r| r.0);
     let rejected: Vec<Rejected> = rejected.into_iter().map(|r| r.1).collect();
     // The normalisation is part of each query's cost.
@@ -430,7 +411,7 @@ fn evaluate_scenes(model: &dyn PoseModel, search: &dyn crate::model::SceneSearch
                         kept.push(i);
                         found.append(&mut f);
                     }
-                    Err(e) => rejected.push(Rejected { image: data.manifest().images()[i].clone(), reason: e.to_string() }),
+                    Err(e) => rejected.push((i, e.to_string())),
                 }
             }
             if kept.is_empty() {
@@ -438,11 +419,64 @@ fn evaluate_scenes(model: &dyn PoseModel, search: &dyn crate::model::SceneSearch
             }
         }
     }
-    let est = search.predict_located(&found)?;
+    // A located view the method refuses (a box of a black scene cannot be scaled): counted
+    // apart with why.
+    let Answered { ok, refused, est } = answer_each(found.len(), |rows| {
+        if rows.len() == found.len() {
+            search.predict_located(&found)
+        } else {
+            search.predict_located(&rows.iter().map(|&i| found[i].clone()).collect::<Vec<_>>())
+        }
+    })?;
+    if !refused.is_empty() {
+        rejected.extend(refused.into_iter().map(|(i, reason)| (kept[i], reason)));
+        let mut answered = vec![false; found.len()];
+        ok.iter().for_each(|&i| answered[i] = true);
+        found = found.into_iter().zip(answered).filter_map(|(f, a)| a.then_some(f)).collect();
+        kept = ok.iter().map(|&i| kept[i]).collect();
+    }
+    rejected.sort_by_key(|r| r.0);
+    let rejected = rejected.into_iter().map(|(i, reason)| Rejected { image: data.manifest().images()[i].clone(), reason }).collect();
     let predict_s = t0.elapsed().as_secs_f64();
     let estimates = if opt.top > 0 { Some(search.estimate_located(&found, opt.top)?) } else { None };
     let model_bytes = model.model_bytes();
     Ok(report(Outcome { model, data, opt, kept, est, estimates, located: Some(found), rejected, model_bytes, predict_s }))
+}
+
+/// What [`answer_each`] gives: the places answered, those refused with why, and the estimates
+/// (rows of P) of those answered.
+struct Answered {
+    ok: Vec<usize>,
+    refused: Vec<(usize, String)>,
+    est: Vec<f64>,
+}
+
+/// The estimates (rows of P) of the items `0..n` of a batch by `predict`, which answers the
+/// items at the places it is given together: when the whole batch fails, each item alone, those
+/// refused set apart with why, and the others answered together as they would be without them
+/// (an item's estimate does not depend on its batch); the batch's error when every item is
+/// refused.
+fn answer_each(n: usize, predict: impl Fn(&[usize]) -> Result<Vec<f64>>) -> Result<Answered> {
+    let all: Vec<usize> = (0..n).collect();
+    let first = match predict(&all) {
+        Ok(est) => return Ok(Answered { ok: all, refused: Vec::new(), est }),
+        Err(e) => e,
+    };
+    let (mut ok, mut refused) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        match predict(&[i]) {
+            Ok(_) => ok.push(i),
+            // Alone, the item is the batch's only row: why, without the row.
+            Err(Error::InvalidParameter { name: "query", reason, .. }) => refused.push((i, reason)),
+            Err(Error::Normalize { reason, .. }) => refused.push((i, format!("cannot normalise: {reason}"))),
+            Err(e) => refused.push((i, e.to_string())),
+        }
+    }
+    if ok.is_empty() {
+        return Err(first);
+    }
+    let est = predict(&ok)?;
+    Ok(Answered { ok, refused, est })
 }
 
 /// Each parameter's error summary over `samples` (`None` when there are none).
