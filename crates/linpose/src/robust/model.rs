@@ -113,10 +113,7 @@ impl Robust {
             }
             // The answer read again from the query's own pixels (`reread.rs`), or for a located
             // view the pose its box was settled with (`settle.rs`).
-            e.pose = match &evidence.settled {
-                Some(pose) => pose.clone(),
-                None => self.stage.reread(evidence, &e.pose, space),
-            };
+            e.pose = self.stage.reread(evidence, &e.pose, space);
             if let Some(h) = e.hypotheses.first_mut() {
                 h.pose.clone_from(&e.pose);
             }

@@ -95,6 +95,12 @@ impl Reread {
         Some(Reread { surface, sigma, weight, reach, wb: binned.width as usize, hb: binned.height as usize })
     }
 
+    /// Whether `b` lies within the reread's reach of `a` (half the widest interval between
+    /// training values, each parameter).
+    pub(super) fn reaches(&self, a: &[f64], b: &[f64], space: &PoseSpace) -> bool {
+        space.param_errors(a, b).zip(&self.reach).all(|(d, &r)| d <= r + 1e-9)
+    }
+
     /// The bins of the binned query `xb` that are its own at `pose` (see the module doc), with
     /// the fit's threshold `theta`; None when there are none or the view at `pose` cannot be put
     /// in the query's gain.
@@ -133,7 +139,7 @@ impl Reread {
             let before = t.clone();
             let mut g = vec![0f64; mb];
             self.surface.climb_by(&mut t, tuning::REREAD_STEP, |pose| {
-                if space.param_errors(&before, pose).zip(&self.reach).any(|(d, &r)| d > r + 1e-9) {
+                if !self.reaches(&before, pose, space) {
                     return f64::INFINITY;
                 }
                 self.surface.eval(pose, &mut g, None);

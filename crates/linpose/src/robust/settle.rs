@@ -81,10 +81,7 @@ impl Reread {
         let mut at = start.clone();
         self.surface.clamp(&mut at.pose);
         let p = at.pose.len();
-        let within = |c: &Placed| {
-            space.param_errors(&start.pose, &c.pose).zip(&self.reach).all(|(d, &r)| d <= r + 1e-9)
-                && (c.cx - start.cx).hypot(c.cy - start.cy) <= frame.reach * start.s + 1e-9
-        };
+        let within = |c: &Placed| self.reaches(&start.pose, &c.pose, space) && (c.cx - start.cx).hypot(c.cy - start.cy) <= frame.reach * start.s + 1e-9;
         // The moves, in units of the steps: each coordinate alone (the pose's parameters, then
         // the centre's x and y and the scale), then each pose parameter with each of the box's.
         let unit = |k: usize, sign: f64| (0..p + 3).map(|j| if j == k { sign } else { 0.0 }).collect::<Vec<f64>>();
