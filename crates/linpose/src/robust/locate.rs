@@ -58,6 +58,11 @@ impl Integral {
         Integral { w, h, sums }
     }
 
+    /// Whether the box of width `w` and height `h` at (x, y) lies in the image.
+    pub(super) fn holds(&self, x: f64, y: f64, w: f64, h: f64) -> bool {
+        x >= 0.0 && y >= 0.0 && x + w <= self.w as f64 + 1e-9 && y + h <= self.h as f64 + 1e-9
+    }
+
     /// The sum over [0, x) x [0, y): bilinear between the pixel corners, which is exact for an
     /// image constant on each pixel.
     fn at(&self, x: f64, y: f64) -> f64 {
@@ -205,7 +210,7 @@ struct Search<'a> {
 impl Search<'_> {
     /// Whether a window of scale `s` at (x, y) lies in the scene.
     fn fits(&self, x: f64, y: f64, s: f64) -> bool {
-        x >= 0.0 && y >= 0.0 && x + self.view.0 * s <= self.scene.w as f64 + 1e-9 && y + self.view.1 * s <= self.scene.h as f64 + 1e-9
+        self.scene.holds(x, y, self.view.0 * s, self.view.1 * s)
     }
 
     /// The score of the window at (x, y) and scale `s` on `level`.

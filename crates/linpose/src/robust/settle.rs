@@ -15,8 +15,8 @@
 //! coordinate (the two trade against each other along a valley); after a sweep that paid, the
 //! move that repeats it (Hooke and Jeeves's pattern move). Steps start at twice
 //! [`tuning::REREAD_STEP`], [`tuning::SETTLE_SHIFT`] pixels and half a step of
-//! [`tuning::SCALE_RATIO`], halved [`tuning::SETTLE_HALVINGS`] times; [`tuning::REREADS`]
-//! rounds, the bins found again at each.
+//! [`tuning::SCALE_RATIO`], each level of [`tuning::SETTLE_LEVELS`] at half the steps of the
+//! one before; [`tuning::REREADS`] rounds, the bins found again at each.
 //!
 //! The pose stays within the reread's reach of the answer (half the widest interval between
 //! training values) and the box's centre within one coarse cell of the search (at
@@ -65,8 +65,7 @@ impl Frame<'_> {
     fn cells(&self, p: &Placed, (wb, hb): (usize, usize), xb: &mut [f32], corners: &mut Vec<f64>) -> bool {
         let (w, h) = (self.view.0 * p.s, self.view.1 * p.s);
         let (x, y) = (p.cx - 0.5 * w, p.cy - 0.5 * h);
-        let inside = x >= 0.0 && y >= 0.0 && x + w <= self.scene.w as f64 + 1e-9 && y + h <= self.scene.h as f64 + 1e-9;
-        if !inside || !(tuning::SCALE_LO..=tuning::SCALE_HI).contains(&p.s) {
+        if !self.scene.holds(x, y, w, h) || !(tuning::SCALE_LO..=tuning::SCALE_HI).contains(&p.s) {
             return false;
         }
         self.scene.cells((x, y), self.factor * p.s, (wb, hb), xb, corners);
@@ -112,7 +111,7 @@ impl Reread {
             let before = at.clone();
             let mut best = cost(&at);
             let mut steps = (2.0 * tuning::REREAD_STEP, tuning::SETTLE_SHIFT, 0.5 * (tuning::SCALE_RATIO - 1.0));
-            for _ in 0..tuning::SETTLE_HALVINGS {
+            for _ in 0..tuning::SETTLE_LEVELS {
                 loop {
                     let base = at.clone();
                     for dir in &singles {
@@ -166,9 +165,7 @@ impl Reread {
         }
         at
     }
-}
 
-impl Reread {
     /// `at` moved by `sign` times `dir` (pose parameters, then the centre's x and y and the
     /// scale, in units of `steps`: degrees, pixels at scale 1, a ratio).
     fn moved(&self, at: &Placed, dir: &[f64], sign: f64, steps: (f64, f64, f64)) -> Placed {

@@ -275,7 +275,7 @@ pub(crate) const REREAD_STEP: f64 = 0.5;
 /// tuned.
 pub(crate) const SETTLE_SHIFT: f64 = 1.0;
 
-/// Times the settle's steps are halved (`settle.rs`): from [`SETTLE_SHIFT`] to an eighth of a
-/// pixel, from a degree to an eighth. What it trades: each halving is one more sweep of 2 (P + 3)
-/// evaluations at least. Not tuned.
-pub(crate) const SETTLE_HALVINGS: usize = 3;
+/// Levels of the settle's steps (`settle.rs`), each at half the steps of the one before: from
+/// [`SETTLE_SHIFT`] to a quarter of it, from a degree to a quarter. What it trades: each level is
+/// one more sweep of 2 (P + 3) evaluations at least. Not tuned.
+pub(crate) const SETTLE_LEVELS: usize = 3;
