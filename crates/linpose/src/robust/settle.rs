@@ -115,64 +115,11 @@ impl Reread {
                     return f64::INFINITY;
                 }
                 self.surface.eval(&c.pose, &mut g, None);
-                let [fq, ff, qq] = self.products(&bins, &g, &q);
-                if ff > 0.0 && qq > 0.0 {
-                    1.0 - fq * fq / (ff * qq)
-                } else {
-                    f64::INFINITY
-                }
+                self.unexplained(&bins, &g, &q)
             };
             let before = at.clone();
-            let mut best = cost(&at);
-            let mut steps = (2.0 * tuning::REREAD_STEP, tuning::SETTLE_SHIFT, 0.5 * (tuning::SCALE_RATIO - 1.0));
-            for _ in 0..tuning::SETTLE_LEVELS {
-                loop {
-                    let base = at.clone();
-                    for dir in &singles {
-                        for sign in [1.0, -1.0] {
-                            let c = self.moved(&at, dir, sign, steps);
-                            let v = cost(&c);
-                            if v < best {
-                                (best, at) = (v, c);
-                                break;
-                            }
-                        }
-                    }
-                    if at == base {
-                        // The pose and the box trade against each other (a turn moves the
-                        // object's features sideways): a pose and a box coordinate together.
-                        'pairs: for dir in &pairs {
-                            for sign in [1.0, -1.0] {
-                                let c = self.moved(&at, dir, sign, steps);
-                                let v = cost(&c);
-                                if v < best {
-                                    (best, at) = (v, c);
-                                    break 'pairs;
-                                }
-                            }
-                        }
-                    }
-                    if at == base {
-                        break;
-                    }
-                    // The pattern move: on along the sweep's direction while it pays.
-                    let mut c = at.clone();
-                    for (j, t) in c.pose.iter_mut().enumerate() {
-                        let mut d = at.pose[j] - base.pose[j];
-                        if let Some(period) = space.params()[j].period {
-                            d -= period * (d / period).round();
-                        }
-                        *t += d;
-                    }
-                    self.surface.clamp(&mut c.pose);
-                    (c.cx, c.cy, c.s) = (2.0 * at.cx - base.cx, 2.0 * at.cy - base.cy, at.s * at.s / base.s);
-                    let v = cost(&c);
-                    if v < best {
-                        (best, at) = (v, c);
-                    }
-                }
-                steps = (0.5 * steps.0, 0.5 * steps.1, 0.5 * steps.2);
-            }
+            let steps = (2.0 * tuning::REREAD_STEP, tuning::SETTLE_SHIFT, 0.5 * (tuning::SCALE_RATIO - 1.0));
+            at = self.pattern(at, &mut cost, (&singles, &pairs), steps, Some(space));
             if at == before {
                 break;
             }
@@ -209,40 +156,91 @@ impl Reread {
                 if !within(c) || !frame.cells(c, grid, &mut q, &mut scratch) {
                     return f64::INFINITY;
                 }
-                let [fq, ff, qq] = self.products(bins, &g, &q);
-                if ff > 0.0 && qq > 0.0 {
-                    1.0 - fq * fq / (ff * qq)
-                } else {
-                    f64::INFINITY
-                }
+                self.unexplained(bins, &g, &q)
             };
-            let mut c = Placed { pose: pose.clone(), ..at.clone() };
-            let mut best = cost(&c);
-            let mut steps = (0.0, tuning::SETTLE_SHIFT, 0.5 * (tuning::SCALE_RATIO - 1.0));
-            for _ in 0..tuning::SETTLE_LEVELS {
-                loop {
-                    let base = c.clone();
-                    for dir in &moves {
-                        for sign in [1.0, -1.0] {
-                            let n = self.moved(&c, dir, sign, steps);
-                            let v = cost(&n);
-                            if v < best {
-                                (best, c) = (v, n);
-                                break;
-                            }
-                        }
-                    }
-                    if c == base {
-                        break;
-                    }
-                }
-                steps = (0.0, 0.5 * steps.1, 0.5 * steps.2);
-            }
+            let c = Placed { pose: pose.clone(), ..at.clone() };
+            let c = self.pattern(c, &mut cost, (&moves, &[]), (0.0, tuning::SETTLE_SHIFT, 0.5 * (tuning::SCALE_RATIO - 1.0)), None);
             placed.cx += weight * c.cx;
             placed.cy += weight * c.cy;
             placed.s += weight * c.s;
         }
         placed
+    }
+
+    /// The share of the weighted energy of the binned query `q` over `bins` that the view `g`
+    /// leaves unexplained in its best gain (1 - cos^2); infinite when either is empty there.
+    fn unexplained(&self, bins: &[usize], g: &[f64], q: &[f32]) -> f64 {
+        let [fq, ff, qq] = self.products(bins, g, q);
+        if ff > 0.0 && qq > 0.0 {
+            1.0 - fq * fq / (ff * qq)
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The pattern search from `at` under `cost` (see the module doc): at each of
+    /// [`tuning::SETTLE_LEVELS`] levels of `steps` (halved at each), the `singles` moves each
+    /// in both signs, the `pairs` when no single pays, and, with the pose's `space`, the pattern
+    /// move after a sweep that paid.
+    fn pattern(
+        &self,
+        mut at: Placed,
+        cost: &mut impl FnMut(&Placed) -> f64,
+        (singles, pairs): (&[Vec<f64>], &[Vec<f64>]),
+        mut steps: (f64, f64, f64),
+        space: Option<&PoseSpace>,
+    ) -> Placed {
+        let mut best = cost(&at);
+        for _ in 0..tuning::SETTLE_LEVELS {
+            loop {
+                let base = at.clone();
+                for dir in singles {
+                    for sign in [1.0, -1.0] {
+                        let c = self.moved(&at, dir, sign, steps);
+                        let v = cost(&c);
+                        if v < best {
+                            (best, at) = (v, c);
+                            break;
+                        }
+                    }
+                }
+                if at == base {
+                    // The pose and the box trade against each other (a turn moves the
+                    // object's features sideways): a pose and a box coordinate together.
+                    'pairs: for dir in pairs {
+                        for sign in [1.0, -1.0] {
+                            let c = self.moved(&at, dir, sign, steps);
+                            let v = cost(&c);
+                            if v < best {
+                                (best, at) = (v, c);
+                                break 'pairs;
+                            }
+                        }
+                    }
+                }
+                if at == base {
+                    break;
+                }
+                let Some(space) = space else { continue };
+                // The pattern move: on along the sweep's direction while it pays.
+                let mut c = at.clone();
+                for (j, t) in c.pose.iter_mut().enumerate() {
+                    let mut d = at.pose[j] - base.pose[j];
+                    if let Some(period) = space.params()[j].period {
+                        d -= period * (d / period).round();
+                    }
+                    *t += d;
+                }
+                self.surface.clamp(&mut c.pose);
+                (c.cx, c.cy, c.s) = (2.0 * at.cx - base.cx, 2.0 * at.cy - base.cy, at.s * at.s / base.s);
+                let v = cost(&c);
+                if v < best {
+                    (best, at) = (v, c);
+                }
+            }
+            steps = (0.5 * steps.0, 0.5 * steps.1, 0.5 * steps.2);
+        }
+        at
     }
 
     /// `at` moved by `sign` times `dir` (pose parameters, then the centre's x and y and the
