@@ -17,8 +17,12 @@
 //!    binned images binned by 2 more; [`tuning::COARSE_HYPOTHESES`] of them): about 2,600
 //!    windows of a quarter of the stage's pixels for a 320 x 240 scene and 128 x 128 views.
 //! 2. **Fine.** The best [`tuning::CANDIDATES`] windows (each at least a quarter of a window from
-//!    the others), and the four windows a coarse step from each (the fine score's peak is a few
-//!    pixels wide, and the coarse one's may lie a step off it), are refined on the stage's own
+//!    the others, or more than two steps of the scale ladder from them), then [`tuning::LOOSE_CANDIDATES`] more, the best by their score within the
+//!    hypotheses' envelopes ([`envelope`]: what a hypothesis reads up to half a cell off its
+//!    place; a textured object's coarse score falls off within a few pixels, less than the
+//!    coarse step, so the grid can miss its peak), and the four windows a coarse step from each
+//!    of the first (the fine score's peak is a few pixels wide, and the coarse one's may lie a
+//!    step off it), are refined on the stage's own
 //!    cells by a pattern search over the position and the scale, the steps halved until they
 //!    are under [`tuning::MIN_SHIFT`] pixels, scored by the hypotheses that explain the window
 //!    best and the poses halfway to their neighbours in the eigenspace (a query between two
@@ -102,6 +106,9 @@ struct Level {
     support: Vec<u32>,
     /// Each hypothesis's silhouette and its rim.
     shapes: Vec<Shape>,
+    /// Per hypothesis and cell, how far the hypothesis interpolated bilinearly up to half a cell
+    /// either way strays from the cell ([`envelope`]): the coarse level's; empty on the others.
+    envelope: Vec<f32>,
 }
 
 impl Level {
@@ -111,7 +118,7 @@ impl Level {
         let m = grid.0 * grid.1;
         let peaks: Vec<f32> = preds.chunks_exact(m).map(|p| p.iter().fold(0f32, |a, &v| a.max(v))).collect();
         let shapes = preds.chunks_exact(m).zip(&peaks).map(|(p, &peak)| Shape::new(p, peak, &support, grid)).collect();
-        Level { cell, grid, preds, peaks, support, shapes }
+        Level { cell, grid, preds, peaks, support, shapes, envelope: Vec::new() }
     }
 
     /// The stage's own cells.
@@ -149,7 +156,7 @@ impl Level {
     }
 
     /// `fine`'s cells binned by 2 (a pixel of the support where any of its four is), with at
-    /// most `most` of its hypotheses, taken evenly.
+    /// most `most` of its hypotheses, taken evenly, and their envelopes.
     fn coarse(fine: &Level, most: usize) -> Result<Level> {
         let (fw, fh) = fine.grid;
         let grid = ImageSpec { width: fw as u32, height: fh as u32, color: ColorMode::Gray };
@@ -165,31 +172,37 @@ impl Level {
             }
         }
         let support = (0..(gw * gh) as u32).filter(|&k| on[k as usize]).collect();
-        Ok(Level::new(2 * fine.cell, (gw, gh), preds, support))
+        let mut level = Level::new(2 * fine.cell, (gw, gh), preds, support);
+        level.envelope = level.preds.chunks_exact(gw * gh).flat_map(|p| envelope(p, (gw, gh))).collect();
+        Ok(level)
     }
 
-    /// Each hypothesis's score on the window whose cells are `xb` ([`silhouette_score`]).
-    fn scores<'a>(&'a self, xb: &'a [f32], ratios: &'a mut Vec<f32>) -> impl Iterator<Item = f32> + 'a {
-        self.preds
-            .chunks_exact(xb.len())
-            .zip(&self.peaks)
-            .zip(&self.shapes)
-            .map(move |((p, &peak), shape)| silhouette_score(p, peak, &self.support, shape, xb, ratios))
+    /// Each hypothesis's score on the window whose cells are `xb` ([`silhouette_score`]), with
+    /// its score within its envelope on a level that has them (else the same).
+    fn scores<'a>(&'a self, xb: &'a [f32], ratios: &'a mut Vec<f32>) -> impl Iterator<Item = [f32; 2]> + 'a {
+        let m = xb.len();
+        self.preds.chunks_exact(m).zip(&self.peaks).zip(&self.shapes).enumerate().map(move |(h, ((p, &peak), shape))| {
+            let envelope = self.envelope.get(h * m..(h + 1) * m);
+            silhouette_score(p, peak, &self.support, shape, envelope, xb, ratios)
+        })
     }
 
-    /// The best hypothesis's score on the window whose cells are `xb`.
-    fn score(&self, xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
-        self.scores(xb, ratios).fold(f32::NEG_INFINITY, f32::max)
+    /// The best hypothesis's score on the window whose cells are `xb`, and the best within the
+    /// hypotheses' envelopes.
+    fn score(&self, xb: &[f32], ratios: &mut Vec<f32>) -> [f32; 2] {
+        self.scores(xb, ratios).fold([f32::NEG_INFINITY; 2], |a, b| [a[0].max(b[0]), a[1].max(b[1])])
     }
 }
 
-/// A window: its top-left corner and scale, with its score.
+/// A window: its top-left corner and scale, with its score (and on the coarse level, its score
+/// within the hypotheses' envelopes).
 #[derive(Debug, Clone, Copy)]
 struct Window {
     x: f64,
     y: f64,
     s: f64,
     score: f32,
+    loose: f32,
 }
 
 /// Scratch of one scoring thread.
@@ -213,8 +226,8 @@ impl Search<'_> {
         self.scene.holds(x, y, self.view.0 * s, self.view.1 * s)
     }
 
-    /// The score of the window at (x, y) and scale `s` on `level`.
-    fn score(&self, level: &Level, x: f64, y: f64, s: f64, t: &mut Scratch) -> f32 {
+    /// The score of the window at (x, y) and scale `s` on `level`, and within the envelopes.
+    fn score(&self, level: &Level, x: f64, y: f64, s: f64, t: &mut Scratch) -> [f32; 2] {
         let (gw, gh) = level.grid;
         t.xb.resize(gw * gh, 0.0);
         self.scene.cells((x, y), level.cell as f64 * s, level.grid, &mut t.xb, &mut t.corners);
@@ -238,7 +251,10 @@ impl Search<'_> {
                 (0..nx)
                     .map(|i| i as f64 * stride)
                     .filter(|&x| self.fits(x, y, s))
-                    .map(|x| Window { x, y, s, score: self.score(level, x, y, s, t) })
+                    .map(|x| {
+                        let [score, loose] = self.score(level, x, y, s, t);
+                        Window { x, y, s, score, loose }
+                    })
                     .collect::<Vec<_>>()
             })
             .flatten()
@@ -252,7 +268,7 @@ impl Search<'_> {
         let (gw, gh) = fine.grid;
         t.xb.resize(gw * gh, 0.0);
         self.scene.cells((w.x, w.y), fine.cell as f64 * w.s, fine.grid, &mut t.xb, &mut t.corners);
-        let mut ranked: Vec<(f32, usize)> = fine.scores(&t.xb, &mut t.ratios).enumerate().map(|(h, v)| (v, h)).collect();
+        let mut ranked: Vec<(f32, usize)> = fine.scores(&t.xb, &mut t.ratios).enumerate().map(|(h, v)| (v[0], h)).collect();
         ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let keep: Vec<usize> = ranked.iter().take(tuning::FINE_HYPOTHESES).map(|r| r.1).collect();
         self.pattern(&fine.around(&keep, coords), w, shift, ratio, t)
@@ -262,7 +278,7 @@ impl Search<'_> {
     /// changed about the window's centre), from steps of `shift` pixels and `ratio`, halved
     /// until under [`tuning::MIN_SHIFT`] pixels.
     fn pattern(&self, level: &Level, mut w: Window, shift: f64, ratio: f64, t: &mut Scratch) -> Window {
-        w.score = self.score(level, w.x, w.y, w.s, t);
+        w.score = self.score(level, w.x, w.y, w.s, t)[0];
         let (mut dx, mut ds) = (shift, ratio);
         let mut evaluations = 0;
         while dx >= tuning::MIN_SHIFT && evaluations < tuning::MAX_EVALUATIONS {
@@ -274,9 +290,9 @@ impl Search<'_> {
                     continue;
                 }
                 evaluations += 1;
-                let score = self.score(level, x, y, s, t);
+                let score = self.score(level, x, y, s, t)[0];
                 if score > w.score {
-                    w = Window { x, y, s, score };
+                    w = Window { x, y, s, score, loose: score };
                     moved = true;
                 }
             }
@@ -339,34 +355,44 @@ impl Stage {
         let search = Search { scene, view };
         let fine = Level::fine(self);
         let coarse = Level::coarse(&fine, tuning::COARSE_HYPOTHESES)?;
-        let mut found = search.coarse(&coarse, &ladder);
-        found.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
+        let found = search.coarse(&coarse, &ladder);
+        // The best windows by their score, then the best by their score within the envelopes
+        // (a window up to half a cell off the object), each apart from those before it: its
+        // centre a quarter of a window away, or its scale more than two steps of the ladder
+        // (at one place, a part of the object matched by a view at a smaller scale, say a
+        // cup's bowl by a view whose handle hides, and the whole object are two candidates).
         let mut starts: Vec<Window> = Vec::new();
-        for c in found {
-            let apart = |o: &Window| {
-                let (dx, dy) = (c.x + 0.5 * view.0 * c.s - o.x - 0.5 * view.0 * o.s, c.y + 0.5 * view.1 * c.s - o.y - 0.5 * view.1 * o.s);
-                dx.hypot(dy) > tuning::APART * view.0.min(view.1) * c.s
-            };
-            if starts.iter().all(apart) {
-                starts.push(c);
-                if starts.len() == tuning::CANDIDATES {
+        for (key, most) in
+            [(|w: &Window| w.score) as fn(&Window) -> f32, |w| w.loose].into_iter().zip([tuning::CANDIDATES, tuning::CANDIDATES + tuning::LOOSE_CANDIDATES])
+        {
+            let mut ranked: Vec<&Window> = found.iter().collect();
+            ranked.sort_by(|a, b| key(b).total_cmp(&key(a)).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
+            for &c in ranked {
+                if starts.len() >= most {
                     break;
+                }
+                let apart = |o: &Window| {
+                    let (dx, dy) = (c.x + 0.5 * view.0 * c.s - o.x - 0.5 * view.0 * o.s, c.y + 0.5 * view.1 * c.s - o.y - 0.5 * view.1 * o.s);
+                    dx.hypot(dy) > tuning::APART * view.0.min(view.1) * c.s || (c.s / o.s).ln().abs() > 2.0 * tuning::SCALE_RATIO.ln() + 1e-9
+                };
+                if starts.iter().all(apart) {
+                    starts.push(c);
                 }
             }
         }
         let shift = 0.5 * tuning::STRIDE * coarse.cell as f64;
         let ratio = 0.5 * (tuning::SCALE_RATIO - 1.0);
-        // Each candidate and the four windows a coarse step from it: the fine score's peak is a
-        // few pixels wide, and the coarse one's may lie a step or more off it.
+        // Each of the first candidates and the four windows a coarse step from it: the fine
+        // score's peak is a few pixels wide, and the coarse one's may lie a step or more off it.
+        // The loose candidates alone: their score already reads up to half a step off.
         let step = tuning::STRIDE * coarse.cell as f64;
         let tries: Vec<Window> = starts
             .iter()
-            .flat_map(|&c| {
-                [(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)].map(|(dx, dy)| Window {
-                    x: c.x + dx * step * c.s,
-                    y: c.y + dy * step * c.s,
-                    ..c
-                })
+            .enumerate()
+            .flat_map(|(k, &c)| {
+                let around: &[(f64, f64)] =
+                    if k < tuning::CANDIDATES { &[(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] } else { &[(0.0, 0.0)] };
+                around.iter().map(move |&(dx, dy)| Window { x: c.x + dx * step * c.s, y: c.y + dy * step * c.s, ..c })
             })
             .filter(|w| search.fits(w.x, w.y, w.s))
             .collect();
@@ -401,6 +427,29 @@ impl Stage {
         scene.cells((bbox[0], bbox[1]), scale, (w, h), &mut view, &mut Vec::new());
         Located { bbox, scale, view, shown: 1.0, repaired: false, kept: Kept::default() }
     }
+}
+
+/// Per cell of the hypothesis `pred` (`gw` x `gh` cells), how far its value interpolated
+/// bilinearly up to half a cell either way strays from the cell's own: the largest difference
+/// at the midpoints of its sides and its corners (the means of two and of four cells), where a
+/// bilinear surface takes its extremes over the square. A window up to half a coarse step off
+/// the object reads each cell within it, for cells that vary no faster than bilinearly.
+fn envelope(pred: &[f32], (gw, gh): (usize, usize)) -> Vec<f32> {
+    let at = |a: usize, b: usize| pred[b.min(gh - 1) * gw + a.min(gw - 1)];
+    (0..gw * gh)
+        .map(|k| {
+            let (i, j) = (k % gw, k / gw);
+            let (l, u) = (i.saturating_sub(1), j.saturating_sub(1));
+            let mut e = 0f32;
+            for xs in [[i, i], [l, i], [i, i + 1]] {
+                for ys in [[j, j], [u, j], [j, j + 1]] {
+                    let v = 0.25 * (at(xs[0], ys[0]) + at(xs[1], ys[0]) + at(xs[0], ys[1]) + at(xs[1], ys[1]));
+                    e = e.max((v - pred[k]).abs());
+                }
+            }
+            e
+        })
+        .collect()
 }
 
 /// A hypothesis's silhouette (its cells of the support above [`tuning::SILHOUETTE`] of its
@@ -446,24 +495,39 @@ impl Shape {
 /// Cells the hypothesis leaves dark count nothing otherwise: the training views' backdrop is
 /// not the scene's, and dark clutter explaining it would outscore the object. None (minus
 /// infinity) for a hypothesis the window cannot scale or with no silhouette.
-fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], shape: &Shape, xb: &[f32], ratios: &mut Vec<f32>) -> f32 {
+fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], shape: &Shape, envelope: Option<&[f32]>, xb: &[f32], ratios: &mut Vec<f32>) -> [f32; 2] {
     if shape.inside.is_empty() {
-        return f32::NEG_INFINITY;
+        return [f32::NEG_INFINITY; 2];
     }
-    let Some((gain, scale, _)) = gain(pred, peak, support, xb, ratios) else { return f32::NEG_INFINITY };
+    let Some((gain, scale, _)) = gain(pred, peak, support, xb, ratios) else { return [f32::NEG_INFINITY; 2] };
     let theta = tuning::COARSE * scale;
-    let mut score = 0f32;
-    for &i in &shape.inside {
-        let r = (xb[i as usize] - gain * pred[i as usize]).abs() / theta;
-        score += if r < 1.0 { 1.0 - r * r } else { -1.0 };
+    let count = |r: f32| if r < 1.0 { 1.0 - r * r } else { -1.0 };
+    let (mut score, mut loose) = (0f32, 0f32);
+    match envelope {
+        Some(e) => {
+            let inv = 1.0 / theta;
+            for &i in &shape.inside {
+                let d = (xb[i as usize] - gain * pred[i as usize]).abs();
+                score += count(d / theta);
+                loose += count((d - gain * e[i as usize]).max(0.0) * inv);
+            }
+        }
+        None => {
+            for &i in &shape.inside {
+                score += count((xb[i as usize] - gain * pred[i as usize]).abs() / theta);
+            }
+            loose = score;
+        }
     }
     for &(out, next) in &shape.rim {
         let r = (xb[out as usize] - gain * pred[next as usize]).abs() / theta;
         if r < 1.0 {
             score -= 1.0 - r * r;
+            loose -= 1.0 - r * r;
         }
     }
-    score / shape.inside.len() as f32
+    let n = shape.inside.len() as f32;
+    [score / n, loose / n]
 }
 
 #[cfg(test)]
@@ -485,7 +549,7 @@ mod tests {
         let mut ratios = Vec::new();
         // The object (twice as bright) on a backdrop that explains nothing of it.
         let on_object: Vec<f32> = pred.iter().map(|&p| if p > 0.0 { 2.0 * p } else { 0.0 }).collect();
-        let object = silhouette_score(&pred, 1.05, &support, &shape, &on_object, &mut ratios);
+        let object = silhouette_score(&pred, 1.05, &support, &shape, None, &on_object, &mut ratios)[0];
         assert!((object - 1.0).abs() < 1e-6, "{object}");
         // The same, inside something larger: past the square's edge the scene goes on as its
         // edge cells are (a window on a part of a larger object, or on flat clutter).
@@ -493,7 +557,7 @@ mod tests {
         for &(out, next) in &shape.rim {
             inside_more[out as usize] = on_object[next as usize];
         }
-        let part = silhouette_score(&pred, 1.05, &support, &shape, &inside_more, &mut ratios);
+        let part = silhouette_score(&pred, 1.05, &support, &shape, None, &inside_more, &mut ratios)[0];
         assert!((part - 0.5).abs() < 1e-6, "{part}: 32 rim cells of 64 count against");
         // A quarter of the silhouette hidden (the gain still the object's): 48 cells count 1, 16
         // count -1.
@@ -501,11 +565,34 @@ mod tests {
         for &k in shape.inside.iter().take(16) {
             hidden[k as usize] = 10.0;
         }
-        let quarter = silhouette_score(&pred, 1.05, &support, &shape, &hidden, &mut ratios);
+        let quarter = silhouette_score(&pred, 1.05, &support, &shape, None, &hidden, &mut ratios)[0];
         assert!((quarter - 0.5).abs() < 1e-6, "{quarter}");
         // A hypothesis with no silhouette scores nothing.
         let dark = vec![0f32; 256];
         let none = Shape::new(&dark, 0.0, &support, (16, 16));
-        assert_eq!(silhouette_score(&dark, 0.0, &support, &none, &on_object, &mut ratios), f32::NEG_INFINITY);
+        assert_eq!(silhouette_score(&dark, 0.0, &support, &none, None, &on_object, &mut ratios), [f32::NEG_INFINITY; 2]);
+    }
+
+    #[test]
+    fn a_window_half_a_cell_off_the_object_reads_within_the_envelope() {
+        // A hypothesis of smooth shading on a 16 x 16 grid, and the window half a cell off it
+        // both ways: each of its cells the mean of four of the hypothesis's (bilinear at the
+        // corner), which scores low on the point values and whole within the envelope.
+        let (pred, support) = square();
+        let (gw, gh) = (16, 16);
+        let env = envelope(&pred, (gw, gh));
+        let at = |a: usize, b: usize| pred[b.min(gh - 1) * gw + a.min(gw - 1)];
+        let off: Vec<f32> =
+            (0..gw * gh).map(|k| 0.25 * (at(k % gw, k / gw) + at(k % gw + 1, k / gw) + at(k % gw, k / gw + 1) + at(k % gw + 1, k / gw + 1))).collect();
+        for (k, (&v, &e)) in off.iter().zip(&env).enumerate() {
+            assert!((v - pred[k]).abs() <= e, "cell {k}: {v} more than {e} from {}", pred[k]);
+        }
+        let shape = Shape::new(&pred, 1.05, &support, (gw, gh));
+        let mut ratios = Vec::new();
+        let [score, loose] = silhouette_score(&pred, 1.05, &support, &shape, Some(&env), &off, &mut ratios);
+        assert!(loose > score, "{loose} against {score}");
+        // On the object itself both read the same.
+        let [a, b] = silhouette_score(&pred, 1.05, &support, &shape, Some(&env), &pred, &mut ratios);
+        assert_eq!(a, b);
     }
 }

@@ -167,8 +167,29 @@ pub(crate) const STRIDE: f64 = 1.0;
 /// bench/locate.py`): 8 against 4, boxes within 3 pixels 0.944 against 0.942, unseen mean 2.32
 /// against 2.71 degrees, at about 1.4 times the time of a scene.
 pub(crate) const CANDIDATES: usize = 8;
-/// See [`CANDIDATES`]. Not tuned.
+/// See [`CANDIDATES`]. Not tuned. (Windows more than two steps of [`SCALE_RATIO`] apart in scale
+/// are apart wherever they lie: at one place a cup's bowl, matched by a view whose handle hides
+/// at a smaller scale, and the whole cup; on all 20 COIL-20 objects in 320 x 240 texture scenes,
+/// with [`LOOSE_CANDIDATES`], boxes within 3 pixels 0.956 / 0.846 / 0.440 to 0.965 / 0.872 /
+/// 0.476 at 0 / 20 / 40% hidden, unseen mean 1.78 / 11.1 / 50.3 to 1.42 / 9.90 / 47.4 degrees; made for object 18, the cup; on the 17
+/// objects other than 4, 5 and 18 0.967 / 0.858 to 0.974 / 0.882, and 0.93 / 10.55 to 0.95 /
+/// 9.30 degrees.)
 pub(crate) const APART: f64 = 0.25;
+
+/// Coarse windows refined besides the [`CANDIDATES`], the best by their score within the
+/// hypotheses' envelopes (a window up to half a cell off the object read as the object; apart as
+/// those are). The coarse score of a textured object falls off within a few pixels, less than
+/// the coarse step, so the grid can miss its peak while clutter's broad peaks outrank it: the
+/// envelopes' score does not miss it, but alone it lets clutter in (all 20 COIL-20 objects in
+/// 320 x 240 texture scenes, nothing hidden, as the only ranking, with each cell's least and
+/// most value for the envelope: boxes within 3 pixels 0.953 to 0.907). What it trades: each costs one pattern search on the stage's cells, and the coarse
+/// pass scores each window twice (one 320 x 240 scene 31.8 to 35.8 ms, `cargo bench -p linpose
+/// --bench scene`). 4, not tuned, made for objects 4 and 5, whose boxes the grid missed: on all
+/// 20 (`python3 bench/locate.py`) boxes within 3 pixels 0.953 / 0.836 / 0.430 to 0.956 / 0.846
+/// / 0.440 at 0 / 20 / 40% hidden, unseen mean 2.02 / 12.2 / 51.8 to 1.78 / 11.1 / 50.3 degrees
+/// (object 5 6.09 to 1.19 with nothing hidden); on the 17 others 0.966 / 0.852 to 0.967 / 0.858,
+/// and 0.93 / 10.56 to 0.93 / 10.55 degrees.
+pub(crate) const LOOSE_CANDIDATES: usize = 4;
 
 /// The fine search stops when its position step is under this many pixels. What it trades:
 /// each halving is up to six more windows scored. Not tuned.
