@@ -17,13 +17,13 @@
 //!    binned images binned by 2 more; [`tuning::COARSE_HYPOTHESES`] of them): about 2,600
 //!    windows of a quarter of the stage's pixels for a 320 x 240 scene and 128 x 128 views.
 //! 2. **Fine.** The best [`tuning::CANDIDATES`] windows (each at least a quarter of a window from
-//!    the others, or more than two steps of the scale ladder from them), then [`tuning::LOOSE_CANDIDATES`] more, the best by their score within the
-//!    hypotheses' envelopes ([`envelope`]: what a hypothesis reads up to half a cell off its
-//!    place; a textured object's coarse score falls off within a few pixels, less than the
-//!    coarse step, so the grid can miss its peak), and the four windows a coarse step from each
-//!    of the first (the fine score's peak is a few pixels wide, and the coarse one's may lie a
-//!    step off it), are refined on the stage's own
-//!    cells by a pattern search over the position and the scale, the steps halved until they
+//!    the others, or more than two steps of the scale ladder from them), then
+//!    [`tuning::LOOSE_CANDIDATES`] more, the best by their score within the hypotheses'
+//!    envelopes ([`envelope`]: what a hypothesis reads up to half a cell off its place; a
+//!    textured object's coarse score falls off within a few pixels, less than the coarse step,
+//!    so the grid can miss its peak), and the four windows a coarse step from each of the first
+//!    (the fine score's peak is a few pixels wide, and the coarse one's may lie a step off it),
+//!    are refined on the stage's own cells by a pattern search over the position and the scale, the steps halved until they
 //!    are under [`tuning::MIN_SHIFT`] pixels, scored by the hypotheses that explain the window
 //!    best and the poses halfway to their neighbours in the eigenspace (a query between two
 //!    training views is placed best by a pose between them); the best refined window wins.
@@ -362,9 +362,10 @@ impl Stage {
         // (at one place, a part of the object matched by a view at a smaller scale, say a
         // cup's bowl by a view whose handle hides, and the whole object are two candidates).
         let mut starts: Vec<Window> = Vec::new();
-        for (key, most) in
-            [(|w: &Window| w.score) as fn(&Window) -> f32, |w| w.loose].into_iter().zip([tuning::CANDIDATES, tuning::CANDIDATES + tuning::LOOSE_CANDIDATES])
-        {
+        let mut first = 0;
+        for (key, more) in [(|w: &Window| w.score) as fn(&Window) -> f32, |w| w.loose].into_iter().zip([tuning::CANDIDATES, tuning::LOOSE_CANDIDATES]) {
+            first = starts.len();
+            let most = first + more;
             let mut ranked: Vec<&Window> = found.iter().collect();
             ranked.sort_by(|a, b| key(b).total_cmp(&key(a)).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
             for &c in ranked {
@@ -390,8 +391,7 @@ impl Stage {
             .iter()
             .enumerate()
             .flat_map(|(k, &c)| {
-                let around: &[(f64, f64)] =
-                    if k < tuning::CANDIDATES { &[(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] } else { &[(0.0, 0.0)] };
+                let around: &[(f64, f64)] = if k < first { &[(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)] } else { &[(0.0, 0.0)] };
                 around.iter().map(move |&(dx, dy)| Window { x: c.x + dx * step * c.s, y: c.y + dy * step * c.s, ..c })
             })
             .filter(|w| search.fits(w.x, w.y, w.s))
@@ -495,6 +495,10 @@ impl Shape {
 /// Cells the hypothesis leaves dark count nothing otherwise: the training views' backdrop is
 /// not the scene's, and dark clutter explaining it would outscore the object. None (minus
 /// infinity) for a hypothesis the window cannot scale or with no silhouette.
+///
+/// With the hypothesis's `envelope` ([`envelope`]), also the score with each silhouette cell's
+/// residual taken beyond the envelope's band around the hypothesis (the score of the best
+/// window up to half a cell away, nearly); without, the score twice.
 fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], shape: &Shape, envelope: Option<&[f32]>, xb: &[f32], ratios: &mut Vec<f32>) -> [f32; 2] {
     if shape.inside.is_empty() {
         return [f32::NEG_INFINITY; 2];
