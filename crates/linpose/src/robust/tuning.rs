@@ -183,7 +183,7 @@ pub(crate) const APART: f64 = 0.25;
 /// envelopes' score does not miss it, but alone it lets clutter in (all 20 COIL-20 objects in
 /// 320 x 240 texture scenes, nothing hidden, as the only ranking, with each cell's least and
 /// most value for the envelope: boxes within 3 pixels 0.953 to 0.907). What it trades: each costs one pattern search on the stage's cells, and the coarse
-/// pass scores each window twice (one 320 x 240 scene 31.8 to 35.8 ms, `cargo bench -p linpose
+/// pass scores each window twice (one 320 x 240 scene 31.8 to 34.8 ms, `cargo bench -p linpose
 /// --bench scene`). 4, not tuned, made for objects 4 and 5, whose boxes the grid missed: on all
 /// 20 (`python3 bench/locate.py`) boxes within 3 pixels 0.953 / 0.836 / 0.430 to 0.956 / 0.846
 /// / 0.440 at 0 / 20 / 40% hidden, unseen mean 2.02 / 12.2 / 51.8 to 1.78 / 11.1 / 50.3 degrees
