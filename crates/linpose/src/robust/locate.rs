@@ -23,8 +23,8 @@
 //!    textured object's coarse score falls off within a few pixels, less than the coarse step,
 //!    so the grid can miss its peak), and the four windows a coarse step from each of the first
 //!    (the fine score's peak is a few pixels wide, and the coarse one's may lie a step off it),
-//!    are refined on the stage's own cells by a pattern search over the position and the scale, the steps halved until they
-//!    are under [`tuning::MIN_SHIFT`] pixels, scored by the hypotheses that explain the window
+//!    are refined on the stage's own cells by a pattern search over the position and the
+//!    scale, the steps halved until they are under [`tuning::MIN_SHIFT`] pixels, scored by the hypotheses that explain the window
 //!    best and the poses halfway to their neighbours in the eigenspace (a query between two
 //!    training views is placed best by a pose between them); the best refined window wins.
 //! 3. **Polish.** [`tuning::POLISH`] times: the robust fit of the window (`search.rs`), then the
@@ -361,11 +361,8 @@ impl Stage {
         // centre a quarter of a window away, or its scale more than two steps of the ladder
         // (at one place, a part of the object matched by a view at a smaller scale, say a
         // cup's bowl by a view whose handle hides, and the whole object are two candidates).
-        let mut starts: Vec<Window> = Vec::new();
-        let mut first = 0;
-        for (key, more) in [(|w: &Window| w.score) as fn(&Window) -> f32, |w| w.loose].into_iter().zip([tuning::CANDIDATES, tuning::LOOSE_CANDIDATES]) {
-            first = starts.len();
-            let most = first + more;
+        let add = |starts: &mut Vec<Window>, key: fn(&Window) -> f32, more: usize| {
+            let most = starts.len() + more;
             let mut ranked: Vec<&Window> = found.iter().collect();
             ranked.sort_by(|a, b| key(b).total_cmp(&key(a)).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
             for &c in ranked {
@@ -374,13 +371,18 @@ impl Stage {
                 }
                 let apart = |o: &Window| {
                     let (dx, dy) = (c.x + 0.5 * view.0 * c.s - o.x - 0.5 * view.0 * o.s, c.y + 0.5 * view.1 * c.s - o.y - 0.5 * view.1 * o.s);
-                    dx.hypot(dy) > tuning::APART * view.0.min(view.1) * c.s || (c.s / o.s).ln().abs() > 2.0 * tuning::SCALE_RATIO.ln() + 1e-9
+                    dx.hypot(dy) > tuning::APART * view.0.min(view.1) * c.s
+                        || (c.s / o.s).ln().abs() > tuning::APART_SCALE_STEPS * tuning::SCALE_RATIO.ln() + 1e-9
                 };
                 if starts.iter().all(apart) {
                     starts.push(c);
                 }
             }
-        }
+        };
+        let mut starts: Vec<Window> = Vec::new();
+        add(&mut starts, |w| w.score, tuning::CANDIDATES);
+        let first = starts.len();
+        add(&mut starts, |w| w.loose, tuning::LOOSE_CANDIDATES);
         let shift = 0.5 * tuning::STRIDE * coarse.cell as f64;
         let ratio = 0.5 * (tuning::SCALE_RATIO - 1.0);
         // Each of the first candidates and the four windows a coarse step from it: the fine
@@ -509,6 +511,7 @@ fn silhouette_score(pred: &[f32], peak: f32, support: &[u32], shape: &Shape, env
     let (mut score, mut loose) = (0f32, 0f32);
     match envelope {
         Some(e) => {
+            // The plain score divides as the levels without envelopes do (the same bits).
             let inv = 1.0 / theta;
             for &i in &shape.inside {
                 let d = (xb[i as usize] - gain * pred[i as usize]).abs();

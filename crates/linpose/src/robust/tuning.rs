@@ -167,14 +167,20 @@ pub(crate) const STRIDE: f64 = 1.0;
 /// bench/locate.py`): 8 against 4, boxes within 3 pixels 0.944 against 0.942, unseen mean 2.32
 /// against 2.71 degrees, at about 1.4 times the time of a scene.
 pub(crate) const CANDIDATES: usize = 8;
-/// See [`CANDIDATES`]. Not tuned. (Windows more than two steps of [`SCALE_RATIO`] apart in scale
-/// are apart wherever they lie: at one place a cup's bowl, matched by a view whose handle hides
-/// at a smaller scale, and the whole cup; on all 20 COIL-20 objects in 320 x 240 texture scenes,
-/// with [`LOOSE_CANDIDATES`], boxes within 3 pixels 0.956 / 0.846 / 0.440 to 0.965 / 0.872 /
-/// 0.476 at 0 / 20 / 40% hidden, unseen mean 1.78 / 11.1 / 50.3 to 1.42 / 9.90 / 47.4 degrees; made for object 18, the cup; on the 17
-/// objects other than 4, 5 and 18 0.967 / 0.858 to 0.974 / 0.882, and 0.93 / 10.55 to 0.95 /
-/// 9.30 degrees.)
+/// See [`CANDIDATES`]. Not tuned.
 pub(crate) const APART: f64 = 0.25;
+
+/// Coarse windows more than this many steps of [`SCALE_RATIO`] apart in scale are apart wherever
+/// they lie (see [`CANDIDATES`]): at one place a cup's bowl, matched at a smaller scale by a view
+/// whose handle hides, and the whole cup are two candidates. What it trades: fewer steps let
+/// the one object's neighbouring scales take the candidates' places; more leave the part and
+/// the whole as one. 2, not tuned, made for COIL-20 object 18 (the cup): on all 20 objects in
+/// 320 x 240 texture scenes (`python3 bench/locate.py`, with [`LOOSE_CANDIDATES`]) boxes within
+/// 3 pixels 0.956 / 0.846 / 0.440 to 0.965 / 0.872 / 0.476 at 0 / 20 / 40% hidden, unseen mean
+/// 1.78 / 11.1 / 50.3 to 1.42 / 9.90 / 47.4 degrees (object 18 18.1 to 10.8 with nothing
+/// hidden); on the 17 objects other than 4, 5 and 18, 0.967 / 0.858 to 0.974 / 0.882 at 0 / 20%
+/// hidden, and 0.93 / 10.55 to 0.95 / 9.30 degrees.
+pub(crate) const APART_SCALE_STEPS: f64 = 2.0;
 
 /// Coarse windows refined besides the [`CANDIDATES`], the best by their score within the
 /// hypotheses' envelopes (a window up to half a cell off the object read as the object; apart as
