@@ -107,7 +107,7 @@ impl RobustObjects {
             .objects()
             .par_iter()
             .zip(objects.names())
-            .map(|(d, name)| Stage::fit(d).map(Stage::without_views).map_err(|e| Error::invalid("robust stage", format!("object '{name}'"), e.to_string())))
+            .map(|(d, name)| Stage::fit_bare(d).map_err(|e| Error::invalid("robust stage", format!("object '{name}'"), e.to_string())))
             .collect::<Result<Vec<Stage>>>()?;
         Self::of(stages)
     }

@@ -28,7 +28,9 @@
 //! for that). It costs one robust fit per synthetic query (about
 //! `HIDDEN_VIEWS x HIDDEN_SHARES x HIDDEN_DRAWS`, a few hundred) when the stage is fitted.
 
-use super::{tuning, Stage};
+use super::reread::Reread;
+use super::scan::Lattice;
+use super::{search, tuning, Stage};
 use crate::confidence::GROSS_DEG;
 use crate::dataset::Dataset;
 use rand::{Rng, SeedableRng};
@@ -66,19 +68,23 @@ pub(super) fn calibrate(stage: &Stage, train: &Dataset) -> [f64; 2] {
 /// views give the same outcomes.
 fn outcomes(stage: &Stage, train: &Dataset) -> Vec<Outcome> {
     let n = train.len();
-    let k = stage.settings.rows;
     let mb = stage.binning.spec().features();
     let mut views = vec![0f32; n * mb];
     let mut acc = Vec::new();
     for (i, v) in views.chunks_exact_mut(mb).enumerate() {
         stage.binning.apply(train.row(i), v, &mut acc);
     }
-    // The stage's hypotheses are the training views taken every `step`.
-    let step = super::hypothesis_step(n);
-    let space = train.space();
-    let every = n.div_ceil(tuning::HIDDEN_VIEWS).max(1);
-    let jobs: Vec<(usize, usize, usize)> =
-        (0..n).step_by(every).flat_map(|i| (0..tuning::HIDDEN_SHARES.len()).flat_map(move |s| (0..tuning::HIDDEN_DRAWS).map(move |d| (i, s, d)))).collect();
+    let held = held_out(stage, train, &views);
+    let (lattice, queries) = match &held {
+        Some((l, off)) => (Some(l), off.clone()),
+        None => (stage.lattice.as_ref(), (0..n).collect()),
+    };
+    let every = queries.len().div_ceil(tuning::HIDDEN_VIEWS).max(1);
+    let jobs: Vec<(usize, usize, usize)> = queries
+        .iter()
+        .step_by(every)
+        .flat_map(|&i| (0..tuning::HIDDEN_SHARES.len()).flat_map(move |s| (0..tuning::HIDDEN_DRAWS).map(move |d| (i, s, d))))
+        .collect();
     jobs.par_iter()
         .filter_map(|&(i, s, d)| {
             let mut rng = ChaCha8Rng::seed_from_u64(((i as u64) << 20) ^ ((s as u64) << 10) ^ d as u64);
@@ -88,16 +94,61 @@ fn outcomes(stage: &Stage, train: &Dataset) -> Vec<Outcome> {
                 // The check passes it: it is answered as it is, its confidence untouched.
                 return None;
             }
-            let fit = stage.fit_binned(&xb);
-            let right = fit.coef[0] > 0.0 && {
-                let y: Vec<f64> = fit.coef[1..].iter().map(|c| c / fit.coef[0]).collect();
-                let dist = |h: usize| stage.hyps[h * k + 1..(h + 1) * k].iter().zip(&y).map(|(&a, b)| (a as f64 - b).powi(2)).sum::<f64>();
-                let best = (0..stage.hyps.len() / k).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
-                best.is_some_and(|h| space.error_deg(train.pose(i), train.pose(h * step)) <= GROSS_DEG)
-            };
-            Some((fit.shown, right))
+            let fit = search::fit_on(stage, &xb, &search::coarse_on(stage, &xb, lattice), lattice);
+            Some((fit.shown, reads_right(stage, train, i, &fit)))
         })
         .collect()
+}
+
+/// Whether `fit` of a hidden view of training view `i` reads its pose right: the pose of the
+/// lattice hypothesis it started from, or else of the hypothesis nearest its coefficients (in
+/// its gain), within [`GROSS_DEG`] of the view's.
+fn reads_right(stage: &Stage, train: &Dataset, i: usize, fit: &super::Fit) -> bool {
+    reads_right_at(stage, train, train.pose(i), fit)
+}
+
+/// [`reads_right`] of a view at `truth`.
+pub(super) fn reads_right_at(stage: &Stage, train: &Dataset, truth: &[f64], fit: &super::Fit) -> bool {
+    let space = train.space();
+    if let Some(pose) = &fit.pose {
+        return space.error_deg(truth, pose) <= GROSS_DEG;
+    }
+    let k = stage.settings.rows;
+    // The stage's hypotheses are the training views taken every `step`.
+    let step = super::hypothesis_step(train.len());
+    fit.coef[0] > 0.0 && {
+        let y: Vec<f64> = fit.coef[1..].iter().map(|c| c / fit.coef[0]).collect();
+        let dist = |h: usize| stage.hyps[h * k + 1..(h + 1) * k].iter().zip(&y).map(|(&a, b)| (a as f64 - b).powi(2)).sum::<f64>();
+        let best = (0..stage.hyps.len() / k).min_by(|&a, &b| dist(a).total_cmp(&dist(b)));
+        best.is_some_and(|h| space.error_deg(truth, train.pose(h * step)) <= GROSS_DEG)
+    }
+}
+
+/// For a stage with a dense lattice (`scan.rs`): the lattice of the training views at every
+/// other value of each parameter of at least four values (knots twice as far apart), and the
+/// views off it, each as far from its nearest knots as a query halfway between two training
+/// views is from the stage's own, at twice the spacing; None without a lattice, or when the
+/// views at every other value are not a lattice the reread can interpolate.
+fn held_out(stage: &Stage, train: &Dataset, views: &[f32]) -> Option<(Lattice, Vec<usize>)> {
+    stage.lattice.as_ref()?;
+    let (n, mb, space) = (train.len(), stage.binning.spec().features(), train.space());
+    let values: Vec<Vec<f64>> = (0..space.len())
+        .map(|j| {
+            let mut v: Vec<f64> = (0..n).map(|i| train.pose(i)[j]).collect();
+            v.sort_by(f64::total_cmp);
+            v.dedup();
+            v
+        })
+        .collect();
+    let kept = |i: usize| values.iter().zip(train.pose(i)).all(|(v, &t)| v.len() < 4 || v.iter().position(|&u| u == t).is_some_and(|k| k % 2 == 0));
+    let (knots, off): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| kept(i));
+    if off.is_empty() {
+        return None;
+    }
+    let kv: Vec<f32> = knots.iter().flat_map(|&i| views[i * mb..(i + 1) * mb].iter().copied()).collect();
+    let kp: Vec<f64> = knots.iter().flat_map(|&i| train.pose(i).iter().copied()).collect();
+    let reread = Reread::of(&kv, &kp, space, stage.binning.spec())?;
+    Some((Lattice::of(&reread, &stage.binned, &stage.support)?, off))
 }
 
 /// Training view `i` of the binned `views` (rows of the stage's binned size) on clutter and

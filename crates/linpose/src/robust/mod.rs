@@ -15,12 +15,14 @@
 //!    off the eigenspace tells scenes from studio views less well: a view between the training
 //!    views leaves a residual on the object where its pose moves it, as large on some objects as
 //!    a scene's. This costs one binning and 2K products of M / b^2.
-//! 2. **Hypothesize and test** (`search.rs`). Hypotheses are the training views' coefficients,
-//!    each with the gain that best fits the query (a median of ratios over its bright pixels);
-//!    each is scored by the pixels it explains; the best few are refined by re-solving the
-//!    coefficients on the pixels they explain and finding those again; the one that explains the
-//!    most pixels is kept (the minimum-description-length choice of the paper, at a fixed cost
-//!    per pixel).
+//! 2. **Hypothesize and test** (`search.rs`). Hypotheses are the training views interpolated on
+//!    a fine lattice of poses where the training poses form one (`scan.rs`), else the training
+//!    views' coefficients, each with the gain that best fits the query (a median of ratios over
+//!    its bright pixels); each is scored by the pixels it explains (the lattice's tightly, each
+//!    pixel weighed by how much of its neighbourhood is explained, `coherence.rs`); the best
+//!    (without a lattice, the best few) are refined by re-solving the coefficients on the pixels
+//!    they explain and finding those again; the one that explains the most pixels is kept (the
+//!    minimum-description-length choice of the paper, at a fixed cost per pixel).
 //! 3. **Repair** (`repair.rs`). The query's own pixels are kept where their bin and its four
 //!    neighbours are explained (within a tolerance that the training views' own detail widens,
 //!    `detail.rs`), or lie in a small island of unexplained bins within the object; every
@@ -42,12 +44,14 @@
 
 mod calibrate;
 mod check;
+mod coherence;
 mod detail;
 mod hidden;
 mod locate;
 mod model;
 mod repair;
 mod reread;
+mod scan;
 mod search;
 mod settle;
 pub(crate) mod tuning;
@@ -118,6 +122,8 @@ pub(crate) struct Stage {
     /// The training views interpolated over their pose lattice: what a repaired query's answer
     /// is read again against (`reread.rs`); None without the views or a lattice.
     reread: Option<Reread>,
+    /// The dense first pass's hypotheses (`scan.rs`); None without the reread.
+    lattice: Option<scan::Lattice>,
 }
 
 /// A robust fit of one query.
@@ -132,11 +138,24 @@ pub(crate) struct Fit {
     pub shown: f64,
     /// The pixel residual under which a pixel is explained (the inlier threshold of the fit).
     pub theta: f32,
+    /// The pose of the lattice hypothesis it started from (`scan.rs`); None without a lattice.
+    pub pose: Option<Vec<f64>>,
 }
 
 impl Stage {
-    /// The stage of `train`'s views: their eigenspace, its binning and threshold.
+    /// The stage of `train`'s views: their eigenspace, its binning and threshold, and the views
+    /// themselves binned (what a repaired query's answer is checked and read again against).
     pub(crate) fn fit(train: &Dataset) -> Result<Stage> {
+        Self::fit_with(train, true)
+    }
+
+    /// [`Stage::fit`] without the training views (a many-object model's stage, which does not
+    /// check its answers against them), calibrated as it will serve.
+    pub(crate) fn fit_bare(train: &Dataset) -> Result<Stage> {
+        Self::fit_with(train, false)
+    }
+
+    fn fit_with(train: &Dataset, keep_views: bool) -> Result<Stage> {
         let spec = train.spec();
         if spec.color != ColorMode::Gray {
             return Err(Error::invalid("robust", "colour views", "robust estimation takes gray views; train on gray images (--color gray)"));
@@ -149,8 +168,8 @@ impl Stage {
         let threshold = calibrate::threshold(train, binning)? * tuning::THRESHOLD_FACTOR;
         let settings = RobustSettings { bin: binning.factor(), rows: l + 1, threshold, hidden: None };
         debug_assert_eq!(rows.len(), (l + 1) * m);
-        let views = Views::of(train, binning);
-        let mut stage = Stage::new(spec, settings, rows, hyps, Some(views))?;
+        let views = keep_views.then(|| Views::of(train, binning));
+        let mut stage = Stage::new(spec, settings, rows, hyps, views)?;
         stage.settings.hidden = Some(hidden::calibrate(&stage, train));
         Ok(stage)
     }
@@ -197,7 +216,8 @@ impl Stage {
         let support: Vec<u32> =
             (0..mb as u32).filter(|&i| binned.pixel(i as usize).iter().zip(&most).any(|(&v, &top)| v.abs() > tuning::SUPPORT * top)).collect();
         let table = search::Table::new(&preds, &peaks, &support);
-        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views, detail, reread })
+        let lattice = reread.as_ref().and_then(|r| scan::Lattice::of(r, &binned, &support));
+        Ok(Stage { settings, binning, m, rows, binned, hyps, preds, peaks, table, support, views, detail, reread, lattice })
     }
 
     /// Its settings.
@@ -221,12 +241,13 @@ impl Stage {
         self.views.as_ref().map(Views::arrays)
     }
 
-    /// The same stage without its training views (a many-object model's, which does not check
-    /// its answers against them).
+    /// The same stage without its training views.
+    #[cfg(test)]
     pub(crate) fn without_views(mut self) -> Stage {
         self.views = None;
         self.detail = None;
         self.reread = None;
+        self.lattice = None;
         self
     }
 

@@ -76,8 +76,9 @@ impl Stage {
         let w = self.binning.full().width as usize;
         let whole = |bin: usize| (0..b * b).all(|k| kept[(bin / wb * b + k / b) * w + bin % wb * b + k % b]);
         let kept = self.support.iter().copied().filter(|&i| whole(i as usize)).collect();
-        let fit_pose = match (&self.detail, &self.views) {
-            (Some(d), Some(v)) => d.nearest(&fit.coef).map(|i| v.pose(i)),
+        let fit_pose = match (&fit.pose, &self.detail, &self.views) {
+            (Some(p), _, _) => Some(p.clone()),
+            (None, Some(d), Some(v)) => d.nearest(&fit.coef).map(|i| v.pose(i)),
             _ => None,
         };
         Evidence { fit_pose, xb, kept, theta: fit.theta, settled: None }

@@ -1,8 +1,10 @@
 //! The hypothesize-and-test search of the robust fit (see the module doc of `robust`): score the
-//! training views' coefficients, each in the gain that fits the query best; refine the best few
-//! by re-solving on their explained pixels with a tightening threshold; keep the best. A
-//! hypothesis's score is a description length in pixels: the binned pixels it explains, less its
-//! own object's pixels it leaves unexplained (after the re-solves, each explained pixel counts
+//! hypotheses (the dense lattice of `scan.rs` where the stage has one, else the training views'
+//! coefficients), each in the gain that fits the query best; refine the best (without a lattice,
+//! the best few) by re-solving on their explained pixels with a tightening threshold; keep the
+//! best. A hypothesis's score is a description length in pixels: the binned pixels it explains,
+//! less its own object's pixels it leaves unexplained (on the lattice each pixel weighed by its
+//! neighbourhood, `coherence.rs`; after the re-solves, each explained pixel counts
 //! 1 - (r / theta)^2, so a closer fit scores higher). Without that penalty a wide silhouette
 //! (a car seen from the side) "explains" background of the object's brightness and wins over the
 //! right, narrower pose: on COIL-20 objects 1-6 in texture scenes (20% hidden, refined) the
@@ -10,7 +12,8 @@
 //! on the stage's support (the binned pixels where the model has energy): elsewhere no
 //! coefficient changes the reconstruction.
 
-use super::{tuning, Fit, Stage};
+use super::scan::Lattice;
+use super::{coherence, tuning, Fit, Stage};
 
 /// The best refined hypothesis so far.
 struct Best {
@@ -21,6 +24,7 @@ struct Best {
     /// The reconstruction's bright binned pixels, and how many of them are explained.
     object: usize,
     seen: usize,
+    pose: Option<Vec<f64>>,
 }
 
 /// The first pass of the robust fit of one query on one stage: every hypothesis scored in its
@@ -28,11 +32,13 @@ struct Best {
 pub(crate) struct Coarse {
     /// Per hypothesis scored, best first: (explained less missed binned pixels, the hypothesis,
     /// its gain, its mean bright pixel in that gain).
-    scored: Vec<(i64, usize, f32, f32)>,
+    scored: Vec<(f32, usize, f32, f32)>,
     /// The largest share of a hypothesis's bright binned pixels that the query matches within
     /// the coarse threshold: how much of the stage's object the query shows at best, whatever
     /// else it shows. Many objects' stages compare by it (`crate::recognize`'s robust stage).
     pub(crate) share: f64,
+    /// Whether the hypotheses are the stage's lattice (`scan.rs`).
+    lattice: bool,
 }
 
 /// The hypotheses' binned images laid out for the first pass: each one's values on the stage's
@@ -73,16 +79,54 @@ impl Table {
         }
         Table { values, bright, starts, sums }
     }
+
+    /// H x S: each hypothesis's values on the support.
+    #[cfg(test)]
+    pub(crate) fn values(&self) -> &[f32] {
+        &self.values
+    }
+
+    /// Hypothesis `h`'s bright pixels (positions in the support).
+    pub(crate) fn bright(&self, h: usize) -> &[u32] {
+        &self.bright[self.starts[h]..self.starts[h + 1]]
+    }
 }
 
-/// Scores every hypothesis of `stage` on the binned query `xb` (the first pass of [`fit`]).
+/// Scores every hypothesis of `stage` on the binned query `xb` (the first pass of [`fit`]): the
+/// dense lattice of views where the stage has one (`scan.rs`), else the training views'
+/// coefficients.
 pub(super) fn coarse(stage: &Stage, xb: &[f32]) -> Coarse {
-    let table = &stage.table;
+    coarse_on(stage, xb, stage.lattice.as_ref())
+}
+
+/// [`coarse`] on the dense lattice `lattice` in place of the stage's own.
+pub(super) fn coarse_on(stage: &Stage, xb: &[f32], lattice: Option<&Lattice>) -> Coarse {
+    match lattice {
+        Some(l) => {
+            let (scored, share) = score(stage, xb, &l.table, &l.peaks, Some(tuning::SCAN));
+            Coarse { scored, share, lattice: true }
+        }
+        _ => {
+            let (scored, share) = score(stage, xb, &stage.table, &stage.peaks, None);
+            Coarse { scored, share, lattice: false }
+        }
+    }
+}
+
+/// Every hypothesis of `table` (brightest values `peaks`) scored on the binned query `xb`, best
+/// first, each in the gain that fits the query best: the pixels it explains within
+/// [`tuning::COARSE`] of its mean bright pixel less its bright pixels it leaves unexplained; or,
+/// with `tight`, the same within `tight` of it, each pixel weighed by its neighbourhood
+/// (`coherence.rs`). With the largest share of a hypothesis's bright pixels matched within
+/// [`tuning::COARSE`] (`Coarse::share`).
+fn score(stage: &Stage, xb: &[f32], table: &Table, peaks: &[f32], tight: Option<f32>) -> (Vec<(f32, usize, f32, f32)>, f64) {
     let s = stage.support.len();
+    let width = stage.binning.spec().width as usize;
     let xs: Vec<f32> = stage.support.iter().map(|&i| xb[i as usize]).collect();
-    let mut scored: Vec<(i64, usize, f32, f32)> = Vec::new();
+    let mut scored: Vec<(f32, usize, f32, f32)> = Vec::new();
     let mut share = 0f64;
-    let mut ratios = Vec::new();
+    let (mut ratios, mut rows) = (Vec::new(), Vec::new());
+    let (mut ok, mut near) = (vec![false; xb.len()], vec![0u8; xb.len()]);
     for (h, ps) in table.values.chunks_exact(s.max(1)).enumerate() {
         let bright = &table.bright[table.starts[h]..table.starts[h + 1]];
         ratios.clear();
@@ -90,32 +134,64 @@ pub(super) fn coarse(stage: &Stage, xb: &[f32]) -> Coarse {
         let Some(gain) = median_gain(&mut ratios) else { continue };
         let count = bright.len();
         let scale = gain * table.sums[h] / count as f32;
-        let level = tuning::BRIGHT * stage.peaks[h];
+        let level = tuning::BRIGHT * peaks[h];
         let theta = tuning::COARSE * scale;
-        let (mut explained, mut missed, mut matched) = (0u32, 0u32, 0u32);
-        for (&x, &p) in xs.iter().zip(ps) {
-            let ok = (x - gain * p).abs() < theta;
-            let lit = p > level;
-            explained += ok as u32;
-            missed += (!ok && lit) as u32;
-            matched += (ok && lit) as u32;
-        }
+        let (value, matched) = match tight {
+            None => {
+                let (mut explained, mut missed, mut matched) = (0u32, 0u32, 0u32);
+                for (&x, &p) in xs.iter().zip(ps) {
+                    let ok = (x - gain * p).abs() < theta;
+                    let lit = p > level;
+                    explained += ok as u32;
+                    missed += (!ok && lit) as u32;
+                    matched += (ok && lit) as u32;
+                }
+                (explained as f32 - missed as f32, matched)
+            }
+            Some(t) => {
+                let tight = t * scale;
+                // Beyond the support the hypothesis is dark.
+                ok.iter_mut().zip(xb).for_each(|(o, &x)| *o = x.abs() < tight);
+                let mut matched = 0u32;
+                for ((&x, &p), &i) in xs.iter().zip(ps).zip(&stage.support) {
+                    let r = (x - gain * p).abs();
+                    ok[i as usize] = r < tight;
+                    matched += (r < theta && p > level) as u32;
+                }
+                coherence::neighbourhood(&ok, width, &mut near, &mut rows);
+                let explained: u32 = ok.iter().zip(&near).map(|(&o, &n)| o as u32 * n as u32).sum();
+                let missed: u32 = ps.iter().zip(&stage.support).filter(|(&p, &i)| p > level && !ok[i as usize]).map(|(_, &i)| near[i as usize] as u32).sum();
+                ((explained as f32 - missed as f32) / 9.0, matched)
+            }
+        };
         share = share.max(matched as f64 / count as f64);
-        scored.push((i64::from(explained) - i64::from(missed), h, gain, scale));
+        scored.push((value, h, gain, scale));
     }
-    scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
-    Coarse { scored, share }
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    (scored, share)
 }
 
-/// The robust fit of the binned query `xb` on `stage`, its first pass `coarse` done.
+/// The robust fit of the binned query `xb` on `stage`, its first pass `coarse` done. The best
+/// few training views are refined and the best refined kept; the lattice's best (`scan.rs`)
+/// is refined alone, the scan having scored the details the refine's reconstruction blurs.
 pub(super) fn fit(stage: &Stage, xb: &[f32], coarse: &Coarse) -> Fit {
+    fit_on(stage, xb, coarse, stage.lattice.as_ref())
+}
+
+/// [`fit`] from a first pass on `lattice` ([`coarse_on`]).
+pub(super) fn fit_on(stage: &Stage, xb: &[f32], coarse: &Coarse, lattice: Option<&Lattice>) -> Fit {
     let anneal = &tuning::ANNEAL;
     let k = stage.settings.rows;
     let mb = xb.len();
+    let lattice = lattice.filter(|_| coarse.lattice);
     // 2. Refine the best few; 3. keep the best scored.
     let mut best: Option<Best> = None;
-    for &(_, h, gain, scale) in coarse.scored.iter().take(tuning::REFINED) {
-        let mut coef: Vec<f64> = stage.hyps[h * k..(h + 1) * k].iter().map(|&v| (v * gain) as f64).collect();
+    for &(_, h, gain, scale) in coarse.scored.iter().take(if lattice.is_some() { 1 } else { tuning::REFINED }) {
+        let start = match lattice {
+            Some(l) => l.coef(h),
+            None => &stage.hyps[h * k..(h + 1) * k],
+        };
+        let mut coef: Vec<f64> = start.iter().map(|&v| (v * gain) as f64).collect();
         let mut inlier = vec![false; mb];
         let mut score = 0.0;
         for (it, &share) in anneal.iter().enumerate() {
@@ -129,20 +205,27 @@ pub(super) fn fit(stage: &Stage, xb: &[f32], coarse: &Coarse) -> Fit {
                 None => break,
             }
         }
-        let (object, seen) = object_seen(stage, &coef, &inlier, scale);
+        // How much of the object the query shows: of the lattice view's bright pixels (the
+        // whole object at its pose), or else of the reconstruction's, which the re-solves
+        // shape to the pixels seen.
+        let (object, seen) = match lattice {
+            Some(l) => l.seen(h, &stage.support, &inlier),
+            None => object_seen(stage, &coef, &inlier, scale),
+        };
         let score = score - (object - seen) as f64;
         if best.as_ref().is_none_or(|b| score > b.score) {
-            best = Some(Best { score, coef, inlier, scale, object, seen });
+            let pose = lattice.map(|l| l.pose(h).to_vec());
+            best = Some(Best { score, coef, inlier, scale, object, seen, pose });
         }
     }
-    let Some(Best { coef, inlier, scale, object, seen, .. }) = best else {
+    let Some(Best { coef, inlier, scale, object, seen, pose, .. }) = best else {
         // No hypothesis has a bright pixel the query can scale: the least-squares fit on all.
         let all = vec![true; mb];
         let coef = solve_on(stage, xb, &all).unwrap_or_else(|| vec![0.0; k]);
-        return Fit { coef, inlier: all, shown: 0.0, theta: 0.0 };
+        return Fit { coef, inlier: all, shown: 0.0, theta: 0.0, pose: None };
     };
     let shown = if object == 0 { 0.0 } else { seen as f64 / object as f64 };
-    Fit { coef, inlier, shown, theta: tuning::ANNEAL[tuning::ANNEAL.len() - 1] * scale }
+    Fit { coef, inlier, shown, theta: tuning::ANNEAL[tuning::ANNEAL.len() - 1] * scale, pose }
 }
 
 /// The gain in which the hypothesis whose binned image is `pred` (brightest `peak`) fits the
@@ -178,7 +261,8 @@ fn median_gain(ratios: &mut [f32]) -> Option<f32> {
 }
 
 /// Marks the binned pixels the coefficients `coef` explain within `theta` (outside the support:
-/// those the query leaves dark); returns the count on the support.
+/// those the query leaves dark); returns the count on the support and their sum of
+/// 1 - (r / theta)^2.
 fn mark(stage: &Stage, xb: &[f32], coef: &[f64], theta: f32, inlier: &mut [bool]) -> (usize, f64) {
     inlier.iter_mut().zip(xb).for_each(|(v, &x)| *v = x.abs() < theta);
     let c: Vec<f32> = coef.iter().map(|&v| v as f32).collect();

@@ -50,7 +50,8 @@ pub(crate) const DARK: f64 = 0.1;
 /// near them. Training views every 10 degrees give 36; not tuned.
 pub(crate) const MAX_HYPOTHESES: usize = 72;
 
-/// Hypotheses refined by re-solving (the best by their score). What it trades: each costs
+/// Hypotheses refined by re-solving (the best by their score), in a stage without a dense
+/// lattice (`scan.rs`; with one, its best alone is refined). What it trades: each costs
 /// [`ANNEAL`] weighted solves; one alone may be a wrong pose whose silhouette happens to fit. 3
 /// against 6 on COIL-20 objects 1-6 in texture scenes (refined): no better on the whole (6:
 /// object 5 at 40% hidden 2.5 against 5.2 degrees, object 3 32 against 17).
@@ -306,3 +307,30 @@ pub(crate) const SETTLE_SHIFT: f64 = 1.0;
 /// [`SETTLE_SHIFT`] to a quarter of it, from a degree to a quarter. What it trades: each level is
 /// one more sweep of 2 (P + 3) evaluations at least. Not tuned.
 pub(crate) const SETTLE_LEVELS: usize = 3;
+
+/// The dense first pass (`scan.rs`): its views per training interval of each pose parameter.
+/// What it trades: each is one more hypothesis scored per query (a pass over the binned pixels
+/// and its neighbourhoods); fewer leave the query further from the nearest view, whose misses
+/// then blur the details the tight threshold is there to see. Not tuned; in the numpy prototype
+/// of the pass (COIL-20 objects 1, 3, 6, 9, 12, 16, 18 and 19 in texture scenes, 40% hidden, the
+/// interpolated views scored as `scan.rs` scores them), views every 2.5 degrees (4 per interval)
+/// against every 5 and every 10: 9, 15 and 31 gross errors of 288.
+pub(crate) const LATTICE_STEPS: usize = 4;
+
+/// The dense first pass holds at most this many views (fewer per interval when more would be
+/// needed; with two or three pose parameters, often the training views alone). What it trades:
+/// memory (the views and their coefficients, M_b + K numbers each, none in the model file) and
+/// time per query, both in proportion. Sixteen times the 36 views of a ring at 10 degrees; not
+/// tuned.
+pub(crate) const LATTICE_MOST: usize = 576;
+
+/// The dense first pass's threshold, as a share of a hypothesis's mean bright pixel (in the
+/// query's gain): the refine's last ([`ANNEAL`]'s), as it was not tuned for itself. What it
+/// trades: tighter drops the object's own pixels where the interpolation misses them (more than
+/// the details that tell two sides apart); looser lets clutter of the object's brightness
+/// count. In the numpy prototype (as for [`LATTICE_STEPS`]), 0.08, 0.1, 0.12 and 0.15: 15, 9,
+/// 8 and 17 gross errors of 288; the same count unweighed, at 0.1: 32. On the twelve other
+/// objects (not used to choose it): 3 gross errors of 432 at 0.1 and at 0.12. In linpose (`bench/scenes.py`, refined `--robust`, all 20
+/// objects, 0 / 20 / 40% hidden): 0.92 / 1.08 / 2.67 degrees against 0.92 / 1.16 / 4.96 with
+/// the training views' coefficients scored within [`COARSE`].
+pub(crate) const SCAN: f32 = 0.1;
