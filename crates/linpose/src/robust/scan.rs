@@ -7,8 +7,19 @@
 //! either of them by as much as the detail that tells the two sides of a toy car apart: scored
 //! at a loose threshold that misses nothing the pose moves, half a turn away scores as well as
 //! the truth once much of the object is hidden. The views themselves, interpolated (the
-//! reread's surface, `reread.rs`) to within a quarter of a training interval of any pose, keep
-//! that detail, so they can be scored tightly, where the details decide.
+//! reread's surface, `reread.rs`) every quarter of a training interval, keep that detail, so
+//! they can be scored tightly, where the details decide. The best is the fit's start, and its
+//! pose the fit's own (`verify.rs`).
+//!
+//! Measured on COIL-20 in texture scenes (`bench/scenes.py`, refined `--robust`, trained every
+//! 10 degrees, the views between; 0 / 20 / 40% hidden): 0.92 / 1.16 / 4.96 degrees with the
+//! training views' coefficients as the hypotheses, 0.92 / 1.08 / 2.67 with the lattice; 29
+//! gross errors of 720 at 40% hidden against 12. It was built on objects 1, 3, 6, 9, 12, 16, 18
+//! and 19 at 40% hidden (8.1 to 4.9 degrees there); the twelve others went from 2.86 to 1.18.
+//! It costs per query one pass over the binned pixels and their neighbourhoods per view (144
+//! views for a ring of 36): a repaired 128 x 128 query took 0.89 ms against 0.66
+//! (`cargo bench -p linpose --bench scene`). It needs the training poses on a lattice, as the
+//! reread does; without one, the stage's hypotheses are the training views' coefficients.
 
 use super::check::Basis;
 use super::reread::Reread;

@@ -21,17 +21,20 @@ struct Best {
     coef: Vec<f64>,
     inlier: Vec<bool>,
     scale: f32,
-    /// The reconstruction's bright binned pixels, and how many of them are explained.
+    /// The object's bright binned pixels (the lattice view's, or the reconstruction's), and how
+    /// many of them are explained.
     object: usize,
     seen: usize,
+    /// The lattice hypothesis's pose (None without a lattice).
     pose: Option<Vec<f64>>,
 }
 
 /// The first pass of the robust fit of one query on one stage: every hypothesis scored in its
 /// own gain.
 pub(crate) struct Coarse {
-    /// Per hypothesis scored, best first: (explained less missed binned pixels, the hypothesis,
-    /// its gain, its mean bright pixel in that gain).
+    /// Per hypothesis scored, best first: (its score, the explained binned pixels less the
+    /// missed as [`score`] weighs them; the hypothesis; its gain; its mean bright pixel in that
+    /// gain).
     scored: Vec<(f32, usize, f32, f32)>,
     /// The largest share of a hypothesis's bright binned pixels that the query matches within
     /// the coarse threshold: how much of the stage's object the query shows at best, whatever
@@ -106,7 +109,7 @@ pub(super) fn coarse_on(stage: &Stage, xb: &[f32], lattice: Option<&Lattice>) ->
             let (scored, share) = score(stage, xb, &l.table, &l.peaks, Some(tuning::SCAN));
             Coarse { scored, share, lattice: true }
         }
-        _ => {
+        None => {
             let (scored, share) = score(stage, xb, &stage.table, &stage.peaks, None);
             Coarse { scored, share, lattice: false }
         }
