@@ -60,6 +60,13 @@ pub(crate) struct Table {
     sums: Vec<f32>,
 }
 
+impl Coarse {
+    /// The best hypothesis's score.
+    pub(crate) fn top(&self) -> Option<f32> {
+        self.scored.first().map(|v| v.0)
+    }
+}
+
 impl Table {
     /// The table of the hypotheses' binned images `preds` (H x M_b) of brightest `peaks` on
     /// `support`.
