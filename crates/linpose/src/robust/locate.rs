@@ -36,8 +36,8 @@
 //!    a window by the share of a silhouette it explains, so a part of the object matched by a
 //!    view at a smaller scale (a cup's bowl, by a view whose handle hides) can win it; the
 //!    whole explains more of the scene. Windows of nearly one scale are left to the refine: the
-//!    tight first pass is too sensitive to a window's sub-pixel place to rank those. On COIL-20 in 320 x 240 scenes (`bench/locate.py`, 0 /
-//!    20 / 40% hidden) it took the boxes within 3 px from 96.4 / 87.2 / 47.8% to 96.8 / 87.6 /
+//!    tight first pass is too sensitive to a window's sub-pixel place to rank those. On COIL-20
+//!    in 320 x 240 scenes (`bench/locate.py`, 0 / 20 / 40% hidden) it took the boxes within 3 px from 96.4 / 87.2 / 47.8% to 96.8 / 87.6 /
 //!    49.6% and the pose from 1.44 / 9.58 / 47.3 to 1.22 / 9.20 / 45.8 degrees (the cup, object
 //!    18, at 0% hidden: 10.4 to 5.97). It was built looking at objects 2, 3, 4, 9, 11, 18 and 19
 //!    at 0 and 20% hidden; the eleven others went from 0.72 / 3.60 / 37.9 to 0.72 / 3.37 / 36.5

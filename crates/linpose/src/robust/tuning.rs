@@ -180,7 +180,8 @@ pub(crate) const APART: f64 = 0.25;
 /// 3 pixels 0.956 / 0.846 / 0.440 to 0.965 / 0.872 / 0.476 at 0 / 20 / 40% hidden, unseen mean
 /// 1.78 / 11.1 / 50.3 to 1.42 / 9.90 / 47.4 degrees (object 18 18.1 to 10.8 with nothing
 /// hidden); on the 17 objects other than 4, 5 and 18, 0.967 / 0.858 to 0.974 / 0.882 at 0 / 20%
-/// hidden, and 0.93 / 10.55 to 0.95 / 9.30 degrees.
+/// hidden, and 0.93 / 10.55 to 0.95 / 9.30 degrees. The same steps tell the part from the
+/// whole when the refined windows are arbitrated (`locate.rs`, step 3).
 pub(crate) const APART_SCALE_STEPS: f64 = 2.0;
 
 /// Coarse windows refined besides the [`CANDIDATES`], the best by their score within the
