@@ -21,6 +21,16 @@ pub(crate) trait Basis {
     fn project(&self, xb: &[f32], p: &mut [f64]);
     /// `recon = S coef` in f64 (M_b values): each pixel over the rows in order.
     fn reconstruct(&self, coef: &[f64], recon: &mut [f64]);
+    /// The least-squares coefficients of `xb` on the rows (K values): `coef = G^-1 p`, with
+    /// `p` ([`Basis::project`], K values) as scratch.
+    fn coefficients(&self, xb: &[f32], p: &mut [f64], coef: &mut [f64]) {
+        let (k, _) = self.shape();
+        self.project(xb, p);
+        let ginv = self.ginv();
+        for (a, c) in coef.iter_mut().enumerate() {
+            *c = (0..k).map(|b| ginv[a * k + b] * p[b]).sum();
+        }
+    }
 }
 
 /// The stage's binned rows (f32) in the two layouts the check reads, with the inverse of their
@@ -103,11 +113,7 @@ pub(crate) fn dark_share(basis: &impl Basis, xb: &[f32], scratch: &mut Vec<f64>)
     scratch.resize(mb + 2 * k, 0.0);
     let (recon, rest) = scratch.split_at_mut(mb);
     let (p, coef) = rest.split_at_mut(k);
-    basis.project(xb, p);
-    let ginv = basis.ginv();
-    for (a, c) in coef.iter_mut().enumerate() {
-        *c = (0..k).map(|c| ginv[a * k + c] * p[c]).sum();
-    }
+    basis.coefficients(xb, p, coef);
     basis.reconstruct(coef, recon);
     let dim = tuning::DARK * recon::peak(Level::detect(), recon);
     // The energy and the dark part, each over the pixels in order (those of value 0 add

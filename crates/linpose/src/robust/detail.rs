@@ -43,14 +43,10 @@ impl Detail {
         if k < 2 {
             return None;
         }
-        let ginv = binned.ginv();
         let (mut coords, mut residual) = (Vec::new(), Vec::new());
         let (mut proj, mut coef, mut recon) = (vec![0f64; k], vec![0f64; k], vec![0f64; mb]);
         for v in views.chunks_exact(mb) {
-            binned.project(v, &mut proj);
-            for (a, c) in coef.iter_mut().enumerate() {
-                *c = (0..k).map(|b| ginv[a * k + b] * proj[b]).sum();
-            }
+            binned.coefficients(v, &mut proj, &mut coef);
             let gain = coef[0];
             if !(gain > 0.0 && gain.is_finite()) {
                 // Never nearest, nothing to widen: the indices stay the views'.

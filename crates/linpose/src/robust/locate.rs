@@ -223,6 +223,21 @@ struct Window {
     loose: f32,
 }
 
+impl Window {
+    /// How far its centre lies from `o`'s, for training views of `view` (width, height).
+    fn offset(&self, o: &Window, view: (f64, f64)) -> f64 {
+        let dx = self.x + 0.5 * view.0 * self.s - o.x - 0.5 * view.0 * o.s;
+        let dy = self.y + 0.5 * view.1 * self.s - o.y - 0.5 * view.1 * o.s;
+        dx.hypot(dy)
+    }
+
+    /// Whether it ranks before `o` by `key`: the higher first, then the smaller scale, the
+    /// higher, the more to the left.
+    fn rank(&self, o: &Window, key: fn(&Window) -> f32) -> std::cmp::Ordering {
+        key(o).total_cmp(&key(self)).then(self.s.total_cmp(&o.s)).then(self.y.total_cmp(&o.y)).then(self.x.total_cmp(&o.x))
+    }
+}
+
 /// Scratch of one scoring thread.
 #[derive(Default)]
 struct Scratch {
@@ -382,16 +397,12 @@ impl Stage {
         let add = |starts: &mut Vec<Window>, key: fn(&Window) -> f32, more: usize| {
             let most = starts.len() + more;
             let mut ranked: Vec<&Window> = found.iter().collect();
-            ranked.sort_by(|a, b| key(b).total_cmp(&key(a)).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
+            ranked.sort_by(|a, b| a.rank(b, key));
             for &c in ranked {
                 if starts.len() >= most {
                     break;
                 }
-                let apart = |o: &Window| {
-                    let (dx, dy) = (c.x + 0.5 * view.0 * c.s - o.x - 0.5 * view.0 * o.s, c.y + 0.5 * view.1 * c.s - o.y - 0.5 * view.1 * o.s);
-                    dx.hypot(dy) > tuning::APART * view.0.min(view.1) * c.s
-                        || (c.s / o.s).ln().abs() > tuning::APART_SCALE_STEPS * tuning::SCALE_RATIO.ln() + 1e-9
-                };
+                let apart = |o: &Window| c.offset(o, view) > tuning::APART * view.0.min(view.1) * c.s || scales_apart(&c, o);
                 if starts.iter().all(apart) {
                     starts.push(c);
                 }
@@ -418,7 +429,7 @@ impl Stage {
             .collect();
         let mut refined: Vec<Window> =
             tries.par_iter().map_init(Scratch::default, |t, &c| search.refine(&fine, &self.hyps, c, shift * c.s, ratio, t)).collect();
-        refined.sort_by(|a, b| b.score.total_cmp(&a.score).then(a.s.total_cmp(&b.s)).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x)));
+        refined.sort_by(|a, b| a.rank(b, |w| w.score));
         let mut best = *refined.first().expect("at least one window fits");
         if self.lattice.is_some() {
             best = self.arbitrate(&search, &fine, &refined, best);
@@ -446,21 +457,14 @@ impl Stage {
     /// read are read once.
     fn arbitrate(&self, search: &Search, fine: &Level, refined: &[Window], best: Window) -> Window {
         let view = search.view;
-        let centre = |w: &Window| (w.x + 0.5 * view.0 * w.s, w.y + 0.5 * view.1 * w.s);
-        let (bx, by) = centre(&best);
         let mut read: Vec<Window> = Vec::new();
         let (mut xb, mut corners) = (vec![0f32; fine.grid.0 * fine.grid.1], Vec::new());
         let (mut chosen, mut top) = (best, f64::NEG_INFINITY);
         for &c in refined {
-            let (cx, cy) = centre(&c);
-            let other = (c.s / best.s).ln().abs() > tuning::APART_SCALE_STEPS * tuning::SCALE_RATIO.ln() + 1e-9;
-            if (cx - bx).hypot(cy - by) > tuning::APART * view.0.min(view.1) * best.s.min(c.s) || !(other || c == best) {
+            if c.offset(&best, view) > tuning::APART * view.0.min(view.1) * best.s.min(c.s) || !(scales_apart(&c, &best) || c == best) {
                 continue;
             }
-            let same = |o: &Window| {
-                let (ox, oy) = centre(o);
-                (cx - ox).hypot(cy - oy) <= fine.cell as f64 * c.s && (c.s / o.s).ln().abs() <= 0.5 * tuning::SCALE_RATIO.ln()
-            };
+            let same = |o: &Window| c.offset(o, view) <= fine.cell as f64 * c.s && (c.s / o.s).ln().abs() <= 0.5 * tuning::SCALE_RATIO.ln();
             if read.iter().any(same) {
                 continue;
             }
@@ -484,6 +488,12 @@ impl Stage {
         scene.cells((bbox[0], bbox[1]), scale, (w, h), &mut view, &mut Vec::new());
         Located { bbox, scale, view, shown: 1.0, repaired: false, kept: Kept::default() }
     }
+}
+
+/// Whether windows `a` and `b` are more than [`tuning::APART_SCALE_STEPS`] steps of the
+/// scale ladder apart: the part and the whole of one object, at one place.
+fn scales_apart(a: &Window, b: &Window) -> bool {
+    (a.s / b.s).ln().abs() > tuning::APART_SCALE_STEPS * tuning::SCALE_RATIO.ln() + 1e-9
 }
 
 /// Per cell of the hypothesis `pred` (`gw` x `gh` cells), how far its value interpolated

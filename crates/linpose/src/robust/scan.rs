@@ -51,13 +51,12 @@ impl Lattice {
         let poses = surface.grid_poses(per_cell);
         let (k, mb) = binned.shape();
         let (mut views, mut coefs) = (Vec::with_capacity(poses.len() / params * mb), Vec::new());
-        let (mut f, mut xb, mut p) = (vec![0f64; mb], vec![0f32; mb], vec![0f64; k]);
+        let (mut f, mut xb, mut p, mut c) = (vec![0f64; mb], vec![0f32; mb], vec![0f64; k], vec![0f64; k]);
         for pose in poses.chunks_exact(params) {
             surface.eval(pose, &mut f, None);
             xb.iter_mut().zip(&f).for_each(|(v, &u)| *v = u as f32);
-            binned.project(&xb, &mut p);
-            let g = binned.ginv();
-            coefs.extend((0..k).map(|r| (0..k).map(|c| g[r * k + c] * p[c]).sum::<f64>() as f32));
+            binned.coefficients(&xb, &mut p, &mut c);
+            coefs.extend(c.iter().map(|&v| v as f32));
             views.extend_from_slice(&xb);
         }
         let peaks: Vec<f32> = views.chunks_exact(mb).map(|v| v.iter().fold(0f32, |a, &u| a.max(u))).collect();

@@ -138,7 +138,7 @@ fn score(stage: &Stage, xb: &[f32], table: &Table, peaks: &[f32], tight: Option<
     let (mut ratios, mut rows) = (Vec::new(), Vec::new());
     let (mut ok, mut near) = (vec![false; xb.len()], vec![0u8; xb.len()]);
     for (h, ps) in table.values.chunks_exact(s.max(1)).enumerate() {
-        let bright = &table.bright[table.starts[h]..table.starts[h + 1]];
+        let bright = table.bright(h);
         ratios.clear();
         ratios.extend(bright.iter().map(|&j| xs[j as usize] / ps[j as usize]));
         let Some(gain) = median_gain(&mut ratios) else { continue };
