@@ -37,14 +37,15 @@
 //!    view at a smaller scale (a cup's bowl, by a view whose handle hides) can win it; the
 //!    whole explains more of the scene. Windows of nearly one scale are left to the refine: the
 //!    tight first pass is too sensitive to a window's sub-pixel place to rank those. On COIL-20
-//!    in 320 x 240 scenes (`bench/locate.py`, 0 / 20 / 40% hidden) it took the boxes within 3 px from 96.4 / 87.2 / 47.8% to 96.8 / 87.6 /
-//!    49.6% and the pose from 1.44 / 9.58 / 47.3 to 1.22 / 9.20 / 45.8 degrees (the cup, object
-//!    18, at 0% hidden: 10.4 to 5.97). It was built looking at objects 2, 3, 4, 9, 11, 18 and 19
-//!    at 0 and 20% hidden; the eleven others went from 0.72 / 3.60 / 37.9 to 0.72 / 3.37 / 36.5
-//!    degrees. Comparing every refined window near the best, whatever its scale, took the cup to
-//!    2.78 but read a wider window of object 19 as the car end-on, and on the duck's 64 x 48
-//!    views a window at nearly the true scale a quarter turn off. It costs a first pass per
-//!    window read (one to three): a 320 x 240 scene took 39.6 ms against 37.7.
+//!    in 320 x 240 scenes (`bench/locate.py`, 0 / 20 / 40% hidden) it took the boxes within
+//!    3 px from 96.4 / 87.2 / 47.8% to 96.8 / 87.6 / 49.6% and the pose from 1.44 / 9.58 /
+//!    47.3 to 1.22 / 9.20 / 45.8 degrees (the cup, object 18, at 0% hidden: 10.4 to 5.97). It
+//!    was built looking at objects 2, 3, 4, 9, 11, 18 and 19 at 0 and 20% hidden; the eleven
+//!    others went from 0.72 / 3.60 / 37.9 to 0.72 / 3.37 / 36.5 degrees. Comparing every
+//!    refined window near the best, whatever its scale, took the cup to 2.78 but read a wider
+//!    window of object 19 as the car end-on, and on the duck's 64 x 48 views a window at nearly
+//!    the true scale a quarter turn off. It costs a first pass per window read (one to three):
+//!    a 320 x 240 scene took 39.6 ms against 37.7.
 //! 4. **Polish.** [`tuning::POLISH`] times: the robust fit of the window (`search.rs`), then the
 //!    pattern search again, at half the steps, with the fit's reconstruction alone as the
 //!    hypothesis: its coefficients are free, so it follows the query's pose between the

@@ -331,7 +331,8 @@ pub(crate) const LATTICE_MOST: usize = 576;
 /// the details that tell two sides apart); looser lets clutter of the object's brightness
 /// count. In the numpy prototype (as for [`LATTICE_STEPS`]), 0.08, 0.1, 0.12 and 0.15: 15, 9,
 /// 8 and 17 gross errors of 288; the same count unweighed, at 0.1: 32. On the twelve other
-/// objects (not used to choose it): 3 gross errors of 432 at 0.1 and at 0.12. In linpose (`bench/scenes.py`, refined `--robust`, all 20
-/// objects, 0 / 20 / 40% hidden): 0.92 / 1.08 / 2.67 degrees against 0.92 / 1.16 / 4.96 with
-/// the training views' coefficients scored within [`COARSE`].
+/// objects (not used to choose it): 3 gross errors of 432 at 0.1 and at 0.12. In linpose
+/// (`bench/scenes.py`, refined `--robust`, all 20 objects, 0 / 20 / 40% hidden): 0.92 / 1.08 /
+/// 2.67 degrees against 0.92 / 1.16 / 4.96 with the training views' coefficients scored within
+/// [`COARSE`].
 pub(crate) const SCAN: f32 = 0.1;
